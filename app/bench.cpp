@@ -1,0 +1,149 @@
+// `vsl bench SCENE`: measures, in one run and on the same scene and threads,
+//   raw Embree occlusion throughput for incoherent rays (camera-visible points
+//   toward area-uniform random surface points), single and batched, and
+//   the path tracer's paths/s and rays/s.
+// The ratio of the path tracer's rays/s to raw occlusion rays/s is the number
+// to quote: absolute timings on a shared machine are noise.
+#include "app/bench.h"
+
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "core/image_io.h"
+#include "core/pathtracer.h"
+#include "core/rng.h"
+#include "core/sampling.h"
+
+namespace vsl {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+
+// Runs fn() repeatedly for at least `seconds`; returns (calls, elapsed).
+template <typename F>
+std::pair<uint64_t, double> timeLoop(double seconds, F&& fn) {
+  auto t0 = Clock::now();
+  uint64_t calls = 0;
+  double el = 0;
+  do {
+    fn();
+    ++calls;
+    el = std::chrono::duration<double>(Clock::now() - t0).count();
+  } while (el < seconds);
+  return {calls, el};
+}
+
+std::vector<Ray> makeOcclusionRays(const Scene& scene, const Accel& accel, size_t n) {
+  std::vector<double> areas(scene.triangleCount());
+  for (uint32_t t = 0; t < scene.triangleCount(); ++t) areas[t] = scene.triangleArea(t);
+  DiscreteDistribution byArea(areas);
+  Rng rng(7, 11);
+  std::vector<Ray> rays;
+  rays.reserve(n);
+  size_t attempts = 0;
+  while (rays.size() < n && attempts++ < 20 * n) {
+    Ray cam = scene.camera.generateRay(rng.uniform() * 256, rng.uniform() * 256, 256, 256);
+    auto hit = accel.intersect(cam);
+    if (!hit) continue;
+    SurfaceHit sh = scene.surfaceHit(hit->triangle, hit->u, hit->v, cam.d);
+    float pmf;
+    uint32_t tri = uint32_t(byArea.sample(rng.uniform(), &pmf));
+    Vec2 b = sampleUniformTriangle({rng.uniform(), rng.uniform()});
+    const Vec3& p0 = scene.positions[scene.indices[3 * tri]];
+    const Vec3& p1 = scene.positions[scene.indices[3 * tri + 1]];
+    const Vec3& p2 = scene.positions[scene.indices[3 * tri + 2]];
+    Vec3 y = p0 * b.x + p1 * b.y + p2 * (1 - b.x - b.y);
+    Vec3 d = y - sh.p;
+    float dist = length(d);
+    if (!(dist > 1e-4f)) continue;
+    Ray r;
+    r.d = d / dist;
+    r.o = offsetRayOrigin(sh.p, sh.ng, r.d);
+    r.tMax = dist * (1 - 1e-3f);
+    rays.push_back(r);
+  }
+  return rays;
+}
+}  // namespace
+
+int runBench(const std::string& scenePath, double seconds, int size, const std::string& jsonPath) {
+  LoadResult lr = loadScene(scenePath);
+  if (!lr.scene) {
+    std::fprintf(stderr, "error: %s\n", lr.error.c_str());
+    return 1;
+  }
+  const Scene& scene = *lr.scene;
+  std::string err;
+  auto accel = Accel::build(scene, &err);
+  if (!accel) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  std::vector<Ray> rays = makeOcclusionRays(scene, *accel, 1 << 20);
+  if (rays.empty()) {
+    std::fprintf(stderr, "error: %s: the camera sees no geometry; nothing to benchmark\n", scenePath.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "bench %s: %zu triangles, %zu occlusion rays, %.1f s per measurement\n", scenePath.c_str(),
+               scene.triangleCount(), rays.size(), seconds);
+
+  // Raw Embree: one rtcOccluded1 per ray, all threads.
+  std::atomic<uint64_t> blocked{0};
+  auto [rawCalls, rawSec] = timeLoop(seconds, [&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      uint64_t b = 0;
+      for (size_t i = r.begin(); i < r.end(); ++i) b += accel->occluded(rays[i]);
+      blocked += b;
+    });
+  });
+  double rawRate = double(rawCalls) * rays.size() / rawSec;
+  // Raw Embree through the batched entry point (stream API), all threads.
+  auto [batchCalls, batchSec] = timeLoop(seconds, [&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<uint8_t> out(r.size());
+      accel->occluded(std::span<const Ray>(rays.data() + r.begin(), r.size()), out);
+    });
+  });
+  double batchRate = double(batchCalls) * rays.size() / batchSec;
+
+  // Path tracer.
+  LightSampler lights(scene);
+  RenderSettings s;
+  s.width = size;
+  s.height = size;
+  PathTracer pt(scene, *accel, lights, s);
+  Film d(size, size), ind(size, size);
+  PtCounters c;
+  int pass = 0;
+  auto [ptCalls, ptSec] = timeLoop(seconds, [&] { pt.renderPass(pass++, d, ind, c); });
+  double pathsRate = c.paths / ptSec, raysRate = c.rays / ptSec;
+
+  std::printf("scene                      %s\n", scenePath.c_str());
+  std::printf("raw Embree occluded rays/s %.3f M  (single calls; %.1f%% blocked)\n", rawRate * 1e-6,
+              100.0 * blocked / (double(rawCalls) * rays.size()));
+  std::printf("raw Embree batched rays/s  %.3f M  (%.2fx single)\n", batchRate * 1e-6, batchRate / rawRate);
+  std::printf("path tracer paths/s        %.3f M  (%d passes at %dx%d)\n", pathsRate * 1e-6, pass, size, size);
+  std::printf("path tracer rays/s         %.3f M  (%.2f rays/path)\n", raysRate * 1e-6, double(c.rays) / c.paths);
+  std::printf("ratio PT rays/s : raw      %.3f\n", raysRate / rawRate);
+  (void)ptCalls;
+  if (!jsonPath.empty()) {
+    nlohmann::json j = {{"scene", scenePath},
+                        {"triangles", scene.triangleCount()},
+                        {"rawOccludedRaysPerSecond", rawRate},
+                        {"rawBatchedOccludedRaysPerSecond", batchRate},
+                        {"ptPathsPerSecond", pathsRate},
+                        {"ptRaysPerSecond", raysRate},
+                        {"ptRaysPerPath", double(c.rays) / c.paths},
+                        {"ratioPtRaysToRawOccluded", raysRate / rawRate}};
+    if (!writeTextFile(jsonPath, j.dump(2) + "\n", &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace vsl

@@ -1,0 +1,420 @@
+// `vsl`: the command-line front end. Subcommands: render, compare, info, bench.
+// Exit codes: 0 success, 1 bad input (scene, image, I/O), 2 bad arguments.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "app/bench.h"
+#include "core/compare.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/pathtracer.h"
+
+using namespace vsl;
+using json = nlohmann::json;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// A progress bar on stderr: redrawn in place on a terminal, one line per 10%
+// otherwise (logs stay readable).
+class Progress {
+ public:
+  explicit Progress(const char* label) : label_(label), tty_(isatty(STDERR_FILENO)) {}
+  void update(double fraction, const std::string& detail) {
+    fraction = std::min(std::max(fraction, 0.0), 1.0);
+    if (tty_) {
+      auto now = Clock::now();
+      if (fraction < 1 && now - last_ < std::chrono::milliseconds(100)) return;
+      last_ = now;
+      int filled = int(fraction * 30);
+      std::fprintf(stderr, "\r%s [%s%s] %3d%% %s   ", label_, std::string(filled, '#').c_str(),
+                   std::string(30 - filled, ' ').c_str(), int(fraction * 100), detail.c_str());
+    } else {
+      int decile = int(fraction * 10);
+      if (decile <= lastDecile_) return;
+      lastDecile_ = decile;
+      std::fprintf(stderr, "%s %3d%% %s\n", label_, decile * 10, detail.c_str());
+    }
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (tty_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  const char* label_;
+  bool tty_;
+  Clock::time_point last_{};
+  int lastDecile_ = -1;
+};
+
+std::shared_ptr<const Scene> loadOrReport(const std::string& path, const std::string& camera) {
+  LoadOptions opts;
+  opts.cameraName = camera;
+  LoadResult r = loadScene(path, opts);
+  if (!r.scene) {
+    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+    return nullptr;
+  }
+  for (const std::string& w : r.scene->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  return r.scene;
+}
+
+json metricsJson(const ChannelMetrics& m) {
+  return {{"mean", m.meanTest}, {"meanReference", m.meanRef}, {"bias", m.bias},
+          {"mae", m.mae},       {"rmse", m.rmse},             {"relMSE", m.relMse}};
+}
+
+Vec3 imageMean(const Image& img) {
+  double s[3] = {0, 0, 0};
+  for (size_t i = 0; i < img.rgb.size(); ++i) s[i % 3] += img.rgb[i];
+  double n = std::max<size_t>(1, img.rgb.size() / 3);
+  return {float(s[0] / n), float(s[1] / n), float(s[2] / n)};
+}
+
+// ---- render -------------------------------------------------------------------
+
+struct RenderArgs {
+  std::string scene, out, png, jsonPath, camera, component = "full";
+  RenderSettings settings;
+  float exposure = 0;
+};
+
+int cmdRender(RenderArgs& a) {
+  if (!parseComponent(a.component, &a.settings.component)) {
+    std::fprintf(stderr, "error: --component must be full, direct or indirect (got '%s')\n", a.component.c_str());
+    return 2;
+  }
+  if (std::string e = a.settings.validate(); !e.empty()) {
+    std::fprintf(stderr, "error: %s\n", e.c_str());
+    return 2;
+  }
+  auto t0 = Clock::now();
+  auto scene = loadOrReport(a.scene, a.camera);
+  if (!scene) return 1;
+  std::string err;
+  auto accel = Accel::build(*scene, &err);
+  if (!accel) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  double loadSeconds = secondsSince(t0);
+  LightSampler lights(*scene);
+  PathTracer pt(*scene, *accel, lights, a.settings);
+  int w = pt.width(), h = pt.height();
+  Film direct(w, h), indirect(w, h);
+  PtCounters counters;
+
+  // Progressive passes: one sample per pixel each, until spp or time is reached.
+  Progress progress("render");
+  auto t1 = Clock::now();
+  int passes = 0;
+  const RenderSettings& s = a.settings;
+  while (true) {
+    if (s.timeLimit > 0 ? secondsSince(t1) >= s.timeLimit : passes >= s.spp) break;
+    pt.renderPass(passes, direct, indirect, counters);
+    ++passes;
+    double el = secondsSince(t1);
+    double frac = s.timeLimit > 0 ? el / s.timeLimit : double(passes) / s.spp;
+    char detail[128];
+    std::snprintf(detail, sizeof detail, "%d spp, %.2f Mpaths/s, %.1f s", passes, counters.paths / el * 1e-6, el);
+    progress.update(frac, detail);
+  }
+  progress.finish();
+  double renderSeconds = secondsSince(t1);
+
+  Image dImg = direct.image(), iImg = indirect.image(), fImg(w, h);
+  for (size_t i = 0; i < fImg.rgb.size(); ++i) fImg.rgb[i] = dImg.rgb[i] + iImg.rgb[i];
+  const Image& chosen = s.component == Component::Direct ? dImg : s.component == Component::Indirect ? iImg : fImg;
+
+  std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
+                                              {"vsl.scene", a.scene},
+                                              {"vsl.settings", s.describe()},
+                                              {"vsl.component", componentName(s.component)}};
+  if (!writeExr(a.out, {{"", chosen}, {"full", fImg}, {"direct", dImg}, {"indirect", iImg}}, &err, attrs)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "wrote %s (%dx%d, %d spp, layers: default=%s, full, direct, indirect)\n", a.out.c_str(), w, h,
+               passes, componentName(s.component));
+  if (!a.png.empty()) {
+    if (!writePng(a.png, chosen, a.exposure, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "wrote %s\n", a.png.c_str());
+  }
+  uint64_t rejected = counters.nonFinite + direct.rejected() + indirect.rejected();
+  if (rejected > 0) log::warning("rejected " + std::to_string(rejected) + " non-finite contributions");
+  if (!a.jsonPath.empty()) {
+    auto mean = [](const Image& im) {
+      Vec3 m = imageMean(im);
+      return json::array({m.x, m.y, m.z});
+    };
+    json j = {{"version", VSL_VERSION},
+              {"scene", a.scene},
+              {"camera", scene->camera.name},
+              {"method", s.method},
+              {"settings", s.describe()},
+              {"width", w},
+              {"height", h},
+              {"spp", passes},
+              {"seed", s.seed},
+              {"maxDepth", s.maxDepth},
+              {"component", componentName(s.component)},
+              {"seconds", {{"load", loadSeconds}, {"render", renderSeconds}}},
+              {"paths", counters.paths.load()},
+              {"rays", counters.rays.load()},
+              {"pathsPerSecond", counters.paths / std::max(renderSeconds, 1e-9)},
+              {"raysPerSecond", counters.rays / std::max(renderSeconds, 1e-9)},
+              {"nonFiniteRejected", rejected},
+              {"mean", {{"full", mean(fImg)}, {"direct", mean(dImg)}, {"indirect", mean(iImg)}}},
+              {"warnings", scene->warnings}};
+    if (!writeTextFile(a.jsonPath, j.dump(2) + "\n", &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
+  }
+  return 0;
+}
+
+// ---- compare ------------------------------------------------------------------
+
+struct CompareArgs {
+  std::string test, ref, layer, out, png;
+  bool json = false;
+  double epsilon = kRelMseEpsilon;
+};
+
+const Image* findLayer(const std::vector<Layer>& layers, const std::string& name, bool explicitName) {
+  for (const Layer& l : layers)
+    if (l.name == name) return &l.image;
+  if (!explicitName)  // no default layer: fall back to "full"
+    for (const Layer& l : layers)
+      if (l.name == "full") return &l.image;
+  return nullptr;
+}
+
+int cmdCompare(const CompareArgs& a, bool layerGiven) {
+  std::vector<Layer> tl, rl;
+  std::string err;
+  if (!readExr(a.test, tl, &err) || !readExr(a.ref, rl, &err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  const Image* t = findLayer(tl, a.layer, layerGiven);
+  const Image* r = findLayer(rl, a.layer, layerGiven);
+  if (!t || !r) {
+    std::fprintf(stderr, "error: %s: no layer '%s'\n", (!t ? a.test : a.ref).c_str(), a.layer.c_str());
+    return 1;
+  }
+  if (t->width != r->width || t->height != r->height) {
+    std::fprintf(stderr, "error: sizes differ: %s is %dx%d, %s is %dx%d\n", a.test.c_str(), t->width, t->height,
+                 a.ref.c_str(), r->width, r->height);
+    return 1;
+  }
+  CompareResult c = compareImages(*t, *r, a.epsilon);
+  if (a.json) {
+    json j = {{"test", a.test},
+              {"reference", a.ref},
+              {"layer", a.layer},
+              {"pixels", c.pixels},
+              {"epsilon", c.epsilon},
+              {"nonFiniteTest", c.nonFiniteTest},
+              {"nonFiniteReference", c.nonFiniteRef},
+              {"R", metricsJson(c.channel[0])},
+              {"G", metricsJson(c.channel[1])},
+              {"B", metricsJson(c.channel[2])},
+              {"average", metricsJson(c.average)}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("comparing %s against %s (layer '%s', %zu pixels)\n", a.test.c_str(), a.ref.c_str(), a.layer.c_str(),
+                c.pixels);
+    std::printf("relMSE = mean((t-r)^2 / (r^2 + eps)), eps = %g; non-finite pixels: test %zu, reference %zu\n",
+                c.epsilon, c.nonFiniteTest, c.nonFiniteRef);
+    std::printf("%-8s %12s %12s %12s %12s %12s %12s\n", "channel", "mean", "mean(ref)", "bias", "MAE", "RMSE",
+                "relMSE");
+    const char* names[4] = {"R", "G", "B", "average"};
+    for (int i = 0; i < 4; ++i) {
+      const ChannelMetrics& m = i < 3 ? c.channel[i] : c.average;
+      std::printf("%-8s %12.6g %12.6g %12.6g %12.6g %12.6g %12.6g\n", names[i], m.meanTest, m.meanRef, m.bias, m.mae,
+                  m.rmse, m.relMse);
+    }
+  }
+  if (!a.out.empty() || !a.png.empty()) {
+    ErrorImages e = errorImages(*t, *r, a.epsilon);
+    if (!a.out.empty()) {
+      if (!writeExr(a.out,
+                    {{"", e.absolute}, {"signed", e.signedDiff}, {"absolute", e.absolute}, {"squared", e.squared},
+                     {"relSquared", e.relSquared}},
+                    &err)) {
+        std::fprintf(stderr, "error: %s\n", err.c_str());
+        return 1;
+      }
+      std::fprintf(stderr, "wrote %s (layers: default=absolute, signed, absolute, squared, relSquared)\n",
+                   a.out.c_str());
+    }
+    if (!a.png.empty()) {
+      // False colour of the per-pixel relative squared error (channel mean),
+      // scaled so that the 99th percentile maps to white.
+      size_t n = size_t(t->width) * t->height;
+      std::vector<float> v(n);
+      for (size_t i = 0; i < n; ++i)
+        v[i] = (e.relSquared.rgb[3 * i] + e.relSquared.rgb[3 * i + 1] + e.relSquared.rgb[3 * i + 2]) / 3;
+      std::vector<float> sorted;
+      for (float x : v)
+        if (std::isfinite(x)) sorted.push_back(x);
+      std::sort(sorted.begin(), sorted.end());
+      float vmax = sorted.empty() ? 1.0f : std::max(sorted[size_t(0.99 * (sorted.size() - 1))], 1e-12f);
+      std::vector<uint8_t> px(n * 3);
+      for (size_t i = 0; i < n; ++i) {
+        Vec3 col = falseColour(v[i] / vmax);
+        px[3 * i] = uint8_t(col.x * 255), px[3 * i + 1] = uint8_t(col.y * 255), px[3 * i + 2] = uint8_t(col.z * 255);
+      }
+      if (!writePngRgb8(a.png, t->width, t->height, px, &err)) {
+        std::fprintf(stderr, "error: %s\n", err.c_str());
+        return 1;
+      }
+      std::fprintf(stderr, "wrote %s (relative squared error, white = %.3g)\n", a.png.c_str(), vmax);
+    }
+  }
+  return 0;
+}
+
+// ---- info ---------------------------------------------------------------------
+
+int cmdInfo(const std::string& path, const std::string& camera) {
+  LoadOptions opts;
+  opts.cameraName = camera;
+  LoadResult r = loadScene(path, opts);
+  if (!r.scene) {
+    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+    return 1;
+  }
+  const Scene& s = *r.scene;
+  LightSampler lights(s);
+  std::printf("scene      %s\n", path.c_str());
+  std::printf("triangles  %zu (%zu vertices)\n", s.triangleCount(), s.positions.size());
+  std::printf("bounds     [%g %g %g] - [%g %g %g]\n", s.boundsMin.x, s.boundsMin.y, s.boundsMin.z, s.boundsMax.x,
+              s.boundsMax.y, s.boundsMax.z);
+  std::printf("materials  %zu (plus the glTF default)\n", s.materials.size() - 1);
+  std::vector<size_t> useCount(s.materials.size(), 0);
+  for (uint32_t m : s.triMaterial) ++useCount[m];
+  for (size_t i = 0; i < s.materials.size(); ++i) {
+    const Material& m = s.materials[i];
+    if (i + 1 == s.materials.size() && useCount[i] == 0) continue;
+    std::printf("  %-20s base (%.3g %.3g %.3g) metallic %.3g roughness %.3g", m.name.c_str(), m.baseColor.x,
+                m.baseColor.y, m.baseColor.z, m.metallic, m.roughness);
+    if (m.anisotropyStrength > 0) std::printf(" anisotropy %.3g rot %.3g", m.anisotropyStrength, m.anisotropyRotation);
+    if (m.isEmissive()) std::printf(" emission (%.4g %.4g %.4g)", m.emission.x, m.emission.y, m.emission.z);
+    std::printf(" [%zu triangles]\n", useCount[i]);
+  }
+  // Emitter power per emissive material.
+  std::vector<double> power(s.materials.size(), 0.0);
+  for (uint32_t t = 0; t < s.triangleCount(); ++t) {
+    const Material& m = s.materials[s.triMaterial[t]];
+    if (m.isEmissive()) power[s.triMaterial[t]] += luminance(m.emission) * s.triangleArea(t) * kPi * (m.doubleSided ? 2 : 1);
+  }
+  std::printf("lights     %zu emissive triangles, %zu punctual; total power %.6g W (luminance)\n",
+              lights.emissiveTriangleCount(), s.punctualLights.size(), lights.totalPower());
+  for (size_t i = 0; i < s.materials.size(); ++i)
+    if (power[i] > 0) std::printf("  emissive material %-20s power %.6g W\n", s.materials[i].name.c_str(), power[i]);
+  for (const PunctualLight& L : s.punctualLights)
+    std::printf("  %s %-20s at (%g %g %g) intensity (%.4g %.4g %.4g) power %.6g W\n",
+                L.type == PunctualLight::Type::Spot ? "spot " : "point", L.name.c_str(), L.position.x, L.position.y,
+                L.position.z, L.intensity.x, L.intensity.y, L.intensity.z, L.power());
+  const Camera& c = s.camera;
+  std::printf("camera     %s%s: position (%g %g %g) forward (%.3g %.3g %.3g) yfov %.4g rad", c.name.c_str(),
+              s.cameraFromFile ? "" : " (generated)", c.position.x, c.position.y, c.position.z, c.forward.x,
+              c.forward.y, c.forward.z, c.yfov);
+  if (c.aspect > 0) std::printf(" aspect %.4g", c.aspect);
+  std::printf("\n");
+  std::printf("warnings   %zu\n", s.warnings.size());
+  for (const std::string& w : s.warnings) std::printf("  %s\n", w.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"vsl: many-light rendering of glossy scenes (render, compare, inspect, benchmark)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(VSL_VERSION));
+
+  RenderArgs ra;
+  auto* render = app.add_subcommand("render", "Render a glTF scene to a multi-layer EXR (full, direct, indirect)");
+  render->add_option("scene", ra.scene, "Scene file (.gltf or .glb)")->required();
+  render->add_option("--method", ra.settings.method, "Rendering method")
+      ->check(CLI::IsMember({"pt"}))
+      ->default_str("pt");
+  auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel")->default_str("64");
+  render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
+      ->excludes(sppOpt);
+  render->add_option("--width", ra.settings.width, "Image width (default: from the scene, or 512)");
+  render->add_option("--height", ra.settings.height, "Image height (default: from the scene, or 512)");
+  render->add_option("--seed", ra.settings.seed, "Random seed")->default_str("0");
+  render->add_option("--max-depth", ra.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
+  render->add_option("--component", ra.component, "Component for the default EXR layer and the PNG")
+      ->check(CLI::IsMember({"full", "direct", "indirect"}))
+      ->default_str("full");
+  render->add_option("--camera", ra.camera, "Camera name (default: the first perspective camera)");
+  render->add_option("-o,--output", ra.out, "Output EXR")->required();
+  render->add_option("--png", ra.png, "Also write a tone-mapped sRGB PNG");
+  render->add_option("--exposure", ra.exposure, "PNG exposure in stops")->default_str("0");
+  render->add_option("--json", ra.jsonPath, "Write statistics as JSON");
+
+  CompareArgs ca;
+  auto* compare = app.add_subcommand("compare", "Compare an EXR against a reference EXR");
+  compare->add_option("test", ca.test, "Test image (EXR)")->required();
+  compare->add_option("reference", ca.ref, "Reference image (EXR)")->required();
+  auto* layerOpt = compare->add_option("--layer", ca.layer, "Layer name (default: the default layer, else 'full')");
+  compare->add_option("-o,--output", ca.out, "Write error images (EXR)");
+  compare->add_option("--png", ca.png, "Write a false-colour relative squared error PNG");
+  compare->add_flag("--json", ca.json, "Print metrics as JSON");
+  compare->add_option("--epsilon", ca.epsilon, "relMSE epsilon")->default_str("0.01")->check(CLI::PositiveNumber);
+
+  std::string infoScene, infoCamera;
+  auto* info = app.add_subcommand("info", "Print a scene's triangles, materials, lights, camera and warnings");
+  info->add_option("scene", infoScene, "Scene file (.gltf or .glb)")->required();
+  info->add_option("--camera", infoCamera, "Camera name");
+
+  std::string benchScene, benchJson;
+  double benchSeconds = 3;
+  int benchSize = 256;
+  auto* bench = app.add_subcommand("bench", "Path-tracer throughput against raw Embree occlusion on one scene");
+  bench->add_option("scene", benchScene, "Scene file")->required();
+  bench->add_option("--seconds", benchSeconds, "Seconds per measurement")->default_str("3")->check(CLI::Range(0.1, 600.0));
+  bench->add_option("--size", benchSize, "Image size for the path tracer")->default_str("256")->check(CLI::Range(8, 4096));
+  bench->add_option("--json", benchJson, "Write results as JSON");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "error: %s\n\n", e.what());
+    CLI::App* sub = nullptr;
+    for (CLI::App* s : app.get_subcommands()) sub = s;
+    std::cerr << (sub ? sub->help() : app.help());
+    return 2;
+  }
+  log::setEchoLevel(LogLevel::Warning);
+  if (*render) return cmdRender(ra);
+  if (*compare) return cmdCompare(ca, layerOpt->count() > 0);
+  if (*info) return cmdInfo(infoScene, infoCamera);
+  if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
+  return 2;
+}

@@ -1,0 +1,48 @@
+// The ray-tracing kernel behind one header: closest hit and occlusion, single
+// and batched. Every Embree call lives in accel.cpp; no Embree type leaks.
+// Thread-safety: after build(), all queries are safe from any thread.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "core/scene.h"
+
+namespace vsl {
+
+struct Hit {
+  float t;
+  uint32_t triangle;
+  float u, v;  // p = (1-u-v) p0 + u p1 + v p2
+};
+
+class Accel {
+ public:
+  // Builds a BVH over the scene's triangles. Returns null and sets *error on
+  // failure (Embree errors also go to the log).
+  static std::unique_ptr<Accel> build(const Scene& scene, std::string* error);
+  ~Accel();
+
+  std::optional<Hit> intersect(const Ray& ray) const;
+  bool occluded(const Ray& ray) const;
+  // Batched occlusion for the gather loops: blocked[i] = 1 if rays[i] hits
+  // anything in [tMin, tMax]. Coherent batches (many pixels toward one light,
+  // or one pixel toward many lights) run fastest.
+  void occluded(std::span<const Ray> rays, std::span<uint8_t> blocked) const;
+
+ private:
+  Accel();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Offsets a ray origin off a surface along its geometric normal, toward the
+// side of direction w, by an amount relative to the coordinates' magnitude.
+inline Vec3 offsetRayOrigin(const Vec3& p, const Vec3& ng, const Vec3& w) {
+  float scale = 1e-4f * std::max(1.0f, std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z))));
+  return p + ng * (dot(ng, w) >= 0 ? scale : -scale);
+}
+
+}  // namespace vsl

@@ -1,0 +1,54 @@
+// The film holds sums, not averages: per pixel a double RGB sum and a double
+// weight, normalised on read (pbrt's RGBFilm). add() is the only entry point;
+// it rejects non-finite values (their weight still counts, with value zero)
+// and counts them.
+// Thread-safety: concurrent add() calls are safe for *different* pixels.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "core/math.h"
+
+namespace vsl {
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // linear, row-major, top row first
+  Image() = default;
+  Image(int w, int h) : width(w), height(h), rgb(size_t(w) * h * 3, 0.0f) {}
+  Vec3 at(int x, int y) const {
+    const float* p = &rgb[(size_t(y) * width + x) * 3];
+    return {p[0], p[1], p[2]};
+  }
+  void set(int x, int y, const Vec3& v) {
+    float* p = &rgb[(size_t(y) * width + x) * 3];
+    p[0] = v.x, p[1] = v.y, p[2] = v.z;
+  }
+};
+
+class Film {
+ public:
+  Film() = default;
+  Film(int width, int height);
+  Film(const Film& o);
+  Film& operator=(const Film& o);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  void add(int x, int y, const Vec3& value, double weight = 1.0);
+  Vec3 pixel(int x, int y) const;  // sum / weight, zero where weight is zero
+  double weight(int x, int y) const { return weight_[size_t(y) * width_ + x]; }
+  Image image() const;
+  uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
+  void clear();
+
+ private:
+  int width_ = 0, height_ = 0;
+  std::vector<double> sum_;     // 3 per pixel
+  std::vector<double> weight_;  // 1 per pixel
+  std::atomic<uint64_t> rejected_{0};
+};
+
+}  // namespace vsl

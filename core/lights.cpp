@@ -1,0 +1,78 @@
+#include "core/lights.h"
+
+namespace vsl {
+
+LightSampler::LightSampler(const Scene& scene) : scene_(scene) {
+  std::vector<double> power;
+  lightOfTriangle_.assign(scene.triangleCount(), -1);
+  for (uint32_t t = 0; t < scene.triangleCount(); ++t) {
+    const Material& m = scene.materials[scene.triMaterial[t]];
+    if (!m.isEmissive()) continue;
+    float area = scene.triangleArea(t);
+    if (!(area > 0)) continue;
+    lightOfTriangle_[t] = int32_t(emissiveTris_.size());
+    emissiveTris_.push_back(t);
+    // Power of a Lambertian emitter: pi * L * area, per emitting side.
+    power.push_back(double(luminance(m.emission)) * area * kPi * (m.doubleSided ? 2 : 1));
+  }
+  for (const PunctualLight& L : scene.punctualLights) power.push_back(L.power());
+  dist_ = DiscreteDistribution(power);
+}
+
+std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, Vec2 u) const {
+  if (empty()) return std::nullopt;
+  float pmf;
+  size_t i = dist_.sample(uLight, &pmf);
+  if (!(pmf > 0)) return std::nullopt;
+  LightSample s;
+  if (i < emissiveTris_.size()) {
+    uint32_t tri = emissiveTris_[i];
+    Vec2 b = sampleUniformTriangle(u);
+    const Vec3& p0 = scene_.positions[scene_.indices[3 * tri]];
+    const Vec3& p1 = scene_.positions[scene_.indices[3 * tri + 1]];
+    const Vec3& p2 = scene_.positions[scene_.indices[3 * tri + 2]];
+    // Embree-style barycentrics: y = (1-b1-b2) p0 + b1 p1 + b2 p2.
+    Vec2 bary{b.y, 1 - b.x - b.y};
+    s.pLight = p0 * b.x + p1 * bary.x + p2 * bary.y;
+    Vec3 d = s.pLight - p;
+    float d2 = lengthSquared(d);
+    if (!(d2 > 0)) return std::nullopt;
+    s.dist = std::sqrt(d2);
+    s.wi = d / s.dist;
+    Vec3 n = scene_.triangleNormal(tri);
+    float cosL = -dot(n, s.wi);  // > 0 when the front face sees p
+    const Material& m = scene_.materials[scene_.triMaterial[tri]];
+    if (cosL <= 0 && !m.doubleSided) return std::nullopt;
+    s.nLight = cosL > 0 ? n : -n;
+    cosL = std::abs(cosL);
+    if (!(cosL > 0)) return std::nullopt;
+    s.Li = scene_.emission(tri, bary);
+    s.pdf = pmf / scene_.triangleArea(tri) * d2 / cosL;
+    s.delta = false;
+  } else {
+    const PunctualLight& L = scene_.punctualLights[i - emissiveTris_.size()];
+    Vec3 d = L.position - p;
+    float d2 = lengthSquared(d);
+    if (!(d2 > 0)) return std::nullopt;
+    s.dist = std::sqrt(d2);
+    s.wi = d / s.dist;
+    s.pLight = L.position;
+    s.nLight = Vec3(0.0f);
+    s.Li = L.intensity * (L.falloff(-s.wi) / d2);
+    s.pdf = pmf;
+    s.delta = true;
+  }
+  if (isBlack(s.Li)) return std::nullopt;
+  return s;
+}
+
+float LightSampler::pdfLi(const Vec3& p, uint32_t tri, const Vec3& y) const {
+  if (tri >= lightOfTriangle_.size() || lightOfTriangle_[tri] < 0) return 0;
+  Vec3 d = y - p;
+  float d2 = lengthSquared(d);
+  float cosL = std::abs(dot(scene_.triangleNormal(tri), d)) / std::sqrt(d2);
+  if (!(cosL > 0)) return 0;
+  return dist_.pmf(size_t(lightOfTriangle_[tri])) / scene_.triangleArea(tri) * d2 / cosL;
+}
+
+}  // namespace vsl

@@ -1,0 +1,120 @@
+// The glTF 2.0 metallic-roughness BRDF: a Lambertian diffuse lobe plus a GGX
+// microfacet specular lobe with height-correlated Smith masking-shadowing and
+// Schlick Fresnel (glTF 2.0 specification, Appendix B), with anisotropic
+// alphas from KHR_materials_anisotropy.
+//
+// Conventions
+// - All directions are in the local shading frame: +z is the shading normal,
+//   +x the anisotropy direction. wo points toward the viewer, wi toward the
+//   light; both are unit vectors.
+// - eval() returns f_r (1/sr) without the cosine. pdf() is with respect to
+//   solid angle around wi. sample() returns f, pdf and wi consistent with
+//   eval() and pdf() (so f*cos/pdf is the usual weight).
+// - Reflection only: wo or wi below the surface gives zero.
+//
+// One deliberate deviation from the glTF appendix. The appendix weights the
+// diffuse lobe by (1 - F(v.h)), which is not energy-conserving: a smooth white
+// dielectric seen at grazing angles reflects ~1.8x the incident energy. We use
+// the reciprocal albedo-scaling form (Kelemen & Szirmay-Kalos 2001; Kulla &
+// Conty 2017):  f_diffuse = c/pi * (1 - E(wo)) (1 - E(wi)) / (1 - E_avg),
+// where E is the directional albedo of the dielectric specular lobe (F0 = 0.04),
+// tabulated once. Then albedo = E(wo) + c (1 - E(wo)) <= 1 and reciprocity
+// holds. For anisotropic dielectrics E is looked up at alpha = sqrt(ax*ay).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+
+namespace vsl {
+
+// Smallest GGX alpha we evaluate; alpha = roughness^2 is clamped to this so
+// that roughness -> 0 stays finite (D peaks at 1/(pi alpha^2) ~ 3e7).
+constexpr float kMinAlpha = 1e-4f;
+// Below this alpha (both axes) a lobe counts as near-specular: eye paths
+// continue through such surfaces in the many-light gatherers.
+constexpr float kNearSpecularAlpha = 0.01f;
+// Dielectric reflectance at normal incidence (IOR 1.5), as in glTF.
+constexpr float kDielectricF0 = 0.04f;
+
+// GGX microfacet distribution with anisotropic alphas, as a triplet:
+// D(h), visible-normal sampling (Heitz 2018) and its pdf.
+struct GGX {
+  float ax = 1, ay = 1;
+  float D(const Vec3& h) const;
+  float lambda(const Vec3& w) const;
+  float G1(const Vec3& w) const { return 1.0f / (1.0f + lambda(w)); }
+  float G2(const Vec3& wo, const Vec3& wi) const { return 1.0f / (1.0f + lambda(wo) + lambda(wi)); }
+  // Samples a visible microfacet normal for wo (wo.z > 0).
+  // pdf(h) = G1(wo) max(0, wo.h) D(h) / wo.z (solid angle about h).
+  Vec3 sampleVisibleNormal(const Vec3& wo, Vec2 u) const;
+  float visibleNormalPdf(const Vec3& wo, const Vec3& h) const;
+};
+
+// Directional albedo of the dielectric (F0 = 0.04) GGX lobe, E(cos, alpha),
+// and its cosine-weighted average E_avg(alpha). Tabulated on first use.
+float dielectricSpecularAlbedo(float cosTheta, float alpha);
+float dielectricSpecularAlbedoAverage(float alpha);
+
+struct BrdfSample {
+  Vec3 wi;
+  Vec3 f;       // f_r(wo, wi)
+  float pdf;    // solid angle
+  bool specularLobe;
+};
+
+// The BRDF at one shading point, with textures already applied.
+struct Brdf {
+  Vec3 baseColor{1.0f};
+  float metallic = 0;
+  GGX ggx;
+
+  // Builds the BRDF from glTF parameters. roughness in [0,1]; anisotropy
+  // strength in [0,1] stretches alpha along +x: at = mix(a, 1, s^2), ab = a.
+  static Brdf fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy);
+
+  Vec3 eval(const Vec3& wo, const Vec3& wi) const;
+  // The diffuse lobe alone (used by diffuse-only VPL emission).
+  Vec3 evalDiffuse(const Vec3& wo, const Vec3& wi) const;
+  float pdf(const Vec3& wo, const Vec3& wi) const;
+  // u1 picks the lobe, u2 samples it. Empty when wo is below the surface or
+  // the sampled direction is.
+  std::optional<BrdfSample> sample(const Vec3& wo, float u1, Vec2 u2) const;
+  // Probability that sample() picks the specular lobe.
+  float specularProbability(const Vec3& wo) const;
+  bool isNearSpecular() const {
+    return ggx.ax < kNearSpecularAlpha && ggx.ay < kNearSpecularAlpha && metallic >= 1.0f;
+  }
+  // Diffuse reflectance rho_d (the Lambertian part's albedo before the
+  // energy-compensation factors).
+  Vec3 diffuseReflectance() const { return baseColor * (1.0f - metallic); }
+};
+
+// An RGBA image in [0,1] (as stored, not yet linearised).
+struct Texture {
+  std::string name;
+  int width = 0, height = 0;
+  std::vector<float> rgba;  // width*height*4
+  // Bilinear lookup with repeat wrapping. sRGB-encoded channels (RGB only)
+  // are decoded to linear when srgb is true.
+  void lookup(Vec2 uv, bool srgb, float out[4]) const;
+};
+
+struct Material {
+  std::string name;
+  Vec3 baseColor{1.0f};
+  float metallic = 1.0f;
+  float roughness = 1.0f;
+  Vec3 emission{0.0f};  // emissiveFactor x KHR_materials_emissive_strength (radiance)
+  float anisotropyStrength = 0;
+  float anisotropyRotation = 0;  // radians, counter-clockwise from the tangent
+  bool doubleSided = false;
+  int baseColorTexture = -1, metallicRoughnessTexture = -1, emissiveTexture = -1;
+  int anisotropyTexture = -1;
+
+  bool isEmissive() const { return maxComponent(emission) > 0; }
+};
+
+}  // namespace vsl

@@ -1,0 +1,146 @@
+#include "core/pathtracer.h"
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+
+#include "core/rng.h"
+
+namespace vsl {
+
+void resolveResolution(const Scene& scene, int& width, int& height) {
+  const int d = RenderSettings::kDefaultResolution;
+  float aspect = scene.camera.aspect > 0 ? scene.camera.aspect : 1.0f;
+  if (width > 0 && height > 0) return;
+  if (width > 0) height = std::max(1, int(std::lround(width / aspect)));
+  else if (height > 0) width = std::max(1, int(std::lround(height * aspect)));
+  else {
+    width = d;
+    height = std::max(1, int(std::lround(d / aspect)));
+  }
+}
+
+PathTracer::PathTracer(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                       const RenderSettings& settings)
+    : scene_(scene), accel_(accel), lights_(lights), settings_(settings) {
+  width_ = settings.width;
+  height_ = settings.height;
+  resolveResolution(scene, width_, height_);
+}
+
+namespace {
+inline Vec2 u2(Rng& r) { return {r.uniform(), r.uniform()}; }
+}  // namespace
+
+void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t& rays, uint64_t& nonFinite) const {
+  Rng rng = Rng::forItem(uint64_t(y) * width_ + x, uint64_t(s), 0, settings_.seed);
+  Ld = Vec3(0.0f);
+  Lind = Vec3(0.0f);
+  auto deposit = [&](int bounces, const Vec3& c) {
+    if (!isFinite(c)) {
+      ++nonFinite;
+      return;
+    }
+    (bounces <= 1 ? Ld : Lind) += c;
+  };
+
+  Ray ray = scene_.camera.generateRay(x + rng.uniform(), y + rng.uniform(), width_, height_);
+  Vec3 beta(1.0f);
+  float prevPdf = 0;  // solid-angle pdf of the BRDF sample that produced `ray`
+  Vec3 prevP;
+  const int maxDepth = settings_.maxDepth;
+  for (int depth = 0;; ++depth) {
+    // `depth` scattering events happened before this vertex.
+    ++rays;
+    std::optional<Hit> hit = accel_.intersect(ray);
+    if (!hit) break;
+    SurfaceHit sh = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
+    Vec3 wo = -ray.d;
+
+    // Emission reached by the camera ray or by BRDF sampling.
+    Vec3 Le = scene_.emitted(sh, wo);
+    if (!isBlack(Le)) {
+      float w = 1.0f;
+      if (depth > 0) w = powerHeuristic(prevPdf, lights_.pdfLi(prevP, sh.triangle, sh.p));
+      deposit(depth, beta * Le * w);
+    }
+    if (depth >= maxDepth) break;
+
+    Brdf brdf = scene_.brdf(sh);
+    const Frame& frame = sh.shading;
+    Vec3 woL = frame.toLocal(wo);
+    if (woL.z <= 0) break;  // viewer below the shading hemisphere
+
+    // Next-event estimation.
+    if (auto ls = lights_.sampleLi(sh.p, rng.uniform(), u2(rng))) {
+      Vec3 wiL = frame.toLocal(ls->wi);
+      if (dot(ls->wi, sh.ng) > 0 && wiL.z > 0) {
+        Vec3 f = brdf.eval(woL, wiL);
+        if (!isBlack(f)) {
+          Ray shadow;
+          shadow.o = offsetRayOrigin(sh.p, sh.ng, ls->wi);
+          Vec3 target = ls->delta ? ls->pLight : offsetRayOrigin(ls->pLight, ls->nLight, -ls->wi);
+          Vec3 d = target - shadow.o;
+          float dist = length(d);
+          shadow.d = d / dist;
+          shadow.tMax = dist * (1 - 1e-4f);
+          ++rays;
+          if (!accel_.occluded(shadow)) {
+            float w = ls->delta ? 1.0f : powerHeuristic(ls->pdf, brdf.pdf(woL, wiL));
+            deposit(depth + 1, beta * f * ls->Li * (wiL.z * w / ls->pdf));
+          }
+        }
+      }
+    }
+
+    // Continue the path by sampling the BRDF.
+    std::optional<BrdfSample> bs = brdf.sample(woL, rng.uniform(), u2(rng));
+    if (!bs) break;
+    Vec3 wi = frame.toWorld(bs->wi);
+    if (dot(wi, sh.ng) <= 0) break;  // shading normal sent us through the surface
+    beta *= bs->f * (bs->wi.z / bs->pdf);
+    if (!isFinite(beta)) {
+      ++nonFinite;
+      break;
+    }
+    prevPdf = bs->pdf;
+    prevP = sh.p;
+    if (depth + 1 >= settings_.rrDepth) {
+      float q = std::min(0.95f, maxComponent(beta));
+      if (rng.uniform() >= q) break;
+      beta /= q;
+    }
+    ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
+    ray.d = wi;
+    ray.tMin = 0;
+    ray.tMax = kInf;
+  }
+}
+
+bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters,
+                            const std::atomic<bool>* stop) const {
+  constexpr int kTile = 16;
+  std::atomic<bool> stopped{false};
+  tbb::parallel_for(tbb::blocked_range2d<int>(0, height_, kTile, 0, width_, kTile),
+                    [&](const tbb::blocked_range2d<int>& r) {
+                      if (stopped.load(std::memory_order_relaxed)) return;
+                      if (stop && stop->load(std::memory_order_relaxed)) {
+                        stopped.store(true);
+                        return;
+                      }
+                      uint64_t rays = 0, nonFinite = 0, paths = 0;
+                      for (int y = r.rows().begin(); y < r.rows().end(); ++y)
+                        for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
+                          Vec3 Ld, Li;
+                          samplePixel(x, y, pass, Ld, Li, rays, nonFinite);
+                          direct.add(x, y, Ld);
+                          indirect.add(x, y, Li);
+                          ++paths;
+                        }
+                      counters.rays.fetch_add(rays, std::memory_order_relaxed);
+                      counters.nonFinite.fetch_add(nonFinite, std::memory_order_relaxed);
+                      counters.paths.fetch_add(paths, std::memory_order_relaxed);
+                    });
+  return !stopped.load();
+}
+
+}  // namespace vsl

@@ -1,0 +1,60 @@
+// Deterministic random numbers. Every stream is seeded from the tuple that
+// identifies the work item (pixel, sample index, pass, user seed), so any pixel
+// sample can be replayed alone, on any thread, in any order.
+#pragma once
+
+#include <cstdint>
+
+namespace vsl {
+
+// 64-bit finaliser (MurmurHash3 fmix64): a good avalanche for seeding.
+inline uint64_t mix64(uint64_t v) {
+  v ^= v >> 33;
+  v *= 0xff51afd7ed558ccdULL;
+  v ^= v >> 33;
+  v *= 0xc4ceb9fe1a85ec53ULL;
+  v ^= v >> 33;
+  return v;
+}
+
+inline uint64_t hashCombine(uint64_t a, uint64_t b) { return mix64(a ^ (mix64(b) + 0x9e3779b97f4a7c15ULL)); }
+
+// PCG32 (O'Neill 2014): 64-bit state, 32-bit output, selectable stream.
+class Rng {
+ public:
+  Rng() : Rng(0, 0) {}
+  Rng(uint64_t seed, uint64_t stream) { setSequence(seed, stream); }
+
+  // Seed from (a, b, c, d): typically (pixel, sample, pass, seed).
+  static Rng forItem(uint64_t a, uint64_t b, uint64_t c, uint64_t d) {
+    uint64_t h = hashCombine(hashCombine(hashCombine(mix64(d), c), b), a);
+    return Rng(h, mix64(h + 1));
+  }
+
+  void setSequence(uint64_t seed, uint64_t stream) {
+    state_ = 0;
+    inc_ = (stream << 1u) | 1u;
+    next();
+    state_ += seed;
+    next();
+  }
+
+  uint32_t next() {
+    uint64_t old = state_;
+    state_ = old * 6364136223846793005ULL + inc_;
+    uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
+    uint32_t rot = uint32_t(old >> 59u);
+    return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31));
+  }
+
+  // Uniform in [0, 1): 24 random mantissa bits, never returns 1.
+  float uniform() { return float(next() >> 8) * 0x1p-24f; }
+  double uniformDouble() { return double((uint64_t(next()) << 21) ^ next()) * 0x1p-53; }
+  // Uniform integer in [0, n) for n > 0.
+  uint32_t uniformInt(uint32_t n) { return uint32_t((uint64_t(next()) * n) >> 32); }
+
+ private:
+  uint64_t state_ = 0, inc_ = 1;
+};
+
+}  // namespace vsl

@@ -1,0 +1,113 @@
+#include "core/sampling.h"
+
+#include <algorithm>
+
+namespace vsl {
+
+Vec2 sampleUniformDiskConcentric(Vec2 u) {
+  float ox = 2 * u.x - 1, oy = 2 * u.y - 1;
+  if (ox == 0 && oy == 0) return {0, 0};
+  float r, theta;
+  if (std::abs(ox) > std::abs(oy)) {
+    r = ox;
+    theta = (kPi / 4) * (oy / ox);
+  } else {
+    r = oy;
+    theta = kPi / 2 - (kPi / 4) * (ox / oy);
+  }
+  return {r * std::cos(theta), r * std::sin(theta)};
+}
+
+Vec2 invertUniformDiskConcentric(Vec2 p) {
+  float theta = std::atan2(p.y, p.x);
+  float r = std::sqrt(p.x * p.x + p.y * p.y);
+  if (theta < -kPi / 4) theta += 2 * kPi;
+  float a, b;
+  if (theta < kPi / 4) {  // r = ox, theta = pi/4 * oy/ox
+    a = r;
+    b = theta * 4 / kPi * r;
+  } else if (theta < 3 * kPi / 4) {  // r = oy, theta = pi/2 - pi/4 * ox/oy
+    b = r;
+    a = (kPi / 2 - theta) * 4 / kPi * r;
+  } else if (theta < 5 * kPi / 4) {  // r = -ox
+    a = -r;
+    b = (theta - kPi) * 4 / kPi * a;
+  } else {  // r = -oy
+    b = -r;
+    a = (3 * kPi / 2 - theta) * 4 / kPi * b;
+  }
+  return {(a + 1) / 2, (b + 1) / 2};
+}
+
+Vec3 sampleCosineHemisphere(Vec2 u) {
+  Vec2 d = sampleUniformDiskConcentric(u);
+  float z = safeSqrt(1 - d.x * d.x - d.y * d.y);
+  return {d.x, d.y, z};
+}
+
+Vec2 invertCosineHemisphere(const Vec3& w) { return invertUniformDiskConcentric({w.x, w.y}); }
+
+Vec3 sampleUniformSphere(Vec2 u) {
+  float z = 1 - 2 * u.x;
+  float r = safeSqrt(1 - z * z);
+  float phi = 2 * kPi * u.y;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+Vec3 sampleUniformCone(Vec2 u, float cosMax) {
+  float cosTheta = (1 - u.x) + u.x * cosMax;
+  float sinTheta = safeSqrt(1 - cosTheta * cosTheta);
+  float phi = u.y * 2 * kPi;
+  return {std::cos(phi) * sinTheta, std::sin(phi) * sinTheta, cosTheta};
+}
+
+Vec2 sampleUniformTriangle(Vec2 u) {
+  float b0, b1;
+  if (u.x < u.y) {
+    b0 = u.x / 2;
+    b1 = u.y - b0;
+  } else {
+    b1 = u.y / 2;
+    b0 = u.x - b1;
+  }
+  return {b0, b1};
+}
+
+DiscreteDistribution::DiscreteDistribution(std::span<const double> weights) {
+  size_t n = weights.size();
+  cdf_.assign(n + 1, 0.0);
+  pmf_.assign(n, 0.0f);
+  for (size_t i = 0; i < n; ++i) {
+    double w = std::isfinite(weights[i]) && weights[i] > 0 ? weights[i] : 0.0;
+    cdf_[i + 1] = cdf_[i] + w;
+  }
+  total_ = cdf_[n];
+  if (total_ <= 0) {
+    pmf_.clear();
+    cdf_.clear();
+    return;
+  }
+  for (size_t i = 0; i < n; ++i) pmf_[i] = float((cdf_[i + 1] - cdf_[i]) / total_);
+  for (double& c : cdf_) c /= total_;
+  cdf_[n] = 1.0;
+}
+
+size_t DiscreteDistribution::sample(float u, float* pmf, float* uRemapped) const {
+  if (pmf_.empty()) {
+    if (pmf) *pmf = 0;
+    return 0;
+  }
+  // First index i with cdf_[i+1] > u, skipping zero-weight entries.
+  auto it = std::upper_bound(cdf_.begin() + 1, cdf_.end(), double(u));
+  size_t i = std::min(size_t(it - cdf_.begin()) - 1, pmf_.size() - 1);
+  while (pmf_[i] == 0 && i > 0) --i;  // u landed past the end of a zero run
+  if (pmf) *pmf = pmf_[i];
+  if (uRemapped) {
+    double w = cdf_[i + 1] - cdf_[i];
+    *uRemapped = w > 0 ? float(std::min((double(u) - cdf_[i]) / w, 0.99999994)) : 0.0f;
+    if (*uRemapped < 0) *uRemapped = 0;
+  }
+  return i;
+}
+
+}  // namespace vsl

@@ -1,0 +1,65 @@
+// Sampling routines, in threes where an inverse exists: sample(u) returns the
+// point, pdf(x) its density, invert(x) the u that maps to x. Each comment names
+// the measure of the pdf. Modelled on pbrt-v4's util/sampling.h.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "core/math.h"
+
+namespace vsl {
+
+// Concentric map of [0,1)^2 to the unit disk (Shirley-Chiu). pdf = 1/pi (area).
+Vec2 sampleUniformDiskConcentric(Vec2 u);
+Vec2 invertUniformDiskConcentric(Vec2 p);
+
+// Cosine-weighted hemisphere about +z. pdf(w) = cos(theta)/pi (solid angle).
+Vec3 sampleCosineHemisphere(Vec2 u);
+inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0 ? cosTheta * kInvPi : 0.0f; }
+Vec2 invertCosineHemisphere(const Vec3& w);
+
+// Uniform sphere. pdf = 1/(4 pi) (solid angle).
+Vec3 sampleUniformSphere(Vec2 u);
+inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
+
+// Uniform cone about +z with cos(half-angle) = cosMax. pdf = 1/(2 pi (1 - cosMax))
+// (solid angle).
+Vec3 sampleUniformCone(Vec2 u, float cosMax);
+inline float uniformConePdf(float cosMax) { return 1.0f / (2.0f * kPi * (1.0f - cosMax)); }
+
+// Uniform point on a triangle, as barycentrics (b0, b1); b2 = 1 - b0 - b1.
+// pdf = 1/area (area). Uses the low-distortion square-to-triangle map of
+// Heitz 2019.
+Vec2 sampleUniformTriangle(Vec2 u);
+
+// Multiple importance sampling heuristics for one sample of each strategy.
+inline float powerHeuristic(float pdfA, float pdfB) {
+  float a = pdfA * pdfA, b = pdfB * pdfB;
+  if (std::isinf(a)) return 1.0f;
+  return a + b > 0 ? a / (a + b) : 0.0f;
+}
+inline float balanceHeuristic(float pdfA, float pdfB) {
+  return pdfA + pdfB > 0 ? pdfA / (pdfA + pdfB) : 0.0f;
+}
+
+// Piecewise-constant discrete distribution over n items with non-negative
+// weights. sample() returns an index with probability weight/sum (pmf).
+class DiscreteDistribution {
+ public:
+  DiscreteDistribution() = default;
+  explicit DiscreteDistribution(std::span<const double> weights);
+  size_t size() const { return pmf_.size(); }
+  double total() const { return total_; }
+  // Returns the index; *pmf receives its probability. uRemapped (optional)
+  // receives u rescaled to [0,1) within the chosen bucket, for reuse.
+  size_t sample(float u, float* pmf, float* uRemapped = nullptr) const;
+  float pmf(size_t i) const { return i < pmf_.size() ? pmf_[i] : 0.0f; }
+
+ private:
+  std::vector<double> cdf_;  // cdf_[i] = sum of pmf over [0, i); size n+1
+  std::vector<float> pmf_;
+  double total_ = 0;
+};
+
+}  // namespace vsl

@@ -1,0 +1,795 @@
+// glTF loading. Sections:
+//   [1] geometry helpers on Scene
+//   [2] accessor reading with bounds checks
+//   [3] materials, textures and extensions
+//   [4] node traversal, meshes, cameras, lights
+//   [5] loadScene()
+#include "core/scene.h"
+
+#include <tiny_gltf.h>
+
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace vsl {
+
+// ---- [1] Geometry helpers ------------------------------------------------------
+
+Ray Camera::generateRay(float x, float y, int width, int height) const {
+  float tanHalf = std::tan(0.5f * yfov);
+  float aspectRatio = float(width) / float(height);
+  float sx = (2.0f * x / width - 1.0f) * tanHalf * aspectRatio;
+  float sy = (1.0f - 2.0f * y / height) * tanHalf;
+  Ray r;
+  r.o = position;
+  r.d = normalize(forward + right * sx + up * sy);
+  return r;
+}
+
+float PunctualLight::falloff(const Vec3& dirFromLight) const {
+  if (type == Type::Point) return 1.0f;
+  float cd = dot(direction, dirFromLight);
+  float scale = 1.0f / std::max(0.001f, cosInner - cosOuter);
+  float a = clamp((cd - cosOuter) * scale, 0.0f, 1.0f);
+  return a * a;
+}
+
+float PunctualLight::power() const {
+  float I = luminance(intensity);
+  if (type == Type::Point) return 4 * kPi * I;
+  // Integrate the falloff over the cone: 2 pi * integral over cos in [cosOuter, 1].
+  const int n = 256;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    float c = cosOuter + (1 - cosOuter) * (i + 0.5f) / n;
+    float a = clamp((c - cosOuter) / std::max(0.001f, cosInner - cosOuter), 0.0f, 1.0f);
+    sum += a * a;
+  }
+  return float(2 * kPi * I * sum * (1 - cosOuter) / n);
+}
+
+float Scene::triangleArea(uint32_t tri) const {
+  const Vec3& p0 = positions[indices[3 * tri]];
+  const Vec3& p1 = positions[indices[3 * tri + 1]];
+  const Vec3& p2 = positions[indices[3 * tri + 2]];
+  return 0.5f * length(cross(p1 - p0, p2 - p0));
+}
+
+Vec3 Scene::triangleNormal(uint32_t tri) const {
+  const Vec3& p0 = positions[indices[3 * tri]];
+  const Vec3& p1 = positions[indices[3 * tri + 1]];
+  const Vec3& p2 = positions[indices[3 * tri + 2]];
+  return normalize(cross(p1 - p0, p2 - p0));
+}
+
+SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) const {
+  SurfaceHit h;
+  uint32_t i0 = indices[3 * tri], i1 = indices[3 * tri + 1], i2 = indices[3 * tri + 2];
+  float w = 1 - u - v;
+  h.triangle = tri;
+  h.material = triMaterial[tri];
+  h.p = positions[i0] * w + positions[i1] * u + positions[i2] * v;
+  h.ng = triangleNormal(tri);
+  h.uv = {uvs[i0].x * w + uvs[i1].x * u + uvs[i2].x * v, uvs[i0].y * w + uvs[i1].y * u + uvs[i2].y * v};
+  Vec3 ns = normals[i0] * w + normals[i1] * u + normals[i2] * v;
+  ns = isFinite(ns) && lengthSquared(ns) > 1e-12f ? normalize(ns) : h.ng;
+  // Keep the shading normal on the geometric normal's side.
+  if (dot(ns, h.ng) < 0) ns = -ns;
+  Vec3 t = tangents[i0] * w + tangents[i1] * u + tangents[i2] * v;
+  float sign = tangentSigns[i0] < 0 ? -1.0f : 1.0f;
+  h.frontFace = dot(d, h.ng) < 0;
+  if (!h.frontFace) {
+    // Shade the back side as a mirror image: flip the normals.
+    h.ng = -h.ng;
+    ns = -ns;
+    sign = -sign;
+  }
+  // Anisotropy direction: the tangent rotated by the material's rotation in
+  // the tangent-bitangent plane (KHR_materials_anisotropy).
+  const Material& m = materials[h.material];
+  if (m.anisotropyStrength > 0 && lengthSquared(t) > 1e-12f) {
+    Frame tb(ns, t);
+    Vec3 bt = tb.t * sign;
+    float rot = m.anisotropyRotation;
+    float dirX = std::cos(rot), dirY = std::sin(rot);
+    if (m.anisotropyTexture >= 0) {
+      float texel[4];
+      textures[m.anisotropyTexture].lookup(h.uv, false, texel);
+      Vec2 dtex{texel[0] * 2 - 1, texel[1] * 2 - 1};
+      float x = dtex.x * dirX - dtex.y * dirY, y = dtex.x * dirY + dtex.y * dirX;
+      dirX = x;
+      dirY = y;
+    }
+    h.shading = Frame(ns, tb.s * dirX + bt * dirY);
+  } else {
+    h.shading = Frame(ns, t);
+  }
+  return h;
+}
+
+Brdf Scene::brdf(const SurfaceHit& hit) const {
+  const Material& m = materials[hit.material];
+  Vec3 base = m.baseColor;
+  float metallic = m.metallic, roughness = m.roughness, aniso = m.anisotropyStrength;
+  float texel[4];
+  if (m.baseColorTexture >= 0) {
+    textures[m.baseColorTexture].lookup(hit.uv, true, texel);
+    base *= Vec3(texel[0], texel[1], texel[2]);
+  }
+  if (m.metallicRoughnessTexture >= 0) {
+    textures[m.metallicRoughnessTexture].lookup(hit.uv, false, texel);
+    roughness *= texel[1];
+    metallic *= texel[2];
+  }
+  if (m.anisotropyTexture >= 0 && aniso > 0) {
+    textures[m.anisotropyTexture].lookup(hit.uv, false, texel);
+    aniso *= texel[2];
+  }
+  return Brdf::fromGltf(base, metallic, roughness, aniso);
+}
+
+Vec3 Scene::emission(uint32_t tri, Vec2 bary) const {
+  const Material& m = materials[triMaterial[tri]];
+  if (!m.isEmissive()) return Vec3(0.0f);
+  if (m.emissiveTexture < 0) return m.emission;
+  uint32_t i0 = indices[3 * tri], i1 = indices[3 * tri + 1], i2 = indices[3 * tri + 2];
+  float w = 1 - bary.x - bary.y;
+  Vec2 uv{uvs[i0].x * w + uvs[i1].x * bary.x + uvs[i2].x * bary.y,
+          uvs[i0].y * w + uvs[i1].y * bary.x + uvs[i2].y * bary.y};
+  float texel[4];
+  textures[m.emissiveTexture].lookup(uv, true, texel);
+  return m.emission * Vec3(texel[0], texel[1], texel[2]);
+}
+
+Vec3 Scene::emitted(const SurfaceHit& hit, const Vec3& w) const {
+  const Material& m = materials[hit.material];
+  if (!m.isEmissive()) return Vec3(0.0f);
+  // hit.ng faces the side the ray came from; frontFace says which side that is.
+  if (!hit.frontFace && !m.doubleSided) return Vec3(0.0f);
+  if (dot(w, hit.ng) <= 0) return Vec3(0.0f);
+  Vec3 e = m.emission;
+  if (m.emissiveTexture >= 0) {
+    float texel[4];
+    textures[m.emissiveTexture].lookup(hit.uv, true, texel);
+    e *= Vec3(texel[0], texel[1], texel[2]);
+  }
+  return e;
+}
+
+Camera frameBounds(const Vec3& bmin, const Vec3& bmax) {
+  Camera c;
+  Vec3 center = (bmin + bmax) * 0.5f;
+  float radius = std::max(0.5f * length(bmax - bmin), 1e-3f);
+  float dist = radius / std::sin(0.5f * c.yfov);
+  c.position = center + Vec3(0, 0, dist);
+  c.forward = Vec3(0, 0, -1);
+  c.right = Vec3(1, 0, 0);
+  c.up = Vec3(0, 1, 0);
+  c.name = "default (frames the scene)";
+  return c;
+}
+
+namespace {
+
+// Thrown inside the loader only; loadScene() turns it into LoadResult::error.
+struct LoadError {
+  std::string message;
+};
+
+std::string quoted(const std::string& kind, int index, const std::string& name) {
+  std::ostringstream s;
+  s << kind << " " << index;
+  if (!name.empty()) s << " '" << name << "'";
+  return s.str();
+}
+
+// ---- [2] Accessors -------------------------------------------------------------
+
+int componentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT2: return 4;
+    case TINYGLTF_TYPE_MAT3: return 9;
+    case TINYGLTF_TYPE_MAT4: return 16;
+  }
+  return 0;
+}
+
+int componentSize(int ct) {
+  switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
+  }
+  return 0;
+}
+
+// Reads an accessor as doubles, count x components, with every offset checked
+// against its buffer view and buffer.
+std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, int wantComponents,
+                                 size_t* countOut) {
+  if (index < 0 || size_t(index) >= model.accessors.size())
+    throw LoadError{what + ": accessor " + std::to_string(index) + " does not exist"};
+  const tinygltf::Accessor& acc = model.accessors[index];
+  std::string where = what + " (accessor " + std::to_string(index) + ")";
+  int nc = componentCount(acc.type), cs = componentSize(acc.componentType);
+  if (nc == 0 || cs == 0) throw LoadError{where + ": unknown type or componentType"};
+  if (wantComponents > 0 && nc != wantComponents)
+    throw LoadError{where + ": expected " + std::to_string(wantComponents) + " components, got " + std::to_string(nc)};
+  if (acc.sparse.isSparse) throw LoadError{where + ": sparse accessors are not supported"};
+  size_t count = acc.count;
+  *countOut = count;
+  std::vector<double> out;
+  if (count == 0) return out;
+  if (acc.bufferView < 0) {  // all zeros, per the specification
+    out.assign(count * nc, 0.0);
+    return out;
+  }
+  if (size_t(acc.bufferView) >= model.bufferViews.size())
+    throw LoadError{where + ": bufferView " + std::to_string(acc.bufferView) + " does not exist"};
+  const tinygltf::BufferView& bv = model.bufferViews[acc.bufferView];
+  if (bv.buffer < 0 || size_t(bv.buffer) >= model.buffers.size())
+    throw LoadError{where + ": buffer " + std::to_string(bv.buffer) + " does not exist"};
+  const tinygltf::Buffer& buf = model.buffers[bv.buffer];
+  uint64_t elem = uint64_t(nc) * cs;
+  uint64_t stride = bv.byteStride ? bv.byteStride : elem;
+  if (stride < elem) throw LoadError{where + ": byteStride smaller than the element size"};
+  if (uint64_t(bv.byteOffset) + bv.byteLength > buf.data.size())
+    throw LoadError{where + ": bufferView " + std::to_string(acc.bufferView) + " runs past the end of buffer " +
+                    std::to_string(bv.buffer) + " (" + std::to_string(buf.data.size()) + " bytes)"};
+  if (count > (uint64_t(1) << 32)) throw LoadError{where + ": count " + std::to_string(count) + " is absurd"};
+  uint64_t need = uint64_t(acc.byteOffset) + stride * (count - 1) + elem;
+  if (need > bv.byteLength)
+    throw LoadError{where + ": needs " + std::to_string(need) + " bytes but its bufferView has " +
+                    std::to_string(bv.byteLength)};
+  const unsigned char* base = buf.data.data() + bv.byteOffset + acc.byteOffset;
+  out.resize(count * nc);
+  for (size_t i = 0; i < count; ++i) {
+    const unsigned char* e = base + i * stride;
+    for (int c = 0; c < nc; ++c) {
+      const unsigned char* p = e + c * cs;
+      double v = 0;
+      switch (acc.componentType) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE: { int8_t x; std::memcpy(&x, p, 1); v = acc.normalized ? std::max(x / 127.0, -1.0) : x; break; }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: { uint8_t x; std::memcpy(&x, p, 1); v = acc.normalized ? x / 255.0 : x; break; }
+        case TINYGLTF_COMPONENT_TYPE_SHORT: { int16_t x; std::memcpy(&x, p, 2); v = acc.normalized ? std::max(x / 32767.0, -1.0) : x; break; }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { uint16_t x; std::memcpy(&x, p, 2); v = acc.normalized ? x / 65535.0 : x; break; }
+        case TINYGLTF_COMPONENT_TYPE_INT: { int32_t x; std::memcpy(&x, p, 4); v = x; break; }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { uint32_t x; std::memcpy(&x, p, 4); v = x; break; }
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: { float x; std::memcpy(&x, p, 4); v = x; break; }
+        case TINYGLTF_COMPONENT_TYPE_DOUBLE: { double x; std::memcpy(&x, p, 8); v = x; break; }
+      }
+      out[i * nc + c] = v;
+    }
+  }
+  return out;
+}
+
+// ---- [3] Materials and textures -------------------------------------------------
+
+double numberOr(const tinygltf::Value& obj, const char* key, double fallback, const std::string& where) {
+  if (!obj.IsObject() || !obj.Has(key)) return fallback;
+  const tinygltf::Value& v = obj.Get(key);
+  if (!v.IsNumber()) throw LoadError{where + ": '" + key + "' must be a number"};
+  return v.GetNumberAsDouble();
+}
+
+int textureIndexOf(const tinygltf::Value& obj, const char* key, const std::string& where) {
+  if (!obj.IsObject() || !obj.Has(key)) return -1;
+  const tinygltf::Value& t = obj.Get(key);
+  if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber())
+    throw LoadError{where + ": '" + key + "' must be an object with an integer 'index'"};
+  return int(t.Get("index").GetNumberAsDouble());
+}
+
+void checkRange(double v, double lo, double hi, const std::string& where, const char* what) {
+  if (!(v >= lo && v <= hi)) {
+    std::ostringstream s;
+    s << where << ": " << what << " must be in [" << lo << "," << hi << "] (got " << v << ")";
+    throw LoadError{s.str()};
+  }
+}
+
+struct Loader {
+  const tinygltf::Model& model;
+  Scene& scene;
+  std::string file;
+  std::vector<int> textureSlot;  // glTF texture index -> Scene::textures index
+  std::set<std::string> warned;
+
+  void warn(const std::string& m) {
+    if (warned.insert(m).second) scene.warnings.push_back(m);
+  }
+
+  int texture(int gltfIndex, const std::string& where) {
+    if (gltfIndex < 0) return -1;
+    if (size_t(gltfIndex) >= model.textures.size())
+      throw LoadError{where + ": texture " + std::to_string(gltfIndex) + " does not exist"};
+    if (textureSlot[gltfIndex] >= 0) return textureSlot[gltfIndex];
+    const tinygltf::Texture& t = model.textures[gltfIndex];
+    if (t.source < 0 || size_t(t.source) >= model.images.size())
+      throw LoadError{where + ": texture " + std::to_string(gltfIndex) + " has no valid image source"};
+    const tinygltf::Image& img = model.images[t.source];
+    if (img.width <= 0 || img.height <= 0 || img.component < 1 || img.component > 4 ||
+        (img.bits != 8 && img.bits != 16) ||
+        img.image.size() < size_t(img.width) * img.height * img.component * (img.bits / 8))
+      throw LoadError{where + ": image " + std::to_string(t.source) + " could not be decoded"};
+    if (!t.extensions.empty())
+      for (auto& [k, v] : t.extensions) warn(quoted("texture", gltfIndex, t.name) + ": extension " + k + " is not supported (ignored)");
+    Texture tex;
+    tex.name = img.name.empty() ? img.uri : img.name;
+    tex.width = img.width;
+    tex.height = img.height;
+    tex.rgba.assign(size_t(img.width) * img.height * 4, 1.0f);
+    size_t n = size_t(img.width) * img.height;
+    for (size_t i = 0; i < n; ++i)
+      for (int c = 0; c < img.component; ++c) {
+        float v;
+        if (img.bits == 8) {
+          v = img.image[i * img.component + c] / 255.0f;
+        } else {
+          uint16_t x;
+          std::memcpy(&x, &img.image[(i * img.component + c) * 2], 2);
+          v = x / 65535.0f;
+        }
+        // Grey images replicate into RGB.
+        if (img.component <= 2 && c == 0) tex.rgba[i * 4] = tex.rgba[i * 4 + 1] = tex.rgba[i * 4 + 2] = v;
+        else if (img.component == 2 && c == 1) tex.rgba[i * 4 + 3] = v;
+        else tex.rgba[i * 4 + c] = v;
+      }
+    textureSlot[gltfIndex] = int(scene.textures.size());
+    scene.textures.push_back(std::move(tex));
+    return textureSlot[gltfIndex];
+  }
+
+  void checkTexCoord(const tinygltf::TextureInfo& ti, const std::string& where, const char* slot) {
+    if (ti.index >= 0 && ti.texCoord != 0)
+      warn(where + ": " + slot + " uses TEXCOORD_" + std::to_string(ti.texCoord) + "; only TEXCOORD_0 is modelled");
+    if (ti.index >= 0)
+      for (auto& [k, v] : ti.extensions) warn(where + ": " + slot + " extension " + k + " is not supported (ignored)");
+  }
+
+  Material material(int index) {
+    const tinygltf::Material& gm = model.materials[index];
+    std::string where = file + ": " + quoted("material", index, gm.name);
+    Material m;
+    m.name = gm.name.empty() ? "material " + std::to_string(index) : gm.name;
+    const auto& pbr = gm.pbrMetallicRoughness;
+    if (pbr.baseColorFactor.size() != 4) throw LoadError{where + ": baseColorFactor must have 4 components"};
+    for (int c = 0; c < 4; ++c) checkRange(pbr.baseColorFactor[c], 0, 1, where, "baseColorFactor");
+    m.baseColor = Vec3(float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]), float(pbr.baseColorFactor[2]));
+    checkRange(pbr.metallicFactor, 0, 1, where, "metallicFactor");
+    checkRange(pbr.roughnessFactor, 0, 1, where, "roughnessFactor");
+    m.metallic = float(pbr.metallicFactor);
+    m.roughness = float(pbr.roughnessFactor);
+    m.doubleSided = gm.doubleSided;
+    m.baseColorTexture = texture(pbr.baseColorTexture.index, where + " baseColorTexture");
+    m.metallicRoughnessTexture = texture(pbr.metallicRoughnessTexture.index, where + " metallicRoughnessTexture");
+    m.emissiveTexture = texture(gm.emissiveTexture.index, where + " emissiveTexture");
+    checkTexCoord(pbr.baseColorTexture, where, "baseColorTexture");
+    checkTexCoord(pbr.metallicRoughnessTexture, where, "metallicRoughnessTexture");
+    checkTexCoord(gm.emissiveTexture, where, "emissiveTexture");
+
+    Vec3 emissive(0.0f);
+    if (!gm.emissiveFactor.empty()) {
+      if (gm.emissiveFactor.size() != 3) throw LoadError{where + ": emissiveFactor must have 3 components"};
+      for (int c = 0; c < 3; ++c) checkRange(gm.emissiveFactor[c], 0, 1, where, "emissiveFactor");
+      emissive = Vec3(float(gm.emissiveFactor[0]), float(gm.emissiveFactor[1]), float(gm.emissiveFactor[2]));
+    }
+    float strength = 1;
+    for (const auto& [name, ext] : gm.extensions) {
+      std::string ew = where + " " + name;
+      if (name == "KHR_materials_emissive_strength") {
+        strength = float(numberOr(ext, "emissiveStrength", 1.0, ew));
+        checkRange(strength, 0, 1e9, ew, "emissiveStrength");
+      } else if (name == "KHR_materials_anisotropy") {
+        m.anisotropyStrength = float(numberOr(ext, "anisotropyStrength", 0.0, ew));
+        checkRange(m.anisotropyStrength, 0, 1, ew, "anisotropyStrength");
+        m.anisotropyRotation = float(numberOr(ext, "anisotropyRotation", 0.0, ew));
+        if (!std::isfinite(m.anisotropyRotation)) throw LoadError{ew + ": anisotropyRotation must be finite"};
+        m.anisotropyTexture = texture(textureIndexOf(ext, "anisotropyTexture", ew), ew + " anisotropyTexture");
+      } else {
+        warn(where + ": extension " + name + " is not modelled (ignored)");
+      }
+    }
+    m.emission = emissive * strength;
+    if (gm.normalTexture.index >= 0) warn(where + ": normalTexture is not modelled (ignored)");
+    if (gm.occlusionTexture.index >= 0)
+      warn(where + ": occlusionTexture is not used (a path tracer computes occlusion itself)");
+    if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
+      warn(where + ": alphaMode " + gm.alphaMode + " is not modelled (rendered opaque)");
+    return m;
+  }
+
+  // ---- [4] Nodes, meshes, cameras, lights ---------------------------------------
+
+  static Mat4 localTransform(const tinygltf::Node& n, const std::string& where) {
+    Mat4 m;
+    if (n.matrix.size() == 16) {
+      for (int i = 0; i < 16; ++i) m.m[i] = n.matrix[i];
+    } else if (!n.matrix.empty()) {
+      throw LoadError{where + ": matrix must have 16 numbers"};
+    } else {
+      Mat4 t, r, s;
+      if (n.translation.size() == 3)
+        for (int i = 0; i < 3; ++i) t.at(i, 3) = n.translation[i];
+      else if (!n.translation.empty()) throw LoadError{where + ": translation must have 3 numbers"};
+      if (n.rotation.size() == 4) {
+        double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
+        double len = std::sqrt(x * x + y * y + z * z + w * w);
+        if (!(len > 0)) throw LoadError{where + ": rotation quaternion has zero length"};
+        x /= len, y /= len, z /= len, w /= len;
+        r.at(0, 0) = 1 - 2 * (y * y + z * z); r.at(0, 1) = 2 * (x * y - z * w); r.at(0, 2) = 2 * (x * z + y * w);
+        r.at(1, 0) = 2 * (x * y + z * w); r.at(1, 1) = 1 - 2 * (x * x + z * z); r.at(1, 2) = 2 * (y * z - x * w);
+        r.at(2, 0) = 2 * (x * z - y * w); r.at(2, 1) = 2 * (y * z + x * w); r.at(2, 2) = 1 - 2 * (x * x + y * y);
+      } else if (!n.rotation.empty()) throw LoadError{where + ": rotation must have 4 numbers"};
+      if (n.scale.size() == 3)
+        for (int i = 0; i < 3; ++i) s.at(i, i) = n.scale[i];
+      else if (!n.scale.empty()) throw LoadError{where + ": scale must have 3 numbers"};
+      m = t * r * s;
+    }
+    for (double v : m.m)
+      if (!std::isfinite(v)) throw LoadError{where + ": transform is not finite"};
+    return m;
+  }
+
+  void primitive(const tinygltf::Mesh& mesh, int meshIndex, int primIndex, const Mat4& xf, const std::string& nodeWhere) {
+    const tinygltf::Primitive& prim = mesh.primitives[primIndex];
+    std::string where = nodeWhere + " " + quoted("mesh", meshIndex, mesh.name) + " primitive " + std::to_string(primIndex);
+    int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+        mode == TINYGLTF_MODE_LINE_STRIP) {
+      warn(where + ": points and lines are not modelled (skipped)");
+      return;
+    }
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+      throw LoadError{where + ": unknown primitive mode " + std::to_string(mode)};
+    if (!prim.targets.empty()) warn(where + ": morph targets are not modelled (base shape used)");
+    for (auto& [k, v] : prim.extensions) warn(where + ": extension " + k + " is not supported (ignored)");
+    for (auto& [name, acc] : prim.attributes)
+      if (name != "POSITION" && name != "NORMAL" && name != "TANGENT" && name != "TEXCOORD_0" &&
+          name.rfind("TEXCOORD_", 0) != 0 && name.rfind("COLOR_", 0) != 0 && name.rfind("JOINTS_", 0) != 0 &&
+          name.rfind("WEIGHTS_", 0) != 0 && name.rfind("_", 0) != 0)
+        warn(where + ": attribute " + name + " is not used");
+    if (prim.attributes.count("COLOR_0")) warn(where + ": vertex colours (COLOR_0) are not modelled (ignored)");
+
+    auto it = prim.attributes.find("POSITION");
+    if (it == prim.attributes.end()) throw LoadError{where + ": has no POSITION attribute"};
+    size_t nv = 0;
+    std::vector<double> pos = readAccessor(model, it->second, where + " POSITION", 3, &nv);
+    if (nv == 0) return;
+    for (size_t i = 0; i < pos.size(); ++i)
+      if (!std::isfinite(pos[i]) || std::abs(pos[i]) > 1e18)
+        throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
+
+    auto optional = [&](const char* name, int comps, std::vector<double>& out) {
+      auto a = prim.attributes.find(name);
+      if (a == prim.attributes.end()) return false;
+      size_t n = 0;
+      out = readAccessor(model, a->second, where + " " + name, comps, &n);
+      if (n != nv)
+        throw LoadError{where + ": " + name + " has " + std::to_string(n) + " entries but POSITION has " +
+                        std::to_string(nv)};
+      return true;
+    };
+    std::vector<double> nrm, tan, uv;
+    bool hasN = optional("NORMAL", 3, nrm);
+    bool hasT = optional("TANGENT", 4, tan);
+    bool hasUV = optional("TEXCOORD_0", 2, uv);
+
+    // Indices.
+    std::vector<uint32_t> idx;
+    if (prim.indices >= 0) {
+      size_t ni = 0;
+      std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni);
+      const auto& acc = model.accessors[prim.indices];
+      if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+          acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        throw LoadError{where + ": indices must be unsigned integers"};
+      idx.resize(ni);
+      for (size_t i = 0; i < ni; ++i) {
+        if (raw[i] >= double(nv))
+          throw LoadError{where + ": index " + std::to_string(uint64_t(raw[i])) + " at position " + std::to_string(i) +
+                          " is out of range (" + std::to_string(nv) + " vertices)"};
+        idx[i] = uint32_t(raw[i]);
+      }
+    } else {
+      idx.resize(nv);
+      for (size_t i = 0; i < nv; ++i) idx[i] = uint32_t(i);
+    }
+    std::vector<uint32_t> tris;
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      if (idx.size() % 3 != 0) warn(where + ": index count is not a multiple of 3 (trailing indices ignored)");
+      tris.assign(idx.begin(), idx.begin() + (idx.size() / 3) * 3);
+    } else {
+      for (size_t i = 2; i < idx.size(); ++i) {
+        if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+          if (i % 2 == 0) tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
+          else tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
+        } else {
+          tris.insert(tris.end(), {idx[0], idx[i - 1], idx[i]});
+        }
+      }
+    }
+
+    // Material.
+    uint32_t matIndex;
+    if (prim.material < 0) {
+      matIndex = uint32_t(model.materials.size());  // the default material slot
+    } else if (size_t(prim.material) >= model.materials.size()) {
+      throw LoadError{where + ": material " + std::to_string(prim.material) + " does not exist"};
+    } else {
+      matIndex = uint32_t(prim.material);
+    }
+    const Material& mat = scene.materials[matIndex];
+    if (mat.anisotropyStrength > 0 && !hasT && !hasUV)
+      warn(where + ": anisotropic material '" + mat.name +
+           "' on a mesh with neither TANGENT nor TEXCOORD_0; the anisotropy direction is arbitrary");
+
+    // Append transformed vertices.
+    bool flip = xf.det3() < 0;  // mirrored transforms reverse the winding
+    uint32_t base = uint32_t(scene.positions.size());
+    for (size_t i = 0; i < nv; ++i) {
+      Vec3 p = xf.point(Vec3(float(pos[3 * i]), float(pos[3 * i + 1]), float(pos[3 * i + 2])));
+      scene.positions.push_back(p);
+      scene.boundsMin = min(scene.boundsMin, p);
+      scene.boundsMax = max(scene.boundsMax, p);
+      Vec3 n(0.0f);
+      if (hasN) {
+        n = xf.normal(Vec3(float(nrm[3 * i]), float(nrm[3 * i + 1]), float(nrm[3 * i + 2])));
+        if (!isFinite(n)) n = Vec3(0.0f);
+      }
+      scene.normals.push_back(n);
+      Vec3 t(0.0f);
+      float s = 1;
+      if (hasT) {
+        t = normalize(xf.vector(Vec3(float(tan[4 * i]), float(tan[4 * i + 1]), float(tan[4 * i + 2]))));
+        if (!isFinite(t)) t = Vec3(0.0f);
+        s = tan[4 * i + 3] < 0 ? -1.0f : 1.0f;
+        if (flip) s = -s;
+      }
+      scene.tangents.push_back(t);
+      scene.tangentSigns.push_back(s);
+      scene.uvs.push_back(hasUV ? Vec2{float(uv[2 * i]), float(uv[2 * i + 1])} : Vec2{0, 0});
+    }
+    // Generate tangents from UV derivatives where the file has none.
+    if (!hasT && hasUV && mat.anisotropyStrength > 0) {
+      for (size_t k = 0; k + 2 < tris.size(); k += 3) {
+        uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
+        Vec3 e1 = scene.positions[b] - scene.positions[a], e2 = scene.positions[c] - scene.positions[a];
+        float du1 = scene.uvs[b].x - scene.uvs[a].x, dv1 = scene.uvs[b].y - scene.uvs[a].y;
+        float du2 = scene.uvs[c].x - scene.uvs[a].x, dv2 = scene.uvs[c].y - scene.uvs[a].y;
+        float det = du1 * dv2 - du2 * dv1;
+        if (std::abs(det) < 1e-12f) continue;
+        Vec3 t = (e1 * dv2 - e2 * dv1) / det;
+        for (uint32_t v : {a, b, c}) scene.tangents[v] += t;
+      }
+      for (uint32_t v = base; v < scene.positions.size(); ++v) {
+        Vec3 t = normalize(scene.tangents[v]);
+        scene.tangents[v] = isFinite(t) ? t : Vec3(0.0f);
+      }
+    }
+    size_t degenerate = 0;
+    for (size_t k = 0; k + 2 < tris.size(); k += 3) {
+      uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
+      if (flip) std::swap(b, c);
+      Vec3 cr = cross(scene.positions[b] - scene.positions[a], scene.positions[c] - scene.positions[a]);
+      if (!(lengthSquared(cr) > 0)) {
+        ++degenerate;
+        continue;
+      }
+      scene.indices.insert(scene.indices.end(), {a, b, c});
+      scene.triMaterial.push_back(matIndex);
+    }
+    if (degenerate > 0)
+      warn(where + ": " + std::to_string(degenerate) + " zero-area triangle(s) skipped");
+  }
+
+  void light(int lightIndex, const Mat4& xf, const std::string& where) {
+    if (lightIndex < 0 || size_t(lightIndex) >= model.lights.size())
+      throw LoadError{where + ": KHR_lights_punctual light " + std::to_string(lightIndex) + " does not exist"};
+    const tinygltf::Light& gl = model.lights[lightIndex];
+    std::string lw = file + ": " + quoted("light", lightIndex, gl.name);
+    PunctualLight L;
+    L.name = gl.name.empty() ? "light " + std::to_string(lightIndex) : gl.name;
+    Vec3 color(1.0f);
+    if (!gl.color.empty()) {
+      if (gl.color.size() != 3) throw LoadError{lw + ": color must have 3 components"};
+      for (int c = 0; c < 3; ++c) checkRange(gl.color[c], 0, 1, lw, "color");
+      color = Vec3(float(gl.color[0]), float(gl.color[1]), float(gl.color[2]));
+    }
+    checkRange(gl.intensity, 0, 1e12, lw, "intensity");
+    L.intensity = color * float(gl.intensity);
+    L.position = xf.point(Vec3(0.0f));
+    L.direction = normalize(xf.vector(Vec3(0, 0, -1)));
+    if (gl.range > 0) warn(lw + ": range is not modelled (inverse-square falloff without cut-off)");
+    if (gl.type == "point") {
+      L.type = PunctualLight::Type::Point;
+    } else if (gl.type == "spot") {
+      L.type = PunctualLight::Type::Spot;
+      double inner = gl.spot.innerConeAngle, outer = gl.spot.outerConeAngle;
+      if (!(inner >= 0 && inner < outer && outer <= kPi / 2 + 1e-6))
+        throw LoadError{lw + ": spot cone angles must satisfy 0 <= inner < outer <= pi/2 (got " +
+                        std::to_string(inner) + ", " + std::to_string(outer) + ")"};
+      L.cosInner = float(std::cos(inner));
+      L.cosOuter = float(std::cos(outer));
+    } else if (gl.type == "directional") {
+      warn(lw + ": directional lights are not modelled (skipped)");
+      return;
+    } else {
+      throw LoadError{lw + ": unknown light type '" + gl.type + "'"};
+    }
+    if (!isFinite(L.position) || !isFinite(L.direction)) throw LoadError{lw + ": transform is not finite"};
+    if (luminance(L.intensity) > 0) scene.punctualLights.push_back(L);
+  }
+
+  void camera(int camIndex, const Mat4& xf, const std::string& where, const std::string& wanted) {
+    if (camIndex < 0 || size_t(camIndex) >= model.cameras.size())
+      throw LoadError{where + ": camera " + std::to_string(camIndex) + " does not exist"};
+    const tinygltf::Camera& gc = model.cameras[camIndex];
+    if (scene.cameraFromFile) return;
+    if (!wanted.empty() && gc.name != wanted) return;
+    std::string cw = file + ": " + quoted("camera", camIndex, gc.name);
+    if (gc.type != "perspective") {
+      warn(cw + ": " + gc.type + " cameras are not modelled (skipped)");
+      return;
+    }
+    checkRange(gc.perspective.yfov, 1e-4, kPi - 1e-4, cw, "yfov");
+    Camera c;
+    c.name = gc.name.empty() ? "camera " + std::to_string(camIndex) : gc.name;
+    c.position = xf.point(Vec3(0.0f));
+    c.forward = normalize(xf.vector(Vec3(0, 0, -1)));
+    c.up = xf.vector(Vec3(0, 1, 0));
+    c.right = normalize(cross(c.forward, c.up));
+    c.up = cross(c.right, c.forward);
+    if (!isFinite(c.position) || !isFinite(c.right) || lengthSquared(c.right) < 0.5f)
+      throw LoadError{cw + ": camera transform is degenerate"};
+    c.yfov = float(gc.perspective.yfov);
+    c.aspect = float(gc.perspective.aspectRatio);
+    scene.camera = c;
+    scene.cameraFromFile = true;
+  }
+
+  void node(int index, const Mat4& parent, std::vector<char>& onPath, size_t& visits, const LoadOptions& opts) {
+    if (index < 0 || size_t(index) >= model.nodes.size())
+      throw LoadError{file + ": node " + std::to_string(index) + " does not exist"};
+    const tinygltf::Node& n = model.nodes[index];
+    std::string where = file + ": " + quoted("node", index, n.name);
+    if (onPath[index]) throw LoadError{where + ": the node hierarchy is recursive (a node is its own ancestor)"};
+    if (++visits > 10'000'000) throw LoadError{file + ": node hierarchy is too large (shared subtrees explode)"};
+    onPath[index] = 1;
+    Mat4 xf = parent * localTransform(n, where);
+    if (n.skin >= 0) warn(where + ": skins are not modelled (rendered in bind pose)");
+    if (n.mesh >= 0) {
+      if (size_t(n.mesh) >= model.meshes.size())
+        throw LoadError{where + ": mesh " + std::to_string(n.mesh) + " does not exist"};
+      const tinygltf::Mesh& mesh = model.meshes[n.mesh];
+      for (size_t p = 0; p < mesh.primitives.size(); ++p) primitive(mesh, n.mesh, int(p), xf, where);
+    }
+    if (n.camera >= 0) camera(n.camera, xf, where, opts.cameraName);
+    for (auto& [name, ext] : n.extensions) {
+      if (name == "KHR_lights_punctual") {
+        if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber())
+          throw LoadError{where + ": KHR_lights_punctual needs an integer 'light'"};
+        light(int(ext.Get("light").GetNumberAsDouble()), xf, where);
+      } else {
+        warn(where + ": extension " + name + " is not supported (ignored)");
+      }
+    }
+    for (int c : n.children) node(c, xf, onPath, visits, opts);
+    onPath[index] = 0;
+  }
+};
+
+bool readFile(const std::string& path, std::vector<unsigned char>& out) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return false;
+  out.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  return !f.bad();
+}
+
+}  // namespace
+
+// ---- [5] loadScene ----------------------------------------------------------------
+
+LoadResult loadScene(const std::string& path, const LoadOptions& options) {
+  LoadResult result;
+  try {
+    std::vector<unsigned char> bytes;
+    if (!readFile(path, bytes)) {
+      result.error = path + ": cannot be read (missing file or no permission)";
+      return result;
+    }
+    if (bytes.empty()) {
+      result.error = path + ": file is empty";
+      return result;
+    }
+    tinygltf::TinyGLTF gltf;
+    tinygltf::Model model;
+    std::string err, warn;
+    std::string dir = path.substr(0, path.find_last_of("/\\") == std::string::npos ? 0 : path.find_last_of("/\\"));
+    bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    bool ok = isBinary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), dir)
+                       : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
+                                                  unsigned(bytes.size()), dir);
+    if (!ok) {
+      while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+      result.error = path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err);
+      return result;
+    }
+
+    auto scene = std::make_shared<Scene>();
+    scene->path = path;
+    Loader L{model, *scene, path, std::vector<int>(model.textures.size(), -1), {}};
+    if (!warn.empty()) {
+      std::istringstream ws(warn);
+      for (std::string line; std::getline(ws, line);)
+        if (!line.empty()) L.warn(path + ": " + line);
+    }
+    static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
+                                                     "KHR_lights_punctual"};
+    for (const auto& e : model.extensionsRequired)
+      if (!kSupported.count(e)) L.warn(path + ": required extension " + e + " is not supported (ignored)");
+    for (const auto& e : model.extensionsUsed)
+      if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
+    if (!model.animations.empty()) L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
+    if (!model.skins.empty()) L.warn(path + ": " + std::to_string(model.skins.size()) + " skin(s) not modelled");
+
+    for (size_t i = 0; i < model.materials.size(); ++i) scene->materials.push_back(L.material(int(i)));
+    // glTF's default material: white, metallic 1, roughness 1.
+    Material def;
+    def.name = "default";
+    scene->materials.push_back(def);
+
+    std::vector<int> roots;
+    if (!model.scenes.empty()) {
+      int si = model.defaultScene >= 0 ? model.defaultScene : 0;
+      if (size_t(si) >= model.scenes.size()) throw LoadError{path + ": default scene " + std::to_string(si) + " does not exist"};
+      roots = model.scenes[si].nodes;
+    } else {
+      // No scenes: every node that is nobody's child is a root.
+      std::vector<char> isChild(model.nodes.size(), 0);
+      for (const auto& n : model.nodes)
+        for (int c : n.children)
+          if (c >= 0 && size_t(c) < model.nodes.size()) isChild[c] = 1;
+      for (size_t i = 0; i < model.nodes.size(); ++i)
+        if (!isChild[i]) roots.push_back(int(i));
+    }
+    std::vector<char> onPath(model.nodes.size(), 0);
+    size_t visits = 0;
+    for (int r : roots) L.node(r, Mat4(), onPath, visits, options);
+
+    if (scene->triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
+    bool anyEmitter = !scene->punctualLights.empty();
+    for (uint32_t t = 0; t < scene->triangleCount() && !anyEmitter; ++t)
+      anyEmitter = scene->materials[scene->triMaterial[t]].isEmissive();
+    if (!anyEmitter) L.warn(path + ": the scene has no emissive triangles and no punctual lights; it renders black");
+    if (!options.cameraName.empty() && !scene->cameraFromFile)
+      throw LoadError{path + ": no perspective camera named '" + options.cameraName + "'"};
+    if (!scene->cameraFromFile) {
+      scene->camera = frameBounds(scene->boundsMin, scene->boundsMax);
+      L.warn(path + ": no perspective camera; using a default camera that frames the scene");
+    }
+    result.scene = std::move(scene);
+  } catch (const LoadError& e) {
+    result.error = e.message;
+  } catch (const std::bad_alloc&) {
+    result.error = path + ": out of memory while loading (the file declares absurd sizes?)";
+  } catch (const std::exception& e) {
+    result.error = path + ": " + e.what();
+  }
+  return result;
+}
+
+}  // namespace vsl

@@ -1,0 +1,117 @@
+// core::Scene: flattened world-space triangles, materials, textures, punctual
+// lights and the camera, loaded from glTF 2.0 (.gltf or .glb) with tinygltf.
+//
+// What is modelled: triangle meshes (triangles, strips, fans) through the node
+// hierarchy; POSITION, NORMAL, TANGENT, TEXCOORD_0; the metallic-roughness
+// material with base-colour, metallic-roughness and emissive textures;
+// KHR_materials_emissive_strength; KHR_materials_anisotropy;
+// KHR_lights_punctual point and spot lights; perspective cameras.
+// Everything else a file uses is reported in Scene::warnings by element name;
+// invalid data makes loadScene() fail with a message naming file and element.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/material.h"
+#include "core/math.h"
+
+namespace vsl {
+
+struct Ray {
+  Vec3 o, d;
+  float tMin = 0, tMax = kInf;
+};
+
+// Pinhole perspective camera. The image plane spans yfov vertically; pixel
+// (0,0) is the top-left corner.
+struct Camera {
+  std::string name = "default";
+  Vec3 position{0, 0, 5};
+  Vec3 forward{0, 0, -1}, right{1, 0, 0}, up{0, 1, 0};
+  float yfov = 0.785398f;  // radians
+  float aspect = 0;        // width/height from the file; 0 = unspecified
+
+  // Ray through film position (x, y) in pixels for a W x H image.
+  Ray generateRay(float x, float y, int width, int height) const;
+};
+
+struct PunctualLight {
+  enum class Type { Point, Spot };
+  std::string name;
+  Type type = Type::Point;
+  Vec3 position;
+  Vec3 direction{0, 0, -1};  // spot axis (world)
+  Vec3 intensity;            // radiant intensity, colour x intensity (W/sr per unit convention)
+  float cosInner = 1, cosOuter = 0.70710678f;
+  // Angular falloff of glTF spots: smoothstep-free linear ramp squared, as in
+  // the KHR_lights_punctual reference implementation.
+  float falloff(const Vec3& dirFromLight) const;
+  // Total emitted power (for choosing lights in proportion to power).
+  float power() const;
+};
+
+// Everything a shading routine needs at a surface hit.
+struct SurfaceHit {
+  Vec3 p;
+  Vec3 ng;           // geometric normal (unit, front face = glTF CCW winding)
+  Frame shading;     // shading frame: n = shading normal, s = anisotropy direction
+  Vec2 uv;
+  uint32_t triangle = 0;
+  uint32_t material = 0;
+  bool frontFace = true;  // the ray arrived on the front side
+};
+
+struct Scene {
+  std::string path;
+  // Flattened world-space vertex data (one entry per vertex).
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;    // unit; zero vector = use the geometric normal
+  std::vector<Vec3> tangents;   // unit xyz; zero = none
+  std::vector<float> tangentSigns;
+  std::vector<Vec2> uvs;
+  std::vector<uint32_t> indices;      // 3 per triangle
+  std::vector<uint32_t> triMaterial;  // per triangle
+  std::vector<Material> materials;    // last entry is the glTF default material
+  std::vector<Texture> textures;
+  std::vector<PunctualLight> punctualLights;
+  Camera camera;
+  bool cameraFromFile = false;
+  Vec3 boundsMin{kInf}, boundsMax{-kInf};
+  std::vector<std::string> warnings;
+
+  size_t triangleCount() const { return triMaterial.size(); }
+  float triangleArea(uint32_t tri) const;
+  Vec3 triangleNormal(uint32_t tri) const;  // unit geometric normal
+  Vec3 center() const { return (boundsMin + boundsMax) * 0.5f; }
+  float boundingRadius() const { return 0.5f * length(boundsMax - boundsMin); }
+
+  // Fills a SurfaceHit for triangle tri at Embree barycentrics (u, v), where
+  // p = (1-u-v) p0 + u p1 + v p2, hit by a ray with direction d.
+  SurfaceHit surfaceHit(uint32_t tri, float u, float v, const Vec3& d) const;
+  // The BRDF at a hit, with textures applied.
+  Brdf brdf(const SurfaceHit& hit) const;
+  // Emitted radiance leaving the hit toward direction w (zero from the back
+  // face unless the material is double-sided).
+  Vec3 emitted(const SurfaceHit& hit, const Vec3& w) const;
+  // Emitted radiance of a triangle at barycentrics, ignoring direction.
+  Vec3 emission(uint32_t tri, Vec2 uv) const;
+};
+
+struct LoadOptions {
+  std::string cameraName;  // empty = the first perspective camera
+};
+
+struct LoadResult {
+  std::shared_ptr<const Scene> scene;  // null on failure
+  std::string error;                   // "file: element: reason" on failure
+};
+
+// Loads a .gltf or .glb file. Never throws; never crashes on hostile input.
+LoadResult loadScene(const std::string& path, const LoadOptions& options = {});
+
+// A camera that frames the bounding box from the +z side.
+Camera frameBounds(const Vec3& bmin, const Vec3& bmax);
+
+}  // namespace vsl

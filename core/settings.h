@@ -1,0 +1,33 @@
+// RenderSettings: the one value that flows from the UI or CLI to a renderer.
+// Named defaults, validate() at construction sites, and it can print itself.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace vsl {
+
+enum class Component { Full, Direct, Indirect };
+const char* componentName(Component c);
+bool parseComponent(const std::string& s, Component* out);
+
+struct RenderSettings {
+  static constexpr int kDefaultResolution = 512;
+  static constexpr int kMaxResolution = 16384;
+
+  std::string method = "pt";
+  int width = 0, height = 0;  // 0 = from the scene's camera aspect, or 512x512
+  int spp = 64;               // samples per pixel (passes)
+  double timeLimit = 0;       // seconds; > 0 replaces spp as the stop criterion
+  uint64_t seed = 0;
+  int maxDepth = 64;          // maximum number of scattering events on a path
+  int rrDepth = 3;            // Russian roulette starts after this many bounces
+  Component component = Component::Full;
+
+  // Empty when valid; otherwise "setting: reason (got value)".
+  std::string validate() const;
+  // One-line, replayable description ("--spp 64 --seed 0 ...").
+  std::string describe() const;
+};
+
+}  // namespace vsl
