@@ -124,8 +124,10 @@ float dielectricSpecularAlbedoAverage(float alpha) {
 
 // ---- Brdf -----------------------------------------------------------------
 
-Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy) {
+Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy,
+                    float specularWeight) {
   Brdf b;
+  b.specularWeight = clamp(specularWeight, 0, 1);
   b.baseColor = Vec3(clamp(baseColor.x, 0, 1), clamp(baseColor.y, 0, 1), clamp(baseColor.z, 0, 1));
   b.metallic = clamp(metallic, 0, 1);
   float alpha = std::max(sqr(clamp(roughness, 0, 1)), kMinAlpha);
@@ -137,9 +139,9 @@ Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, floa
 
 Vec3 Brdf::evalDiffuse(const Vec3& wo, const Vec3& wi) const {
   if (wo.z <= 0 || wi.z <= 0 || metallic >= 1) return Vec3(0.0f);
-  float alpha = std::sqrt(ggx.ax * ggx.ay);
-  float scale = (1 - dielectricSpecularAlbedo(wo.z, alpha)) * (1 - dielectricSpecularAlbedo(wi.z, alpha)) /
-                std::max(1 - dielectricSpecularAlbedoAverage(alpha), 1e-4f);
+  float alpha = std::sqrt(ggx.ax * ggx.ay), s = specularWeight;
+  float scale = (1 - s * dielectricSpecularAlbedo(wo.z, alpha)) * (1 - s * dielectricSpecularAlbedo(wi.z, alpha)) /
+                std::max(1 - s * dielectricSpecularAlbedoAverage(alpha), 1e-4f);
   return baseColor * ((1 - metallic) * kInvPi * scale);
 }
 
@@ -154,7 +156,7 @@ Vec3 Brdf::eval(const Vec3& wo, const Vec3& wi) const {
   float w = schlickWeight(voh);
   // Fresnel blended between the dielectric (F0 = 0.04) and the metal (F0 = c).
   Vec3 Fm = baseColor + (Vec3(1.0f) - baseColor) * w;
-  float Fd = kDielectricF0 + (1 - kDielectricF0) * w;
+  float Fd = specularWeight * (kDielectricF0 + (1 - kDielectricF0) * w);
   Vec3 F = Vec3(Fd * (1 - metallic)) + Fm * metallic;
   float spec = ggx.D(h) * ggx.G2(wo, wi) / (4 * wo.z * wi.z);
   return f + F * spec;
@@ -163,9 +165,10 @@ Vec3 Brdf::eval(const Vec3& wo, const Vec3& wi) const {
 float Brdf::specularProbability(const Vec3& wo) const {
   if (metallic >= 1) return 1.0f;
   float alpha = std::sqrt(ggx.ax * ggx.ay);
-  float E = dielectricSpecularAlbedo(wo.z, alpha);
+  float E = specularWeight * dielectricSpecularAlbedo(wo.z, alpha);
   float spec = metallic + (1 - metallic) * E;
   float diff = (1 - metallic) * (1 - E) * std::max(luminance(baseColor), 0.0f);
+  if (!(spec > 0)) return 0.0f;
   if (!(diff > 0)) return 1.0f;
   // Keep both strategies alive so that MIS never divides by a vanishing pdf.
   return clamp(spec / (spec + diff), 0.1f, 0.9f);

@@ -69,11 +69,15 @@ struct BrdfSample {
 struct Brdf {
   Vec3 baseColor{1.0f};
   float metallic = 0;
+  // KHR_materials_specular specularFactor: scales the dielectric Fresnel
+  // (0 = a pure Lambertian dielectric, as the furnace scene uses).
+  float specularWeight = 1;
   GGX ggx;
 
   // Builds the BRDF from glTF parameters. roughness in [0,1]; anisotropy
   // strength in [0,1] stretches alpha along +x: at = mix(a, 1, s^2), ab = a.
-  static Brdf fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy);
+  static Brdf fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy,
+                       float specularWeight = 1.0f);
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const;
   // The diffuse lobe alone (used by diffuse-only VPL emission).
@@ -110,6 +114,7 @@ struct Material {
   Vec3 emission{0.0f};  // emissiveFactor x KHR_materials_emissive_strength (radiance)
   float anisotropyStrength = 0;
   float anisotropyRotation = 0;  // radians, counter-clockwise from the tangent
+  float specularWeight = 1;      // KHR_materials_specular specularFactor
   bool doubleSided = false;
   int baseColorTexture = -1, metallicRoughnessTexture = -1, emissiveTexture = -1;
   int anisotropyTexture = -1;

@@ -127,7 +127,7 @@ Brdf Scene::brdf(const SurfaceHit& hit) const {
     textures[m.anisotropyTexture].lookup(hit.uv, false, texel);
     aniso *= texel[2];
   }
-  return Brdf::fromGltf(base, metallic, roughness, aniso);
+  return Brdf::fromGltf(base, metallic, roughness, aniso, m.specularWeight);
 }
 
 Vec3 Scene::emission(uint32_t tri, Vec2 bary) const {
@@ -398,6 +398,12 @@ struct Loader {
         m.anisotropyRotation = float(numberOr(ext, "anisotropyRotation", 0.0, ew));
         if (!std::isfinite(m.anisotropyRotation)) throw LoadError{ew + ": anisotropyRotation must be finite"};
         m.anisotropyTexture = texture(textureIndexOf(ext, "anisotropyTexture", ew), ew + " anisotropyTexture");
+      } else if (name == "KHR_materials_specular") {
+        m.specularWeight = float(numberOr(ext, "specularFactor", 1.0, ew));
+        checkRange(m.specularWeight, 0, 1, ew, "specularFactor");
+        if (ext.IsObject() && (ext.Has("specularColorFactor") || ext.Has("specularTexture") ||
+                               ext.Has("specularColorTexture")))
+          warn(ew + ": only specularFactor is modelled (specular colour and textures ignored)");
       } else {
         warn(where + ": extension " + name + " is not modelled (ignored)");
       }
@@ -738,7 +744,7 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
         if (!line.empty()) L.warn(path + ": " + line);
     }
     static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
-                                                     "KHR_lights_punctual"};
+                                                     "KHR_materials_specular", "KHR_lights_punctual"};
     for (const auto& e : model.extensionsRequired)
       if (!kSupported.count(e)) L.warn(path + ": required extension " + e + " is not supported (ignored)");
     for (const auto& e : model.extensionsUsed)
