@@ -55,8 +55,11 @@ Vec3 sampleUniformSphere(Vec2 u) {
 }
 
 Vec3 sampleUniformCone(Vec2 u, float cosMax) {
-  float cosTheta = (1 - u.x) + u.x * cosMax;
-  float sinTheta = safeSqrt(1 - cosTheta * cosTheta);
+  // Work with 1 - cos(theta) so that tiny cones keep their precision:
+  // sin^2 = (1 - cos)(1 + cos) = v (2 - v).
+  float v = u.x * (1 - cosMax);
+  float cosTheta = 1 - v;
+  float sinTheta = safeSqrt(v * (2 - v));
   float phi = u.y * 2 * kPi;
   return {std::cos(phi) * sinTheta, std::sin(phi) * sinTheta, cosTheta};
 }

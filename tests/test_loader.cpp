@@ -1,0 +1,423 @@
+// Scene loading: the bundled scenes, and crafted malformed or hostile files.
+// Every bad file must give an error naming the file and the element, and
+// never crash; every unmodelled feature must give a warning.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/scene.h"
+
+using namespace vsl;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string base64(const std::vector<uint8_t>& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    uint32_t v = (in[i] << 16) | (in[i + 1] << 8) | in[i + 2];
+    for (int k = 3; k >= 0; --k) out += t[(v >> (6 * k)) & 63];
+  }
+  if (i + 1 == in.size()) {
+    uint32_t v = in[i] << 16;
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == in.size()) {
+    uint32_t v = (in[i] << 16) | (in[i + 1] << 8);
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += t[(v >> 6) & 63];
+    out += "=";
+  }
+  return out;
+}
+
+template <typename T>
+void append(std::vector<uint8_t>& b, const std::vector<T>& v) {
+  size_t off = b.size();
+  b.resize(off + v.size() * sizeof(T));
+  std::memcpy(b.data() + off, v.data(), v.size() * sizeof(T));
+}
+
+// A valid one-quad (two triangle) glTF with an emissive material, positions
+// given by `pos` (4 vertices) and indices by `idx`.
+struct Doc {
+  json j;
+  std::vector<uint8_t> bin;
+};
+
+Doc quadDoc(std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, std::vector<uint32_t> idx = {0, 1, 2, 0, 2, 3}) {
+  Doc d;
+  append(d.bin, pos);
+  size_t idxOff = d.bin.size();
+  append(d.bin, idx);
+  size_t nv = pos.size() / 3;
+  d.j = {{"asset", {{"version", "2.0"}}},
+         {"scene", 0},
+         {"scenes", {{{"nodes", {0}}}}},
+         {"nodes", {{{"name", "quad-node"}, {"mesh", 0}}}},
+         {"meshes", {{{"name", "quad"}, {"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 0}}}}}}},
+         {"materials",
+          {{{"name", "glow"},
+            {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"metallicFactor", 0}, {"roughnessFactor", 0.5}}},
+            {"emissiveFactor", {1, 1, 1}}}}},
+         {"accessors",
+          {{{"bufferView", 0}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"},
+            {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+           {{"bufferView", 1}, {"componentType", 5125}, {"count", idx.size()}, {"type", "SCALAR"}}}},
+         {"bufferViews",
+          {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", idxOff}},
+           {{"buffer", 0}, {"byteOffset", idxOff}, {"byteLength", idx.size() * 4}}}},
+         {"buffers", json::array()}};
+  return d;
+}
+
+class LoaderTest : public ::testing::Test {
+ protected:
+  fs::path dir;
+  void SetUp() override {
+    dir = fs::temp_directory_path() /
+          ("vsl_loader_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+
+  std::string write(const std::string& name, const std::string& text) {
+    fs::path p = dir / name;
+    std::ofstream(p, std::ios::binary) << text;
+    return p.string();
+  }
+  // Embeds the binary as a data URI unless the document already has buffers.
+  std::string writeDoc(Doc d, const std::string& name = "scene.gltf") {
+    if (d.j["buffers"].empty())
+      d.j["buffers"] = {{{"byteLength", d.bin.size()},
+                         {"uri", "data:application/octet-stream;base64," + base64(d.bin)}}};
+    return write(name, d.j.dump());
+  }
+  std::string writeGlb(const Doc& d, const std::string& name, size_t truncateTo = 0) {
+    json j = d.j;
+    j["buffers"] = {{{"byteLength", d.bin.size()}}};
+    std::string js = j.dump();
+    while (js.size() % 4) js += ' ';
+    std::vector<uint8_t> bin = d.bin;
+    while (bin.size() % 4) bin.push_back(0);
+    std::vector<uint8_t> out;
+    auto u32 = [&](uint32_t v) { append(out, std::vector<uint32_t>{v}); };
+    u32(0x46546C67);
+    u32(2);
+    u32(uint32_t(12 + 8 + js.size() + 8 + bin.size()));
+    u32(uint32_t(js.size()));
+    u32(0x4E4F534A);
+    out.insert(out.end(), js.begin(), js.end());
+    u32(uint32_t(bin.size()));
+    u32(0x004E4942);
+    out.insert(out.end(), bin.begin(), bin.end());
+    if (truncateTo) out.resize(truncateTo);
+    return write(name, std::string(out.begin(), out.end()));
+  }
+  LoadResult load(const std::string& path, const LoadOptions& o = {}) { return loadScene(path, o); }
+};
+
+bool hasWarning(const Scene& s, const std::string& needle) {
+  for (const auto& w : s.warnings)
+    if (w.find(needle) != std::string::npos) return true;
+  return false;
+}
+
+std::string allWarnings(const Scene& s) {
+  std::string r;
+  for (const auto& w : s.warnings) r += w + "\n";
+  return r;
+}
+
+}  // namespace
+
+TEST(BundledScenes, LoadCleanlyWithLightsAndCameras) {
+  for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
+    std::string path = std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf";
+    LoadResult r = loadScene(path);
+    ASSERT_TRUE(r.scene) << r.error;
+    const Scene& s = *r.scene;
+    EXPECT_GT(s.triangleCount(), 0u) << name;
+    EXPECT_TRUE(s.cameraFromFile) << name;
+    EXPECT_TRUE(s.warnings.empty()) << name << ":\n" << allWarnings(s);
+    bool emissive = !s.punctualLights.empty();
+    for (uint32_t t = 0; t < s.triangleCount(); ++t) emissive |= s.materials[s.triMaterial[t]].isEmissive();
+    EXPECT_TRUE(emissive) << name;
+  }
+  // The scenes that promise anisotropic metal have it, with tangents.
+  for (const char* name : {"tableau", "kitchen"}) {
+    LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+    ASSERT_TRUE(r.scene);
+    bool aniso = false;
+    for (const Material& m : r.scene->materials) aniso |= m.anisotropyStrength > 0 && m.metallic == 1;
+    EXPECT_TRUE(aniso) << name;
+  }
+  // The hall's walls are pure metal (no diffuse component).
+  LoadResult hall = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/hall.gltf");
+  ASSERT_TRUE(hall.scene);
+  bool found = false;
+  for (const Material& m : hall.scene->materials)
+    if (m.name == "hall-metal") found = m.metallic == 1.0f;
+  EXPECT_TRUE(found);
+}
+
+TEST_F(LoaderTest, MinimalQuadLoads) {
+  LoadResult r = load(writeDoc(quadDoc()));
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_EQ(r.scene->triangleCount(), 2u);
+  EXPECT_FALSE(r.scene->cameraFromFile);
+  EXPECT_TRUE(hasWarning(*r.scene, "default camera"));
+  EXPECT_NEAR(r.scene->triangleArea(0) + r.scene->triangleArea(1), 1.0f, 1e-6f);
+  EXPECT_NEAR(r.scene->triangleNormal(0).z, 1.0f, 1e-6f);  // CCW seen from +z
+}
+
+TEST_F(LoaderTest, GlbLoadsAndTruncatedGlbFails) {
+  Doc d = quadDoc();
+  LoadResult ok = load(writeGlb(d, "ok.glb"));
+  ASSERT_TRUE(ok.scene) << ok.error;
+  EXPECT_EQ(ok.scene->triangleCount(), 2u);
+  for (size_t cut : {size_t(10), size_t(30), size_t(100)}) {
+    std::string p = writeGlb(d, "cut" + std::to_string(cut) + ".glb", cut);
+    LoadResult r = load(p);
+    EXPECT_FALSE(r.scene) << "cut at " << cut;
+    EXPECT_NE(r.error.find(p), std::string::npos) << r.error;
+  }
+}
+
+TEST_F(LoaderTest, UnreadableAndGarbageFilesFail) {
+  LoadResult missing = load((dir / "nope.gltf").string());
+  EXPECT_FALSE(missing.scene);
+  EXPECT_NE(missing.error.find("nope.gltf"), std::string::npos);
+  EXPECT_NE(missing.error.find("cannot be read"), std::string::npos);
+  EXPECT_FALSE(load(write("empty.gltf", "")).scene);
+  LoadResult garbage = load(write("garbage.gltf", "{ this is not json"));
+  EXPECT_FALSE(garbage.scene);
+  EXPECT_NE(garbage.error.find("garbage.gltf"), std::string::npos) << garbage.error;
+  EXPECT_FALSE(load(write("array.gltf", "[1,2,3]")).scene);
+  std::string binary(4096, '\xff');
+  EXPECT_FALSE(load(write("noise.gltf", binary)).scene);
+}
+
+TEST_F(LoaderTest, WrongJsonTypesFail) {
+  Doc d = quadDoc();
+  d.j["meshes"] = "not an array";
+  EXPECT_FALSE(load(writeDoc(d, "a.gltf")).scene);
+  Doc e = quadDoc();
+  e.j["accessors"][0]["count"] = "three";
+  EXPECT_FALSE(load(writeDoc(e, "b.gltf")).scene);
+  Doc f = quadDoc();
+  f.j["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", "bright"}}}};
+  LoadResult r = load(writeDoc(f, "c.gltf"));
+  EXPECT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("emissiveStrength"), std::string::npos) << r.error;
+}
+
+TEST_F(LoaderTest, IndexOutOfRangeFails) {
+  LoadResult r = load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, {0, 1, 2, 0, 2, 7})));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("out of range"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("mesh 0 'quad'"), std::string::npos) << r.error;
+}
+
+TEST_F(LoaderTest, NonFinitePositionsFail) {
+  for (float bad : {std::nanf(""), INFINITY}) {
+    LoadResult r = load(writeDoc(quadDoc({0, 0, 0, 1, bad, 0, 1, 1, 0, 0, 1, 0})));
+    ASSERT_FALSE(r.scene);
+    EXPECT_NE(r.error.find("POSITION[1] is not finite"), std::string::npos) << r.error;
+  }
+}
+
+TEST_F(LoaderTest, ShortAndMissingBuffersFail) {
+  Doc d = quadDoc();
+  d.j["bufferViews"][1]["byteLength"] = 4000;  // past the end of the buffer
+  LoadResult r = load(writeDoc(d, "a.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("past the end"), std::string::npos) << r.error;
+
+  Doc e = quadDoc();
+  e.j["accessors"][0]["count"] = 400;  // more elements than the view holds
+  r = load(writeDoc(e, "b.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("POSITION"), std::string::npos) << r.error;
+
+  Doc f = quadDoc();
+  f.j["accessors"][0]["count"] = 1e12;  // hostile: absurd count
+  EXPECT_FALSE(load(writeDoc(f, "c.gltf")).scene);
+
+  Doc g = quadDoc();
+  g.j["buffers"] = {{{"byteLength", g.bin.size()}, {"uri", "missing.bin"}}};
+  r = load(writeDoc(g, "d.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("d.gltf"), std::string::npos) << r.error;
+
+  Doc h = quadDoc();
+  h.j["accessors"][1]["bufferView"] = 9;
+  r = load(writeDoc(h, "e.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("e.gltf"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("bufferView"), std::string::npos) << r.error;
+}
+
+TEST_F(LoaderTest, RecursiveNodesFail) {
+  Doc d = quadDoc();
+  d.j["nodes"] = {{{"name", "a"}, {"children", {1}}}, {{"name", "b"}, {"children", {0}}, {"mesh", 0}}};
+  LoadResult r = load(writeDoc(d, "a.gltf"));
+  EXPECT_FALSE(r.scene);
+  Doc e = quadDoc();
+  e.j["nodes"] = {{{"name", "self"}, {"children", {0}}, {"mesh", 0}}};
+  r = load(writeDoc(e, "b.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("recursive"), std::string::npos) << r.error;
+}
+
+TEST_F(LoaderTest, OutOfRangeMaterialValuesFail) {
+  Doc d = quadDoc();
+  d.j["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 1.7;
+  LoadResult r = load(writeDoc(d));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("material 0 'glow': roughnessFactor must be in [0,1] (got 1.7)"), std::string::npos)
+      << r.error;
+  Doc e = quadDoc();
+  e.j["materials"][0]["extensions"] = {{"KHR_materials_anisotropy", {{"anisotropyStrength", 2.0}}}};
+  EXPECT_FALSE(load(writeDoc(e, "b.gltf")).scene);
+  Doc f = quadDoc();
+  f.j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 3}};
+  r = load(writeDoc(f, "c.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("texture 3 does not exist"), std::string::npos) << r.error;
+}
+
+TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
+  Doc d = quadDoc();
+  // A points primitive, morph targets, a skin, transmission, an unknown
+  // required extension, an orthographic camera and a directional light.
+  json prim = d.j["meshes"][0]["primitives"][0];
+  json points = prim;
+  points["mode"] = 0;
+  json morph = prim;
+  morph["targets"] = {{{"POSITION", 0}}};
+  d.j["meshes"][0]["primitives"] = {prim, points, morph};
+  d.j["materials"][0]["extensions"] = {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}};
+  d.j["extensionsUsed"] = {"KHR_materials_transmission", "EXT_made_up", "KHR_lights_punctual"};
+  d.j["extensionsRequired"] = {"EXT_made_up"};
+  d.j["cameras"] = {{{"name", "ortho"}, {"type", "orthographic"},
+                     {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}}};
+  d.j["extensions"] = {{"KHR_lights_punctual", {{"lights", {{{"name", "sun"}, {"type", "directional"}}}}}}};
+  d.j["nodes"] = {{{"name", "quad-node"}, {"mesh", 0}},
+                  {{"name", "cam"}, {"camera", 0}},
+                  {{"name", "sun-node"}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}}};
+  d.j["scenes"][0]["nodes"] = {0, 1, 2};
+  LoadResult r = load(writeDoc(d));
+  ASSERT_TRUE(r.scene) << r.error;
+  const Scene& s = *r.scene;
+  EXPECT_EQ(s.triangleCount(), 4u) << "the triangle primitives load; points are skipped";
+  EXPECT_TRUE(hasWarning(s, "primitive 1: points and lines are not modelled")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "primitive 2: morph targets")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "material 0 'glow': extension KHR_materials_transmission")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "required extension EXT_made_up")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "camera 0 'ortho': orthographic")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "light 0 'sun': directional")) << allWarnings(s);
+}
+
+TEST_F(LoaderTest, ZeroAreaTrianglesAreSkippedWithAWarning) {
+  LoadResult r = load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0}, {0, 1, 2, 0, 1, 3})));
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_EQ(r.scene->triangleCount(), 1u);
+  EXPECT_TRUE(hasWarning(*r.scene, "1 zero-area triangle(s) skipped")) << allWarnings(*r.scene);
+  // All triangles degenerate: nothing to render is an error.
+  EXPECT_FALSE(load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0}, {0, 1, 2, 1, 2, 3}), "b.gltf")).scene);
+}
+
+TEST_F(LoaderTest, TransformsStripsAndMirrors) {
+  Doc d = quadDoc();
+  d.j["nodes"][0]["translation"] = {0, 0, 5};
+  d.j["nodes"][0]["scale"] = {2, 2, 2};
+  LoadResult r = load(writeDoc(d));
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_FLOAT_EQ(r.scene->boundsMin.z, 5.0f);
+  EXPECT_FLOAT_EQ(r.scene->boundsMax.x, 2.0f);
+  // A mirroring transform keeps the front face on the mirrored normal's side.
+  Doc m = quadDoc();
+  m.j["nodes"][0]["scale"] = {1, 1, -1};
+  r = load(writeDoc(m, "m.gltf"));
+  ASSERT_TRUE(r.scene);
+  EXPECT_NEAR(r.scene->triangleNormal(0).z, -1.0f, 1e-6f);
+  // A triangle strip of 4 indices is 2 triangles.
+  Doc s = quadDoc({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0}, {0, 1, 2, 3});
+  s.j["meshes"][0]["primitives"][0]["mode"] = 5;
+  r = load(writeDoc(s, "s.gltf"));
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_EQ(r.scene->triangleCount(), 2u);
+  EXPECT_GT(r.scene->triangleNormal(0).z, 0.0f);
+  EXPECT_GT(r.scene->triangleNormal(1).z, 0.0f);
+}
+
+TEST_F(LoaderTest, CamerasByNameAndLights) {
+  Doc d = quadDoc();
+  d.j["cameras"] = {{{"name", "first"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}},
+                    {{"name", "second"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.9}, {"znear", 0.1}}}}};
+  d.j["extensions"] = {{"KHR_lights_punctual",
+                        {{"lights",
+                          {{{"name", "bulb"}, {"type", "point"}, {"intensity", 10}, {"color", {1, 0.5, 0.25}}},
+                           {{"name", "spot"}, {"type", "spot"}, {"intensity", 5},
+                            {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.4}}}}}}}}};
+  d.j["extensionsUsed"] = {"KHR_lights_punctual"};
+  d.j["nodes"] = {{{"mesh", 0}},
+                  {{"name", "c1"}, {"camera", 0}, {"translation", {0, 0, 3}}},
+                  {{"name", "c2"}, {"camera", 1}, {"translation", {0, 0, 4}}},
+                  {{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}, {"translation", {0, 0, 1}}},
+                  {{"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}, {"translation", {0, 0, 2}}}};
+  d.j["scenes"][0]["nodes"] = {0, 1, 2, 3, 4};
+  LoadResult r = load(writeDoc(d));
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_EQ(r.scene->camera.name, "first");
+  EXPECT_FLOAT_EQ(r.scene->camera.yfov, 0.5f);
+  ASSERT_EQ(r.scene->punctualLights.size(), 2u);
+  EXPECT_FLOAT_EQ(r.scene->punctualLights[0].intensity.y, 5.0f);
+  EXPECT_NEAR(r.scene->punctualLights[1].direction.z, -1.0f, 1e-6f);
+  LoadOptions o;
+  o.cameraName = "second";
+  r = load(writeDoc(d, "b.gltf"), o);
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_FLOAT_EQ(r.scene->camera.position.z, 4.0f);
+  o.cameraName = "third";
+  r = load(writeDoc(d, "c.gltf"), o);
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("no perspective camera named 'third'"), std::string::npos) << r.error;
+  // A spot whose inner angle exceeds its outer angle is invalid.
+  d.j["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.6;
+  r = load(writeDoc(d, "d.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("light 1 'spot'"), std::string::npos) << r.error;
+  // A node that names a light that does not exist.
+  d.j["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.2;
+  d.j["nodes"][3]["extensions"]["KHR_lights_punctual"]["light"] = 7;
+  EXPECT_FALSE(load(writeDoc(d, "e.gltf")).scene);
+}
+
+TEST_F(LoaderTest, EmissionStrengthAndAnisotropyParse) {
+  Doc d = quadDoc();
+  d.j["materials"][0]["emissiveFactor"] = {0.5, 0.25, 1.0};
+  d.j["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}},
+                                       {"KHR_materials_anisotropy", {{"anisotropyStrength", 0.6}, {"anisotropyRotation", 1.0}}}};
+  d.j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy"};
+  LoadResult r = load(writeDoc(d));
+  ASSERT_TRUE(r.scene) << r.error;
+  const Material& m = r.scene->materials[0];
+  EXPECT_FLOAT_EQ(m.emission.x, 2.0f);
+  EXPECT_FLOAT_EQ(m.emission.y, 1.0f);
+  EXPECT_FLOAT_EQ(m.emission.z, 4.0f);
+  EXPECT_FLOAT_EQ(m.anisotropyStrength, 0.6f);
+  EXPECT_FLOAT_EQ(m.anisotropyRotation, 1.0f);
+  // No TANGENT and no TEXCOORD_0: the direction is arbitrary, and we say so.
+  EXPECT_TRUE(hasWarning(*r.scene, "anisotropy direction is arbitrary")) << allWarnings(*r.scene);
+}
