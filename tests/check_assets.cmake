@@ -1,0 +1,13 @@
+# Regenerates the scenes and compares them with the committed ones.
+execute_process(COMMAND ${PYTHON} ${SRC}/assets/generate_scenes.py ${OUT} RESULT_VARIABLE rc OUTPUT_QUIET)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "assets/generate_scenes.py failed (${rc})")
+endif()
+file(GLOB generated ${OUT}/*.gltf)
+foreach(f ${generated})
+  get_filename_component(name ${f} NAME)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${f} ${SRC}/assets/scenes/${name} RESULT_VARIABLE diff)
+  if(NOT diff EQUAL 0)
+    message(FATAL_ERROR "assets/scenes/${name} differs from what assets/generate_scenes.py produces: regenerate and commit")
+  endif()
+endforeach()

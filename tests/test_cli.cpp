@@ -1,0 +1,173 @@
+// The `vsl` command line as a user drives it: exit codes, files written,
+// and files that real tools (exrheader) read.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/image_io.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Proc {
+  int code;
+  std::string out;  // stdout and stderr together
+};
+
+Proc run(const std::string& args) {
+  std::string cmd = std::string(VSL_BINARY_DIR) + "/bin/vsl " + args + " 2>&1";
+  Proc r{-1, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+Proc shell(const std::string& cmd) {
+  Proc r{-1, ""};
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string scene(const char* name) { return std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf"; }
+
+class Cli : public ::testing::Test {
+ protected:
+  fs::path dir;
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("vsl_cli_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string file(const std::string& n) { return (dir / n).string(); }
+};
+
+}  // namespace
+
+TEST_F(Cli, BadArgumentsExitTwoWithUsage) {
+  for (const char* args : {"", "render", "render " /* no -o */, "frobnicate", "render x.gltf -o y.exr --spp nope",
+                           "render x.gltf -o y.exr --method vcm", "render x.gltf -o y.exr --spp 5 --time 3",
+                           "compare onlyone.exr"}) {
+    Proc r = run(args);
+    EXPECT_EQ(r.code, 2) << "vsl " << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << "vsl " << args << "\n" << r.out;
+  }
+  // Values that parse but are out of range are validated, also exit 2.
+  Proc r = run("render " + scene("furnace") + " -o " + file("x.exr") + " --spp 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("spp: must be in"), std::string::npos) << r.out;
+  r = run("render " + scene("furnace") + " -o " + file("x.exr") + " --width -5");
+  EXPECT_EQ(r.code, 2) << r.out;
+}
+
+TEST_F(Cli, HelpOnEverySubcommand) {
+  for (const char* sub : {"", "render ", "compare ", "info ", "bench "}) {
+    Proc r = run(std::string(sub) + "--help");
+    EXPECT_EQ(r.code, 0) << sub;
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << sub;
+  }
+}
+
+TEST_F(Cli, BadSceneExitsOneAndNamesTheFile) {
+  std::ofstream(file("broken.gltf")) << "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": 7";
+  Proc r = run("render " + file("broken.gltf") + " -o " + file("x.exr"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("broken.gltf"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(file("x.exr")));
+  r = run("info " + file("missing.gltf"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("missing.gltf"), std::string::npos) << r.out;
+}
+
+TEST_F(Cli, RenderWritesExrPngJsonThatToolsRead) {
+  Proc r = run("render " + scene("furnace") + " --spp 8 --width 16 --height 12 --seed 3 -o " + file("f.exr") +
+              " --png " + file("f.png") + " --json " + file("f.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("render 100%"), std::string::npos) << "progress on stderr\n" << r.out;
+  // exrheader (Debian's openexr package) must read the file.
+  Proc h = shell("exrheader " + file("f.exr"));
+  ASSERT_EQ(h.code, 0) << h.out;
+  for (const char* ch : {"full.R", "direct.G", "indirect.B", "vsl.settings"})
+    EXPECT_NE(h.out.find(ch), std::string::npos) << ch << "\n" << h.out;
+  std::vector<vsl::Layer> layers;
+  std::string err;
+  ASSERT_TRUE(vsl::readExr(file("f.exr"), layers, &err)) << err;
+  EXPECT_EQ(layers.size(), 4u);
+  EXPECT_EQ(layers[0].image.width, 16);
+  EXPECT_EQ(layers[0].image.height, 12);
+  // PNG signature.
+  std::ifstream png(file("f.png"), std::ios::binary);
+  char sig[8] = {};
+  png.read(sig, 8);
+  EXPECT_EQ(std::string(sig + 1, 3), "PNG");
+  auto j = nlohmann::json::parse(std::ifstream(file("f.json")));
+  EXPECT_EQ(j["spp"], 8);
+  EXPECT_EQ(j["width"], 16);
+  EXPECT_EQ(j["nonFiniteRejected"], 0);
+  EXPECT_GT(j["raysPerSecond"].get<double>(), 0);
+  // The furnace is 2 everywhere: even 8 spp is close.
+  EXPECT_NEAR(j["mean"]["full"][0].get<double>(), 2.0, 0.1);
+  // No temporary files are left behind.
+  for (auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+}
+
+TEST_F(Cli, CompareReportsMetricsAndWritesErrorImages) {
+  ASSERT_EQ(run("render " + scene("cornell-glossy") + " --spp 2 --width 16 --height 16 -o " + file("a.exr")).code, 0);
+  ASSERT_EQ(run("render " + scene("cornell-glossy") + " --spp 2 --width 16 --height 16 --seed 9 -o " + file("b.exr")).code, 0);
+  Proc same = run("compare " + file("a.exr") + " " + file("a.exr") + " --json");
+  ASSERT_EQ(same.code, 0) << same.out;
+  auto j = nlohmann::json::parse(same.out);
+  EXPECT_EQ(j["average"]["relMSE"], 0.0);
+  EXPECT_EQ(j["average"]["rmse"], 0.0);
+  Proc diff = run("compare " + file("a.exr") + " " + file("b.exr") + " --layer indirect -o " + file("e.exr") +
+                 " --png " + file("e.png"));
+  ASSERT_EQ(diff.code, 0) << diff.out;
+  for (const char* w : {"relMSE", "RMSE", "bias", "non-finite", "eps = 0.01"})
+    EXPECT_NE(diff.out.find(w), std::string::npos) << w << "\n" << diff.out;
+  std::vector<vsl::Layer> layers;
+  std::string err;
+  ASSERT_TRUE(vsl::readExr(file("e.exr"), layers, &err)) << err;
+  EXPECT_EQ(layers.size(), 5u);
+  EXPECT_TRUE(fs::exists(file("e.png")));
+  Proc missingLayer = run("compare " + file("a.exr") + " " + file("b.exr") + " --layer nosuch");
+  EXPECT_EQ(missingLayer.code, 1);
+  Proc sizes = run("render " + scene("cornell-glossy") + " --spp 1 --width 8 --height 8 -o " + file("c.exr"));
+  ASSERT_EQ(sizes.code, 0);
+  EXPECT_EQ(run("compare " + file("a.exr") + " " + file("c.exr")).code, 1);
+}
+
+TEST_F(Cli, FailedExportKeepsTheExistingFile) {
+  ASSERT_EQ(run("render " + scene("furnace") + " --spp 1 --width 8 --height 8 -o " + file("keep.exr")).code, 0);
+  auto before = fs::file_size(file("keep.exr"));
+  // The PNG cannot be written (its directory does not exist): exit 1; the EXR
+  // written earlier in the same run is complete, and nothing half-written remains.
+  Proc r = run("render " + scene("furnace") + " --spp 1 --width 8 --height 8 -o " + file("keep.exr") + " --png " +
+              file("no/such/dir/x.png"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_GT(fs::file_size(file("keep.exr")), 0u);
+  (void)before;
+  Proc bad = run("render " + scene("furnace") + " --spp 1 --width 8 --height 8 -o " + file("no/such/dir/y.exr"));
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_NE(bad.out.find("no/such/dir/y.exr"), std::string::npos) << bad.out;
+}
+
+TEST_F(Cli, InfoListsScene) {
+  Proc r = run("info " + scene("hall"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* w : {"triangles", "hall-metal", "spot", "stage-light", "camera", "warnings   0", "power"})
+    EXPECT_NE(r.out.find(w), std::string::npos) << w << "\n" << r.out;
+}
