@@ -69,8 +69,8 @@ std::shared_ptr<const Scene> loadOrReport(const std::string& path, const std::st
 }
 
 json metricsJson(const ChannelMetrics& m) {
-  return {{"mean", m.meanTest}, {"meanReference", m.meanRef}, {"bias", m.bias},
-          {"mae", m.mae},       {"rmse", m.rmse},             {"relMSE", m.relMse}};
+  return {{"mean", m.meanTest}, {"meanReference", m.meanRef}, {"bias", m.bias}, {"mae", m.mae},
+          {"rmse", m.rmse},     {"relMSE", m.relMse}};
 }
 
 Vec3 imageMean(const Image& img) {
@@ -254,7 +254,10 @@ int cmdCompare(const CompareArgs& a, bool layerGiven) {
     ErrorImages e = errorImages(*t, *r, a.epsilon);
     if (!a.out.empty()) {
       if (!writeExr(a.out,
-                    {{"", e.absolute}, {"signed", e.signedDiff}, {"absolute", e.absolute}, {"squared", e.squared},
+                    {{"", e.absolute},
+                     {"signed", e.signedDiff},
+                     {"absolute", e.absolute},
+                     {"squared", e.squared},
                      {"relSquared", e.relSquared}},
                     &err)) {
         std::fprintf(stderr, "error: %s\n", err.c_str());
@@ -322,7 +325,8 @@ int cmdInfo(const std::string& path, const std::string& camera) {
   std::vector<double> power(s.materials.size(), 0.0);
   for (uint32_t t = 0; t < s.triangleCount(); ++t) {
     const Material& m = s.materials[s.triMaterial[t]];
-    if (m.isEmissive()) power[s.triMaterial[t]] += luminance(m.emission) * s.triangleArea(t) * kPi * (m.doubleSided ? 2 : 1);
+    if (m.isEmissive())
+      power[s.triMaterial[t]] += luminance(m.emission) * s.triangleArea(t) * kPi * (m.doubleSided ? 2 : 1);
   }
   std::printf("lights     %zu emissive triangles, %zu punctual; total power %.6g W (luminance)\n",
               lights.emissiveTriangleCount(), s.punctualLights.size(), lights.totalPower());
@@ -392,8 +396,12 @@ int main(int argc, char** argv) {
   int benchSize = 256;
   auto* bench = app.add_subcommand("bench", "Path-tracer throughput against raw Embree occlusion on one scene");
   bench->add_option("scene", benchScene, "Scene file")->required();
-  bench->add_option("--seconds", benchSeconds, "Seconds per measurement")->default_str("3")->check(CLI::Range(0.1, 600.0));
-  bench->add_option("--size", benchSize, "Image size for the path tracer")->default_str("256")->check(CLI::Range(8, 4096));
+  bench->add_option("--seconds", benchSeconds, "Seconds per measurement")
+      ->default_str("3")
+      ->check(CLI::Range(0.1, 600.0));
+  bench->add_option("--size", benchSize, "Image size for the path tracer")
+      ->default_str("256")
+      ->check(CLI::Range(8, 4096));
   bench->add_option("--json", benchJson, "Write results as JSON");
 
   try {

@@ -46,7 +46,8 @@ std::unique_ptr<Accel> Accel::build(const Scene& scene, std::string* error) {
   Impl& I = *a->impl_;
   I.device = rtcNewDevice(nullptr);
   if (!I.device) {
-    if (error) *error = "Embree: cannot create a device (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")";
+    if (error)
+      *error = "Embree: cannot create a device (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")";
     return nullptr;
   }
   rtcSetDeviceErrorFunction(I.device, embreeError, nullptr);

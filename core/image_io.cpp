@@ -97,8 +97,10 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     std::vector<std::string> names;
     for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
       std::string n = it.name();
-      if (n == "R") names.push_back("");
-      else if (n.size() > 2 && n.compare(n.size() - 2, 2, ".R") == 0) names.push_back(n.substr(0, n.size() - 2));
+      if (n == "R")
+        names.push_back("");
+      else if (n.size() > 2 && n.compare(n.size() - 2, 2, ".R") == 0)
+        names.push_back(n.substr(0, n.size() - 2));
     }
     if (names.empty()) {
       if (error) *error = path + ": no RGB layer (no channel named R or *.R)";
@@ -111,9 +113,8 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
       layers[i].image = Image(w, h);
       char* base = (char*)layers[i].image.rgb.data() - (size_t(dw.min.x) + size_t(dw.min.y) * w) * sizeof(float) * 3;
       for (int c = 0; c < 3; ++c)
-        fb.insert(channelName(names[i], "RGB"[c]),
-                  Imf::Slice(Imf::FLOAT, base + c * sizeof(float), sizeof(float) * 3, sizeof(float) * 3 * size_t(w),
-                             1, 1, 0.0));
+        fb.insert(channelName(names[i], "RGB"[c]), Imf::Slice(Imf::FLOAT, base + c * sizeof(float), sizeof(float) * 3,
+                                                              sizeof(float) * 3 * size_t(w), 1, 1, 0.0));
     }
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
@@ -132,8 +133,7 @@ uint8_t toSrgb8(float v) {
   return uint8_t(std::lround(s * 255.0f));
 }
 
-bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb,
-                  std::string* error) {
+bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error) {
   std::string tmp = temporaryPath(path);
   bool ok = stbi_write_png(tmp.c_str(), width, height, 3, rgb.data(), width * 3) != 0;
   if (!ok && error) *error = path + ": cannot write PNG";

@@ -124,8 +124,7 @@ float dielectricSpecularAlbedoAverage(float alpha) {
 
 // ---- Brdf -----------------------------------------------------------------
 
-Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy,
-                    float specularWeight) {
+Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy, float specularWeight) {
   Brdf b;
   b.specularWeight = clamp(specularWeight, 0, 1);
   b.baseColor = Vec3(clamp(baseColor.x, 0, 1), clamp(baseColor.y, 0, 1), clamp(baseColor.z, 0, 1));
@@ -203,9 +202,7 @@ std::optional<BrdfSample> Brdf::sample(const Vec3& wo, float u1, Vec2 u2) const 
 
 // ---- Texture --------------------------------------------------------------
 
-static inline float srgbToLinear(float v) {
-  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
-}
+static inline float srgbToLinear(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
 
 void Texture::lookup(Vec2 uv, bool srgb, float out[4]) const {
   if (width <= 0 || height <= 0 || !std::isfinite(uv.x) || !std::isfinite(uv.y)) {

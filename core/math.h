@@ -25,10 +25,30 @@ struct Vec3 {
   float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
   float& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
   Vec3 operator-() const { return {-x, -y, -z}; }
-  Vec3& operator+=(const Vec3& o) { x += o.x; y += o.y; z += o.z; return *this; }
-  Vec3& operator-=(const Vec3& o) { x -= o.x; y -= o.y; z -= o.z; return *this; }
-  Vec3& operator*=(const Vec3& o) { x *= o.x; y *= o.y; z *= o.z; return *this; }
-  Vec3& operator*=(float s) { x *= s; y *= s; z *= s; return *this; }
+  Vec3& operator+=(const Vec3& o) {
+    x += o.x;
+    y += o.y;
+    z += o.z;
+    return *this;
+  }
+  Vec3& operator-=(const Vec3& o) {
+    x -= o.x;
+    y -= o.y;
+    z -= o.z;
+    return *this;
+  }
+  Vec3& operator*=(const Vec3& o) {
+    x *= o.x;
+    y *= o.y;
+    z *= o.z;
+    return *this;
+  }
+  Vec3& operator*=(float s) {
+    x *= s;
+    y *= s;
+    z *= s;
+    return *this;
+  }
   Vec3& operator/=(float s) { return *this *= (1.0f / s); }
 };
 
@@ -49,17 +69,11 @@ inline Vec3 normalize(const Vec3& a) {
   float l = length(a);
   return l > 0 ? a / l : Vec3(0.0f);
 }
-inline Vec3 min(const Vec3& a, const Vec3& b) {
-  return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
-}
-inline Vec3 max(const Vec3& a, const Vec3& b) {
-  return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
-}
+inline Vec3 min(const Vec3& a, const Vec3& b) { return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)}; }
+inline Vec3 max(const Vec3& a, const Vec3& b) { return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)}; }
 inline float maxComponent(const Vec3& a) { return std::max(a.x, std::max(a.y, a.z)); }
 inline float luminance(const Vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-inline bool isFinite(const Vec3& a) {
-  return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
-}
+inline bool isFinite(const Vec3& a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
 inline bool isBlack(const Vec3& a) { return a.x == 0 && a.y == 0 && a.z == 0; }
 inline Vec3 lerp(float t, const Vec3& a, const Vec3& b) { return a * (1 - t) + b * t; }
 inline Vec3 reflect(const Vec3& w, const Vec3& n) { return 2.0f * dot(w, n) * n - w; }

@@ -11,8 +11,10 @@ void resolveResolution(const Scene& scene, int& width, int& height) {
   const int d = RenderSettings::kDefaultResolution;
   float aspect = scene.camera.aspect > 0 ? scene.camera.aspect : 1.0f;
   if (width > 0 && height > 0) return;
-  if (width > 0) height = std::max(1, int(std::lround(width / aspect)));
-  else if (height > 0) width = std::max(1, int(std::lround(height * aspect)));
+  if (width > 0)
+    height = std::max(1, int(std::lround(width / aspect)));
+  else if (height > 0)
+    width = std::max(1, int(std::lround(height * aspect)));
   else {
     width = d;
     height = std::max(1, int(std::lround(d / aspect)));

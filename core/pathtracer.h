@@ -24,8 +24,8 @@ namespace vsl {
 
 struct PtCounters {
   std::atomic<uint64_t> paths{0};
-  std::atomic<uint64_t> rays{0};            // closest-hit plus shadow rays
-  std::atomic<uint64_t> nonFinite{0};       // contributions rejected where they arose
+  std::atomic<uint64_t> rays{0};       // closest-hit plus shadow rays
+  std::atomic<uint64_t> nonFinite{0};  // contributions rejected where they arose
 };
 
 class PathTracer {

@@ -39,9 +39,7 @@ inline float powerHeuristic(float pdfA, float pdfB) {
   if (std::isinf(a)) return 1.0f;
   return a + b > 0 ? a / (a + b) : 0.0f;
 }
-inline float balanceHeuristic(float pdfA, float pdfB) {
-  return pdfA + pdfB > 0 ? pdfA / (pdfA + pdfB) : 0.0f;
-}
+inline float balanceHeuristic(float pdfA, float pdfB) { return pdfA + pdfB > 0 ? pdfA / (pdfA + pdfB) : 0.0f; }
 
 // Piecewise-constant discrete distribution over n items with non-negative
 // weights. sample() returns an index with probability weight/sum (pmf).

@@ -189,13 +189,20 @@ std::string quoted(const std::string& kind, int index, const std::string& name) 
 
 int componentCount(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return 1;
-    case TINYGLTF_TYPE_VEC2: return 2;
-    case TINYGLTF_TYPE_VEC3: return 3;
-    case TINYGLTF_TYPE_VEC4: return 4;
-    case TINYGLTF_TYPE_MAT2: return 4;
-    case TINYGLTF_TYPE_MAT3: return 9;
-    case TINYGLTF_TYPE_MAT4: return 16;
+    case TINYGLTF_TYPE_SCALAR:
+      return 1;
+    case TINYGLTF_TYPE_VEC2:
+      return 2;
+    case TINYGLTF_TYPE_VEC3:
+      return 3;
+    case TINYGLTF_TYPE_VEC4:
+      return 4;
+    case TINYGLTF_TYPE_MAT2:
+      return 4;
+    case TINYGLTF_TYPE_MAT3:
+      return 9;
+    case TINYGLTF_TYPE_MAT4:
+      return 16;
   }
   return 0;
 }
@@ -203,13 +210,17 @@ int componentCount(int type) {
 int componentSize(int ct) {
   switch (ct) {
     case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
     case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
     case TINYGLTF_COMPONENT_TYPE_INT:
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
+      return 8;
   }
   return 0;
 }
@@ -260,14 +271,54 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
       const unsigned char* p = e + c * cs;
       double v = 0;
       switch (acc.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_BYTE: { int8_t x; std::memcpy(&x, p, 1); v = acc.normalized ? std::max(x / 127.0, -1.0) : x; break; }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: { uint8_t x; std::memcpy(&x, p, 1); v = acc.normalized ? x / 255.0 : x; break; }
-        case TINYGLTF_COMPONENT_TYPE_SHORT: { int16_t x; std::memcpy(&x, p, 2); v = acc.normalized ? std::max(x / 32767.0, -1.0) : x; break; }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { uint16_t x; std::memcpy(&x, p, 2); v = acc.normalized ? x / 65535.0 : x; break; }
-        case TINYGLTF_COMPONENT_TYPE_INT: { int32_t x; std::memcpy(&x, p, 4); v = x; break; }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { uint32_t x; std::memcpy(&x, p, 4); v = x; break; }
-        case TINYGLTF_COMPONENT_TYPE_FLOAT: { float x; std::memcpy(&x, p, 4); v = x; break; }
-        case TINYGLTF_COMPONENT_TYPE_DOUBLE: { double x; std::memcpy(&x, p, 8); v = x; break; }
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+          int8_t x;
+          std::memcpy(&x, p, 1);
+          v = acc.normalized ? std::max(x / 127.0, -1.0) : x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+          uint8_t x;
+          std::memcpy(&x, p, 1);
+          v = acc.normalized ? x / 255.0 : x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+          int16_t x;
+          std::memcpy(&x, p, 2);
+          v = acc.normalized ? std::max(x / 32767.0, -1.0) : x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+          uint16_t x;
+          std::memcpy(&x, p, 2);
+          v = acc.normalized ? x / 65535.0 : x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_INT: {
+          int32_t x;
+          std::memcpy(&x, p, 4);
+          v = x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+          uint32_t x;
+          std::memcpy(&x, p, 4);
+          v = x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+          float x;
+          std::memcpy(&x, p, 4);
+          v = x;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
+          double x;
+          std::memcpy(&x, p, 8);
+          v = x;
+          break;
+        }
       }
       out[i * nc + c] = v;
     }
@@ -325,7 +376,8 @@ struct Loader {
         img.image.size() < size_t(img.width) * img.height * img.component * (img.bits / 8))
       throw LoadError{where + ": image " + std::to_string(t.source) + " could not be decoded"};
     if (!t.extensions.empty())
-      for (auto& [k, v] : t.extensions) warn(quoted("texture", gltfIndex, t.name) + ": extension " + k + " is not supported (ignored)");
+      for (auto& [k, v] : t.extensions)
+        warn(quoted("texture", gltfIndex, t.name) + ": extension " + k + " is not supported (ignored)");
     Texture tex;
     tex.name = img.name.empty() ? img.uri : img.name;
     tex.width = img.width;
@@ -343,9 +395,12 @@ struct Loader {
           v = x / 65535.0f;
         }
         // Grey images replicate into RGB.
-        if (img.component <= 2 && c == 0) tex.rgba[i * 4] = tex.rgba[i * 4 + 1] = tex.rgba[i * 4 + 2] = v;
-        else if (img.component == 2 && c == 1) tex.rgba[i * 4 + 3] = v;
-        else tex.rgba[i * 4 + c] = v;
+        if (img.component <= 2 && c == 0)
+          tex.rgba[i * 4] = tex.rgba[i * 4 + 1] = tex.rgba[i * 4 + 2] = v;
+        else if (img.component == 2 && c == 1)
+          tex.rgba[i * 4 + 3] = v;
+        else
+          tex.rgba[i * 4 + c] = v;
       }
     textureSlot[gltfIndex] = int(scene.textures.size());
     scene.textures.push_back(std::move(tex));
@@ -401,8 +456,8 @@ struct Loader {
       } else if (name == "KHR_materials_specular") {
         m.specularWeight = float(numberOr(ext, "specularFactor", 1.0, ew));
         checkRange(m.specularWeight, 0, 1, ew, "specularFactor");
-        if (ext.IsObject() && (ext.Has("specularColorFactor") || ext.Has("specularTexture") ||
-                               ext.Has("specularColorTexture")))
+        if (ext.IsObject() &&
+            (ext.Has("specularColorFactor") || ext.Has("specularTexture") || ext.Has("specularColorTexture")))
           warn(ew + ": only specularFactor is modelled (specular colour and textures ignored)");
       } else {
         warn(where + ": extension " + name + " is not modelled (ignored)");
@@ -429,19 +484,28 @@ struct Loader {
       Mat4 t, r, s;
       if (n.translation.size() == 3)
         for (int i = 0; i < 3; ++i) t.at(i, 3) = n.translation[i];
-      else if (!n.translation.empty()) throw LoadError{where + ": translation must have 3 numbers"};
+      else if (!n.translation.empty())
+        throw LoadError{where + ": translation must have 3 numbers"};
       if (n.rotation.size() == 4) {
         double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
         double len = std::sqrt(x * x + y * y + z * z + w * w);
         if (!(len > 0)) throw LoadError{where + ": rotation quaternion has zero length"};
         x /= len, y /= len, z /= len, w /= len;
-        r.at(0, 0) = 1 - 2 * (y * y + z * z); r.at(0, 1) = 2 * (x * y - z * w); r.at(0, 2) = 2 * (x * z + y * w);
-        r.at(1, 0) = 2 * (x * y + z * w); r.at(1, 1) = 1 - 2 * (x * x + z * z); r.at(1, 2) = 2 * (y * z - x * w);
-        r.at(2, 0) = 2 * (x * z - y * w); r.at(2, 1) = 2 * (y * z + x * w); r.at(2, 2) = 1 - 2 * (x * x + y * y);
-      } else if (!n.rotation.empty()) throw LoadError{where + ": rotation must have 4 numbers"};
+        r.at(0, 0) = 1 - 2 * (y * y + z * z);
+        r.at(0, 1) = 2 * (x * y - z * w);
+        r.at(0, 2) = 2 * (x * z + y * w);
+        r.at(1, 0) = 2 * (x * y + z * w);
+        r.at(1, 1) = 1 - 2 * (x * x + z * z);
+        r.at(1, 2) = 2 * (y * z - x * w);
+        r.at(2, 0) = 2 * (x * z - y * w);
+        r.at(2, 1) = 2 * (y * z + x * w);
+        r.at(2, 2) = 1 - 2 * (x * x + y * y);
+      } else if (!n.rotation.empty())
+        throw LoadError{where + ": rotation must have 4 numbers"};
       if (n.scale.size() == 3)
         for (int i = 0; i < 3; ++i) s.at(i, i) = n.scale[i];
-      else if (!n.scale.empty()) throw LoadError{where + ": scale must have 3 numbers"};
+      else if (!n.scale.empty())
+        throw LoadError{where + ": scale must have 3 numbers"};
       m = t * r * s;
     }
     for (double v : m.m)
@@ -449,9 +513,11 @@ struct Loader {
     return m;
   }
 
-  void primitive(const tinygltf::Mesh& mesh, int meshIndex, int primIndex, const Mat4& xf, const std::string& nodeWhere) {
+  void primitive(const tinygltf::Mesh& mesh, int meshIndex, int primIndex, const Mat4& xf,
+                 const std::string& nodeWhere) {
     const tinygltf::Primitive& prim = mesh.primitives[primIndex];
-    std::string where = nodeWhere + " " + quoted("mesh", meshIndex, mesh.name) + " primitive " + std::to_string(primIndex);
+    std::string where =
+        nodeWhere + " " + quoted("mesh", meshIndex, mesh.name) + " primitive " + std::to_string(primIndex);
     int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
     if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
         mode == TINYGLTF_MODE_LINE_STRIP) {
@@ -521,8 +587,10 @@ struct Loader {
     } else {
       for (size_t i = 2; i < idx.size(); ++i) {
         if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
-          if (i % 2 == 0) tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
-          else tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
+          if (i % 2 == 0)
+            tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
+          else
+            tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
         } else {
           tris.insert(tris.end(), {idx[0], idx[i - 1], idx[i]});
         }
@@ -598,8 +666,7 @@ struct Loader {
       scene.indices.insert(scene.indices.end(), {a, b, c});
       scene.triMaterial.push_back(matIndex);
     }
-    if (degenerate > 0)
-      warn(where + ": " + std::to_string(degenerate) + " zero-area triangle(s) skipped");
+    if (degenerate > 0) warn(where + ": " + std::to_string(degenerate) + " zero-area triangle(s) skipped");
   }
 
   void light(int lightIndex, const Mat4& xf, const std::string& where) {
@@ -749,7 +816,8 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
       if (!kSupported.count(e)) L.warn(path + ": required extension " + e + " is not supported (ignored)");
     for (const auto& e : model.extensionsUsed)
       if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
-    if (!model.animations.empty()) L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
+    if (!model.animations.empty())
+      L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
     if (!model.skins.empty()) L.warn(path + ": " + std::to_string(model.skins.size()) + " skin(s) not modelled");
 
     for (size_t i = 0; i < model.materials.size(); ++i) scene->materials.push_back(L.material(int(i)));
@@ -761,7 +829,8 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
     std::vector<int> roots;
     if (!model.scenes.empty()) {
       int si = model.defaultScene >= 0 ? model.defaultScene : 0;
-      if (size_t(si) >= model.scenes.size()) throw LoadError{path + ": default scene " + std::to_string(si) + " does not exist"};
+      if (size_t(si) >= model.scenes.size())
+        throw LoadError{path + ": default scene " + std::to_string(si) + " does not exist"};
       roots = model.scenes[si].nodes;
     } else {
       // No scenes: every node that is nobody's child is a root.

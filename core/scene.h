@@ -55,8 +55,8 @@ struct PunctualLight {
 // Everything a shading routine needs at a surface hit.
 struct SurfaceHit {
   Vec3 p;
-  Vec3 ng;           // geometric normal (unit, front face = glTF CCW winding)
-  Frame shading;     // shading frame: n = shading normal, s = anisotropy direction
+  Vec3 ng;        // geometric normal (unit, front face = glTF CCW winding)
+  Frame shading;  // shading frame: n = shading normal, s = anisotropy direction
   Vec2 uv;
   uint32_t triangle = 0;
   uint32_t material = 0;
@@ -67,8 +67,8 @@ struct Scene {
   std::string path;
   // Flattened world-space vertex data (one entry per vertex).
   std::vector<Vec3> positions;
-  std::vector<Vec3> normals;    // unit; zero vector = use the geometric normal
-  std::vector<Vec3> tangents;   // unit xyz; zero = none
+  std::vector<Vec3> normals;   // unit; zero vector = use the geometric normal
+  std::vector<Vec3> tangents;  // unit xyz; zero = none
   std::vector<float> tangentSigns;
   std::vector<Vec2> uvs;
   std::vector<uint32_t> indices;      // 3 per triangle

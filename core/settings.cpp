@@ -7,39 +7,54 @@ namespace vsl {
 
 const char* componentName(Component c) {
   switch (c) {
-    case Component::Full: return "full";
-    case Component::Direct: return "direct";
-    case Component::Indirect: return "indirect";
+    case Component::Full:
+      return "full";
+    case Component::Direct:
+      return "direct";
+    case Component::Indirect:
+      return "indirect";
   }
   return "?";
 }
 
 bool parseComponent(const std::string& s, Component* out) {
-  if (s == "full") *out = Component::Full;
-  else if (s == "direct") *out = Component::Direct;
-  else if (s == "indirect") *out = Component::Indirect;
-  else return false;
+  if (s == "full")
+    *out = Component::Full;
+  else if (s == "direct")
+    *out = Component::Direct;
+  else if (s == "indirect")
+    *out = Component::Indirect;
+  else
+    return false;
   return true;
 }
 
 std::string RenderSettings::validate() const {
   std::ostringstream e;
-  if (method != "pt") e << "method: must be 'pt' (got '" << method << "')";
-  else if (width < 0 || width > kMaxResolution) e << "width: must be in [1," << kMaxResolution << "] (got " << width << ")";
-  else if (height < 0 || height > kMaxResolution) e << "height: must be in [1," << kMaxResolution << "] (got " << height << ")";
-  else if (spp < 1 || spp > (1 << 24)) e << "spp: must be in [1,16777216] (got " << spp << ")";
+  if (method != "pt")
+    e << "method: must be 'pt' (got '" << method << "')";
+  else if (width < 0 || width > kMaxResolution)
+    e << "width: must be in [1," << kMaxResolution << "] (got " << width << ")";
+  else if (height < 0 || height > kMaxResolution)
+    e << "height: must be in [1," << kMaxResolution << "] (got " << height << ")";
+  else if (spp < 1 || spp > (1 << 24))
+    e << "spp: must be in [1,16777216] (got " << spp << ")";
   else if (!(std::isfinite(timeLimit) && timeLimit >= 0 && timeLimit <= 1e7))
     e << "time: must be in [0,1e7] seconds (got " << timeLimit << ")";
-  else if (maxDepth < 1 || maxDepth > 1024) e << "max-depth: must be in [1,1024] (got " << maxDepth << ")";
-  else if (rrDepth < 1 || rrDepth > 1024) e << "rr-depth: must be in [1,1024] (got " << rrDepth << ")";
+  else if (maxDepth < 1 || maxDepth > 1024)
+    e << "max-depth: must be in [1,1024] (got " << maxDepth << ")";
+  else if (rrDepth < 1 || rrDepth > 1024)
+    e << "rr-depth: must be in [1,1024] (got " << rrDepth << ")";
   return e.str();
 }
 
 std::string RenderSettings::describe() const {
   std::ostringstream s;
   s << "--method " << method << " --width " << width << " --height " << height;
-  if (timeLimit > 0) s << " --time " << timeLimit;
-  else s << " --spp " << spp;
+  if (timeLimit > 0)
+    s << " --time " << timeLimit;
+  else
+    s << " --spp " << spp;
   s << " --seed " << seed << " --max-depth " << maxDepth << " --component " << componentName(component);
   return s.str();
 }

@@ -20,8 +20,8 @@ struct RenderSettings {
   int spp = 64;               // samples per pixel (passes)
   double timeLimit = 0;       // seconds; > 0 replaces spp as the stop criterion
   uint64_t seed = 0;
-  int maxDepth = 64;          // maximum number of scattering events on a path
-  int rrDepth = 3;            // Russian roulette starts after this many bounces
+  int maxDepth = 64;  // maximum number of scattering events on a path
+  int rrDepth = 3;    // Russian roulette starts after this many bounces
   Component component = Component::Full;
 
   // Empty when valid; otherwise "setting: reason (got value)".

@@ -61,9 +61,9 @@ struct Chi2Result {
 
 struct Chi2Config {
   int thetaBins = 32, phiBins = 64;  // theta-uniform cells resolve peaked lobes near the pole
-  int subdiv = 12;          // pdf integration points per cell and axis
+  int subdiv = 12;                   // pdf integration points per cell and axis
   size_t samples = 1000000;
-  double minExpected = 5;   // cells below this are pooled
+  double minExpected = 5;  // cells below this are pooled
   uint64_t seed = 1;
 };
 
@@ -133,8 +133,7 @@ inline Chi2Result chi2Directions(const std::function<std::optional<Vec3>(Rng&)>&
   res.statistic = stat;
   res.dof = std::max(cells - 1, 1);
   res.pValue = chi2Survival(stat, res.dof);
-  if (std::abs(total - 1) > 0.02 && total > 1)
-    res.message = "pdf integrates to " + std::to_string(total) + " (> 1)";
+  if (std::abs(total - 1) > 0.02 && total > 1) res.message = "pdf integrates to " + std::to_string(total) + " (> 1)";
   if (!dumpName.empty() && (res.pValue < 1e-3 || !res.message.empty())) {
     std::string path = dumpName + ".chi2.txt";
     if (FILE* f = std::fopen(path.c_str(), "w")) {

@@ -55,8 +55,7 @@ TEST(BrdfStats, SamplingMatchesPdfChiSquare) {
     cfg.samples = 1000000;
     cfg.subdiv = 10;
     char name[128];
-    std::snprintf(name, sizeof name, "brdf_r%.2f_a%.2f_m%.0f_t%.0f", c.roughness, c.anisotropy, c.metallic,
-                  c.thetaDeg);
+    std::snprintf(name, sizeof name, "brdf_r%.2f_a%.2f_m%.0f_t%.0f", c.roughness, c.anisotropy, c.metallic, c.thetaDeg);
     auto r = test::chi2Directions(
         [&](Rng& g) -> std::optional<Vec3> {
           auto s = b.sample(wo, g.uniform(), {g.uniform(), g.uniform()});
@@ -182,7 +181,9 @@ TEST(Ggx, VisibleNormalPdfIntegratesToOne) {
         cfg.samples = 300000;
         cfg.subdiv = 16;
         auto r = test::chi2Directions(
-            [&](Rng& r2) { return std::optional<Vec3>(g.sampleVisibleNormal(wo, {r2.uniform(), r2.uniform()})); },
+            [&](Rng& r2) {
+              return std::optional<Vec3>(g.sampleVisibleNormal(wo, {r2.uniform(), r2.uniform()}));
+            },
             [&](const Vec3& h) { return double(g.visibleNormalPdf(wo, h)); }, cfg);
         EXPECT_TRUE(r.message.empty()) << r.message;
         EXPECT_GT(r.pValue, 1e-3) << "ax " << ax << " ay " << ay << " th " << th;

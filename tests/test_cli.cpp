@@ -48,7 +48,8 @@ class Cli : public ::testing::Test {
  protected:
   fs::path dir;
   void SetUp() override {
-    dir = fs::temp_directory_path() / ("vsl_cli_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir = fs::temp_directory_path() /
+          ("vsl_cli_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::create_directories(dir);
   }
   void TearDown() override { fs::remove_all(dir); }
@@ -58,9 +59,9 @@ class Cli : public ::testing::Test {
 }  // namespace
 
 TEST_F(Cli, BadArgumentsExitTwoWithUsage) {
-  for (const char* args : {"", "render", "render " /* no -o */, "frobnicate", "render x.gltf -o y.exr --spp nope",
-                           "render x.gltf -o y.exr --method vcm", "render x.gltf -o y.exr --spp 5 --time 3",
-                           "compare onlyone.exr"}) {
+  for (const char* args :
+       {"", "render", "render " /* no -o */, "frobnicate", "render x.gltf -o y.exr --spp nope",
+        "render x.gltf -o y.exr --method vcm", "render x.gltf -o y.exr --spp 5 --time 3", "compare onlyone.exr"}) {
     Proc r = run(args);
     EXPECT_EQ(r.code, 2) << "vsl " << args << "\n" << r.out;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << "vsl " << args << "\n" << r.out;
@@ -94,7 +95,7 @@ TEST_F(Cli, BadSceneExitsOneAndNamesTheFile) {
 
 TEST_F(Cli, RenderWritesExrPngJsonThatToolsRead) {
   Proc r = run("render " + scene("furnace") + " --spp 8 --width 16 --height 12 --seed 3 -o " + file("f.exr") +
-              " --png " + file("f.png") + " --json " + file("f.json"));
+               " --png " + file("f.png") + " --json " + file("f.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("render 100%"), std::string::npos) << "progress on stderr\n" << r.out;
   // exrheader (Debian's openexr package) must read the file.
@@ -121,20 +122,21 @@ TEST_F(Cli, RenderWritesExrPngJsonThatToolsRead) {
   // The furnace is 2 everywhere: even 8 spp is close.
   EXPECT_NEAR(j["mean"]["full"][0].get<double>(), 2.0, 0.1);
   // No temporary files are left behind.
-  for (auto& e : fs::directory_iterator(dir))
-    EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+  for (auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
 }
 
 TEST_F(Cli, CompareReportsMetricsAndWritesErrorImages) {
   ASSERT_EQ(run("render " + scene("cornell-glossy") + " --spp 2 --width 16 --height 16 -o " + file("a.exr")).code, 0);
-  ASSERT_EQ(run("render " + scene("cornell-glossy") + " --spp 2 --width 16 --height 16 --seed 9 -o " + file("b.exr")).code, 0);
+  ASSERT_EQ(
+      run("render " + scene("cornell-glossy") + " --spp 2 --width 16 --height 16 --seed 9 -o " + file("b.exr")).code,
+      0);
   Proc same = run("compare " + file("a.exr") + " " + file("a.exr") + " --json");
   ASSERT_EQ(same.code, 0) << same.out;
   auto j = nlohmann::json::parse(same.out);
   EXPECT_EQ(j["average"]["relMSE"], 0.0);
   EXPECT_EQ(j["average"]["rmse"], 0.0);
   Proc diff = run("compare " + file("a.exr") + " " + file("b.exr") + " --layer indirect -o " + file("e.exr") +
-                 " --png " + file("e.png"));
+                  " --png " + file("e.png"));
   ASSERT_EQ(diff.code, 0) << diff.out;
   for (const char* w : {"relMSE", "RMSE", "bias", "non-finite", "eps = 0.01"})
     EXPECT_NE(diff.out.find(w), std::string::npos) << w << "\n" << diff.out;
@@ -156,7 +158,7 @@ TEST_F(Cli, FailedExportKeepsTheExistingFile) {
   // The PNG cannot be written (its directory does not exist): exit 1; the EXR
   // written earlier in the same run is complete, and nothing half-written remains.
   Proc r = run("render " + scene("furnace") + " --spp 1 --width 8 --height 8 -o " + file("keep.exr") + " --png " +
-              file("no/such/dir/x.png"));
+               file("no/such/dir/x.png"));
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_GT(fs::file_size(file("keep.exr")), 0u);
   (void)before;

@@ -53,7 +53,8 @@ struct Doc {
   std::vector<uint8_t> bin;
 };
 
-Doc quadDoc(std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, std::vector<uint32_t> idx = {0, 1, 2, 0, 2, 3}) {
+Doc quadDoc(std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0},
+            std::vector<uint32_t> idx = {0, 1, 2, 0, 2, 3}) {
   Doc d;
   append(d.bin, pos);
   size_t idxOff = d.bin.size();
@@ -63,14 +64,20 @@ Doc quadDoc(std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, std::
          {"scene", 0},
          {"scenes", {{{"nodes", {0}}}}},
          {"nodes", {{{"name", "quad-node"}, {"mesh", 0}}}},
-         {"meshes", {{{"name", "quad"}, {"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 0}}}}}}},
+         {"meshes",
+          {{{"name", "quad"}, {"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 0}}}}}}},
          {"materials",
           {{{"name", "glow"},
-            {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"metallicFactor", 0}, {"roughnessFactor", 0.5}}},
+            {"pbrMetallicRoughness",
+             {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"metallicFactor", 0}, {"roughnessFactor", 0.5}}},
             {"emissiveFactor", {1, 1, 1}}}}},
          {"accessors",
-          {{{"bufferView", 0}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"},
-            {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+          {{{"bufferView", 0},
+            {"componentType", 5126},
+            {"count", nv},
+            {"type", "VEC3"},
+            {"min", {0, 0, 0}},
+            {"max", {1, 1, 0}}},
            {{"bufferView", 1}, {"componentType", 5125}, {"count", idx.size()}, {"type", "SCALAR"}}}},
          {"bufferViews",
           {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", idxOff}},
@@ -83,9 +90,9 @@ class LoaderTest : public ::testing::Test {
  protected:
   fs::path dir;
   void SetUp() override {
-    dir = fs::temp_directory_path() /
-          ("vsl_loader_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir =
+        fs::temp_directory_path() / ("vsl_loader_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+                                     "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir);
   }
   void TearDown() override { fs::remove_all(dir); }
@@ -98,8 +105,8 @@ class LoaderTest : public ::testing::Test {
   // Embeds the binary as a data URI unless the document already has buffers.
   std::string writeDoc(Doc d, const std::string& name = "scene.gltf") {
     if (d.j["buffers"].empty())
-      d.j["buffers"] = {{{"byteLength", d.bin.size()},
-                         {"uri", "data:application/octet-stream;base64," + base64(d.bin)}}};
+      d.j["buffers"] = {
+          {{"byteLength", d.bin.size()}, {"uri", "data:application/octet-stream;base64," + base64(d.bin)}}};
     return write(name, d.j.dump());
   }
   std::string writeGlb(const Doc& d, const std::string& name, size_t truncateTo = 0) {
@@ -309,7 +316,8 @@ TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   d.j["materials"][0]["extensions"] = {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}};
   d.j["extensionsUsed"] = {"KHR_materials_transmission", "EXT_made_up", "KHR_lights_punctual"};
   d.j["extensionsRequired"] = {"EXT_made_up"};
-  d.j["cameras"] = {{{"name", "ortho"}, {"type", "orthographic"},
+  d.j["cameras"] = {{{"name", "ortho"},
+                     {"type", "orthographic"},
                      {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}}};
   d.j["extensions"] = {{"KHR_lights_punctual", {{"lights", {{{"name", "sun"}, {"type", "directional"}}}}}}};
   d.j["nodes"] = {{{"name", "quad-node"}, {"mesh", 0}},
@@ -368,7 +376,9 @@ TEST_F(LoaderTest, CamerasByNameAndLights) {
   d.j["extensions"] = {{"KHR_lights_punctual",
                         {{"lights",
                           {{{"name", "bulb"}, {"type", "point"}, {"intensity", 10}, {"color", {1, 0.5, 0.25}}},
-                           {{"name", "spot"}, {"type", "spot"}, {"intensity", 5},
+                           {{"name", "spot"},
+                            {"type", "spot"},
+                            {"intensity", 5},
                             {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.4}}}}}}}}};
   d.j["extensionsUsed"] = {"KHR_lights_punctual"};
   d.j["nodes"] = {{{"mesh", 0}},
@@ -407,8 +417,9 @@ TEST_F(LoaderTest, CamerasByNameAndLights) {
 TEST_F(LoaderTest, EmissionStrengthAndAnisotropyParse) {
   Doc d = quadDoc();
   d.j["materials"][0]["emissiveFactor"] = {0.5, 0.25, 1.0};
-  d.j["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}},
-                                       {"KHR_materials_anisotropy", {{"anisotropyStrength", 0.6}, {"anisotropyRotation", 1.0}}}};
+  d.j["materials"][0]["extensions"] = {
+      {"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}},
+      {"KHR_materials_anisotropy", {{"anisotropyStrength", 0.6}, {"anisotropyRotation", 1.0}}}};
   d.j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy"};
   LoadResult r = load(writeDoc(d));
   ASSERT_TRUE(r.scene) << r.error;

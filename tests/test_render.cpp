@@ -162,8 +162,8 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
   emitter.specularWeight = 0;
   emitter.emission = Vec3(1.0f);
   s.materials = {floor, emitter, Material()};
-  addQuad(s, {-20, 0, 20}, {40, 0, 0}, {0, 0, -40}, 0);           // faces +y
-  addQuad(s, {-0.5f, 1, -0.5f}, {1, 0, 0}, {0, 0, 1}, 1);         // faces -y
+  addQuad(s, {-20, 0, 20}, {40, 0, 0}, {0, 0, -40}, 0);    // faces +y
+  addQuad(s, {-0.5f, 1, -0.5f}, {1, 0, 0}, {0, 0, 1}, 1);  // faces -y
   s.camera.position = Vec3(0, 0.5f, 0);
   s.camera.forward = Vec3(0, -1, 0);
   s.camera.up = Vec3(0, 0, -1);
@@ -198,7 +198,8 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
       double z = (m - expected) / std::sqrt(varMean + 1e-30);
       if (std::abs(z) > 4.5) {
         ++bad;
-        ADD_FAILURE() << "pixel (" << x << "," << y << "): " << m << " vs closed form " << expected << " (z " << z << ")";
+        ADD_FAILURE() << "pixel (" << x << "," << y << "): " << m << " vs closed form " << expected << " (z " << z
+                      << ")";
       }
       sumRel += (m - expected) / expected;
       sumRelVar += varMean / (expected * expected);

@@ -33,8 +33,11 @@ TEST(Sampling, CosineHemisphereRoundTripAndPdf) {
   }
   test::Chi2Config cfg;
   cfg.samples = 400000;
-  auto r = test::chi2Directions([](Rng& g) { return std::optional<Vec3>(sampleCosineHemisphere({g.uniform(), g.uniform()})); },
-                                [](const Vec3& w) { return double(cosineHemispherePdf(w.z)); }, cfg, "cosine");
+  auto r = test::chi2Directions(
+      [](Rng& g) {
+        return std::optional<Vec3>(sampleCosineHemisphere({g.uniform(), g.uniform()}));
+      },
+      [](const Vec3& w) { return double(cosineHemispherePdf(w.z)); }, cfg, "cosine");
   EXPECT_TRUE(r.message.empty()) << r.message;
   EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
 }

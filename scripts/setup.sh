@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs what vsl-studio needs on Debian 12, and nothing else. Idempotent:
+# when everything is present it only checks (well under a second).
+#   - Debian packages (apt-get; sudo when not root)
+#   - the Khronos glTF validator from npm, into .tools/ (used by the tests)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(
+  build-essential cmake pkg-config git python3
+  libembree-dev libtbb-dev libtinygltf-dev libopenexr-dev openexr libstb-dev
+  libnanoflann-dev libcli11-dev nlohmann-json3-dev libpng-dev
+  libglfw3-dev libimgui-dev libegl-dev libegl1-mesa-dev libgl-dev libosmesa6-dev
+  libgtest-dev libbenchmark-dev xvfb xauth
+)
+command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)
+command -v npm >/dev/null 2>&1 || PACKAGES+=(npm)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  echo "setup: installing ${#missing[@]} Debian package(s): ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+VALIDATOR_VERSION=2.0.0-dev.3.10
+if [ ! -f .tools/node_modules/gltf-validator/package.json ] ||
+   ! grep -q "\"version\": \"$VALIDATOR_VERSION\"" .tools/node_modules/gltf-validator/package.json; then
+  echo "setup: installing gltf-validator $VALIDATOR_VERSION into .tools/"
+  mkdir -p .tools
+  npm install --prefix .tools --no-audit --no-fund --loglevel=error "gltf-validator@$VALIDATOR_VERSION" >/dev/null
+fi
+echo "setup: all dependencies present"
