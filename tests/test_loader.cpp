@@ -498,7 +498,8 @@ TEST_F(LoaderTest, CorruptedFilesNeverCrash) {
           m.erase(at, 1 + rng.uniformInt(8));
           break;
         default:
-          m.insert(at, 1, "{}[]\":,0-9e"[rng.uniformInt(13)]);
+          static const char kTokens[] = "{}[]\":,0123456789eE-+.";
+          m.insert(at, 1, kTokens[rng.uniformInt(uint32_t(sizeof kTokens - 1))]);
           break;
       }
     }
