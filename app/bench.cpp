@@ -6,13 +6,12 @@
 // to quote: absolute timings on a shared machine are noise.
 #include "app/bench.h"
 
-#include <tbb/parallel_for.h>
-
 #include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "core/image_io.h"
+#include "core/parallel.h"
 #include "core/pathtracer.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -90,21 +89,23 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
   std::fprintf(stderr, "bench %s: %zu triangles, %zu occlusion rays, %.1f s per measurement\n", scenePath.c_str(),
                scene.triangleCount(), rays.size(), seconds);
 
+  constexpr size_t kChunk = 4096;
   // Raw Embree: one rtcOccluded1 per ray, all threads.
   std::atomic<uint64_t> blocked{0};
   auto [rawCalls, rawSec] = timeLoop(seconds, [&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    parallelFor((rays.size() + kChunk - 1) / kChunk, [&](size_t c) {
       uint64_t b = 0;
-      for (size_t i = r.begin(); i < r.end(); ++i) b += accel->occluded(rays[i]);
+      for (size_t i = c * kChunk; i < std::min(rays.size(), (c + 1) * kChunk); ++i) b += accel->occluded(rays[i]);
       blocked += b;
     });
   });
   double rawRate = double(rawCalls) * rays.size() / rawSec;
   // Raw Embree through the batched entry point (stream API), all threads.
   auto [batchCalls, batchSec] = timeLoop(seconds, [&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
-      std::vector<uint8_t> out(r.size());
-      accel->occluded(std::span<const Ray>(rays.data() + r.begin(), r.size()), out);
+    parallelFor((rays.size() + kChunk - 1) / kChunk, [&](size_t c) {
+      size_t begin = c * kChunk, n = std::min(rays.size(), begin + kChunk) - begin;
+      std::vector<uint8_t> out(n);
+      accel->occluded(std::span<const Ray>(rays.data() + begin, n), out);
     });
   });
   double batchRate = double(batchCalls) * rays.size() / batchSec;

@@ -1,8 +1,6 @@
 #include "core/pathtracer.h"
 
-#include <tbb/blocked_range2d.h>
-#include <tbb/parallel_for.h>
-
+#include "core/parallel.h"
 #include "core/rng.h"
 
 namespace vsl {
@@ -121,27 +119,29 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
 bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters,
                             const std::atomic<bool>* stop) const {
   constexpr int kTile = 16;
+  const int tilesX = (width_ + kTile - 1) / kTile, tilesY = (height_ + kTile - 1) / kTile;
   std::atomic<bool> stopped{false};
-  tbb::parallel_for(tbb::blocked_range2d<int>(0, height_, kTile, 0, width_, kTile),
-                    [&](const tbb::blocked_range2d<int>& r) {
-                      if (stopped.load(std::memory_order_relaxed)) return;
-                      if (stop && stop->load(std::memory_order_relaxed)) {
-                        stopped.store(true);
-                        return;
-                      }
-                      uint64_t rays = 0, nonFinite = 0, paths = 0;
-                      for (int y = r.rows().begin(); y < r.rows().end(); ++y)
-                        for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
-                          Vec3 Ld, Li;
-                          samplePixel(x, y, pass, Ld, Li, rays, nonFinite);
-                          direct.add(x, y, Ld);
-                          indirect.add(x, y, Li);
-                          ++paths;
-                        }
-                      counters.rays.fetch_add(rays, std::memory_order_relaxed);
-                      counters.nonFinite.fetch_add(nonFinite, std::memory_order_relaxed);
-                      counters.paths.fetch_add(paths, std::memory_order_relaxed);
-                    });
+  parallelFor(size_t(tilesX) * tilesY, [&](size_t tile) {
+    if (stopped.load(std::memory_order_relaxed)) return;
+    if (stop && stop->load(std::memory_order_relaxed)) {
+      stopped.store(true);
+      return;
+    }
+    const int x0 = int(tile % tilesX) * kTile, y0 = int(tile / tilesX) * kTile;
+    const int x1 = std::min(x0 + kTile, width_), y1 = std::min(y0 + kTile, height_);
+    uint64_t rays = 0, nonFinite = 0, paths = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        Vec3 Ld, Li;
+        samplePixel(x, y, pass, Ld, Li, rays, nonFinite);
+        direct.add(x, y, Ld);
+        indirect.add(x, y, Li);
+        ++paths;
+      }
+    counters.rays.fetch_add(rays, std::memory_order_relaxed);
+    counters.nonFinite.fetch_add(nonFinite, std::memory_order_relaxed);
+    counters.paths.fetch_add(paths, std::memory_order_relaxed);
+  });
   return !stopped.load();
 }
 
