@@ -12,6 +12,7 @@
 #include "core/compare.h"
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/many_light.h"
 #include "core/pathtracer.h"
 
 using namespace vsl;
@@ -85,8 +86,12 @@ Vec3 imageMean(const Image& img) {
 struct RenderArgs {
   std::string scene, out, png, jsonPath, camera, component = "full";
   RenderSettings settings;
+  ManyLightSettings many;
+  std::string clamp = "auto", vslSamples = "auto";
   float exposure = 0;
 };
+
+int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds);
 
 int cmdRender(RenderArgs& a) {
   if (!parseComponent(a.component, &a.settings.component)) {
@@ -96,6 +101,43 @@ int cmdRender(RenderArgs& a) {
   if (std::string e = a.settings.validate(); !e.empty()) {
     std::fprintf(stderr, "error: %s\n", e.c_str());
     return 2;
+  }
+  const bool many = a.settings.method != "pt";
+  if (many) {
+    ManyLightSettings& m = a.many;
+    m.seed = a.settings.seed;
+    m.computeVsl = a.settings.method != "vpl";
+    m.computeVpl = a.settings.method != "vsl";
+    m.width = a.settings.width;
+    m.height = a.settings.height;
+    if (a.clamp == "off")
+      m.clamp = INFINITY;
+    else if (a.clamp == "auto")
+      m.clamp = -1;
+    else {
+      char* end = nullptr;
+      double c = std::strtod(a.clamp.c_str(), &end);
+      if (end == a.clamp.c_str() || *end != 0 || !(c > 0)) {
+        std::fprintf(stderr, "error: --clamp must be a positive number, 'auto' or 'off' (got '%s')\n", a.clamp.c_str());
+        return 2;
+      }
+      m.clamp = float(c);
+    }
+    if (a.vslSamples == "auto")
+      m.vslSamples = 0;
+    else {
+      char* end = nullptr;
+      long n = std::strtol(a.vslSamples.c_str(), &end, 10);
+      if (end == a.vslSamples.c_str() || *end != 0 || n < 1 || n > 4096) {
+        std::fprintf(stderr, "error: --vsl-samples must be 'auto' or in [1,4096] (got '%s')\n", a.vslSamples.c_str());
+        return 2;
+      }
+      m.vslSamples = int(n);
+    }
+    if (std::string e = m.validate(); !e.empty()) {
+      std::fprintf(stderr, "error: %s\n", e.c_str());
+      return 2;
+    }
   }
   auto t0 = Clock::now();
   auto scene = loadOrReport(a.scene, a.camera);
@@ -107,6 +149,7 @@ int cmdRender(RenderArgs& a) {
     return 1;
   }
   double loadSeconds = secondsSince(t0);
+  if (many) return renderManyLights(a, *scene, *accel, loadSeconds);
   LightSampler lights(*scene);
   PathTracer pt(*scene, *accel, lights, a.settings);
   int w = pt.width(), h = pt.height();
@@ -190,7 +233,7 @@ int cmdRender(RenderArgs& a) {
 // ---- compare ------------------------------------------------------------------
 
 struct CompareArgs {
-  std::string test, ref, layer, out, png;
+  std::string test, ref, layer, refLayer, out, png;
   bool json = false;
   double epsilon = kRelMseEpsilon;
 };
@@ -204,7 +247,7 @@ const Image* findLayer(const std::vector<Layer>& layers, const std::string& name
   return nullptr;
 }
 
-int cmdCompare(const CompareArgs& a, bool layerGiven) {
+int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
   std::vector<Layer> tl, rl;
   std::string err;
   if (!readExr(a.test, tl, &err) || !readExr(a.ref, rl, &err)) {
@@ -212,9 +255,10 @@ int cmdCompare(const CompareArgs& a, bool layerGiven) {
     return 1;
   }
   const Image* t = findLayer(tl, a.layer, layerGiven);
-  const Image* r = findLayer(rl, a.layer, layerGiven);
+  const std::string& refName = refLayerGiven ? a.refLayer : a.layer;
+  const Image* r = findLayer(rl, refName, refLayerGiven || layerGiven);
   if (!t || !r) {
-    std::fprintf(stderr, "error: %s: no layer '%s'\n", (!t ? a.test : a.ref).c_str(), a.layer.c_str());
+    std::fprintf(stderr, "error: %s: no layer '%s'\n", (!t ? a.test : a.ref).c_str(), (!t ? a.layer : refName).c_str());
     return 1;
   }
   if (t->width != r->width || t->height != r->height) {
@@ -293,6 +337,28 @@ int cmdCompare(const CompareArgs& a, bool layerGiven) {
   return 0;
 }
 
+// ---- tonemap ------------------------------------------------------------------
+
+int cmdTonemap(const std::string& in, const std::string& layer, const std::string& out, float exposure) {
+  std::vector<Layer> layers;
+  std::string err;
+  if (!readExr(in, layers, &err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  const Image* img = findLayer(layers, layer, !layer.empty());
+  if (!img) {
+    std::fprintf(stderr, "error: %s: no layer '%s'\n", in.c_str(), layer.c_str());
+    return 1;
+  }
+  if (!writePng(out, *img, exposure, &err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "wrote %s\n", out.c_str());
+  return 0;
+}
+
 // ---- info ---------------------------------------------------------------------
 
 int cmdInfo(const std::string& path, const std::string& camera) {
@@ -347,6 +413,145 @@ int cmdInfo(const std::string& path, const std::string& camera) {
   return 0;
 }
 
+// ---- render: many-light methods ---------------------------------------------------
+
+int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds) {
+  const RenderSettings& s = a.settings;
+  ManyLightSettings& m = a.many;
+  std::string err;
+  LightSampler lights(scene);
+  if (lights.empty()) {
+    std::fprintf(stderr, "error: %s: the scene has no lights, so there is nothing to trace virtual lights from\n",
+                 a.scene.c_str());
+    return 1;
+  }
+  auto t0 = Clock::now();
+  ManyLightRun run = prepareManyLights(scene, accel, lights, m);
+  std::fprintf(stderr,
+               "traced %zu virtual lights from %llu paths in %.2f s (%zu bytes each, %.1f MB); radii in %.2f s\n",
+               run.set.lights.size(), (unsigned long long)run.set.paths, run.set.seconds, sizeof(VirtualLight),
+               run.set.bytes() / 1e6, run.knnSeconds);
+  ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+  Progress progress("render");
+  auto t1 = Clock::now();
+  int done = 0;
+  for (int b = 0; b < r.batchCount(); ++b) {
+    r.renderBatch(b);
+    ++done;
+    double el = secondsSince(t1);
+    char detail[160];
+    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", done, r.batchCount(),
+                  r.lightsProcessed(), r.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
+    progress.update(double(r.lightsProcessed()) / std::max<size_t>(run.set.lights.size(), 1), detail);
+    if (s.timeLimit > 0 && el >= s.timeLimit) break;
+  }
+  progress.finish();
+  double gatherSeconds = secondsSince(t1);
+  ManyLightImages im = r.images();
+  int w = r.width(), h = r.height();
+  auto sum = [&](const Image& ind) {
+    Image f(w, h);
+    for (size_t i = 0; i < f.rgb.size(); ++i) f.rgb[i] = im.direct.rgb[i] + ind.rgb[i];
+    return f;
+  };
+  auto pick = [&](const Image& ind, const Image& full) -> const Image& {
+    return s.component == Component::Direct ? im.direct : s.component == Component::Indirect ? ind : full;
+  };
+  Image vslFull = sum(im.vsl), vplFull = sum(im.vpl);
+  std::vector<Layer> layers;
+  const Image* chosen;
+  if (s.method == "all") {
+    chosen = &pick(im.vsl, vslFull);
+    layers = {{"", *chosen},
+              {"vsl-full", vslFull},
+              {"vsl-indirect", im.vsl},
+              {"vpl-full", vplFull},
+              {"vpl-indirect", im.vpl},
+              {"direct", im.direct},
+              {"vpl-unclamped-indirect", im.vplUnclamped},
+              {"vpl-diffuse-indirect", im.vplDiffuse},
+              {"lost-to-clamping", im.lostToClamping},
+              {"lost-to-diffuse", im.lostToDiffuse}};
+  } else {
+    const Image& ind = s.method == "vsl" ? im.vsl : im.vpl;
+    const Image& full = s.method == "vsl" ? vslFull : vplFull;
+    chosen = &pick(ind, full);
+    layers = {{"", *chosen}, {"full", full}, {"direct", im.direct}, {"indirect", ind}};
+  }
+  std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
+                                              {"vsl.scene", a.scene},
+                                              {"vsl.method", s.method},
+                                              {"vsl.settings", m.describe()},
+                                              {"vsl.component", componentName(s.component)}};
+  if (!writeExr(a.out, layers, &err, attrs)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  std::string names;
+  for (const Layer& l : layers)
+    names += (names.empty() ? "" : ", ") + (l.name.empty() ? std::string("default") : l.name);
+  std::fprintf(stderr, "wrote %s (%dx%d, %s, layers: %s)\n", a.out.c_str(), w, h, s.method.c_str(), names.c_str());
+  if (!a.png.empty()) {
+    if (!writePng(a.png, *chosen, a.exposure, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "wrote %s\n", a.png.c_str());
+  }
+  const ManyLightStats& st = r.stats();
+  uint64_t rejected = st.nonFinite + run.set.nonFiniteRejected;
+  if (rejected > 0) log::warning("rejected " + std::to_string(rejected) + " non-finite contributions");
+  if (!a.jsonPath.empty()) {
+    std::vector<float> radii = run.radii;
+    std::sort(radii.begin(), radii.end());
+    auto q = [&](double f) { return radii.empty() ? 0.0 : double(radii[size_t(f * (radii.size() - 1))]); };
+    auto mean = [](const Image& img) {
+      Vec3 v = imageMean(img);
+      return json::array({v.x, v.y, v.z});
+    };
+    json j = {{"version", VSL_VERSION},
+              {"scene", a.scene},
+              {"method", s.method},
+              {"settings", m.describe()},
+              {"width", w},
+              {"height", h},
+              {"component", componentName(s.component)},
+              {"lights", run.set.lights.size()},
+              {"lightsProcessed", r.lightsProcessed()},
+              {"batches", done},
+              {"lightPaths", run.set.paths},
+              {"bytesPerLight", sizeof(VirtualLight)},
+              {"clampBound", r.clampBound()},
+              {"radius", {{"min", q(0)}, {"median", q(0.5)}, {"max", q(1)}}},
+              {"seconds",
+               {{"load", loadSeconds},
+                {"lightTracing", run.set.seconds},
+                {"knn", run.knnSeconds},
+                {"gather", gatherSeconds},
+                {"total", secondsSince(t0)}}},
+              {"pairs", st.pairs.load()},
+              {"pairsPerSecond", st.pairs / std::max(gatherSeconds, 1e-9)},
+              {"shadowRays", st.shadowRays.load()},
+              {"vslEvaluations", st.vslEvaluations.load()},
+              {"nonFiniteRejected", rejected},
+              {"mean",
+               {{"direct", mean(im.direct)},
+                {"vslIndirect", mean(im.vsl)},
+                {"vplIndirect", mean(im.vpl)},
+                {"vplUnclampedIndirect", mean(im.vplUnclamped)},
+                {"vplDiffuseIndirect", mean(im.vplDiffuse)},
+                {"lostToClamping", mean(im.lostToClamping)},
+                {"lostToDiffuse", mean(im.lostToDiffuse)}}},
+              {"warnings", scene.warnings}};
+    if (!writeTextFile(a.jsonPath, j.dump(2) + "\n", &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -357,10 +562,30 @@ int main(int argc, char** argv) {
   RenderArgs ra;
   auto* render = app.add_subcommand("render", "Render a glTF scene to a multi-layer EXR (full, direct, indirect)");
   render->add_option("scene", ra.scene, "Scene file (.gltf or .glb)")->required();
-  render->add_option("--method", ra.settings.method, "Rendering method")
-      ->check(CLI::IsMember({"pt"}))
+  render
+      ->add_option("--method", ra.settings.method,
+                   "pt (path-traced reference), vsl, vpl, or all (VSL, clamped VPL and the missing-energy layers "
+                   "from one light set)")
+      ->check(CLI::IsMember({"pt", "vsl", "vpl", "all"}))
       ->default_str("pt");
-  auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel")->default_str("64");
+  render->add_option("--lights", ra.many.lights, "Virtual lights (many-light methods)")->default_str("10000");
+  render->add_option("--radius-scale", ra.many.radiusScale, "VSL radius = scale x distance to the k-th nearest light")
+      ->default_str("1");
+  render->add_option("--knn", ra.many.knn, "k for the VSL radius")->default_str("10");
+  render->add_option("--radius", ra.many.globalRadius,
+                     "One global VSL radius, as a fraction of the scene's bounding radius (replaces k-NN radii)");
+  render->add_option("--vsl-samples", ra.vslSamples, "VSL cone-integral samples per strategy: auto or N")
+      ->default_str("auto");
+  render
+      ->add_option("--clamp", ra.clamp,
+                   "VPL clamp: bound on the luminance of f_x cos f_p cos / d^2 per light; auto (scene-relative) or "
+                   "off")
+      ->default_str("auto");
+  render->add_flag("--diffuse-vpl", ra.many.diffuseOnly, "VPLs emit with their diffuse lobe only");
+  render->add_option("--batches", ra.many.batches, "Progressive light batches (growing sizes)")->default_str("8");
+  render->add_option("--direct-samples", ra.many.directSamples, "Direct-light samples per pixel (many-light methods)")
+      ->default_str("64");
+  auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel (pt)")->default_str("64");
   render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
       ->excludes(sppOpt);
   render->add_option("--width", ra.settings.width, "Image width (default: from the scene, or 512)");
@@ -381,10 +606,20 @@ int main(int argc, char** argv) {
   compare->add_option("test", ca.test, "Test image (EXR)")->required();
   compare->add_option("reference", ca.ref, "Reference image (EXR)")->required();
   auto* layerOpt = compare->add_option("--layer", ca.layer, "Layer name (default: the default layer, else 'full')");
+  auto* refLayerOpt =
+      compare->add_option("--ref-layer", ca.refLayer, "Layer of the reference (default: the same as --layer)");
   compare->add_option("-o,--output", ca.out, "Write error images (EXR)");
   compare->add_option("--png", ca.png, "Write a false-colour relative squared error PNG");
   compare->add_flag("--json", ca.json, "Print metrics as JSON");
   compare->add_option("--epsilon", ca.epsilon, "relMSE epsilon")->default_str("0.01")->check(CLI::PositiveNumber);
+
+  std::string tmIn, tmLayer, tmOut;
+  float tmExposure = 0;
+  auto* tonemap = app.add_subcommand("tonemap", "Write one EXR layer as a tone-mapped sRGB PNG");
+  tonemap->add_option("input", tmIn, "EXR file")->required();
+  tonemap->add_option("--layer", tmLayer, "Layer name (default: the default layer)");
+  tonemap->add_option("-o,--output", tmOut, "Output PNG")->required();
+  tonemap->add_option("--exposure", tmExposure, "Exposure in stops")->default_str("0");
 
   std::string infoScene, infoCamera;
   auto* info = app.add_subcommand("info", "Print a scene's triangles, materials, lights, camera and warnings");
@@ -421,7 +656,8 @@ int main(int argc, char** argv) {
   }
   log::setEchoLevel(LogLevel::Warning);
   if (*render) return cmdRender(ra);
-  if (*compare) return cmdCompare(ca, layerOpt->count() > 0);
+  if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
+  if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
   if (*info) return cmdInfo(infoScene, infoCamera);
   if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
   return 2;

@@ -66,6 +66,53 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
   return s;
 }
 
+std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Vec2 uDir) const {
+  if (empty()) return std::nullopt;
+  float pmf;
+  size_t i = dist_.sample(uLight, &pmf);
+  if (!(pmf > 0)) return std::nullopt;
+  EmissionSample e;
+  if (i < emissiveTris_.size()) {
+    uint32_t tri = emissiveTris_[i];
+    const Material& m = scene_.materials[scene_.triMaterial[tri]];
+    Vec2 b = sampleUniformTriangle(uPos);
+    const Vec3& p0 = scene_.positions[scene_.indices[3 * tri]];
+    const Vec3& p1 = scene_.positions[scene_.indices[3 * tri + 1]];
+    const Vec3& p2 = scene_.positions[scene_.indices[3 * tri + 2]];
+    Vec2 bary{b.y, 1 - b.x - b.y};
+    e.p = p0 * b.x + p1 * bary.x + p2 * bary.y;
+    e.n = scene_.triangleNormal(tri);
+    float sides = 1;
+    if (m.doubleSided) {  // pick a side with probability 1/2, reusing uDir.x
+      sides = 2;
+      if (uDir.x < 0.5f) {
+        e.n = -e.n;
+        uDir.x *= 2;
+      } else {
+        uDir.x = (uDir.x - 0.5f) * 2;
+      }
+      uDir.x = std::min(uDir.x, 0.99999994f);
+    }
+    // Cosine-weighted direction: Le cos / (pmf (1/A) (cos/pi) / sides) = Le pi A sides / pmf.
+    e.w = Frame(e.n).toWorld(sampleCosineHemisphere(uDir));
+    e.beta = scene_.emission(tri, bary) * (kPi * scene_.triangleArea(tri) * sides / pmf);
+  } else {
+    const PunctualLight& L = scene_.punctualLights[i - emissiveTris_.size()];
+    e.p = L.position;
+    e.n = Vec3(0.0f);
+    if (L.type == PunctualLight::Type::Point) {
+      e.w = sampleUniformSphere(uDir);
+      e.beta = L.intensity * (4 * kPi / pmf);
+    } else {
+      Vec3 local = sampleUniformCone(uDir, L.cosOuter);
+      e.w = Frame(L.direction).toWorld(local);
+      e.beta = L.intensity * (L.falloff(e.w) / (pmf * uniformConePdf(L.cosOuter)));
+    }
+  }
+  if (isBlack(e.beta) || !isFinite(e.beta)) return std::nullopt;
+  return e;
+}
+
 float LightSampler::pdfLi(const Vec3& p, uint32_t tri, const Vec3& y) const {
   if (tri >= lightOfTriangle_.size() || lightOfTriangle_[tri] < 0) return 0;
   Vec3 d = y - p;

@@ -20,6 +20,14 @@ struct LightSample {
   bool delta = false;  // punctual: no MIS with BRDF sampling
 };
 
+// A ray leaving an emitter, for light tracing.
+struct EmissionSample {
+  Vec3 p;     // origin on the emitter
+  Vec3 n;     // emitter's geometric normal on the emitting side (zero for punctual lights)
+  Vec3 w;     // unit direction of emission
+  Vec3 beta;  // Le cos / (pmf pdf_area pdf_dir): the path's initial throughput (W)
+};
+
 // Immutable after construction; safe to share between threads.
 class LightSampler {
  public:
@@ -34,6 +42,9 @@ class LightSampler {
   // The solid-angle pdf with which sampleLi picks point y on emissive
   // triangle tri as seen from p (zero for non-emissive triangles).
   float pdfLi(const Vec3& p, uint32_t tri, const Vec3& y) const;
+  // Samples a ray leaving a light: the light by power (uLight), a point on it
+  // (uPos) and a direction (uDir). Empty when the scene has no lights.
+  std::optional<EmissionSample> sampleLe(float uLight, Vec2 uPos, Vec2 uDir) const;
 
  private:
   const Scene& scene_;

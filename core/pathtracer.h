@@ -34,6 +34,7 @@ class PathTracer {
 
   int width() const { return width_; }
   int height() const { return height_; }
+  const LightSampler& lightSampler() const { return lights_; }
 
   // Adds one sample per pixel (sample index `pass`) to the two films.
   // Returns false if *stop became true (checked between 16x16 tiles); the

@@ -54,10 +54,12 @@ Vec3 sampleUniformSphere(Vec2 u) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
-Vec3 sampleUniformCone(Vec2 u, float cosMax) {
-  // Work with 1 - cos(theta) so that tiny cones keep their precision:
+Vec3 sampleUniformCone(Vec2 u, float cosMax) { return sampleUniformConeOmc(u, 1 - cosMax); }
+
+Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax) {
+  // Work with v = 1 - cos(theta) so that tiny cones keep their precision:
   // sin^2 = (1 - cos)(1 + cos) = v (2 - v).
-  float v = u.x * (1 - cosMax);
+  float v = u.x * oneMinusCosMax;
   float cosTheta = 1 - v;
   float sinTheta = safeSqrt(v * (2 - v));
   float phi = u.y * 2 * kPi;

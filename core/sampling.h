@@ -26,6 +26,9 @@ inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
 // Uniform cone about +z with cos(half-angle) = cosMax. pdf = 1/(2 pi (1 - cosMax))
 // (solid angle).
 Vec3 sampleUniformCone(Vec2 u, float cosMax);
+// The same cone given by 1 - cos(half-angle), which keeps tiny cones precise.
+// pdf = 1/(2 pi oneMinusCosMax).
+Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax);
 inline float uniformConePdf(float cosMax) { return 1.0f / (2.0f * kPi * (1.0f - cosMax)); }
 
 // Uniform point on a triangle, as barycentrics (b0, b1); b2 = 1 - b0 - b1.

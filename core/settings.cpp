@@ -31,8 +31,8 @@ bool parseComponent(const std::string& s, Component* out) {
 
 std::string RenderSettings::validate() const {
   std::ostringstream e;
-  if (method != "pt")
-    e << "method: must be 'pt' (got '" << method << "')";
+  if (method != "pt" && method != "vsl" && method != "vpl" && method != "all")
+    e << "method: must be pt, vsl, vpl or all (got '" << method << "')";
   else if (width < 0 || width > kMaxResolution)
     e << "width: must be in [1," << kMaxResolution << "] (got " << width << ")";
   else if (height < 0 || height > kMaxResolution)

@@ -1,0 +1,133 @@
+// Many-light rendering (instant radiosity, step 2): gathering a
+// VirtualLightSet as Virtual Spherical Lights and as Virtual Point Lights,
+// from one shared visibility ray per (pixel, light) pair.
+//
+// Methods and their known bias
+//   VSL  Hasan, Krivanek, Walter, Bala, "Virtual Spherical Lights for
+//        Many-Light Rendering of Glossy Scenes", SIGGRAPH Asia 2009. Each
+//        light's flux is spread over a sphere of radius r_i and integrated over
+//        the cone it subtends (see vsl_integral.h). Radius r_i = s x distance to
+//        the k-th nearest other light (default s = 1, k = 10), or one global
+//        radius (a fraction of the scene's bounding radius). Bias: blurs
+//        illumination at low light counts; some darkening in corners.
+//   VPL  Keller 1997 (instant radiosity). Transfer per unit flux
+//        T = f_x(wo,l) cos_x f_p(w_p,-l) cos_p / d^2. Variants:
+//        - unclamped (unbiased, spiky);
+//        - clamped: T is scaled so its luminance is at most c (the whole
+//          transfer is clamped, not only the geometry term). Default c is
+//          scene-relative: 1/(pi^2 (0.1 R)^2), the transfer between two facing
+//          white Lambertian points one tenth of the scene's bounding radius R
+//          apart. Bias: loses energy near corners and on glossy surfaces;
+//        - diffuse-only emission: f_p replaced by its diffuse lobe. Bias: loses
+//          all glossy-to-anything transport; pure metals re-emit nothing.
+// Components: "direct" is computed by the path tracer's direct estimator
+// (emission plus one scattering event), so all methods differ only in the
+// indirect component. Gathering happens at the first camera hit that is not
+// near-specular (Brdf::isNearSpecular); eye paths continue through
+// near-specular surfaces, adding their own emission and next-event light so
+// that nothing is double counted or dropped.
+// Progressive batches: lights are processed in a random order, in batches of
+// geometrically growing size; after each batch every layer is an unbiased
+// estimate of the image with all N lights (batch sums scaled by N / batch size).
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/film.h"
+#include "core/pathtracer.h"
+#include "core/virtual_lights.h"
+
+namespace vsl {
+
+struct ManyLightSettings {
+  uint32_t lights = 10000;  // target number of virtual lights
+  uint64_t seed = 0;
+  int width = 0, height = 0;
+  int batches = 8;         // progressive batches (>= 1)
+  int directSamples = 64;  // direct-light samples per pixel over the whole render
+  int lightMaxDepth = 16;
+  // VSL
+  float radiusScale = 1.0f;  // s
+  int knn = 10;              // k
+  float globalRadius = 0;    // > 0: one radius = globalRadius x scene bounding radius
+  int vslSamples = 0;        // per strategy; 0 = auto (grows with the cone angle)
+  // VPL
+  float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
+  bool diffuseOnly = false;  // diffuse-only emission for "the" VPL image
+  // Which estimators to evaluate (both share the visibility ray); layers of
+  // a skipped estimator stay black.
+  bool computeVsl = true, computeVpl = true;
+  std::string validate() const;
+  std::string describe() const;
+};
+
+// Layers, all linear RGB. Indirect layers exclude direct light.
+struct ManyLightImages {
+  Image direct;
+  Image vsl;             // VSL indirect
+  Image vpl;             // VPL indirect with the chosen clamp and emission
+  Image vplUnclamped;    // full-BRDF unclamped VPL indirect
+  Image vplDiffuse;      // diffuse-only unclamped VPL indirect
+  Image lostToClamping;  // unclamped - clamped (with the chosen emission)
+  Image lostToDiffuse;   // full-BRDF unclamped - diffuse-only unclamped
+};
+
+struct ManyLightStats {
+  std::atomic<uint64_t> pairs{0};  // (pixel, light) pairs evaluated
+  std::atomic<uint64_t> shadowRays{0};
+  std::atomic<uint64_t> vslEvaluations{0};
+  std::atomic<uint64_t> nonFinite{0};  // contributions rejected where they arose
+  double gatherSeconds = 0;
+};
+
+class ManyLightRenderer {
+ public:
+  // The light set and radii must outlive the renderer.
+  ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
+                    const std::vector<float>& radii, const ManyLightSettings& settings);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int batchCount() const { return int(batchEnd_.size()); }
+  float clampBound() const { return clamp_; }
+  size_t lightsProcessed() const { return processed_; }
+  // Adds batch b (0-based, in order). Returns false if *stop was set, in which
+  // case the batch is discarded and the renderer keeps its previous state.
+  bool renderBatch(int b, const std::atomic<bool>* stop = nullptr);
+  ManyLightImages images() const;
+  const ManyLightStats& stats() const { return stats_; }
+
+ private:
+  struct GatherLight;
+  const Scene& scene_;
+  const Accel& accel_;
+  const VirtualLightSet& set_;
+  const std::vector<float>& radii_;
+  ManyLightSettings settings_;
+  PathTracer direct_;
+  int width_, height_;
+  float clamp_;
+  std::vector<uint32_t> order_;   // random permutation of light indices
+  std::vector<size_t> batchEnd_;  // cumulative light counts
+  std::vector<int> directEnd_;    // cumulative direct samples
+  size_t processed_ = 0;
+  int batchesDone_ = 0;
+  enum Layer { kVsl, kVplFull, kVplFullClamped, kVplDiffuse, kVplDiffuseClamped, kLayers };
+  Film directFilm_, sharedFilm_;  // per-pass averages
+  Film gather_[kLayers];          // batch estimates weighted by batch share
+  ManyLightStats stats_;
+};
+
+// Convenience: trace lights, compute radii and render every batch.
+struct ManyLightRun {
+  VirtualLightSet set;
+  std::vector<float> radii;
+  double knnSeconds = 0;
+};
+ManyLightRun prepareManyLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                               const ManyLightSettings& settings);
+
+}  // namespace vsl

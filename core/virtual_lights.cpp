@@ -1,0 +1,204 @@
+#include "core/virtual_lights.h"
+
+#include <nanoflann.hpp>
+
+#include <chrono>
+#include <sstream>
+
+#include "core/parallel.h"
+#include "core/rng.h"
+
+namespace vsl {
+
+// ---- Compact encodings -------------------------------------------------------
+
+namespace {
+inline uint16_t toUnorm16(float v) { return uint16_t(std::lround(clamp(v, 0.0f, 1.0f) * 65535.0f)); }
+inline float fromUnorm16(uint16_t v) { return v / 65535.0f; }
+inline float signNotZero(float v) { return v >= 0 ? 1.0f : -1.0f; }
+inline uint16_t toSnorm16(float v) { return uint16_t(std::lround((clamp(v, -1.0f, 1.0f) * 0.5f + 0.5f) * 65535.0f)); }
+inline float fromSnorm16(uint16_t v) { return v / 65535.0f * 2.0f - 1.0f; }
+}  // namespace
+
+uint32_t encodeUnit(const Vec3& v) {
+  float l1 = std::abs(v.x) + std::abs(v.y) + std::abs(v.z);
+  if (!(l1 > 0)) return encodeUnit(Vec3(0, 0, 1));
+  float x = v.x / l1, y = v.y / l1;
+  if (v.z < 0) {
+    float ox = (1 - std::abs(y)) * signNotZero(x), oy = (1 - std::abs(x)) * signNotZero(y);
+    x = ox;
+    y = oy;
+  }
+  return uint32_t(toSnorm16(x)) | (uint32_t(toSnorm16(y)) << 16);
+}
+
+Vec3 decodeUnit(uint32_t e) {
+  float x = fromSnorm16(uint16_t(e & 0xffff)), y = fromSnorm16(uint16_t(e >> 16));
+  Vec3 v(x, y, 1 - std::abs(x) - std::abs(y));
+  if (v.z < 0) {
+    float ox = (1 - std::abs(v.y)) * signNotZero(v.x), oy = (1 - std::abs(v.x)) * signNotZero(v.y);
+    v.x = ox;
+    v.y = oy;
+  }
+  return normalize(v);
+}
+
+Brdf VirtualLight::brdf() const {
+  Brdf b;
+  b.baseColor = Vec3(fromUnorm16(base[0]), fromUnorm16(base[1]), fromUnorm16(base[2]));
+  b.metallic = fromUnorm16(metallic);
+  b.specularWeight = fromUnorm16(specular);
+  b.ggx.ax = std::max(sqr(fromUnorm16(roughX)), kMinAlpha);
+  b.ggx.ay = std::max(sqr(fromUnorm16(roughY)), kMinAlpha);
+  return b;
+}
+
+std::string LightTracingSettings::validate() const {
+  std::ostringstream e;
+  if (count < 1 || count > 50'000'000)
+    e << "lights: must be in [1,50000000] (got " << count << ")";
+  else if (maxDepth < 1 || maxDepth > 1024)
+    e << "light max depth: must be in [1,1024] (got " << maxDepth << ")";
+  else if (rrDepth < 1)
+    e << "light rr depth: must be >= 1 (got " << rrDepth << ")";
+  return e.str();
+}
+
+// ---- Light tracing -------------------------------------------------------------
+
+namespace {
+
+struct PathResult {
+  std::vector<VirtualLight> lights;
+  uint64_t rays = 0, nonFinite = 0;
+};
+
+// Traces light path `index` and appends its virtual lights (flux not yet
+// divided by the path count).
+void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                  const LightTracingSettings& settings, uint64_t index, PathResult& out) {
+  Rng rng = Rng::forItem(index, 0, 1, settings.seed);
+  float uLight = rng.uniform();
+  Vec2 uPos{rng.uniform(), rng.uniform()}, uDir{rng.uniform(), rng.uniform()};
+  std::optional<EmissionSample> e = lights.sampleLe(uLight, uPos, uDir);
+  if (!e) return;
+  Vec3 beta = e->beta;
+  Ray ray;
+  ray.o = isBlack(e->n) ? e->p : offsetRayOrigin(e->p, e->n, e->w);
+  ray.d = e->w;
+  for (int depth = 1; depth <= settings.maxDepth; ++depth) {
+    ++out.rays;
+    std::optional<Hit> hit = accel.intersect(ray);
+    if (!hit) break;
+    SurfaceHit sh = scene.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
+    Vec3 wo = -ray.d;  // toward the previous vertex
+    Brdf brdf = scene.brdf(sh);
+    Vec3 woL = sh.shading.toLocal(wo);
+    if (woL.z <= 0) break;
+    if (!isFinite(beta)) {
+      ++out.nonFinite;
+      break;
+    }
+    // Deposit a virtual light.
+    VirtualLight v;
+    v.p = sh.p;
+    v.Phi = beta;
+    v.n = encodeUnit(sh.shading.n);
+    v.s = encodeUnit(sh.shading.s);
+    v.wi = encodeUnit(wo);
+    v.ng = encodeUnit(sh.ng);
+    for (int c = 0; c < 3; ++c) v.base[c] = toUnorm16(brdf.baseColor[c]);
+    v.metallic = toUnorm16(brdf.metallic);
+    v.roughX = toUnorm16(std::sqrt(brdf.ggx.ax));
+    v.roughY = toUnorm16(std::sqrt(brdf.ggx.ay));
+    v.specular = toUnorm16(brdf.specularWeight);
+    v.depth = uint16_t(std::min(depth, 65535));
+    out.lights.push_back(v);
+
+    // Continue by BRDF sampling (the adjoint of a reciprocal BRDF is itself).
+    std::optional<BrdfSample> bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
+    if (!bs) break;
+    Vec3 wi = sh.shading.toWorld(bs->wi);
+    if (dot(wi, sh.ng) <= 0) break;
+    beta *= bs->f * (bs->wi.z / bs->pdf);
+    if (depth >= settings.rrDepth) {
+      float q = std::min(0.95f, maxComponent(beta) / std::max(maxComponent(e->beta), 1e-30f));
+      if (rng.uniform() >= q) break;
+      beta /= q;
+    }
+    ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
+    ray.d = wi;
+    ray.tMin = 0;
+    ray.tMax = kInf;
+  }
+}
+
+}  // namespace
+
+VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                   const LightTracingSettings& settings) {
+  auto t0 = std::chrono::steady_clock::now();
+  VirtualLightSet set;
+  if (lights.empty()) return set;
+  // Trace chunks of paths in parallel; append whole paths in path order until
+  // the target count is reached, so the set does not depend on threads.
+  const uint64_t chunk = 4096;
+  uint64_t next = 0;
+  // Paths that deposit nothing (they escape) still count; stop if nothing
+  // deposits at all (an open scene seen by no light).
+  uint64_t emptyChunks = 0;
+  while (set.lights.size() < settings.count && emptyChunks < 64) {
+    std::vector<PathResult> results(chunk);
+    parallelFor(size_t(chunk), [&](size_t i) { traceOnePath(scene, accel, lights, settings, next + i, results[i]); });
+    size_t before = set.lights.size();
+    for (uint64_t i = 0; i < chunk && set.lights.size() < settings.count; ++i) {
+      set.lights.insert(set.lights.end(), results[i].lights.begin(), results[i].lights.end());
+      set.rays += results[i].rays;
+      set.nonFiniteRejected += results[i].nonFinite;
+      ++set.paths;
+    }
+    emptyChunks = set.lights.size() == before ? emptyChunks + 1 : 0;
+    next += chunk;
+  }
+  const float inv = set.paths ? 1.0f / float(set.paths) : 0.0f;
+  for (VirtualLight& v : set.lights) v.Phi *= inv;
+  set.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return set;
+}
+
+// ---- k-nearest-neighbour radii -------------------------------------------------
+
+namespace {
+struct LightCloud {
+  const std::vector<VirtualLight>& lights;
+  size_t kdtree_get_point_count() const { return lights.size(); }
+  float kdtree_get_pt(size_t i, size_t dim) const { return lights[i].p[int(dim)]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const {
+    return false;
+  }
+};
+using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, LightCloud>, LightCloud, 3>;
+}  // namespace
+
+std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, float scale, float fallback,
+                            float minRadius) {
+  std::vector<float> radii(lights.size(), std::max(scale * fallback, minRadius));
+  if (lights.size() < 2 || k < 1) return radii;
+  LightCloud cloud{lights};
+  KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  const size_t want = std::min<size_t>(size_t(k) + 1, lights.size());  // the light itself is its own 0th neighbour
+  parallelFor((lights.size() + 1023) / 1024, [&](size_t c) {
+    std::vector<uint32_t> idx(want);
+    std::vector<float> d2(want);
+    for (size_t i = c * 1024; i < std::min(lights.size(), (c + 1) * 1024); ++i) {
+      float q[3] = {lights[i].p.x, lights[i].p.y, lights[i].p.z};
+      size_t found = tree.knnSearch(q, want, idx.data(), d2.data());
+      float r = found > 0 ? scale * std::sqrt(d2[found - 1]) : scale * fallback;
+      radii[i] = std::isfinite(r) && r > minRadius ? r : minRadius;
+    }
+  });
+  return radii;
+}
+
+}  // namespace vsl

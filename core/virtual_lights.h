@@ -1,0 +1,80 @@
+// Light tracing into an immutable VirtualLightSet (instant radiosity, step 1),
+// and the per-light radii that turn virtual point lights into virtual
+// spherical lights.
+//
+// Paths start on emitters chosen in proportion to power (area lights: uniform
+// point, cosine-weighted direction; point lights: uniform sphere; spots:
+// uniform cone weighted by the falloff) and continue by BRDF sampling with
+// Russian roulette. A virtual light is deposited at every surface vertex a
+// path reaches after leaving the emitter (the emitter's own vertex is direct
+// light, which every method computes the same way). Its flux is the path
+// throughput divided by its pdf and by the number of paths traced, so the sum
+// over lights is an unbiased estimate of the light's transport.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/accel.h"
+#include "core/lights.h"
+#include "core/material.h"
+
+namespace vsl {
+
+// Unit vectors in 32 bits (octahedral map, 16 bits per axis; error < 1e-4 rad).
+uint32_t encodeUnit(const Vec3& v);
+Vec3 decodeUnit(uint32_t e);
+
+// One virtual light, 56 bytes. The BRDF at the light is stored resolved
+// (textures applied) so that gathering never touches the scene's materials.
+struct VirtualLight {
+  Vec3 p;             // position
+  Vec3 Phi;           // flux carried by the light path (W), already divided by the path count
+  uint32_t n;         // shading normal (encodeUnit), facing the side the path arrived from
+  uint32_t s;         // shading tangent (anisotropy direction)
+  uint32_t wi;        // unit direction toward the previous path vertex
+  uint32_t ng;        // geometric normal, same side as n
+  uint16_t base[3];   // base colour, unorm16
+  uint16_t metallic;  // unorm16
+  uint16_t roughX;    // sqrt(alpha_x), unorm16
+  uint16_t roughY;    // sqrt(alpha_y), unorm16
+  uint16_t specular;  // specularWeight, unorm16
+  uint16_t depth;     // scattering vertices on the path so far (1 = first hit)
+
+  Brdf brdf() const;
+  Frame frame() const { return Frame(decodeUnit(n), decodeUnit(s)); }
+};
+static_assert(sizeof(VirtualLight) == 56, "VirtualLight should stay 56 bytes");
+
+struct LightTracingSettings {
+  uint32_t count = 10000;  // target number of virtual lights (whole paths are kept)
+  uint64_t seed = 0;
+  int maxDepth = 16;  // maximum scattering vertices per light path
+  int rrDepth = 2;    // Russian roulette from this depth on
+  std::string validate() const;
+};
+
+struct VirtualLightSet {
+  std::vector<VirtualLight> lights;
+  uint64_t paths = 0;  // light paths traced (the flux normaliser)
+  uint64_t rays = 0;
+  uint64_t nonFiniteRejected = 0;
+  double seconds = 0;
+  size_t bytes() const { return lights.size() * sizeof(VirtualLight); }
+};
+
+// Traces light paths until at least settings.count virtual lights exist.
+// Deterministic for a given seed, independent of thread count. An empty set
+// is returned when the scene has no lights.
+VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                   const LightTracingSettings& settings);
+
+// r_i = scale x (distance to the k-th nearest other light), via a k-d tree.
+// With fewer than k+1 lights, k shrinks to what exists; a single light gets
+// scale x fallback. Non-finite or zero distances give the smallest positive
+// radius `minRadius`.
+std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, float scale, float fallback,
+                            float minRadius);
+
+}  // namespace vsl

@@ -1,0 +1,65 @@
+#include "core/vsl_integral.h"
+
+#include "core/sampling.h"
+
+namespace vsl {
+
+double vslConeOneMinusCos(double r, double d) {
+  if (!(d > r)) return 1.0;
+  double s2 = (r / d) * (r / d);
+  return s2 / (1.0 + std::sqrt(1.0 - s2));
+}
+
+int vslAutoSamples(double oneMinusCos) { return std::max(1, int(std::lround(33.0 * oneMinusCos))); }
+
+VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
+                      int samplesPerStrategy, Rng& rng) {
+  VslResult res;
+  double d = length(toLight);
+  // The cone's axis; a point exactly at the light looks along its normal.
+  Vec3 axis = d > 0 ? toLight / float(d) : x.frame.n;
+  double omc = vslConeOneMinusCos(radius, d);
+  int n = samplesPerStrategy > 0 ? samplesPerStrategy : vslAutoSamples(omc);
+  double pdfCone = 1.0 / (2.0 * M_PI * omc);
+  Frame coneFrame(axis);
+  // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
+  auto inCone = [&](const Vec3& l) { return 0.5 * double(lengthSquared(l - axis)) <= omc; };
+
+  double sum[3] = {0, 0, 0};
+  // Cone samples are inside by construction (re-testing them in float would
+  // reject some near the rim of tiny cones).
+  auto accumulate = [&](const Vec3& l, bool coneSample) {
+    ++res.evaluations;
+    if ((!coneSample && !inCone(l)) || dot(l, x.ng) <= 0) return;
+    Vec3 lx = x.frame.toLocal(l), lp = p.frame.toLocal(-l);
+    if (lx.z <= 0 || lp.z <= 0) return;
+    Vec3 f = x.brdf.eval(x.woLocal, lx) * p.brdf.eval(p.wiLocal, lp) * (lx.z * lp.z);
+    if (isBlack(f)) return;
+    double pdfSum = pdfCone + double(x.brdf.pdf(x.woLocal, lx)) + double(p.brdf.pdf(p.wiLocal, lp));
+    if (!(pdfSum > 0)) return;
+    for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
+  };
+
+  for (int i = 0; i < n; ++i) {
+    // Strategy 1: uniform in the cone.
+    accumulate(coneFrame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true);
+    // Strategy 2: the receiver's BRDF.
+    if (auto s = x.brdf.sample(x.woLocal, rng.uniform(), {rng.uniform(), rng.uniform()}))
+      accumulate(x.frame.toWorld(s->wi), false);
+    else
+      ++res.evaluations;
+    // Strategy 3: the light's BRDF about its incoming direction (emission
+    // leaves p along w; the receiver sees it along l = -w).
+    if (auto s = p.brdf.sample(p.wiLocal, rng.uniform(), {rng.uniform(), rng.uniform()}))
+      accumulate(-p.frame.toWorld(s->wi), false);
+    else
+      ++res.evaluations;
+  }
+  // Balance heuristic with n samples per strategy: (1/n) sum f / sum_j pdf_j.
+  double norm = 1.0 / (double(n) * M_PI * radius * radius);
+  Vec3 t(float(sum[0] * norm), float(sum[1] * norm), float(sum[2] * norm));
+  res.transfer = isFinite(t) ? t : Vec3(0.0f);
+  return res;
+}
+
+}  // namespace vsl
