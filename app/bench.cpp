@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/image_io.h"
+#include "core/many_light.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
 #include "core/rng.h"
@@ -130,6 +131,40 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
   std::printf("path tracer rays/s         %.3f M  (%.2f rays/path)\n", raysRate * 1e-6, double(c.rays) / c.paths);
   std::printf("ratio PT rays/s : raw      %.3f\n", raysRate / rawRate);
   (void)ptCalls;
+
+  // Many-light gather: VPL only and VSL only, one light set, one batch each.
+  struct GatherResult {
+    std::string name;
+    uint32_t lights;
+    int size;
+    double pairsPerSecond, raysPerSecond, seconds;
+  };
+  std::vector<GatherResult> gathers;
+  auto gather = [&](const std::string& name, bool vsl, uint32_t n, int sz) {
+    ManyLightSettings m;
+    m.lights = n;
+    m.width = m.height = sz;
+    m.batches = 1;
+    m.directSamples = 1;
+    m.computeVsl = vsl;
+    m.computeVpl = !vsl;
+    ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
+    ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
+    auto t0 = Clock::now();
+    r.renderBatch(0);
+    double sec = std::chrono::duration<double>(Clock::now() - t0).count();
+    const ManyLightStats& st = r.stats();
+    gathers.push_back({name, uint32_t(run.set.lights.size()), sz, st.pairs / sec, st.shadowRays / sec, sec});
+    std::printf("%-4s gather %7u lights %4dx%-4d %7.3f M pairs/s  %7.3f M rays/s  ratio rays/raw %.3f  %.2f s/batch\n",
+                name.c_str(), uint32_t(run.set.lights.size()), sz, sz, st.pairs / sec * 1e-6,
+                st.shadowRays / sec * 1e-6, st.shadowRays / sec / rawRate, sec);
+  };
+  for (bool vsl : {false, true}) {
+    const char* name = vsl ? "VSL" : "VPL";
+    gather(name, vsl, 1000, size / 2);
+    gather(name, vsl, 4000, size / 2);
+    gather(name, vsl, 1000, size);
+  }
   if (!jsonPath.empty()) {
     nlohmann::json j = {{"scene", scenePath},
                         {"triangles", scene.triangleCount()},
@@ -139,6 +174,14 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
                         {"ptRaysPerSecond", raysRate},
                         {"ptRaysPerPath", double(c.rays) / c.paths},
                         {"ratioPtRaysToRawOccluded", raysRate / rawRate}};
+    for (const auto& g : gathers)
+      j["gather"].push_back({{"method", g.name},
+                             {"lights", g.lights},
+                             {"size", g.size},
+                             {"pairsPerSecond", g.pairsPerSecond},
+                             {"shadowRaysPerSecond", g.raysPerSecond},
+                             {"ratioRaysToRawOccluded", g.raysPerSecond / rawRate},
+                             {"secondsPerBatch", g.seconds}});
     if (!writeTextFile(jsonPath, j.dump(2) + "\n", &err)) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
