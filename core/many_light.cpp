@@ -93,21 +93,25 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
   float R = std::max(scene.boundingRadius(), 1e-6f);
   clamp_ = settings.clamp < 0 ? 1.0f / (kPi * kPi * sqr(0.1f * R)) : settings.clamp;
 
-  // Random order, then geometrically growing batches (sizes ~ 2^b).
+  // Random order, then batches whose sizes double up to a cap and then stay
+  // constant: weights 2^min(b, B/2). The first picture comes quickly and no
+  // single batch holds more than a modest share of the work.
   size_t N = set.lights.size();
   order_.resize(N);
   std::iota(order_.begin(), order_.end(), 0u);
   Rng rng(settings.seed, 99);
   for (size_t i = N; i > 1; --i) std::swap(order_[i - 1], order_[rng.uniformInt(uint32_t(i))]);
   int B = int(std::min<size_t>(size_t(settings.batches), std::max<size_t>(N, 1)));
-  double total = std::ldexp(1.0, B) - 1;
+  std::vector<double> cumulative(B + 1, 0.0);
+  for (int b = 0; b < B; ++b) cumulative[b + 1] = cumulative[b] + std::ldexp(1.0, std::min(b, B / 2));
+  const double total = cumulative[B];
   size_t prev = 0;
   for (int b = 0; b < B; ++b) {
-    size_t end = b + 1 == B ? N : std::max(prev + 1, size_t(std::llround(N * (std::ldexp(1.0, b + 1) - 1) / total)));
+    double share = cumulative[b + 1] / total;
+    size_t end = b + 1 == B ? N : std::max(prev + 1, size_t(std::llround(N * share)));
     end = std::min(end, N);
-    if (N == 0) end = 0;
     batchEnd_.push_back(end);
-    int dEnd = std::max(b + 1, int(std::lround(settings.directSamples * (std::ldexp(1.0, b + 1) - 1) / total)));
+    int dEnd = std::max(b + 1, int(std::lround(settings.directSamples * share)));
     directEnd_.push_back(std::max(dEnd, directEnd_.empty() ? 1 : directEnd_.back() + 1));
     prev = end;
   }
@@ -369,13 +373,13 @@ ManyLightImages ManyLightRenderer::images() const {
 // ---- [6] prepareManyLights --------------------------------------------------------
 
 ManyLightRun prepareManyLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
-                               const ManyLightSettings& settings) {
+                               const ManyLightSettings& settings, const std::atomic<bool>* stop) {
   ManyLightRun run;
   LightTracingSettings lt;
   lt.count = settings.lights;
   lt.seed = settings.seed;
   lt.maxDepth = settings.lightMaxDepth;
-  run.set = traceVirtualLights(scene, accel, lights, lt);
+  run.set = traceVirtualLights(scene, accel, lights, lt, stop);
   auto t0 = std::chrono::steady_clock::now();
   float R = std::max(scene.boundingRadius(), 1e-6f);
   if (settings.globalRadius > 0) {

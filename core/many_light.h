@@ -128,6 +128,6 @@ struct ManyLightRun {
   double knnSeconds = 0;
 };
 ManyLightRun prepareManyLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
-                               const ManyLightSettings& settings);
+                               const ManyLightSettings& settings, const std::atomic<bool>* stop = nullptr);
 
 }  // namespace vsl

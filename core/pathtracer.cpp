@@ -116,8 +116,8 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
   }
 }
 
-bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters,
-                            const std::atomic<bool>* stop) const {
+bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters, const std::atomic<bool>* stop,
+                            std::vector<double>* indirectSquares) const {
   constexpr int kTile = 16;
   const int tilesX = (width_ + kTile - 1) / kTile, tilesY = (height_ + kTile - 1) / kTile;
   std::atomic<bool> stopped{false};
@@ -136,6 +136,7 @@ bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& 
         samplePixel(x, y, pass, Ld, Li, rays, nonFinite);
         direct.add(x, y, Ld);
         indirect.add(x, y, Li);
+        if (indirectSquares) (*indirectSquares)[size_t(y) * width_ + x] += sqr((double(Li.x) + Li.y + Li.z) / 3);
         ++paths;
       }
     counters.rays.fetch_add(rays, std::memory_order_relaxed);

@@ -14,6 +14,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <vector>
 
 #include "core/accel.h"
 #include "core/film.h"
@@ -39,8 +40,10 @@ class PathTracer {
   // Adds one sample per pixel (sample index `pass`) to the two films.
   // Returns false if *stop became true (checked between 16x16 tiles); the
   // pass is then incomplete and the films should be discarded.
-  bool renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters,
-                  const std::atomic<bool>* stop = nullptr) const;
+  // indirectSquares (optional, width*height entries) accumulates the squared
+  // grey value of each indirect sample, for variance estimates.
+  bool renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters, const std::atomic<bool>* stop = nullptr,
+                  std::vector<double>* indirectSquares = nullptr) const;
 
   // One path for pixel (x, y), sample index s. Returns direct and indirect
   // radiance (both finite; rejected parts are counted in counters).

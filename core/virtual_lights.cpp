@@ -136,7 +136,7 @@ void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& li
 }  // namespace
 
 VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
-                                   const LightTracingSettings& settings) {
+                                   const LightTracingSettings& settings, const std::atomic<bool>* stop) {
   auto t0 = std::chrono::steady_clock::now();
   VirtualLightSet set;
   if (lights.empty()) return set;
@@ -148,6 +148,10 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
   // deposits at all (an open scene seen by no light).
   uint64_t emptyChunks = 0;
   while (set.lights.size() < settings.count && emptyChunks < 64) {
+    if (stop && stop->load(std::memory_order_relaxed)) {
+      set.stopped = true;
+      break;
+    }
     std::vector<PathResult> results(chunk);
     parallelFor(size_t(chunk), [&](size_t i) { traceOnePath(scene, accel, lights, settings, next + i, results[i]); });
     size_t before = set.lights.size();

@@ -12,6 +12,7 @@
 // over lights is an unbiased estimate of the light's transport.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -61,14 +62,17 @@ struct VirtualLightSet {
   uint64_t rays = 0;
   uint64_t nonFiniteRejected = 0;
   double seconds = 0;
+  bool stopped = false;
   size_t bytes() const { return lights.size() * sizeof(VirtualLight); }
 };
 
 // Traces light paths until at least settings.count virtual lights exist.
 // Deterministic for a given seed, independent of thread count. An empty set
 // is returned when the scene has no lights.
+// If *stop becomes true, tracing ends early (between chunks of paths) and the
+// partial set is returned with `stopped` set.
 VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
-                                   const LightTracingSettings& settings);
+                                   const LightTracingSettings& settings, const std::atomic<bool>* stop = nullptr);
 
 // r_i = scale x (distance to the k-th nearest other light), via a k-d tree.
 // With fewer than k+1 lights, k shrinks to what exists; a single light gets
