@@ -1,0 +1,116 @@
+// The vsl-studio user interface: ImGui panels and GL image views over a
+// background Session. frame() builds the UI for one frame and never waits for
+// rendering: it pulls the newest snapshot (if any) and uploads only the
+// textures that changed. Only the UI thread calls into this class.
+#pragma once
+
+#include <imgui.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/compare.h"
+#include "core/session.h"
+#include "ui/gl_image.h"
+
+namespace vsl::ui {
+
+// What a view panel shows.
+enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostClamping, LostDiffuse, Count };
+enum class Display : int { Image, Error, Signed };
+enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSquared };
+enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
+
+const char* sourceName(Source s);
+
+struct StudioOptions {
+  std::string scene;                 // initial scene
+  std::vector<std::string> bundled;  // bundled scene paths for the picker
+  std::string exportDir = "vsl-export";
+  bool startSession = true;  // false: tests inject snapshots
+  StudioSettings settings;   // initial render settings (scene is filled in)
+};
+
+struct ViewState {
+  ViewMode mode = ViewMode::SideBySide3;
+  Source panels[3] = {Source::Vsl, Source::Vpl, Source::Reference};
+  Display display = Display::Image;
+  ErrorMetric metric = ErrorMetric::RelativeAbsolute;
+  Component component = Component::Indirect;
+  float exposure = 0;         // stops
+  float errorScale = 0;       // colour-map maximum; 0 = automatic (99th percentile)
+  float wipe = 0.5f;          // split position in [0,1]
+  float zoom = 1;             // 1 = fit
+  ImVec2 center{0.5f, 0.5f};  // image point at the view centre (UV)
+};
+
+class Studio {
+ public:
+  explicit Studio(const StudioOptions& options);
+  ~Studio();
+
+  // Builds the UI (between ImGui::NewFrame and ImGui::Render).
+  void frame();
+  // After the frame is rendered into the bound framebuffer: performs a
+  // pending "save view as PNG" (reads back the view area).
+  void afterRender(int framebufferWidth, int framebufferHeight);
+
+  void openScene(const std::string& path);
+  // Writes EXR (every image and error map), JSON (settings, metrics,
+  // timings, version) and a PNG of the current view's images to dir.
+  bool exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written = nullptr);
+
+  std::shared_ptr<const Snapshot> snapshot() const { return snap_; }
+  Session* session() { return session_.get(); }
+  ViewState& view() { return view_; }
+  void setSnapshotForTesting(std::shared_ptr<const Snapshot> s);
+
+  // Screen rectangles of the images drawn in the last frame (for tests and
+  // for saving the view).
+  struct DrawnImage {
+    ImVec2 p0, p1;    // screen rectangle
+    ImVec2 uv0, uv1;  // texture coordinates at p0 and p1
+    Source source;
+  };
+  const std::vector<DrawnImage>& drawnImages() const { return drawn_; }
+  ImVec2 viewAreaMin() const { return viewMin_; }
+  ImVec2 viewAreaMax() const { return viewMax_; }
+
+ private:
+  void controlsPanel();
+  void viewsPanel();
+  void metricsPanel();
+  void logPanel();
+  void plotErrors(const ImVec2& size);
+  void restart();
+  void pullSnapshot();
+  void updateTextures();
+  const Image* componentImage(Source s, Component c, Image& scratch) const;
+  const Image* referenceImage(Component c, Image& scratch) const;
+  void legend(float vmax);
+
+  StudioOptions options_;
+  StudioSettings settings_;
+  std::unique_ptr<Session> session_;
+  std::shared_ptr<const Snapshot> snap_;
+  uint64_t serial_ = 0;
+  ViewState view_;
+  ViewState uploaded_;  // the view state the textures were built for
+  bool texturesDirty_ = true;
+  FloatTexture textures_[int(Source::Count)];
+  float autoScale_[int(Source::Count)] = {};
+  std::vector<DrawnImage> drawn_;
+  ImVec2 viewMin_, viewMax_;
+  // Controls that are not settings values.
+  std::string scenePath_, exportDir_;
+  bool clampOff_ = false, clampAuto_ = true, vslAuto_ = true, globalRadius_ = false;
+  float clampValue_ = 1;
+  std::string message_, errorDialog_;
+  uint64_t seenLoadErrors_ = 0;
+  bool savePngPending_ = false;
+  std::string savePngPath_;
+  double lastFrameMs_ = 0;
+};
+
+}  // namespace vsl::ui
