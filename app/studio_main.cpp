@@ -182,9 +182,12 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
     gStudio = &studio;
     glfwSetDropCallback(win, onDrop);
     Script script{a};
+    double busyMs = 0;
+    int frames = 0;
     for (int frame = 0; !glfwWindowShouldClose(win); ++frame) {
       auto t0 = Clock::now();
       glfwPollEvents();
+      if (ImGui::GetIO().KeyCtrl && ImGui::IsKeyPressed('Q')) glfwSetWindowShouldClose(win, 1);  // Ctrl+Q quits
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
@@ -199,10 +202,15 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
       studio.afterRender(fbw, fbh);
       if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
       glfwSwapBuffers(win);
+      busyMs += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      ++frames;
       // Cap the UI at ~60 frames per second so the renderer keeps the cores.
       std::this_thread::sleep_until(t0 + std::chrono::milliseconds(16));
     }
     gStudio = nullptr;
+    if (frames > 0)
+      std::fprintf(stderr, "vsl-studio: %d frames, mean UI frame time %.1f ms (events, UI, GL render, swap)\n", frames,
+                   busyMs / frames);
   }
   ui::shutdown();
   ImGui_ImplOpenGL3_Shutdown();

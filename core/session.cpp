@@ -98,6 +98,13 @@ void Session::run() {
   std::unique_ptr<Accel> accel;
   std::unique_ptr<LightSampler> lights;
   std::string scenePath;
+  struct Reference {
+    std::string key;  // scene and resolution
+    Film direct, indirect;
+    std::vector<double> squares;
+    int spp = 0;
+    double seconds = 0;
+  } ref;
 
   while (true) {
     StudioSettings s;
@@ -156,20 +163,33 @@ void Session::run() {
     ManyLightRun prep = prepareManyLights(*scene, *accel, *lights, s.many, &stop_);
     if (stopped()) continue;
     ManyLightRenderer ml(*scene, *accel, *lights, prep.set, prep.radii, s.many);
+    // The reference depends only on the scene and the resolution: it keeps
+    // converging across restarts that change the many-light settings.
     RenderSettings rs;
     rs.width = ml.width();
     rs.height = ml.height();
-    rs.seed = s.many.seed;
+    rs.seed = 0;
+    std::string refKey = scenePath + "|" + std::to_string(rs.width) + "x" + std::to_string(rs.height);
+    if (ref.key != refKey) {
+      ref = Reference();
+      ref.key = refKey;
+      ref.direct = Film(rs.width, rs.height);
+      ref.indirect = Film(rs.width, rs.height);
+      ref.squares.assign(size_t(rs.width) * rs.height, 0.0);
+    }
     PathTracer pt(*scene, *accel, *lights, rs);
-    Film ptDirect(rs.width, rs.height), ptIndirect(rs.width, rs.height);
-    std::vector<double> ptSquares(size_t(rs.width) * rs.height, 0.0);
+    Film& ptDirect = ref.direct;
+    Film& ptIndirect = ref.indirect;
+    std::vector<double>& ptSquares = ref.squares;
     PtCounters ptCounters;
     setStage("rendering");
 
     // ---- Interleave: equal time for the many-light methods and the reference.
     std::vector<ErrorSample> history;
-    double mlSeconds = prep.set.seconds + prep.knnSeconds, ptSeconds = 0;
-    int batch = 0, spp = 0;
+    double mlSeconds = prep.set.seconds + prep.knnSeconds, ptStart = ref.seconds;
+    double& ptSeconds = ref.seconds;
+    int& spp = ref.spp;
+    int batch = 0;
     while (!stopped()) {
       bool progressed = false;
       if (batch < ml.batchCount()) {
@@ -179,15 +199,18 @@ void Session::run() {
         ++batch;
         progressed = true;
       }
-      // The reference catches up in wall time (one pass at least per step).
+      // The reference catches up to the many-light methods' compute time (at
+      // least one pass per step), so the error-vs-time plot compares equal time.
       bool ptStep = false;
-      while (spp < s.maxReferenceSpp && !stopped() && (!ptStep || ptSeconds < mlSeconds)) {
+      while (spp < s.maxReferenceSpp && !stopped() && (!ptStep || ptSeconds - ptStart < mlSeconds)) {
         auto tp = Clock::now();
-        if (!pt.renderPass(spp, ptDirect, ptIndirect, ptCounters, &stop_, &ptSquares)) break;
+        if (!pt.renderPass(spp, ptDirect, ptIndirect, ptCounters, &stop_, &ptSquares)) {
+          ++spp;  // some pixels have this sample: never reuse its index
+          break;
+        }
         ptSeconds += since(tp);
         ++spp;
         ptStep = progressed = true;
-        if (batch < ml.batchCount()) break;  // keep batches flowing while the many-light render runs
       }
       if (stopped() || !progressed) break;
 
@@ -218,8 +241,10 @@ void Session::run() {
       double ptErr = 0;
       size_t np = ptSquares.size();
       for (size_t i = 0; i < np && spp > 0; ++i) {
+        // Per-pixel sample counts can differ by one after a cancelled pass.
+        double n = std::max(ptIndirect.weight(int(i % rs.width), int(i / rs.width)), 1.0);
         double m = grey(snap->ptIndirect, i);
-        double var = std::max(ptSquares[i] / spp - m * m, 0.0) / spp;
+        double var = std::max(ptSquares[i] / n - m * m, 0.0) / n;
         ptErr += var / (m * m + 1e-2);
       }
       e.pt = np ? ptErr / double(np) : 0;

@@ -96,7 +96,8 @@ void Studio::restart() {
     settings_.many.globalRadius = 0;
   else if (settings_.many.globalRadius <= 0)
     settings_.many.globalRadius = 0.02f;
-  if (session_->restart(settings_, &err) == 0) {
+  restartedAt_ = std::chrono::steady_clock::now();
+  if ((restartGeneration_ = session_->restart(settings_, &err)) == 0) {
     message_ = "settings rejected: " + err;
     log::error(message_);
   }
@@ -119,6 +120,18 @@ void Studio::pullSnapshot() {
   if (!session_) return;
   if (auto s = session_->latest(serial_)) {
     serial_ = s->serial;
+    if (s->generation != firstPictureGeneration_ && s->generation == restartGeneration_) {
+      // The first picture of this generation: how long the user waited.
+      firstPictureGeneration_ = s->generation;
+      auto now = std::chrono::steady_clock::now();
+      restartToPictureMs_ = std::chrono::duration<double, std::milli>(now - restartedAt_).count();
+      if (launchToPictureMs_ < 0) {
+        launchToPictureMs_ = std::chrono::duration<double, std::milli>(now - created_).count();
+        log::info("first picture " + std::to_string(int(launchToPictureMs_)) + " ms after launch");
+      }
+      log::info("generation " + std::to_string(s->generation) + ": first picture " +
+                std::to_string(int(restartToPictureMs_)) + " ms after the settings changed");
+    }
     snap_ = std::move(s);
     texturesDirty_ = true;
   }
@@ -435,14 +448,21 @@ void Studio::viewsPanel() {
   view_.center.y = std::clamp(view_.center.y, half, 1 - half);
   ImVec2 uv0(view_.center.x - half, view_.center.y - half), uv1(view_.center.x + half, view_.center.y + half);
 
+  // One colour scale for every map on screen, so panels compare fairly.
+  auto isMethod = [](Source s) {
+    return s != Source::Reference && s != Source::LostClamping && s != Source::LostDiffuse;
+  };
+  float sharedMax = 0;
+  for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
+    if (isMethod(view_.panels[i])) sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
+  const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
   auto params = [&](Source s) {
     DisplayParams p;
-    bool isMethod = s != Source::Reference && s != Source::LostClamping && s != Source::LostDiffuse;
-    if (!maps || !isMethod) {
+    if (!maps || !isMethod(s)) {
       p.mode = DisplayMode::Tonemap;
       p.scale = std::exp2(view_.exposure);
     } else {
-      float vmax = view_.errorScale > 0 ? view_.errorScale : autoScale_[int(s)];
+      float vmax = mapMax;
       p.mode = view_.display == Display::Error ? DisplayMode::FalseColour : DisplayMode::Signed;
       p.scale = 1.0f / std::max(vmax, 1e-12f);
     }
@@ -488,8 +508,7 @@ void Studio::viewsPanel() {
   }
   if (maps) {
     ImGui::SetCursorScreenPos(ImVec2(origin.x, origin.y + labelH + h + 6));
-    float vmax = view_.errorScale > 0 ? view_.errorScale : autoScale_[int(view_.panels[0])];
-    legend(vmax);
+    legend(mapMax);
   }
 }
 
@@ -538,8 +557,10 @@ void Studio::metricsPanel() {
               s.height, kComponentNames[int(view_.component)]);
   ImGui::Text("lights %zu / %zu  (batch %d/%d)   reference %d spp   %.1f s", s.lightsProcessed, s.lightsTotal,
               s.batchesDone, s.batchCount, s.ptSpp, s.seconds);
-  ImGui::Text("gather %.2f M pairs/s   light tracing %.2f s   non-finite rejected %llu   UI frame %.1f ms",
-              s.pairsPerSecond * 1e-6, s.lightTracingSeconds, (unsigned long long)s.nonFinite, lastFrameMs_);
+  ImGui::Text("gather %.2f M pairs/s   light tracing %.2f s   non-finite rejected %llu", s.pairsPerSecond * 1e-6,
+              s.lightTracingSeconds, (unsigned long long)s.nonFinite);
+  ImGui::Text("UI frame %.1f ms   change -> picture %.0f ms   launch -> picture %.0f ms", lastFrameMs_,
+              restartToPictureMs_, launchToPictureMs_);
   if (ImGui::BeginTable("metrics", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
     ImGui::TableSetupColumn("method vs reference");
     ImGui::TableSetupColumn("mean");

@@ -6,6 +6,7 @@
 
 #include <imgui.h>
 
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -111,6 +112,10 @@ class Studio {
   bool savePngPending_ = false;
   std::string savePngPath_;
   double lastFrameMs_ = 0;
+  // Responsiveness, measured on the UI thread.
+  std::chrono::steady_clock::time_point created_ = std::chrono::steady_clock::now(), restartedAt_ = created_;
+  uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
+  double launchToPictureMs_ = -1, restartToPictureMs_ = -1;
 };
 
 }  // namespace vsl::ui

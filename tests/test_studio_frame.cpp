@@ -1,0 +1,196 @@
+// The studio's frames, rendered headlessly through EGL: the image texture
+// appears where the view says it is, with the film's tone-mapped values, the
+// wipe split is honoured, exposure is a uniform, and error maps use the
+// stated colour map.
+#include <gtest/gtest.h>
+#include <imgui.h>
+#include <imgui_impl_opengl3.h>
+
+#include "core/compare.h"
+#include "core/image_io.h"
+#include "ui/gl.h"
+#include "ui/headless_gl.h"
+#include "ui/studio.h"
+
+using namespace vsl;
+
+namespace {
+
+constexpr int kW = 1000, kH = 700;
+
+class StudioFrame : public ::testing::Test {
+ protected:
+  ui::HeadlessGL gl;
+  std::unique_ptr<ui::Studio> studio;
+
+  void SetUp() override {
+    std::string err;
+    ASSERT_TRUE(gl.init(kW, kH, &err)) << err;
+    ImGui::CreateContext();
+    ImGuiIO& io = ImGui::GetIO();
+    io.IniFilename = nullptr;
+    io.DisplaySize = ImVec2(kW, kH);
+    ASSERT_TRUE(ImGui_ImplOpenGL3_Init("#version 330 core"));
+    ui::StudioOptions o;
+    o.scene = "synthetic";
+    o.startSession = false;
+    studio = std::make_unique<ui::Studio>(o);
+    studio->setSnapshotForTesting(makeSnapshot());
+  }
+  void TearDown() override {
+    studio.reset();
+    ui::shutdown();
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui::DestroyContext();
+  }
+
+  // VSL: a horizontal ramp in red, constant green, a vertical ramp in blue.
+  // VPL: constant 0.2. Reference indirect: constant 0.25.
+  static std::shared_ptr<Snapshot> makeSnapshot() {
+    auto s = std::make_shared<Snapshot>();
+    const int w = 64, h = 32;
+    s->width = w;
+    s->height = h;
+    s->settings.scene = "synthetic.gltf";
+    auto fill = [&](Image& img, auto f) {
+      img = Image(w, h);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) img.set(x, y, f(x, y));
+    };
+    fill(s->many.vsl, [&](int x, int y) { return Vec3(0.9f * x / (w - 1), 0.3f, 0.6f * y / (h - 1)); });
+    fill(s->many.vpl, [](int, int) { return Vec3(0.2f); });
+    fill(s->ptIndirect, [](int, int) { return Vec3(0.25f); });
+    for (Image* img : {&s->many.direct, &s->many.vplUnclamped, &s->many.vplDiffuse, &s->many.lostToClamping,
+                       &s->many.lostToDiffuse, &s->ptDirect})
+      fill(*img, [](int, int) { return Vec3(0.0f); });
+    return s;
+  }
+
+  std::vector<uint8_t> renderFrames(int frames = 3) {
+    for (int i = 0; i < frames; ++i) {
+      ImGui::GetIO().DeltaTime = 1.0f / 30;
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui::NewFrame();
+      studio->frame();
+      ImGui::Render();
+      gl.bind();
+      glClearColor(0, 0, 0, 1);
+      glClear(GL_COLOR_BUFFER_BIT);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    }
+    return gl.readPixels();
+  }
+
+  static Vec3 pixel(const std::vector<uint8_t>& px, int x, int y) {
+    const uint8_t* p = &px[(size_t(y) * kW + x) * 3];
+    return Vec3(p[0], p[1], p[2]);
+  }
+
+  // Compares screen pixels at a grid of points inside a drawn image with the
+  // expected colour of the texel under each point.
+  template <typename Expected>
+  int compareGrid(const std::vector<uint8_t>& px, const ui::Studio::DrawnImage& d, Expected expected, int tol) {
+    int bad = 0, checked = 0;
+    // Low-discrepancy points (golden-ratio sequence) inside the image, so no
+    // grid step can alias with the texel size.
+    for (int k = 0; k < 100; ++k) {
+      float fx = 0.05f + 0.9f * float(std::fmod(0.5 + k * 0.6180339887, 1.0));
+      float fy = 0.05f + 0.9f * float(std::fmod(0.3 + k * 0.7548776662, 1.0));
+      int sx = int(d.p0.x + fx * (d.p1.x - d.p0.x)), sy = int(d.p0.y + fy * (d.p1.y - d.p0.y));
+      // The texel under the pixel centre.
+      float u = d.uv0.x + (sx + 0.5f - d.p0.x) / (d.p1.x - d.p0.x) * (d.uv1.x - d.uv0.x);
+      float v = d.uv0.y + (sy + 0.5f - d.p0.y) / (d.p1.y - d.p0.y) * (d.uv1.y - d.uv0.y);
+      int tx = std::min(int(u * 64), 63), ty = std::min(int(v * 32), 31);
+      // Skip points within half a pixel of a texel edge (nearest filtering).
+      float du = u * 64 - std::floor(u * 64), dv = v * 32 - std::floor(v * 32);
+      if (du < 0.1f || du > 0.9f || dv < 0.1f || dv > 0.9f) continue;
+      Vec3 want = expected(tx, ty), got = pixel(px, sx, sy);
+      ++checked;
+      for (int c = 0; c < 3; ++c)
+        if (std::abs(got[c] - want[c]) > tol) {
+          ++bad;
+          ADD_FAILURE() << "screen (" << sx << "," << sy << ") texel (" << tx << "," << ty << ") channel " << c
+                        << ": got " << got[c] << " want " << want[c];
+          break;
+        }
+    }
+    EXPECT_GT(checked, 40) << "image at (" << d.p0.x << "," << d.p0.y << ")-(" << d.p1.x << "," << d.p1.y << ") uv ("
+                           << d.uv0.x << "," << d.uv0.y << ")-(" << d.uv1.x << "," << d.uv1.y << ")";
+    return bad;
+  }
+
+  static Vec3 srgb8(const Vec3& v) { return Vec3(toSrgb8(v.x), toSrgb8(v.y), toSrgb8(v.z)); }
+};
+
+}  // namespace
+
+TEST_F(StudioFrame, SingleViewShowsToneMappedFilmValues) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Single;
+  v.panels[0] = ui::Source::Vsl;
+  v.component = Component::Indirect;
+  v.exposure = 0;
+  auto px = renderFrames();
+  ASSERT_EQ(studio->drawnImages().size(), 1u);
+  const auto& d = studio->drawnImages()[0];
+  EXPECT_GT(d.p1.x - d.p0.x, 200);
+  const Image& img = studio->snapshot()->many.vsl;
+  EXPECT_EQ(compareGrid(
+                px, d, [&](int x, int y) { return srgb8(img.at(x, y)); }, 2),
+            0);
+
+  // Exposure is a uniform: +1 stop doubles the linear values.
+  v.exposure = 1;
+  px = renderFrames(1);
+  EXPECT_EQ(compareGrid(
+                px, studio->drawnImages()[0], [&](int x, int y) { return srgb8(img.at(x, y) * 2.0f); }, 2),
+            0);
+}
+
+TEST_F(StudioFrame, WipeSplitIsHonoured) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Wipe;
+  v.panels[0] = ui::Source::Vsl;
+  v.panels[1] = ui::Source::Vpl;
+  v.component = Component::Indirect;
+  v.exposure = 0;
+  v.wipe = 0.3f;
+  auto px = renderFrames();
+  ASSERT_EQ(studio->drawnImages().size(), 2u);
+  const auto& left = studio->drawnImages()[0];
+  const auto& right = studio->drawnImages()[1];
+  // The split sits at 30% of the image width, in screen space and in UV.
+  float width = right.p1.x - left.p0.x;
+  EXPECT_NEAR((left.p1.x - left.p0.x) / width, 0.3f, 0.01f);
+  EXPECT_NEAR(left.uv1.x, 0.3f, 1e-4f);
+  EXPECT_NEAR(right.uv0.x, 0.3f, 1e-4f);
+  const Image& vsl = studio->snapshot()->many.vsl;
+  EXPECT_EQ(compareGrid(
+                px, left, [&](int x, int y) { return srgb8(vsl.at(x, y)); }, 2),
+            0);
+  EXPECT_EQ(compareGrid(
+                px, right, [&](int, int) { return srgb8(Vec3(0.2f)); }, 2),
+            0);
+  // Just left and right of the split line (which is drawn on top).
+  int sy = int((left.p0.y + left.p1.y) / 2), sx = int(left.p1.x);
+  Vec3 l = pixel(px, sx - 4, sy), r = pixel(px, sx + 4, sy);
+  EXPECT_NEAR(r.x, toSrgb8(0.2f), 2);
+  EXPECT_GT(std::abs(l.z - r.z), 10) << "the two sides differ in blue";
+}
+
+TEST_F(StudioFrame, ErrorMapUsesTheStatedColourMap) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Single;
+  v.panels[0] = ui::Source::Vpl;
+  v.component = Component::Indirect;
+  v.display = ui::Display::Error;
+  v.metric = ui::ErrorMetric::Absolute;
+  v.errorScale = 0.1f;  // |0.2 - 0.25| = 0.05 -> half of the map
+  auto px = renderFrames();
+  ASSERT_EQ(studio->drawnImages().size(), 1u);
+  Vec3 c = falseColour(0.5f);
+  Vec3 want(c.x * 255, c.y * 255, c.z * 255);
+  EXPECT_EQ(compareGrid(
+                px, studio->drawnImages()[0], [&](int, int) { return want; }, 3),
+            0);
+}
