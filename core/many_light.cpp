@@ -6,9 +6,9 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
-#include "core/vsl_integral.h"
 
 namespace vsl {
 
@@ -61,12 +61,6 @@ std::string ManyLightSettings::describe() const {
 }
 
 // ---- [2] Set-up and batches ------------------------------------------------------
-
-struct ManyLightRenderer::GatherLight {
-  Vec3 p, Phi, n, ng;
-  VslEmitter em;
-  float radius;
-};
 
 namespace {
 RenderSettings directSettings(const ManyLightSettings& s) {
@@ -122,16 +116,6 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
 
 // ---- [3] Eye paths -----------------------------------------------------------------
 
-namespace {
-struct GatherPoint {
-  bool valid = false;
-  Vec3 p, beta;
-  VslReceiver rx;
-  Vec3 shared;  // indirect light found on the way (see the header)
-};
-constexpr int kMaxSpecularChain = 8;
-}  // namespace
-
 // ---- [4] Gather -------------------------------------------------------------------
 
 bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
@@ -145,76 +129,13 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   std::vector<GatherLight> batch(nb);
   parallelFor((nb + 4095) / 4096, [&](size_t c) {
     for (size_t i = c * 4096; i < std::min(nb, (c + 1) * 4096); ++i) {
-      const VirtualLight& v = set_.lights[order_[begin + i]];
-      GatherLight& g = batch[i];
-      g.p = v.p;
-      g.Phi = v.Phi;
-      g.n = decodeUnit(v.n);
-      g.ng = decodeUnit(v.ng);
-      g.em.brdf = v.brdf();
-      g.em.frame = v.frame();
-      g.em.wiLocal = g.em.frame.toLocal(decodeUnit(v.wi));
-      g.radius = radii_[order_[begin + i]];
+      batch[i] = decodeGatherLight(set_.lights[order_[begin + i]], radii_[order_[begin + i]]);
     }
   });
 
-  const LightSampler& lights = direct_.lightSampler();
-  const Camera& cam = scene_.camera;
   const uint64_t seed = settings_.seed;
-  auto eyePath = [&](int x, int y, Rng& rng, uint64_t& rays) {
-    GatherPoint gp;
-    Ray ray = cam.generateRay(x + rng.uniform(), y + rng.uniform(), width_, height_);
-    Vec3 beta(1.0f);
-    for (int j = 0; j < kMaxSpecularChain; ++j) {
-      ++rays;
-      std::optional<Hit> hit = accel_.intersect(ray);
-      if (!hit) return gp;
-      SurfaceHit sh = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
-      Vec3 wo = -ray.d;
-      // Emission after two or more scattering events is indirect.
-      if (j >= 2) gp.shared += beta * scene_.emitted(sh, wo);
-      Brdf brdf = scene_.brdf(sh);
-      Vec3 woL = sh.shading.toLocal(wo);
-      if (woL.z <= 0) return gp;
-      if (brdf.isNearSpecular() && j + 1 < kMaxSpecularChain) {
-        auto bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
-        if (!bs) return gp;
-        Vec3 wi = sh.shading.toWorld(bs->wi);
-        if (dot(wi, sh.ng) <= 0) return gp;
-        beta *= bs->f * (bs->wi.z / bs->pdf);
-        ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
-        ray.d = wi;
-        continue;
-      }
-      // The gather point. Behind a specular chain, its own direct light is
-      // indirect for the image (two or more scattering events).
-      if (j >= 1) {
-        if (auto ls = lights.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()})) {
-          Vec3 wiL = sh.shading.toLocal(ls->wi);
-          if (wiL.z > 0 && dot(ls->wi, sh.ng) > 0) {
-            Ray s;
-            s.o = offsetRayOrigin(sh.p, sh.ng, ls->wi);
-            Vec3 target = ls->delta ? ls->pLight : offsetRayOrigin(ls->pLight, ls->nLight, -ls->wi);
-            Vec3 dd = target - s.o;
-            float dist = length(dd);
-            s.d = dd / dist;
-            s.tMax = dist * (1 - 1e-4f);
-            ++rays;
-            if (!accel_.occluded(s)) gp.shared += beta * brdf.eval(woL, wiL) * ls->Li * (wiL.z / ls->pdf);
-          }
-        }
-      }
-      gp.valid = true;
-      gp.p = sh.p;
-      gp.beta = beta;
-      gp.rx.brdf = brdf;
-      gp.rx.frame = sh.shading;
-      gp.rx.ng = sh.ng;
-      gp.rx.woLocal = woL;
-      return gp;
-    }
-    return gp;
-  };
+  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), clamp_, settings_.vslSamples, settings_.computeVsl,
+                    settings_.computeVpl, seed);
 
   // Per-batch buffers, merged into the films only if the batch completes.
   const size_t np = size_t(width_) * height_;
@@ -223,9 +144,6 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   constexpr int kTile = 16;
   const int tilesX = (width_ + kTile - 1) / kTile, tilesY = (height_ + kTile - 1) / kTile;
   std::atomic<bool> stopped{false};
-  const float clampBound = clamp_;
-  const int vslSamples = settings_.vslSamples;
-  const bool computeVsl = settings_.computeVsl, computeVpl = settings_.computeVpl;
 
   parallelFor(size_t(tilesX) * tilesY, [&](size_t tile) {
     if (stopped.load(std::memory_order_relaxed)) return;
@@ -235,7 +153,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
     }
     const int x0 = int(tile % tilesX) * kTile, y0 = int(tile / tilesX) * kTile;
     const int x1 = std::min(x0 + kTile, width_), y1 = std::min(y0 + kTile, height_);
-    uint64_t rays = 0, pairs = 0, shadow = 0, vslEvals = 0, nonFinite = 0;
+    GatherCounters c;
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
         const size_t pix = size_t(y) * width_ + x;
@@ -243,84 +161,23 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
         Vec3 dsum(0.0f);
         for (int s = dBegin; s < dEnd; ++s) {
           Vec3 Ld, Lind;
-          direct_.samplePixel(x, y, s, Ld, Lind, rays, nonFinite);
+          direct_.samplePixel(x, y, s, Ld, Lind, c.rays, c.nonFinite);
           dsum += Ld;
         }
         direct[pix] = dsum / float(dEnd - dBegin);
 
         Rng rng = Rng::forItem(pix, uint64_t(b), 2, seed);
-        GatherPoint gp = eyePath(x, y, rng, rays);
+        GatherPoint gp = gatherer.eyePath(x, y, width_, height_, rng, c);
         shared[pix] = gp.shared;
         if (!gp.valid) continue;
-        double acc[kLayers][3] = {};
-        for (size_t i = 0; i < nb; ++i) {
-          const GatherLight& L = batch[i];
-          ++pairs;
-          Vec3 d = L.p - gp.p;
-          float d2 = lengthSquared(d);
-          float dist = std::sqrt(d2);
-          Vec3 l = dist > 0 ? d / dist : gp.rx.frame.n;
-          float cosX = dot(gp.rx.frame.n, l), cosXg = dot(gp.rx.ng, l);
-          float cosP = -dot(L.n, l), cosPg = -dot(L.ng, l);
-          // VPL transfer (full BRDF and diffuse-only emission).
-          Vec3 Tfull(0.0f), Tdiff(0.0f);
-          bool vpl = computeVpl && d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0;
-          if (vpl) {
-            Vec3 fx = gp.rx.brdf.eval(gp.rx.woLocal, gp.rx.frame.toLocal(l));
-            Vec3 lp = L.em.frame.toLocal(-l);
-            float G = cosX * cosP / d2;
-            Tfull = fx * L.em.brdf.eval(L.em.wiLocal, lp) * G;
-            Tdiff = fx * L.em.brdf.evalDiffuse(L.em.wiLocal, lp) * G;
-            vpl = !isBlack(Tfull) || !isBlack(Tdiff);
-          }
-          // Could any direction of the VSL cone see both hemispheres?
-          float sinC = dist > L.radius ? L.radius / dist : 1.0f;
-          bool vslPossible = computeVsl && cosX > -sinC && cosP > -sinC;
-          if (!vpl && !vslPossible) continue;
-          // One visibility ray feeds every estimate.
-          Ray s;
-          s.o = offsetRayOrigin(gp.p, gp.rx.ng, l);
-          Vec3 target = offsetRayOrigin(L.p, L.ng, -l);
-          Vec3 sd = target - s.o;
-          float sl = length(sd);
-          if (sl > 0) {
-            s.d = sd / sl;
-            s.tMax = sl * (1 - 1e-4f);
-            ++shadow;
-            if (accel_.occluded(s)) continue;
-          }
-          Vec3 w = gp.beta * L.Phi;
-          auto add = [&](int layer, const Vec3& T) {
-            Vec3 c = w * T;
-            if (!isFinite(c)) {
-              ++nonFinite;
-              return;
-            }
-            for (int k = 0; k < 3; ++k) acc[layer][k] += c[k];
-          };
-          auto clamped = [&](const Vec3& T) {
-            float lum = luminance(T);
-            return lum > clampBound ? T * (clampBound / lum) : T;
-          };
-          if (vpl) {
-            add(kVplFull, Tfull);
-            add(kVplFullClamped, clamped(Tfull));
-            add(kVplDiffuse, Tdiff);
-            add(kVplDiffuseClamped, clamped(Tdiff));
-          }
-          if (vslPossible) {
-            Rng prng = Rng::forItem(pix, order_[begin + i], 3, seed);
-            VslResult r = vslTransfer(gp.rx, L.em, d, L.radius, vslSamples, prng);
-            vslEvals += uint64_t(r.evaluations);
-            add(kVsl, r.transfer);
-          }
-        }
+        double acc[kGatherLayers][3] = {};
+        for (size_t i = 0; i < nb; ++i) gatherer.evaluate(gp, batch[i], order_[begin + i], pix, acc, c);
         for (int k = 0; k < kLayers; ++k) layers[k][pix] = Vec3(float(acc[k][0]), float(acc[k][1]), float(acc[k][2]));
       }
-    stats_.pairs.fetch_add(pairs, std::memory_order_relaxed);
-    stats_.shadowRays.fetch_add(shadow + rays, std::memory_order_relaxed);
-    stats_.vslEvaluations.fetch_add(vslEvals, std::memory_order_relaxed);
-    stats_.nonFinite.fetch_add(nonFinite, std::memory_order_relaxed);
+    stats_.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
+    stats_.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
+    stats_.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
+    stats_.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
   });
   if (stopped.load()) return false;
 
@@ -353,7 +210,7 @@ ManyLightImages ManyLightRenderer::images() const {
     for (size_t i = 0; i < g.rgb.size(); ++i) g.rgb[i] += shared.rgb[i];
     return g;
   };
-  im.vsl = indirect(kVsl);
+  im.vsl = indirect(kVslLayer);
   Image full = indirect(kVplFull), fullC = indirect(kVplFullClamped);
   Image diff = indirect(kVplDiffuse), diffC = indirect(kVplDiffuseClamped);
   const Image& selU = settings_.diffuseOnly ? diff : full;

@@ -101,7 +101,6 @@ class ManyLightRenderer {
   const ManyLightStats& stats() const { return stats_; }
 
  private:
-  struct GatherLight;
   const Scene& scene_;
   const Accel& accel_;
   const VirtualLightSet& set_;
@@ -115,9 +114,9 @@ class ManyLightRenderer {
   std::vector<int> directEnd_;    // cumulative direct samples
   size_t processed_ = 0;
   int batchesDone_ = 0;
-  enum Layer { kVsl, kVplFull, kVplFullClamped, kVplDiffuse, kVplDiffuseClamped, kLayers };
-  Film directFilm_, sharedFilm_;  // per-pass averages
-  Film gather_[kLayers];          // batch estimates weighted by batch share
+  static constexpr int kLayers = 5;  // GatherLayer
+  Film directFilm_, sharedFilm_;     // per-pass averages
+  Film gather_[kLayers];             // batch estimates weighted by batch share
   ManyLightStats stats_;
 };
 

@@ -1,0 +1,151 @@
+#include "core/gather.h"
+
+namespace vsl {
+
+GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
+  GatherLight g;
+  g.p = v.p;
+  g.Phi = v.Phi;
+  g.n = decodeUnit(v.n);
+  g.ng = decodeUnit(v.ng);
+  g.em.brdf = v.brdf();
+  g.em.frame = v.frame();
+  g.em.wiLocal = g.em.frame.toLocal(decodeUnit(v.wi));
+  g.radius = radius;
+  return g;
+}
+
+Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, int vslSamples,
+                   bool computeVsl, bool computeVpl, uint64_t seed)
+    : scene_(scene),
+      accel_(accel),
+      lights_(lights),
+      clamp_(clampBound),
+      vslSamples_(vslSamples),
+      computeVsl_(computeVsl),
+      computeVpl_(computeVpl),
+      seed_(seed) {}
+
+namespace {
+constexpr int kMaxSpecularChain = 8;
+}
+
+GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const {
+  GatherPoint gp;
+  Ray ray = scene_.camera.generateRay(x + rng.uniform(), y + rng.uniform(), width, height);
+  Vec3 beta(1.0f);
+  for (int j = 0; j < kMaxSpecularChain; ++j) {
+    ++c.rays;
+    std::optional<Hit> hit = accel_.intersect(ray);
+    if (!hit) return gp;
+    SurfaceHit sh = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
+    Vec3 wo = -ray.d;
+    // Emission after two or more scattering events is indirect.
+    if (j >= 2) gp.shared += beta * scene_.emitted(sh, wo);
+    Brdf brdf = scene_.brdf(sh);
+    Vec3 woL = sh.shading.toLocal(wo);
+    if (woL.z <= 0) return gp;
+    if (brdf.isNearSpecular() && j + 1 < kMaxSpecularChain) {
+      auto bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
+      if (!bs) return gp;
+      Vec3 wi = sh.shading.toWorld(bs->wi);
+      if (dot(wi, sh.ng) <= 0) return gp;
+      beta *= bs->f * (bs->wi.z / bs->pdf);
+      ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
+      ray.d = wi;
+      continue;
+    }
+    // The gather point. Behind a specular chain, its own direct light is
+    // indirect for the image (two or more scattering events).
+    if (j >= 1) {
+      if (auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()})) {
+        Vec3 wiL = sh.shading.toLocal(ls->wi);
+        if (wiL.z > 0 && dot(ls->wi, sh.ng) > 0) {
+          Ray s;
+          s.o = offsetRayOrigin(sh.p, sh.ng, ls->wi);
+          Vec3 target = ls->delta ? ls->pLight : offsetRayOrigin(ls->pLight, ls->nLight, -ls->wi);
+          Vec3 dd = target - s.o;
+          float dist = length(dd);
+          s.d = dd / dist;
+          s.tMax = dist * (1 - 1e-4f);
+          ++c.rays;
+          if (!accel_.occluded(s)) gp.shared += beta * brdf.eval(woL, wiL) * ls->Li * (wiL.z / ls->pdf);
+        }
+      }
+    }
+    gp.valid = true;
+    gp.p = sh.p;
+    gp.beta = beta;
+    gp.rx.brdf = brdf;
+    gp.rx.frame = sh.shading;
+    gp.rx.ng = sh.ng;
+    gp.rx.woLocal = woL;
+    return gp;
+  }
+  return gp;
+}
+
+void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
+                        double acc[kGatherLayers][3], GatherCounters& c) const {
+  ++c.pairs;
+  Vec3 d = L.p - gp.p;
+  float d2 = lengthSquared(d);
+  float dist = std::sqrt(d2);
+  Vec3 l = dist > 0 ? d / dist : gp.rx.frame.n;
+  float cosX = dot(gp.rx.frame.n, l), cosXg = dot(gp.rx.ng, l);
+  float cosP = -dot(L.n, l), cosPg = -dot(L.ng, l);
+  // VPL transfer (full BRDF and diffuse-only emission).
+  Vec3 Tfull(0.0f), Tdiff(0.0f);
+  bool vpl = computeVpl_ && d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0;
+  if (vpl) {
+    Vec3 fx = gp.rx.brdf.eval(gp.rx.woLocal, gp.rx.frame.toLocal(l));
+    Vec3 lp = L.em.frame.toLocal(-l);
+    float G = cosX * cosP / d2;
+    Tfull = fx * L.em.brdf.eval(L.em.wiLocal, lp) * G;
+    Tdiff = fx * L.em.brdf.evalDiffuse(L.em.wiLocal, lp) * G;
+    vpl = !isBlack(Tfull) || !isBlack(Tdiff);
+  }
+  // Could any direction of the VSL cone see both hemispheres?
+  float sinC = dist > L.radius ? L.radius / dist : 1.0f;
+  bool vslPossible = computeVsl_ && cosX > -sinC && cosP > -sinC;
+  if (!vpl && !vslPossible) return;
+  // One visibility ray feeds every estimate.
+  Ray s;
+  s.o = offsetRayOrigin(gp.p, gp.rx.ng, l);
+  Vec3 target = offsetRayOrigin(L.p, L.ng, -l);
+  Vec3 sd = target - s.o;
+  float sl = length(sd);
+  if (sl > 0) {
+    s.d = sd / sl;
+    s.tMax = sl * (1 - 1e-4f);
+    ++c.shadowRays;
+    if (accel_.occluded(s)) return;
+  }
+  Vec3 w = gp.beta * L.Phi;
+  auto add = [&](int layer, const Vec3& T) {
+    Vec3 v = w * T;
+    if (!isFinite(v)) {
+      ++c.nonFinite;
+      return;
+    }
+    for (int k = 0; k < 3; ++k) acc[layer][k] += v[k];
+  };
+  auto clamped = [&](const Vec3& T) {
+    float lum = luminance(T);
+    return lum > clamp_ ? T * (clamp_ / lum) : T;
+  };
+  if (vpl) {
+    add(kVplFull, Tfull);
+    add(kVplFullClamped, clamped(Tfull));
+    add(kVplDiffuse, Tdiff);
+    add(kVplDiffuseClamped, clamped(Tdiff));
+  }
+  if (vslPossible) {
+    Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
+    VslResult r = vslTransfer(gp.rx, L.em, d, L.radius, vslSamples_, prng);
+    c.vslEvaluations += uint64_t(r.evaluations);
+    add(kVslLayer, r.transfer);
+  }
+}
+
+}  // namespace vsl

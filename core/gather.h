@@ -1,0 +1,60 @@
+// The many-light gather kernel shared by the progressive renderer and matrix
+// row-column sampling: eye paths to gather points, and the evaluation of one
+// (gather point, virtual light) pair for every estimator from one shadow ray.
+// See many_light.h for the methods and their bias.
+#pragma once
+
+#include "core/accel.h"
+#include "core/lights.h"
+#include "core/virtual_lights.h"
+#include "core/vsl_integral.h"
+
+namespace vsl {
+
+// Layers the gather accumulates, per pair.
+enum GatherLayer { kVslLayer, kVplFull, kVplFullClamped, kVplDiffuse, kVplDiffuseClamped, kGatherLayers };
+
+// A virtual light decoded for gathering.
+struct GatherLight {
+  Vec3 p, Phi, n, ng;
+  VslEmitter em;
+  float radius;
+};
+GatherLight decodeGatherLight(const VirtualLight& v, float radius);
+
+struct GatherPoint {
+  bool valid = false;
+  Vec3 p, beta;  // beta: throughput of the near-specular chain before the gather point
+  VslReceiver rx;
+  Vec3 shared;  // indirect light found on the way, common to every method
+};
+
+struct GatherCounters {
+  uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
+};
+
+class Gatherer {
+ public:
+  // clampBound: the VPL clamp on the luminance of the transfer.
+  Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, int vslSamples,
+           bool computeVsl, bool computeVpl, uint64_t seed);
+
+  // Camera ray through (x + jitter, y + jitter), continued through
+  // near-specular surfaces to the first surface that is not.
+  GatherPoint eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const;
+  // Adds light L's contribution to acc (per layer, RGB). lightId and pixel
+  // seed the VSL quadrature's random stream.
+  void evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
+                double acc[kGatherLayers][3], GatherCounters& c) const;
+
+ private:
+  const Scene& scene_;
+  const Accel& accel_;
+  const LightSampler& lights_;
+  float clamp_;
+  int vslSamples_;
+  bool computeVsl_, computeVpl_;
+  uint64_t seed_;
+};
+
+}  // namespace vsl
