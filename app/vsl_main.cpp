@@ -13,6 +13,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/many_light.h"
+#include "core/mrcs.h"
 #include "core/pathtracer.h"
 
 using namespace vsl;
@@ -87,7 +88,8 @@ struct RenderArgs {
   std::string scene, out, png, jsonPath, camera, component = "full";
   RenderSettings settings;
   ManyLightSettings many;
-  std::string clamp = "auto", vslSamples = "auto";
+  std::string clamp = "auto", vslSamples = "auto", mrcsSpec;
+  MrcsSettings mrcs{0, 0, 0};  // rows 0: no MRCS
   float exposure = 0;
 };
 
@@ -137,6 +139,13 @@ int cmdRender(RenderArgs& a) {
     if (std::string e = m.validate(); !e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;
+    }
+    if (!a.mrcsSpec.empty()) {
+      if (std::sscanf(a.mrcsSpec.c_str(), "%d,%d", &a.mrcs.rows, &a.mrcs.clusters) != 2 || !a.mrcs.validate().empty()) {
+        std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS with positive integers (got '%s')\n",
+                     a.mrcsSpec.c_str());
+        return 2;
+      }
     }
   }
   auto t0 = Clock::now();
@@ -431,24 +440,57 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
                "traced %zu virtual lights from %llu paths in %.2f s (%zu bytes each, %.1f MB); radii in %.2f s\n",
                run.set.lights.size(), (unsigned long long)run.set.paths, run.set.seconds, sizeof(VirtualLight),
                run.set.bytes() / 1e6, run.knnSeconds);
-  ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
-  Progress progress("render");
+  ManyLightImages im;
+  int w = 0, h = 0, done = 0;
+  size_t lightsProcessed = 0;
+  uint64_t pairs = 0, shadowRays = 0, vslEvaluations = 0, gatherNonFinite = 0;
+  float clampBound = manyLightClampBound(scene, m);
+  json mrcsJson;
   auto t1 = Clock::now();
-  int done = 0;
-  for (int b = 0; b < r.batchCount(); ++b) {
-    r.renderBatch(b);
-    ++done;
-    double el = secondsSince(t1);
-    char detail[160];
-    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", done, r.batchCount(),
-                  r.lightsProcessed(), r.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
-    progress.update(double(r.lightsProcessed()) / std::max<size_t>(run.set.lights.size(), 1), detail);
-    if (s.timeLimit > 0 && el >= s.timeLimit) break;
+  if (a.mrcs.rows > 0) {
+    // Matrix row-column sampling: rows, clustering, representative columns.
+    std::fprintf(stderr, "render: MRCS with %d rows and %d clusters over %zu lights\n", a.mrcs.rows, a.mrcs.clusters,
+                 run.set.lights.size());
+    MrcsResult mr = renderMrcs(scene, accel, lights, run.set, run.radii, m, a.mrcs);
+    im = std::move(mr.images);
+    w = im.direct.width;
+    h = im.direct.height;
+    pairs = mr.pairs;
+    lightsProcessed = run.set.lights.size();
+    done = 1;
+    mrcsJson = {{"rows", a.mrcs.rows},
+                {"clusters", a.mrcs.clusters},
+                {"rowSeconds", mr.rowSeconds},
+                {"clusterSeconds", mr.clusterSeconds},
+                {"columnSeconds", mr.columnSeconds},
+                {"zeroColumnsVsl", mr.zeroColumnsVsl},
+                {"zeroColumnsVpl", mr.zeroColumnsVpl}};
+    std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s\n", mr.rowSeconds, mr.clusterSeconds,
+                 mr.columnSeconds);
+  } else {
+    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+    Progress progress("render");
+    for (int b = 0; b < r.batchCount(); ++b) {
+      r.renderBatch(b);
+      ++done;
+      double el = secondsSince(t1);
+      char detail[160];
+      std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", done, r.batchCount(),
+                    r.lightsProcessed(), r.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
+      progress.update(double(r.lightsProcessed()) / std::max<size_t>(run.set.lights.size(), 1), detail);
+      if (s.timeLimit > 0 && el >= s.timeLimit) break;
+    }
+    progress.finish();
+    im = r.images();
+    w = r.width();
+    h = r.height();
+    lightsProcessed = r.lightsProcessed();
+    pairs = r.stats().pairs;
+    shadowRays = r.stats().shadowRays;
+    vslEvaluations = r.stats().vslEvaluations;
+    gatherNonFinite = r.stats().nonFinite;
   }
-  progress.finish();
   double gatherSeconds = secondsSince(t1);
-  ManyLightImages im = r.images();
-  int w = r.width(), h = r.height();
   auto sum = [&](const Image& ind) {
     Image f(w, h);
     for (size_t i = 0; i < f.rgb.size(); ++i) f.rgb[i] = im.direct.rgb[i] + ind.rgb[i];
@@ -462,16 +504,13 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
   const Image* chosen;
   if (s.method == "all") {
     chosen = &pick(im.vsl, vslFull);
-    layers = {{"", *chosen},
-              {"vsl-full", vslFull},
-              {"vsl-indirect", im.vsl},
-              {"vpl-full", vplFull},
-              {"vpl-indirect", im.vpl},
-              {"direct", im.direct},
-              {"vpl-unclamped-indirect", im.vplUnclamped},
-              {"vpl-diffuse-indirect", im.vplDiffuse},
-              {"lost-to-clamping", im.lostToClamping},
-              {"lost-to-diffuse", im.lostToDiffuse}};
+    layers = {{"", *chosen},         {"vsl-full", vslFull},    {"vsl-indirect", im.vsl},
+              {"vpl-full", vplFull}, {"vpl-indirect", im.vpl}, {"direct", im.direct}};
+    if (a.mrcs.rows == 0)  // MRCS renders the two methods only
+      layers.insert(layers.end(), {{"vpl-unclamped-indirect", im.vplUnclamped},
+                                   {"vpl-diffuse-indirect", im.vplDiffuse},
+                                   {"lost-to-clamping", im.lostToClamping},
+                                   {"lost-to-diffuse", im.lostToDiffuse}});
   } else {
     const Image& ind = s.method == "vsl" ? im.vsl : im.vpl;
     const Image& full = s.method == "vsl" ? vslFull : vplFull;
@@ -498,8 +537,7 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
     }
     std::fprintf(stderr, "wrote %s\n", a.png.c_str());
   }
-  const ManyLightStats& st = r.stats();
-  uint64_t rejected = st.nonFinite + run.set.nonFiniteRejected;
+  uint64_t rejected = gatherNonFinite + run.set.nonFiniteRejected;
   if (rejected > 0) log::warning("rejected " + std::to_string(rejected) + " non-finite contributions");
   if (!a.jsonPath.empty()) {
     std::vector<float> radii = run.radii;
@@ -517,11 +555,11 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
               {"height", h},
               {"component", componentName(s.component)},
               {"lights", run.set.lights.size()},
-              {"lightsProcessed", r.lightsProcessed()},
+              {"lightsProcessed", lightsProcessed},
               {"batches", done},
               {"lightPaths", run.set.paths},
               {"bytesPerLight", sizeof(VirtualLight)},
-              {"clampBound", r.clampBound()},
+              {"clampBound", clampBound},
               {"radius", {{"min", q(0)}, {"median", q(0.5)}, {"max", q(1)}}},
               {"seconds",
                {{"load", loadSeconds},
@@ -529,10 +567,10 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
                 {"knn", run.knnSeconds},
                 {"gather", gatherSeconds},
                 {"total", secondsSince(t0)}}},
-              {"pairs", st.pairs.load()},
-              {"pairsPerSecond", st.pairs / std::max(gatherSeconds, 1e-9)},
-              {"shadowRays", st.shadowRays.load()},
-              {"vslEvaluations", st.vslEvaluations.load()},
+              {"pairs", pairs},
+              {"pairsPerSecond", pairs / std::max(gatherSeconds, 1e-9)},
+              {"shadowRays", shadowRays},
+              {"vslEvaluations", vslEvaluations},
               {"nonFiniteRejected", rejected},
               {"mean",
                {{"direct", mean(im.direct)},
@@ -543,6 +581,7 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
                 {"lostToClamping", mean(im.lostToClamping)},
                 {"lostToDiffuse", mean(im.lostToDiffuse)}}},
               {"warnings", scene.warnings}};
+    if (!mrcsJson.is_null()) j["mrcs"] = mrcsJson;
     if (!writeTextFile(a.jsonPath, j.dump(2) + "\n", &err)) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
@@ -582,6 +621,7 @@ int main(int argc, char** argv) {
                    "off")
       ->default_str("auto");
   render->add_flag("--diffuse-vpl", ra.many.diffuseOnly, "VPLs emit with their diffuse lobe only");
+  render->add_option("--mrcs", ra.mrcsSpec, "Matrix row-column sampling: ROWS,CLUSTERS (e.g. 300,900)");
   render->add_option("--batches", ra.many.batches, "Progressive light batches (growing sizes)")->default_str("8");
   render->add_option("--direct-samples", ra.many.directSamples, "Direct-light samples per pixel (many-light methods)")
       ->default_str("64");

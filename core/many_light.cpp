@@ -62,6 +62,11 @@ std::string ManyLightSettings::describe() const {
 
 // ---- [2] Set-up and batches ------------------------------------------------------
 
+float manyLightClampBound(const Scene& scene, const ManyLightSettings& settings) {
+  float R = std::max(scene.boundingRadius(), 1e-6f);
+  return settings.clamp < 0 ? 1.0f / (kPi * kPi * sqr(0.1f * R)) : settings.clamp;
+}
+
 namespace {
 RenderSettings directSettings(const ManyLightSettings& s) {
   RenderSettings r;
@@ -84,8 +89,7 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
       direct_(scene, accel, lights, directSettings(settings)) {
   width_ = direct_.width();
   height_ = direct_.height();
-  float R = std::max(scene.boundingRadius(), 1e-6f);
-  clamp_ = settings.clamp < 0 ? 1.0f / (kPi * kPi * sqr(0.1f * R)) : settings.clamp;
+  clamp_ = manyLightClampBound(scene, settings);
 
   // Random order, then batches whose sizes double up to a cap and then stay
   // constant: weights 2^min(b, B/2). The first picture comes quickly and no

@@ -120,6 +120,10 @@ class ManyLightRenderer {
   ManyLightStats stats_;
 };
 
+// The VPL clamp bound for these settings: settings.clamp if >= 0, else the
+// scene-relative default 1/(pi^2 (0.1 R)^2).
+float manyLightClampBound(const Scene& scene, const ManyLightSettings& settings);
+
 // Convenience: trace lights, compute radii and render every batch.
 struct ManyLightRun {
   VirtualLightSet set;

@@ -1,0 +1,342 @@
+#include "core/mrcs.h"
+
+#include <chrono>
+#include <numeric>
+#include <queue>
+
+#include "core/gather.h"
+#include "core/parallel.h"
+#include "core/rng.h"
+
+namespace vsl {
+
+std::string MrcsSettings::validate() const {
+  if (rows < 1 || rows > 100000) return "mrcs rows: must be in [1,100000] (got " + std::to_string(rows) + ")";
+  if (clusters < 1 || clusters > 1000000)
+    return "mrcs clusters: must be in [1,1000000] (got " + std::to_string(clusters) + ")";
+  return "";
+}
+
+// ---- Clustering ----------------------------------------------------------------------
+
+namespace {
+
+constexpr int kDims = 32;  // random projection of the reduced columns
+
+struct Cluster {
+  std::vector<uint32_t> members;  // indices into the nonzero-column list
+  double cost = 0;
+};
+
+// Gaussian from two uniforms (Box-Muller).
+float gaussian(Rng& r) {
+  float u1 = std::max(r.uniform(), 1e-7f), u2 = r.uniform();
+  return std::sqrt(-2.0f * std::log(u1)) * std::cos(2 * kPi * u2);
+}
+
+}  // namespace
+
+std::vector<Representative> clusterColumns(const std::vector<float>& columns, size_t lights, int rows, int clusters,
+                                           uint64_t seed, size_t* zeroColumns) {
+  Rng rng(seed, 0x5eed);
+  // Norms; zero columns cannot be represented (they are dark at every row).
+  std::vector<double> norm(lights, 0.0);
+  std::vector<uint32_t> nz;
+  for (size_t j = 0; j < lights; ++j) {
+    double s = 0;
+    for (int r = 0; r < rows; ++r) s += double(columns[j * rows + r]) * columns[j * rows + r];
+    norm[j] = std::sqrt(s);
+    if (norm[j] > 0 && std::isfinite(norm[j])) nz.push_back(uint32_t(j));
+  }
+  if (zeroColumns) *zeroColumns = lights - nz.size();
+  std::vector<Representative> reps;
+  if (nz.empty()) return reps;
+  if (nz.size() <= size_t(clusters)) {
+    for (uint32_t j : nz) reps.push_back({j, 1.0});
+    return reps;
+  }
+  const size_t n = nz.size();
+  // Random projection to kDims, then unit directions u_i; n_i keeps the norm.
+  std::vector<float> M(size_t(rows) * kDims);
+  for (float& m : M) m = gaussian(rng);
+  std::vector<float> u(n * kDims);
+  parallelFor((n + 1023) / 1024, [&](size_t c) {
+    for (size_t i = c * 1024; i < std::min(n, (c + 1) * 1024); ++i) {
+      const float* col = &columns[size_t(nz[i]) * rows];
+      float* ui = &u[i * kDims];
+      double len = 0;
+      for (int d = 0; d < kDims; ++d) {
+        double s = 0;
+        for (int r = 0; r < rows; ++r) s += double(col[r]) * M[size_t(r) * kDims + d];
+        ui[d] = float(s);
+        len += s * s;
+      }
+      float inv = len > 0 ? float(1.0 / std::sqrt(len)) : 0.0f;
+      for (int d = 0; d < kDims; ++d) ui[d] *= inv;
+    }
+  });
+  auto dotU = [&](size_t a, size_t b) {
+    float s = 0;
+    for (int d = 0; d < kDims; ++d) s += u[a * kDims + d] * u[b * kDims + d];
+    return s;
+  };
+  // Cluster cost (sum n)^2 - |sum n u|^2 >= 0.
+  auto costOf = [&](const std::vector<uint32_t>& m) {
+    double sn = 0, v[kDims] = {};
+    for (uint32_t i : m) {
+      sn += norm[nz[i]];
+      for (int d = 0; d < kDims; ++d) v[d] += norm[nz[i]] * u[size_t(i) * kDims + d];
+    }
+    double s2 = 0;
+    for (double x : v) s2 += x * x;
+    return std::max(sn * sn - s2, 0.0);
+  };
+
+  // 1. Sampling: about two thirds of the clusters from seeds drawn in
+  //    proportion to the column norm, every column joining its closest seed.
+  std::vector<double> w(n);
+  for (size_t i = 0; i < n; ++i) w[i] = norm[nz[i]];
+  DiscreteDistribution byNorm(w);
+  std::vector<uint32_t> seeds;
+  std::vector<char> isSeed(n, 0);
+  int want = std::max(1, (2 * clusters) / 3);
+  for (int k = 0; k < 4 * want && int(seeds.size()) < want; ++k) {
+    uint32_t s = uint32_t(byNorm.sample(rng.uniform(), nullptr));
+    if (!isSeed[s]) isSeed[s] = 1, seeds.push_back(s);
+  }
+  std::vector<uint32_t> assign(n);
+  parallelFor((n + 511) / 512, [&](size_t c) {
+    for (size_t i = c * 512; i < std::min(n, (c + 1) * 512); ++i) {
+      double best = 1e300;
+      uint32_t bk = 0;
+      for (size_t k = 0; k < seeds.size(); ++k) {
+        // d(i, s) = n_i n_s (1 - cos); n_i is common to every seed.
+        double d = norm[nz[seeds[k]]] * (1.0 - dotU(i, seeds[k]));
+        if (d < best) best = d, bk = uint32_t(k);
+      }
+      assign[i] = bk;
+    }
+  });
+  std::vector<Cluster> cl(seeds.size());
+  for (size_t i = 0; i < n; ++i) cl[assign[i]].members.push_back(uint32_t(i));
+  // 2. Splitting: split the costliest cluster along a random projection at
+  //    the cut that minimises the two halves' total cost.
+  auto cmp = [&](size_t a, size_t b) { return cl[a].cost < cl[b].cost; };
+  std::priority_queue<size_t, std::vector<size_t>, decltype(cmp)> queue(cmp);
+  for (size_t k = 0; k < cl.size(); ++k) {
+    cl[k].cost = costOf(cl[k].members);
+    queue.push(k);
+  }
+  size_t live = 0;
+  for (const Cluster& c : cl) live += !c.members.empty();
+  while (live < size_t(clusters) && !queue.empty()) {
+    size_t k = queue.top();
+    queue.pop();
+    Cluster& c = cl[k];
+    if (c.members.size() < 2 || c.cost <= 0) continue;
+    float dir[kDims];
+    for (float& x : dir) x = gaussian(rng);
+    std::vector<std::pair<float, uint32_t>> t;
+    for (uint32_t i : c.members) {
+      float s = 0;
+      for (int d = 0; d < kDims; ++d) s += u[size_t(i) * kDims + d] * dir[d];
+      t.push_back({s, i});
+    }
+    std::sort(t.begin(), t.end());
+    // Prefix sums give every cut's cost in O(size x dims).
+    size_t m = t.size();
+    std::vector<double> pn(m + 1, 0.0), pv((m + 1) * kDims, 0.0);
+    for (size_t q = 0; q < m; ++q) {
+      double nq = norm[nz[t[q].second]];
+      pn[q + 1] = pn[q] + nq;
+      for (int d = 0; d < kDims; ++d)
+        pv[(q + 1) * kDims + d] = pv[q * kDims + d] + nq * u[size_t(t[q].second) * kDims + d];
+    }
+    double best = 1e300;
+    size_t cut = m / 2;
+    for (size_t q = 1; q < m; ++q) {
+      double l2 = 0, r2 = 0;
+      for (int d = 0; d < kDims; ++d) {
+        double lv = pv[q * kDims + d], rv = pv[m * kDims + d] - lv;
+        l2 += lv * lv;
+        r2 += rv * rv;
+      }
+      double ln = pn[q], rn = pn[m] - pn[q];
+      double cost = std::max(ln * ln - l2, 0.0) + std::max(rn * rn - r2, 0.0);
+      if (cost < best) best = cost, cut = q;
+    }
+    Cluster right;
+    for (size_t q = cut; q < m; ++q) right.members.push_back(t[q].second);
+    c.members.clear();
+    for (size_t q = 0; q < cut; ++q) c.members.push_back(t[q].second);
+    c.cost = costOf(c.members);
+    right.cost = costOf(right.members);
+    cl.push_back(std::move(right));
+    queue.push(k);
+    queue.push(cl.size() - 1);
+    ++live;
+  }
+  // 3. One representative per cluster, chosen in proportion to its norm and
+  //    weighted by the cluster's norm sum over its own.
+  for (const Cluster& c : cl) {
+    if (c.members.empty()) continue;
+    double total = 0;
+    for (uint32_t i : c.members) total += norm[nz[i]];
+    double x = rng.uniformDouble() * total;
+    uint32_t pick = c.members.back();
+    for (uint32_t i : c.members) {
+      x -= norm[nz[i]];
+      if (x < 0) {
+        pick = i;
+        break;
+      }
+    }
+    reps.push_back({nz[pick], total / norm[nz[pick]]});
+  }
+  return reps;
+}
+
+// ---- Rendering ----------------------------------------------------------------------
+
+MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
+                      const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
+                      const std::atomic<bool>* stop) {
+  using Clock = std::chrono::steady_clock;
+  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  MrcsResult res;
+  int W = settings.width, H = settings.height;
+  resolveResolution(scene, W, H);
+  const size_t P = size_t(W) * H, N = set.lights.size();
+  auto stopped = [&] { return stop && stop->load(std::memory_order_relaxed); };
+  const float clampBound = manyLightClampBound(scene, settings);
+  const int vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
+  const bool doVsl = settings.computeVsl, doVpl = settings.computeVpl;
+  Gatherer both(scene, accel, lights, clampBound, settings.vslSamples, doVsl, doVpl, settings.seed);
+  Gatherer vslOnly(scene, accel, lights, clampBound, settings.vslSamples, true, false, settings.seed);
+  Gatherer vplOnly(scene, accel, lights, clampBound, settings.vslSamples, false, true, settings.seed);
+
+  // Gather points (one per pixel) and direct light.
+  RenderSettings rs;
+  rs.width = W;
+  rs.height = H;
+  rs.seed = settings.seed;
+  rs.maxDepth = 1;
+  PathTracer direct(scene, accel, lights, rs);
+  std::vector<GatherPoint> gps(P);
+  res.images.direct = Image(W, H);
+  std::atomic<uint64_t> pairs{0};
+  parallelFor(size_t(H), [&](size_t y) {
+    GatherCounters c;
+    for (int x = 0; x < W; ++x) {
+      size_t pix = y * W + x;
+      Rng rng = Rng::forItem(pix, 0, 2, settings.seed);
+      gps[pix] = both.eyePath(x, int(y), W, H, rng, c);
+      Vec3 sum(0.0f);
+      for (int s = 0; s < settings.directSamples; ++s) {
+        Vec3 Ld, Li;
+        direct.samplePixel(x, int(y), s, Ld, Li, c.rays, c.nonFinite);
+        sum += Ld;
+      }
+      res.images.direct.set(x, int(y), sum / float(settings.directSamples));
+    }
+  });
+  std::vector<GatherLight> gl(N);
+  parallelFor((N + 4095) / 4096, [&](size_t c) {
+    for (size_t i = c * 4096; i < std::min(N, (c + 1) * 4096); ++i) gl[i] = decodeGatherLight(set.lights[i], radii[i]);
+  });
+
+  // 1. Rows: one random pixel per block (a valid gather point where possible).
+  auto t0 = Clock::now();
+  Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
+  int bx = std::max(1, int(std::lround(std::sqrt(double(mrcs.rows) * W / H)))), by = (mrcs.rows + bx - 1) / bx;
+  std::vector<size_t> rowPix;
+  for (int j = 0; j < by; ++j)
+    for (int i = 0; i < bx && int(rowPix.size()) < mrcs.rows; ++i) {
+      int x0 = i * W / bx, x1 = std::max(x0 + 1, (i + 1) * W / bx), y0 = j * H / by,
+          y1 = std::max(y0 + 1, (j + 1) * H / by);
+      size_t pick = size_t(y0) * W + x0;
+      for (int tries = 0; tries < 8; ++tries) {
+        size_t p = size_t(y0 + int(rng.uniformInt(uint32_t(y1 - y0)))) * W +
+                   size_t(x0 + int(rng.uniformInt(uint32_t(x1 - x0))));
+        pick = p;
+        if (gps[p].valid) break;
+      }
+      rowPix.push_back(pick);
+    }
+  const int R = int(rowPix.size());
+  std::vector<float> colVsl(doVsl ? N * R : 0), colVpl(doVpl ? N * R : 0);
+  parallelFor((N + 255) / 256, [&](size_t c) {
+    GatherCounters cnt;
+    for (size_t j = c * 256; j < std::min(N, (c + 1) * 256); ++j) {
+      if (stopped()) return;
+      for (int r = 0; r < R; ++r) {
+        const GatherPoint& gp = gps[rowPix[r]];
+        if (!gp.valid) continue;
+        double acc[kGatherLayers][3] = {};
+        both.evaluate(gp, gl[j], j, rowPix[r], acc, cnt);
+        auto lum = [&](int layer) {
+          return float(0.2126 * acc[layer][0] + 0.7152 * acc[layer][1] + 0.0722 * acc[layer][2]);
+        };
+        if (doVsl) colVsl[j * R + r] = lum(kVslLayer);
+        if (doVpl) colVpl[j * R + r] = lum(vplLayer);
+      }
+    }
+    pairs.fetch_add(cnt.pairs);
+  });
+  res.rowSeconds = since(t0);
+  if (stopped()) {
+    res.stopped = true;
+    return res;
+  }
+
+  // 2-3. Clustering and representatives.
+  auto t1 = Clock::now();
+  std::vector<Representative> repVsl, repVpl;
+  const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
+  if (doVsl) repVsl = clusterColumns(colVsl, N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl);
+  if (doVpl) repVpl = clusterColumns(colVpl, N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl);
+  colVsl = {};
+  colVpl = {};
+  res.clusterSeconds = since(t1);
+
+  // 4. Full columns for the representatives.
+  auto t2 = Clock::now();
+  res.images.vsl = Image(W, H);
+  res.images.vpl = Image(W, H);
+  parallelFor(size_t(H), [&](size_t y) {
+    if (stopped()) return;
+    GatherCounters cnt;
+    for (int x = 0; x < W; ++x) {
+      size_t pix = y * W + x;
+      const GatherPoint& gp = gps[pix];
+      Vec3 vsl = gp.shared, vpl = gp.shared;
+      if (gp.valid) {
+        double sv[3] = {}, sp[3] = {};
+        for (const Representative& r : repVsl) {
+          double acc[kGatherLayers][3] = {};
+          vslOnly.evaluate(gp, gl[r.light], r.light, pix, acc, cnt);
+          for (int k = 0; k < 3; ++k) sv[k] += r.weight * acc[kVslLayer][k];
+        }
+        for (const Representative& r : repVpl) {
+          double acc[kGatherLayers][3] = {};
+          vplOnly.evaluate(gp, gl[r.light], r.light, pix, acc, cnt);
+          for (int k = 0; k < 3; ++k) sp[k] += r.weight * acc[vplLayer][k];
+        }
+        vsl += Vec3(float(sv[0]), float(sv[1]), float(sv[2]));
+        vpl += Vec3(float(sp[0]), float(sp[1]), float(sp[2]));
+      }
+      res.images.vsl.set(x, int(y), isFinite(vsl) ? vsl : Vec3(0.0f));
+      res.images.vpl.set(x, int(y), isFinite(vpl) ? vpl : Vec3(0.0f));
+    }
+    pairs.fetch_add(cnt.pairs);
+  });
+  res.columnSeconds = since(t2);
+  res.stopped = stopped();
+  res.pairs = pairs.load();
+  for (Image* img :
+       {&res.images.vplUnclamped, &res.images.vplDiffuse, &res.images.lostToClamping, &res.images.lostToDiffuse})
+    *img = Image(W, H);
+  return res;
+}
+
+}  // namespace vsl

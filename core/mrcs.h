@@ -1,0 +1,61 @@
+// Matrix Row-Column Sampling (Hasan, Pellacini, Bala, "Matrix Row-Column
+// Sampling for the Many-Light Problem", SIGGRAPH 2007) for the VSL and VPL
+// gathers.
+//
+// The image is the sum of the columns of a pixels x lights matrix. MRCS
+//   1. computes R rows fully: one random pixel in each of R image blocks,
+//      against every light (the reduced columns rho_j, one value per row);
+//   2. clusters the reduced columns into C clusters: about two thirds seeded by
+//      sampling columns in proportion to their norm and assigning every column
+//      to the closest seed under d(i,j) = |rho_i||rho_j| - rho_i.rho_j, the rest
+//      by splitting the costliest cluster (cost = (sum |rho|)^2 - |sum rho|^2)
+//      along a random projection;
+//   3. picks one representative per cluster with probability proportional to
+//      its column norm, weighted by the cluster's norm sum over its own;
+//   4. renders full columns for the representatives only.
+// Cost: R x N + C x P pairs instead of P x N. Bias: lights whose reduced
+// column is zero (dark at every sampled row) are dropped; otherwise, for a
+// fixed clustering, the estimate is unbiased over the representative choice.
+// Clustering distances use a 32-dimensional random projection of the reduced
+// columns (Johnson-Lindenstrauss) to keep the cost at O(N C 32).
+// VSL and VPL (the clamped, chosen-emission variant) are clustered separately.
+#pragma once
+
+#include <atomic>
+
+#include "core/many_light.h"
+
+namespace vsl {
+
+struct MrcsSettings {
+  int rows = 300;
+  int clusters = 900;
+  uint64_t seed = 0;  // row and cluster choices (the light set has its own seed)
+  std::string validate() const;
+};
+
+struct MrcsResult {
+  ManyLightImages images;  // direct, vsl, vpl; the other layers stay black
+  double rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
+  uint64_t pairs = 0;
+  size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;  // lights dropped (dark at every row)
+  bool stopped = false;
+};
+
+// Renders the VSL and VPL indirect images (and direct light with
+// settings.directSamples samples) from `set` with MRCS.
+MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
+                      const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
+                      const std::atomic<bool>* stop = nullptr);
+
+// The clustering and representative choice alone, on reduced columns given as
+// rows x lights values (row-major per light: columns[j * rows + r]). Returns,
+// per cluster, the representative light and its weight. Exposed for tests.
+struct Representative {
+  uint32_t light;
+  double weight;
+};
+std::vector<Representative> clusterColumns(const std::vector<float>& columns, size_t lights, int rows, int clusters,
+                                           uint64_t seed, size_t* zeroColumns = nullptr);
+
+}  // namespace vsl
