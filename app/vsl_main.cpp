@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/bench.h"
+#include "app/sweep.h"
 #include "core/compare.h"
 #include "core/image_io.h"
 #include "core/log.h"
@@ -666,6 +667,32 @@ int main(int argc, char** argv) {
   info->add_option("scene", infoScene, "Scene file (.gltf or .glb)")->required();
   info->add_option("--camera", infoCamera, "Camera name");
 
+  SweepArgs sw;
+  auto* sweep = app.add_subcommand("sweep", "Error against time for a grid of methods, light counts and radii");
+  sweep->add_option("scene", sw.scene, "Scene file")->required();
+  sweep->add_option("--methods", sw.methods, "Methods: pt, vpl, vsl")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"pt", "vpl", "vsl"}))
+      ->default_str("pt,vpl,vsl");
+  sweep->add_option("--lights", sw.lights, "Light counts, comma separated")
+      ->delimiter(',')
+      ->check(CLI::Range(1u, 50000000u))
+      ->default_str("1000,10000");
+  sweep->add_option("--radius-scale", sw.radiusScales, "VSL radius scales, comma separated")
+      ->delimiter(',')
+      ->check(CLI::Range(1e-6, 1e6))
+      ->default_str("1");
+  sweep->add_option("--time", sw.time, "Path-tracer budget and cap per run, seconds")
+      ->default_str("30")
+      ->check(CLI::Range(0.01, 1e6));
+  sweep->add_option("--batches", sw.batches, "Progressive batches per many-light run")
+      ->default_str("8")
+      ->check(CLI::Range(1, 64));
+  sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
+  sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)")
+      ->required();
+  sweep->add_option("-o,--output", sw.outDir, "Output directory")->required();
+
   std::string benchScene, benchJson;
   double benchSeconds = 3;
   int benchSize = 256;
@@ -699,6 +726,7 @@ int main(int argc, char** argv) {
   if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
   if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
   if (*info) return cmdInfo(infoScene, infoCamera);
+  if (*sweep) return runSweep(sw);
   if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
   return 2;
 }

@@ -11,7 +11,7 @@ PACKAGES=(
   libembree-dev libtbb-dev libtinygltf-dev libopenexr-dev openexr libstb-dev
   libnanoflann-dev libcli11-dev nlohmann-json3-dev libpng-dev
   libglfw3-dev libimgui-dev libegl-dev libegl1-mesa-dev libgl-dev libosmesa6-dev
-  libgtest-dev libbenchmark-dev xvfb xauth
+  libgtest-dev libbenchmark-dev xvfb xauth gnuplot-nox
 )
 command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)
 command -v npm >/dev/null 2>&1 || PACKAGES+=(npm)

@@ -1,0 +1,23 @@
+// `vsl sweep`: a grid of methods x light counts x radius scales against a
+// reference, with CSV, JSON and error-vs-time / Pareto plots.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace vsl {
+
+struct SweepArgs {
+  std::string scene, reference, outDir;
+  std::vector<std::string> methods = {"pt", "vpl", "vsl"};
+  std::vector<uint32_t> lights = {1000, 10000};
+  std::vector<float> radiusScales = {1.0f};
+  double time = 30;  // seconds: the path tracer's budget, and a cap per many-light run
+  int batches = 8;
+  uint64_t seed = 1;  // differ from the reference's seed, or the path tracer replays it
+};
+
+int runSweep(const SweepArgs& args);
+
+}  // namespace vsl
