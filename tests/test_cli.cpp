@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "core/image_io.h"
@@ -172,4 +173,33 @@ TEST_F(Cli, InfoListsScene) {
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* w : {"triangles", "hall-metal", "spot", "stage-light", "camera", "warnings   0", "power"})
     EXPECT_NE(r.out.find(w), std::string::npos) << w << "\n" << r.out;
+}
+
+TEST_F(Cli, SweepWritesTablesAndPlots) {
+  ASSERT_EQ(
+      run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
+      0);
+  Proc r =
+      run("sweep " + scene("cornell-glossy") + " --methods pt,vpl,vsl --lights 40,80 --radius-scale 1 --time 0.2 " +
+          "--batches 2 --reference " + file("ref.exr") + " -o " + file("sweep"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream csv(file("sweep/sweep.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final");
+  std::map<std::string, int> finals;
+  while (std::getline(csv, line))
+    if (line.back() == '1') finals[line.substr(0, line.find(','))]++;
+  EXPECT_EQ(finals["pt"], 1);
+  EXPECT_EQ(finals["vpl"], 2);
+  EXPECT_EQ(finals["vsl"], 2);
+  auto j = nlohmann::json::parse(std::ifstream(file("sweep/sweep.json")));
+  EXPECT_FALSE(j["pareto"]["vsl"].empty());
+  for (const char* png : {"sweep/error_vs_time.png", "sweep/pareto.png"}) {
+    Proc s = shell(std::string(VSL_BINARY_DIR) + "/bin/png_stats " + file(png) + " 5");
+    EXPECT_EQ(s.code, 0) << png << ": " << s.out;
+  }
+  // A reference without an indirect layer is refused.
+  ASSERT_EQ(run("compare " + file("ref.exr") + " " + file("ref.exr") + " -o " + file("err.exr")).code, 0);
+  EXPECT_EQ(run("sweep " + scene("cornell-glossy") + " --reference " + file("err.exr") + " -o " + file("s2")).code, 1);
 }
