@@ -38,7 +38,7 @@ struct Point {
     std::ostringstream s;
     s << method;
     if (method != "pt") s << " N=" << lights;
-    if (method == "vsl") s << " s=" << radiusScale;
+    if (method == "vsl" || method == "vsl-progressive") s << " s=" << radiusScale;
     return s.str();
   }
 };
@@ -129,6 +129,39 @@ int runSweep(const SweepArgs& a) {
         if (last) break;
       }
       finish();
+      continue;
+    }
+    if (method == "vsl-progressive") {
+      // Independent light sets with shrinking radii; the estimate is their mean.
+      for (uint32_t n : a.lights)
+        for (float sc : a.radiusScales) {
+          auto t0 = Clock::now();
+          Image sum;
+          for (int pass = 0;; ++pass) {
+            ManyLightSettings m;
+            m.lights = n;
+            m.width = W;
+            m.height = H;
+            m.seed = a.seed + 1000003ull * uint64_t(pass);
+            m.batches = 1;
+            m.directSamples = 1;
+            m.radiusScale = sc * progressiveRadiusFactor(pass, a.alpha);
+            m.computeVpl = false;
+            ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
+            ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
+            r.renderBatch(0);
+            Image v = r.images().vsl;
+            if (pass == 0) sum = Image(W, H);
+            for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i];
+            Image mean = sum;
+            for (float& x : mean.rgb) x /= float(pass + 1);
+            double el = since(t0);
+            pts.push_back(measure(method, n, sc, pass + 1, el, mean, *ref));
+            log(pts.back());
+            if (el >= a.time) break;
+          }
+          finish();
+        }
       continue;
     }
     std::vector<float> scales = method == "vsl" ? a.radiusScales : std::vector<float>{0.0f};

@@ -10,7 +10,8 @@ namespace vsl {
 
 struct SweepArgs {
   std::string scene, reference, outDir;
-  std::vector<std::string> methods = {"pt", "vpl", "vsl"};
+  std::vector<std::string> methods = {"pt", "vpl", "vsl"};  // also "vsl-progressive"
+  float alpha = 0.7f;                                       // for vsl-progressive
   std::vector<uint32_t> lights = {1000, 10000};
   std::vector<float> radiusScales = {1.0f};
   double time = 30;  // seconds: the path tracer's budget, and a cap per many-light run

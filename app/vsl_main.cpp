@@ -670,9 +670,11 @@ int main(int argc, char** argv) {
   SweepArgs sw;
   auto* sweep = app.add_subcommand("sweep", "Error against time for a grid of methods, light counts and radii");
   sweep->add_option("scene", sw.scene, "Scene file")->required();
-  sweep->add_option("--methods", sw.methods, "Methods: pt, vpl, vsl")
+  sweep
+      ->add_option("--methods", sw.methods,
+                   "Methods: pt, vpl, vsl, vsl-progressive (independent light sets with shrinking radii)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"pt", "vpl", "vsl"}))
+      ->check(CLI::IsMember({"pt", "vpl", "vsl", "vsl-progressive"}))
       ->default_str("pt,vpl,vsl");
   sweep->add_option("--lights", sw.lights, "Light counts, comma separated")
       ->delimiter(',')
@@ -685,6 +687,9 @@ int main(int argc, char** argv) {
   sweep->add_option("--time", sw.time, "Path-tracer budget and cap per run, seconds")
       ->default_str("30")
       ->check(CLI::Range(0.01, 1e6));
+  sweep->add_option("--alpha", sw.alpha, "vsl-progressive: r^2 shrinks by (i+alpha)/(i+1) per pass")
+      ->default_str("0.7")
+      ->check(CLI::Range(0.01, 0.99));
   sweep->add_option("--batches", sw.batches, "Progressive batches per many-light run")
       ->default_str("8")
       ->check(CLI::Range(1, 64));

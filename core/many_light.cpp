@@ -62,6 +62,12 @@ std::string ManyLightSettings::describe() const {
 
 // ---- [2] Set-up and batches ------------------------------------------------------
 
+float progressiveRadiusFactor(int pass, float alpha) {
+  double f2 = 1;
+  for (int k = 1; k <= pass; ++k) f2 *= (k + double(alpha)) / (k + 1.0);
+  return float(std::sqrt(f2));
+}
+
 float manyLightClampBound(const Scene& scene, const ManyLightSettings& settings) {
   float R = std::max(scene.boundingRadius(), 1e-6f);
   return settings.clamp < 0 ? 1.0f / (kPi * kPi * sqr(0.1f * R)) : settings.clamp;

@@ -120,6 +120,13 @@ class ManyLightRenderer {
   ManyLightStats stats_;
 };
 
+// Consistent progressive VSL (after progressive photon mapping): pass i
+// (0-based) traces an independent light set and scales every radius by
+// sqrt(prod_{k=1..i} (k + alpha) / (k + 1)), so r^2_{i+1} = r^2_i (i + alpha)/(i + 1)
+// and the mean of the passes converges to the unbiased image as passes grow.
+// alpha in (0, 1); 0.7 is customary.
+float progressiveRadiusFactor(int pass, float alpha);
+
 // The VPL clamp bound for these settings: settings.clamp if >= 0, else the
 // scene-relative default 1/(pi^2 (0.1 R)^2).
 float manyLightClampBound(const Scene& scene, const ManyLightSettings& settings);

@@ -631,3 +631,17 @@ TEST(ManyLight, DiffuseOnlyVplsOnPureMetalEmitNothing) {
   EXPECT_GT(channelMean(im.vplUnclamped), 0.0);
   EXPECT_GT(channelMean(im.lostToDiffuse), 0.0);
 }
+
+TEST(ManyLight, ProgressiveRadiiShrinkTowardZero) {
+  EXPECT_FLOAT_EQ(progressiveRadiusFactor(0, 0.7f), 1.0f);
+  EXPECT_NEAR(progressiveRadiusFactor(1, 0.7f), std::sqrt(0.85f), 1e-6f);
+  float prev = 1;
+  for (int i = 1; i < 2000; ++i) {
+    float f = progressiveRadiusFactor(i, 0.7f);
+    ASSERT_LT(f, prev);
+    prev = f;
+  }
+  // prod (k + alpha)/(k + 1) ~ C n^(alpha - 1): r^2 falls like n^-0.3.
+  EXPECT_LT(progressiveRadiusFactor(1999, 0.7f), 0.4f);
+  EXPECT_GT(progressiveRadiusFactor(1999, 0.7f), 0.1f);
+}
