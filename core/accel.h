@@ -45,4 +45,20 @@ inline Vec3 offsetRayOrigin(const Vec3& p, const Vec3& ng, const Vec3& w) {
   return p + ng * (dot(ng, w) >= 0 ? scale : -scale);
 }
 
+// A shadow ray between two surface points, each moved off its surface along
+// its geometric normal toward the other (a zero normal, as for a point light,
+// means no offset). tMax stops just short of the target. Returns false when
+// the points coincide.
+inline bool segmentRay(const Vec3& from, const Vec3& nFrom, const Vec3& to, const Vec3& nTo, Ray& ray) {
+  Vec3 w = to - from;
+  ray.o = offsetRayOrigin(from, nFrom, w);
+  Vec3 d = offsetRayOrigin(to, nTo, -w) - ray.o;
+  float dist = length(d);
+  if (!(dist > 0)) return false;
+  ray.d = d / dist;
+  ray.tMin = 0;
+  ray.tMax = dist * (1 - 1e-4f);
+  return true;
+}
+
 }  // namespace vsl

@@ -62,14 +62,9 @@ GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gat
         Vec3 wiL = sh.shading.toLocal(ls->wi);
         if (wiL.z > 0 && dot(ls->wi, sh.ng) > 0) {
           Ray s;
-          s.o = offsetRayOrigin(sh.p, sh.ng, ls->wi);
-          Vec3 target = ls->delta ? ls->pLight : offsetRayOrigin(ls->pLight, ls->nLight, -ls->wi);
-          Vec3 dd = target - s.o;
-          float dist = length(dd);
-          s.d = dd / dist;
-          s.tMax = dist * (1 - 1e-4f);
           ++c.rays;
-          if (!accel_.occluded(s)) gp.shared += beta * brdf.eval(woL, wiL) * ls->Li * (wiL.z / ls->pdf);
+          if (segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) && !accel_.occluded(s))
+            gp.shared += beta * brdf.eval(woL, wiL) * ls->Li * (wiL.z / ls->pdf);
         }
       }
     }
@@ -111,13 +106,7 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   if (!vpl && !vslPossible) return;
   // One visibility ray feeds every estimate.
   Ray s;
-  s.o = offsetRayOrigin(gp.p, gp.rx.ng, l);
-  Vec3 target = offsetRayOrigin(L.p, L.ng, -l);
-  Vec3 sd = target - s.o;
-  float sl = length(sd);
-  if (sl > 0) {
-    s.d = sd / sl;
-    s.tMax = sl * (1 - 1e-4f);
+  if (segmentRay(gp.p, gp.rx.ng, L.p, L.ng, s)) {
     ++c.shadowRays;
     if (accel_.occluded(s)) return;
   }

@@ -151,18 +151,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   const size_t np = size_t(width_) * height_;
   std::vector<Vec3> direct(np), shared(np), layers[kLayers];
   for (auto& l : layers) l.assign(np, Vec3(0.0f));
-  constexpr int kTile = 16;
-  const int tilesX = (width_ + kTile - 1) / kTile, tilesY = (height_ + kTile - 1) / kTile;
-  std::atomic<bool> stopped{false};
-
-  parallelFor(size_t(tilesX) * tilesY, [&](size_t tile) {
-    if (stopped.load(std::memory_order_relaxed)) return;
-    if (stop && stop->load(std::memory_order_relaxed)) {
-      stopped.store(true);
-      return;
-    }
-    const int x0 = int(tile % tilesX) * kTile, y0 = int(tile / tilesX) * kTile;
-    const int x1 = std::min(x0 + kTile, width_), y1 = std::min(y0 + kTile, height_);
+  const bool complete = parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
     GatherCounters c;
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
@@ -189,7 +178,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
     stats_.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
     stats_.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
   });
-  if (stopped.load()) return false;
+  if (!complete) return false;
 
   // Merge: each batch estimates the all-N image as (N / nb) x its sum, with
   // weight nb / N, so the films hold the running unbiased estimate.

@@ -36,4 +36,21 @@ void parallelFor(size_t count, const std::function<void(size_t)>& body) {
   for (std::thread& t : threads) t.join();
 }
 
+bool parallelForTiles(int width, int height, const std::atomic<bool>* stop,
+                      const std::function<void(int, int, int, int)>& body) {
+  constexpr int kTile = 16;
+  const int tilesX = (width + kTile - 1) / kTile, tilesY = (height + kTile - 1) / kTile;
+  std::atomic<bool> stopped{false};
+  parallelFor(size_t(tilesX) * tilesY, [&](size_t tile) {
+    if (stopped.load(std::memory_order_relaxed)) return;
+    if (stop && stop->load(std::memory_order_relaxed)) {
+      stopped.store(true);
+      return;
+    }
+    const int x0 = int(tile % tilesX) * kTile, y0 = int(tile / tilesX) * kTile;
+    body(x0, y0, std::min(x0 + kTile, width), std::min(y0 + kTile, height));
+  });
+  return !stopped.load();
+}
+
 }  // namespace vsl

@@ -77,14 +77,8 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
         Vec3 f = brdf.eval(woL, wiL);
         if (!isBlack(f)) {
           Ray shadow;
-          shadow.o = offsetRayOrigin(sh.p, sh.ng, ls->wi);
-          Vec3 target = ls->delta ? ls->pLight : offsetRayOrigin(ls->pLight, ls->nLight, -ls->wi);
-          Vec3 d = target - shadow.o;
-          float dist = length(d);
-          shadow.d = d / dist;
-          shadow.tMax = dist * (1 - 1e-4f);
           ++rays;
-          if (!accel_.occluded(shadow)) {
+          if (segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, shadow) && !accel_.occluded(shadow)) {
             float w = ls->delta ? 1.0f : powerHeuristic(ls->pdf, brdf.pdf(woL, wiL));
             deposit(depth + 1, beta * f * ls->Li * (wiL.z * w / ls->pdf));
           }
@@ -118,17 +112,7 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
 
 bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters, const std::atomic<bool>* stop,
                             std::vector<double>* indirectSquares) const {
-  constexpr int kTile = 16;
-  const int tilesX = (width_ + kTile - 1) / kTile, tilesY = (height_ + kTile - 1) / kTile;
-  std::atomic<bool> stopped{false};
-  parallelFor(size_t(tilesX) * tilesY, [&](size_t tile) {
-    if (stopped.load(std::memory_order_relaxed)) return;
-    if (stop && stop->load(std::memory_order_relaxed)) {
-      stopped.store(true);
-      return;
-    }
-    const int x0 = int(tile % tilesX) * kTile, y0 = int(tile / tilesX) * kTile;
-    const int x1 = std::min(x0 + kTile, width_), y1 = std::min(y0 + kTile, height_);
+  return parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
     uint64_t rays = 0, nonFinite = 0, paths = 0;
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
@@ -143,7 +127,6 @@ bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& 
     counters.nonFinite.fetch_add(nonFinite, std::memory_order_relaxed);
     counters.paths.fetch_add(paths, std::memory_order_relaxed);
   });
-  return !stopped.load();
 }
 
 }  // namespace vsl
