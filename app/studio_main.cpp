@@ -152,6 +152,10 @@ ui::Studio* gStudio = nullptr;
 void onDrop(GLFWwindow*, int count, const char** paths) {
   if (gStudio && count > 0) gStudio->openScene(paths[0]);
 }
+// Ctrl+Q quits. Installed before the ImGui backend, which chains to it.
+void onKey(GLFWwindow* win, int key, int, int action, int mods) {
+  if (key == GLFW_KEY_Q && action == GLFW_PRESS && (mods & GLFW_MOD_CONTROL)) glfwSetWindowShouldClose(win, 1);
+}
 void onGlfwError(int code, const char* msg) { log::warning("GLFW error " + std::to_string(code) + ": " + msg); }
 
 int runWindowed(const Args& a, int w, int h, bool* fellBack) {
@@ -175,6 +179,7 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;
   ImGui::StyleColorsDark();
+  glfwSetKeyCallback(win, onKey);
   ImGui_ImplGlfw_InitForOpenGL(win, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
   {
@@ -187,7 +192,6 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
     for (int frame = 0; !glfwWindowShouldClose(win); ++frame) {
       auto t0 = Clock::now();
       glfwPollEvents();
-      if (ImGui::GetIO().KeyCtrl && ImGui::IsKeyPressed('Q')) glfwSetWindowShouldClose(win, 1);  // Ctrl+Q quits
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
