@@ -12,6 +12,7 @@
 
 #include "core/image_io.h"
 #include "core/many_light.h"
+#include "core/mrcs.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
 #include "core/rng.h"
@@ -165,6 +166,26 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
     gather(name, vsl, 4000, size / 2);
     gather(name, vsl, 1000, size);
   }
+
+  // Stages: light tracing and k-NN radii for 100,000 lights; MRCS over them.
+  ManyLightSettings big;
+  big.lights = 100000;
+  big.width = big.height = size / 2;
+  big.directSamples = 1;
+  ManyLightRun bigRun = prepareManyLights(scene, *accel, lights, big);
+  double traceRate = bigRun.set.lights.size() / std::max(bigRun.set.seconds, 1e-9);
+  double knnRate = bigRun.set.lights.size() / std::max(bigRun.knnSeconds, 1e-9);
+  MrcsResult mr = renderMrcs(scene, *accel, lights, bigRun.set, bigRun.radii, big, MrcsSettings{300, 900, 0});
+  double mrcsSeconds = mr.rowSeconds + mr.clusterSeconds + mr.columnSeconds;
+  double brutePairs = double(bigRun.set.lights.size()) * big.width * big.height * 2;  // VSL and VPL
+  std::printf("light tracing              %.3f M lights/s (%zu lights in %.2f s)\n", traceRate * 1e-6,
+              bigRun.set.lights.size(), bigRun.set.seconds);
+  std::printf("k-NN radii (k = 10)        %.3f M lights/s (%.2f s)\n", knnRate * 1e-6, bigRun.knnSeconds);
+  std::printf(
+      "MRCS 300 rows, 900 clusters %.2f s at %dx%d (rows %.2f, clustering %.2f, columns %.2f): %.0fx fewer "
+      "pairs than brute force\n",
+      mrcsSeconds, big.width, big.height, mr.rowSeconds, mr.clusterSeconds, mr.columnSeconds,
+      brutePairs / std::max(double(mr.pairs), 1.0));
   if (!jsonPath.empty()) {
     nlohmann::json j = {{"scene", scenePath},
                         {"triangles", scene.triangleCount()},
@@ -174,6 +195,16 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
                         {"ptRaysPerSecond", raysRate},
                         {"ptRaysPerPath", double(c.rays) / c.paths},
                         {"ratioPtRaysToRawOccluded", raysRate / rawRate}};
+    j["lightTracingLightsPerSecond"] = traceRate;
+    j["knnLightsPerSecond"] = knnRate;
+    j["mrcs"] = {{"lights", bigRun.set.lights.size()},
+                 {"size", big.width},
+                 {"seconds", mrcsSeconds},
+                 {"rowSeconds", mr.rowSeconds},
+                 {"clusterSeconds", mr.clusterSeconds},
+                 {"columnSeconds", mr.columnSeconds},
+                 {"pairs", mr.pairs},
+                 {"bruteForcePairs", brutePairs}};
     for (const auto& g : gathers)
       j["gather"].push_back({{"method", g.name},
                              {"lights", g.lights},

@@ -1,0 +1,78 @@
+// Google Benchmark microbenchmarks for the inner loops: BRDF evaluation and
+// sampling, the VSL cone integral, and k-NN radii.
+//   build/bin/vsl_microbench [--benchmark_filter=...]
+#include <benchmark/benchmark.h>
+
+#include "core/material.h"
+#include "core/rng.h"
+#include "core/sampling.h"
+#include "core/virtual_lights.h"
+#include "core/vsl_integral.h"
+
+using namespace vsl;
+
+namespace {
+
+std::vector<Vec3> directions(size_t n, uint64_t seed) {
+  Rng r(seed, 1);
+  std::vector<Vec3> v(n);
+  for (Vec3& w : v) w = sampleCosineHemisphere({r.uniform(), r.uniform()});
+  return v;
+}
+
+void BM_BrdfEval(benchmark::State& state) {
+  Brdf b = Brdf::fromGltf(Vec3(0.8f, 0.6f, 0.4f), state.range(0) / 100.0f, 0.4f, 0.5f);
+  auto wo = directions(1024, 1), wi = directions(1024, 2);
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(b.eval(wo[i & 1023], wi[i & 1023]));
+    ++i;
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_BrdfEval)->Arg(0)->Arg(100);
+
+void BM_BrdfSample(benchmark::State& state) {
+  Brdf b = Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.3f, 0.0f);
+  auto wo = directions(1024, 3);
+  Rng r(5, 5);
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(b.sample(wo[i & 1023], r.uniform(), {r.uniform(), r.uniform()}));
+    ++i;
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_BrdfSample);
+
+// The cone integral for a narrow (1 sample per strategy) and a wide cone.
+void BM_VslCone(benchmark::State& state) {
+  VslReceiver x;
+  x.brdf = Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.5f, 0.0f);
+  x.frame = Frame(Vec3(0, 0, 1));
+  x.ng = Vec3(0, 0, 1);
+  x.woLocal = normalize(Vec3(0.3f, 0.1f, 1.0f));
+  VslEmitter p;
+  p.brdf = Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.3f, 0.0f);
+  p.frame = Frame(Vec3(0, 0, -1));
+  p.wiLocal = normalize(Vec3(0.2f, 0.0f, 1.0f));
+  Vec3 toLight(0.2f, 0.1f, 1.0f);
+  double radius = state.range(0) / 100.0;
+  Rng r(9, 9);
+  for (auto _ : state) benchmark::DoNotOptimize(vslTransfer(x, p, toLight, radius, 0, r));
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_VslCone)->Arg(1)->Arg(50);
+
+void BM_KnnRadii(benchmark::State& state) {
+  Rng r(11, 11);
+  std::vector<VirtualLight> lights(size_t(state.range(0)));
+  for (auto& v : lights) v.p = Vec3(r.uniform(), r.uniform(), r.uniform());
+  for (auto _ : state) benchmark::DoNotOptimize(knnRadii(lights, 10, 1.0f, 1.0f, 1e-9f));
+  state.SetItemsProcessed(int64_t(state.iterations()) * state.range(0));
+}
+BENCHMARK(BM_KnnRadii)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
