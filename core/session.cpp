@@ -3,6 +3,7 @@
 #include <chrono>
 #include <sstream>
 
+#include "core/compare.h"
 #include "core/log.h"
 
 namespace vsl {
@@ -77,17 +78,6 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 
 double grey(const Image& img, size_t i) {
   return (double(img.rgb[3 * i]) + img.rgb[3 * i + 1] + img.rgb[3 * i + 2]) / 3;
-}
-
-double relMse(const Image& test, const Image& ref) {
-  size_t n = size_t(test.width) * test.height;
-  if (n == 0) return 0;
-  double s = 0;
-  for (size_t i = 0; i < n; ++i) {
-    double r = grey(ref, i), d = grey(test, i) - r;
-    s += d * d / (r * r + 1e-2);
-  }
-  return s / double(n);
 }
 
 }  // namespace
@@ -236,8 +226,9 @@ void Session::run() {
       ErrorSample e;
       e.manySeconds = mlSeconds;
       e.ptSeconds = ptSeconds;
-      e.vsl = relMse(snap->many.vsl, snap->ptIndirect);
-      e.vpl = relMse(snap->many.vpl, snap->ptIndirect);
+      // The same relMSE as `vsl compare` and the studio's metrics table.
+      e.vsl = compareImages(snap->many.vsl, snap->ptIndirect).average.relMse;
+      e.vpl = compareImages(snap->many.vpl, snap->ptIndirect).average.relMse;
       double ptErr = 0;
       size_t np = ptSquares.size();
       for (size_t i = 0; i < np && spp > 0; ++i) {

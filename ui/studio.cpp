@@ -544,14 +544,30 @@ void Studio::legend(float vmax) {
 
 // ---- [5] Metrics and plot -------------------------------------------------------------
 
+namespace {
+constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
+}
+
+void Studio::updateMetrics() {
+  if (metricsFor_ == snap_.get() && metricsComponent_ == view_.component) return;
+  metricsFor_ = snap_.get();
+  metricsComponent_ = view_.component;
+  Image refScratch;
+  const Image* ref = referenceImage(view_.component, refScratch);
+  for (int i = 0; i < 4; ++i) {
+    Image scratch;
+    metrics_[i] = compareImages(*componentImage(kMetricSources[i], view_.component, scratch), *ref);
+  }
+  referenceMean_ = metrics_[0].average.meanRef;
+}
+
 void Studio::metricsPanel() {
   if (!snap_ || snap_->width == 0) {
     ImGui::TextUnformatted("No picture yet.");
     return;
   }
   const Snapshot& s = *snap_;
-  Image refScratch;
-  const Image* ref = referenceImage(view_.component, refScratch);
+  updateMetrics();
   ImGui::BeginGroup();
   ImGui::Text("%s  |  %dx%d  |  %s component", std::filesystem::path(s.settings.scene).filename().c_str(), s.width,
               s.height, kComponentNames[int(view_.component)]);
@@ -567,13 +583,11 @@ void Studio::metricsPanel() {
     ImGui::TableSetupColumn("RMSE");
     ImGui::TableSetupColumn("relMSE");
     ImGui::TableHeadersRow();
-    for (Source src : {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse}) {
-      Image scratch;
-      const Image* img = componentImage(src, view_.component, scratch);
-      CompareResult c = compareImages(*img, *ref);
+    for (int i = 0; i < 4; ++i) {
+      const CompareResult& c = metrics_[i];
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
-      ImGui::TextUnformatted(sourceName(src));
+      ImGui::TextUnformatted(sourceName(kMetricSources[i]));
       ImGui::TableNextColumn();
       ImGui::Text("%.5g", c.average.meanTest);
       ImGui::TableNextColumn();
@@ -585,7 +599,7 @@ void Studio::metricsPanel() {
     ImGui::TableNextColumn();
     ImGui::TextUnformatted("Reference (PT)");
     ImGui::TableNextColumn();
-    ImGui::Text("%.5g", compareImages(*ref, *ref).average.meanTest);
+    ImGui::Text("%.5g", referenceMean_);
     ImGui::TableNextColumn();
     ImGui::TextUnformatted("-");
     ImGui::TableNextColumn();
@@ -746,7 +760,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
     return false;
   }
   nlohmann::json metrics;
-  for (Source src : {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse}) {
+  for (Source src : kMetricSources) {
     for (Component c : {Component::Full, Component::Indirect}) {
       Image sc, rs;
       const Image* img = componentImage(src, c, sc);

@@ -90,6 +90,7 @@ class Studio {
   const Image* componentImage(Source s, Component c, Image& scratch) const;
   const Image* referenceImage(Component c, Image& scratch) const;
   void legend(float vmax);
+  void updateMetrics();
 
   StudioOptions options_;
   StudioSettings settings_;
@@ -112,6 +113,12 @@ class Studio {
   bool savePngPending_ = false;
   std::string savePngPath_;
   double lastFrameMs_ = 0;
+  // Metrics of the shown snapshot and component, computed once per change
+  // (not every frame).
+  const Snapshot* metricsFor_ = nullptr;
+  Component metricsComponent_ = Component::Full;
+  CompareResult metrics_[4];
+  double referenceMean_ = 0;
   // Responsiveness, measured on the UI thread.
   std::chrono::steady_clock::time_point created_ = std::chrono::steady_clock::now(), restartedAt_ = created_;
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
