@@ -32,6 +32,20 @@ void BM_BrdfEval(benchmark::State& state) {
 }
 BENCHMARK(BM_BrdfEval)->Arg(0)->Arg(100);
 
+// The gather's form: one direction fixed per gather point or light.
+void BM_BrdfAtEval(benchmark::State& state) {
+  Brdf b = Brdf::fromGltf(Vec3(0.8f, 0.6f, 0.4f), state.range(0) / 100.0f, 0.4f, 0.5f);
+  BrdfAt at(b, normalize(Vec3(0.3f, 0.1f, 1.0f)));
+  auto wi = directions(1024, 2);
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(at.evalParts(wi[i & 1023]));
+    ++i;
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_BrdfAtEval)->Arg(0)->Arg(100);
+
 void BM_BrdfSample(benchmark::State& state) {
   Brdf b = Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.3f, 0.0f);
   auto wo = directions(1024, 3);
@@ -48,14 +62,12 @@ BENCHMARK(BM_BrdfSample);
 // The cone integral for a narrow (1 sample per strategy) and a wide cone.
 void BM_VslCone(benchmark::State& state) {
   VslReceiver x;
-  x.brdf = Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.5f, 0.0f);
+  x.f = BrdfAt(Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.5f, 0.0f), normalize(Vec3(0.3f, 0.1f, 1.0f)));
   x.frame = Frame(Vec3(0, 0, 1));
   x.ng = Vec3(0, 0, 1);
-  x.woLocal = normalize(Vec3(0.3f, 0.1f, 1.0f));
   VslEmitter p;
-  p.brdf = Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.3f, 0.0f);
+  p.f = BrdfAt(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.3f, 0.0f), normalize(Vec3(0.2f, 0.0f, 1.0f)));
   p.frame = Frame(Vec3(0, 0, -1));
-  p.wiLocal = normalize(Vec3(0.2f, 0.0f, 1.0f));
   Vec3 toLight(0.2f, 0.1f, 1.0f);
   double radius = state.range(0) / 100.0;
   Rng r(9, 9);

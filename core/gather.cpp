@@ -8,9 +8,8 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
   g.Phi = v.Phi;
   g.n = decodeUnit(v.n);
   g.ng = decodeUnit(v.ng);
-  g.em.brdf = v.brdf();
   g.em.frame = v.frame();
-  g.em.wiLocal = g.em.frame.toLocal(decodeUnit(v.wi));
+  g.em.f = BrdfAt(v.brdf(), g.em.frame.toLocal(decodeUnit(v.wi)));
   g.radius = radius;
   return g;
 }
@@ -71,10 +70,9 @@ GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gat
     gp.valid = true;
     gp.p = sh.p;
     gp.beta = beta;
-    gp.rx.brdf = brdf;
+    gp.rx.f = BrdfAt(brdf, woL);
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
-    gp.rx.woLocal = woL;
     return gp;
   }
   return gp;
@@ -93,11 +91,10 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   Vec3 Tfull(0.0f), Tdiff(0.0f);
   bool vpl = computeVpl_ && d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0;
   if (vpl) {
-    Vec3 fx = gp.rx.brdf.eval(gp.rx.woLocal, gp.rx.frame.toLocal(l));
-    Vec3 lp = L.em.frame.toLocal(-l);
-    float G = cosX * cosP / d2;
-    Tfull = fx * L.em.brdf.eval(L.em.wiLocal, lp) * G;
-    Tdiff = fx * L.em.brdf.evalDiffuse(L.em.wiLocal, lp) * G;
+    Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(l)) * (cosX * cosP / d2);
+    BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-l));
+    Tdiff = fxG * fp.diffuse;
+    Tfull = Tdiff + fxG * fp.specular;
     vpl = !isBlack(Tfull) || !isBlack(Tdiff);
   }
   // Could any direction of the VSL cone see both hemispheres?

@@ -98,29 +98,31 @@ const AlbedoTable& albedoTable() {
   return table;
 }
 
-float roughnessCoordinate(float alpha) {
-  return clamp(std::sqrt(std::max(alpha, 0.0f)), 0.0f, 1.0f) * (kTableAlpha - 1);
+AlbedoRow albedoRow(float alpha) {
+  float fa = clamp(std::sqrt(std::max(alpha, 0.0f)), 0.0f, 1.0f) * (kTableAlpha - 1);
+  int a0 = std::min(int(fa), kTableAlpha - 2);
+  return {a0, fa - a0};
+}
+
+float albedoAt(AlbedoRow r, float cosTheta) {
+  const AlbedoTable& t = albedoTable();
+  float fm = clamp(cosTheta, 0.0f, 1.0f) * (kTableMu - 1);
+  int m0 = std::min(int(fm), kTableMu - 2);
+  float dm = fm - m0;
+  float e0 = t.E[r.a0][m0] * (1 - dm) + t.E[r.a0][m0 + 1] * dm;
+  float e1 = t.E[r.a0 + 1][m0] * (1 - dm) + t.E[r.a0 + 1][m0 + 1] * dm;
+  return e0 * (1 - r.da) + e1 * r.da;
+}
+
+float albedoAverageAt(AlbedoRow r) {
+  const AlbedoTable& t = albedoTable();
+  return t.Eavg[r.a0] * (1 - r.da) + t.Eavg[r.a0 + 1] * r.da;
 }
 }  // namespace
 
-float dielectricSpecularAlbedo(float cosTheta, float alpha) {
-  const AlbedoTable& t = albedoTable();
-  float fa = roughnessCoordinate(alpha);
-  float fm = clamp(cosTheta, 0.0f, 1.0f) * (kTableMu - 1);
-  int a0 = std::min(int(fa), kTableAlpha - 2), m0 = std::min(int(fm), kTableMu - 2);
-  float da = fa - a0, dm = fm - m0;
-  float e0 = t.E[a0][m0] * (1 - dm) + t.E[a0][m0 + 1] * dm;
-  float e1 = t.E[a0 + 1][m0] * (1 - dm) + t.E[a0 + 1][m0 + 1] * dm;
-  return e0 * (1 - da) + e1 * da;
-}
+float dielectricSpecularAlbedo(float cosTheta, float alpha) { return albedoAt(albedoRow(alpha), cosTheta); }
 
-float dielectricSpecularAlbedoAverage(float alpha) {
-  const AlbedoTable& t = albedoTable();
-  float fa = roughnessCoordinate(alpha);
-  int a0 = std::min(int(fa), kTableAlpha - 2);
-  float da = fa - a0;
-  return t.Eavg[a0] * (1 - da) + t.Eavg[a0 + 1] * da;
-}
+float dielectricSpecularAlbedoAverage(float alpha) { return albedoAverageAt(albedoRow(alpha)); }
 
 // ---- Brdf -----------------------------------------------------------------
 
@@ -136,68 +138,82 @@ Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, floa
   return b;
 }
 
-Vec3 Brdf::evalDiffuse(const Vec3& wo, const Vec3& wi) const {
-  if (wo.z <= 0 || wi.z <= 0 || metallic >= 1) return Vec3(0.0f);
-  float alpha = std::sqrt(ggx.ax * ggx.ay), s = specularWeight;
-  float scale = (1 - s * dielectricSpecularAlbedo(wo.z, alpha)) * (1 - s * dielectricSpecularAlbedo(wi.z, alpha)) /
-                std::max(1 - s * dielectricSpecularAlbedoAverage(alpha), 1e-4f);
-  return baseColor * ((1 - metallic) * kInvPi * scale);
+Vec3 Brdf::evalDiffuse(const Vec3& wo, const Vec3& wi) const { return BrdfAt(*this, wo).evalParts(wi).diffuse; }
+
+Vec3 Brdf::eval(const Vec3& wo, const Vec3& wi) const { return BrdfAt(*this, wo).eval(wi); }
+
+float Brdf::specularProbability(const Vec3& wo) const { return BrdfAt(*this, wo).specularProbability(); }
+
+float Brdf::pdf(const Vec3& wo, const Vec3& wi) const { return BrdfAt(*this, wo).pdf(wi); }
+
+std::optional<BrdfSample> Brdf::sample(const Vec3& wo, float u1, Vec2 u2) const {
+  return BrdfAt(*this, wo).sample(u1, u2);
 }
 
-Vec3 Brdf::eval(const Vec3& wo, const Vec3& wi) const {
-  if (wo.z <= 0 || wi.z <= 0) return Vec3(0.0f);
-  Vec3 f = evalDiffuse(wo, wi);
-  Vec3 h = wo + wi;
+// ---- BrdfAt ---------------------------------------------------------------
+
+BrdfAt::BrdfAt(const Brdf& brdf, const Vec3& w) : b_(brdf), w_(w), above_(w.z > 0) {
+  if (!above_) return;
+  const float s = b_.specularWeight, m = b_.metallic;
+  lambdaW_ = b_.ggx.lambda(w);
+  // Lobe selection: the specular lobe's share of the albedo, kept within
+  // [0.1, 0.9] when both lobes exist so that MIS never divides by a
+  // vanishing pdf. A metal has no diffuse lobe.
+  ps_ = 1;
+  if (m < 1) {
+    row_ = albedoRow(std::sqrt(b_.ggx.ax * b_.ggx.ay));
+    float E = s * albedoAt(row_, w.z);
+    kd_ = b_.baseColor * ((1 - m) * kInvPi * (1 - E) / std::max(1 - s * albedoAverageAt(row_), 1e-4f));
+    float spec = m + (1 - m) * E;
+    float diff = (1 - m) * (1 - E) * std::max(luminance(b_.baseColor), 0.0f);
+    ps_ = !(spec > 0) ? 0.0f : !(diff > 0) ? 1.0f : clamp(spec / (spec + diff), 0.1f, 0.9f);
+  }
+  // Visible-normal sampling: pdf(wi) = G1(w) D(h) / (4 w.z).
+  specPdfScale_ = ps_ / ((1 + lambdaW_) * 4 * w.z);
+  pdfBound_ = (1 - ps_) * kInvPi + specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay);
+}
+
+BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi) const {
+  Parts p{Vec3(0.0f), Vec3(0.0f)};
+  if (!above_ || wi.z <= 0) return p;
+  const float s = b_.specularWeight, m = b_.metallic;
+  if (m < 1) p.diffuse = kd_ * (1 - s * albedoAt(row_, wi.z));
+  Vec3 h = w_ + wi;
   float hl = length(h);
-  if (!(hl > 0)) return f;
+  if (!(hl > 0)) return p;
   h /= hl;
-  float voh = std::max(dot(wo, h), 0.0f);
-  float w = schlickWeight(voh);
+  float w = schlickWeight(std::max(dot(w_, h), 0.0f));
   // Fresnel blended between the dielectric (F0 = 0.04) and the metal (F0 = c).
-  Vec3 Fm = baseColor + (Vec3(1.0f) - baseColor) * w;
-  float Fd = specularWeight * (kDielectricF0 + (1 - kDielectricF0) * w);
-  Vec3 F = Vec3(Fd * (1 - metallic)) + Fm * metallic;
-  float spec = ggx.D(h) * ggx.G2(wo, wi) / (4 * wo.z * wi.z);
-  return f + F * spec;
+  Vec3 Fm = b_.baseColor + (Vec3(1.0f) - b_.baseColor) * w;
+  float Fd = s * (kDielectricF0 + (1 - kDielectricF0) * w);
+  Vec3 F = Vec3(Fd * (1 - m)) + Fm * m;
+  float G2 = 1.0f / (1.0f + lambdaW_ + b_.ggx.lambda(wi));
+  p.specular = F * (b_.ggx.D(h) * G2 / (4 * w_.z * wi.z));
+  return p;
 }
 
-float Brdf::specularProbability(const Vec3& wo) const {
-  if (metallic >= 1) return 1.0f;
-  float alpha = std::sqrt(ggx.ax * ggx.ay);
-  float E = specularWeight * dielectricSpecularAlbedo(wo.z, alpha);
-  float spec = metallic + (1 - metallic) * E;
-  float diff = (1 - metallic) * (1 - E) * std::max(luminance(baseColor), 0.0f);
-  if (!(spec > 0)) return 0.0f;
-  if (!(diff > 0)) return 1.0f;
-  // Keep both strategies alive so that MIS never divides by a vanishing pdf.
-  return clamp(spec / (spec + diff), 0.1f, 0.9f);
-}
-
-float Brdf::pdf(const Vec3& wo, const Vec3& wi) const {
-  if (wo.z <= 0 || wi.z <= 0) return 0;
-  float ps = specularProbability(wo);
-  float pdf = (1 - ps) * cosineHemispherePdf(wi.z);
-  Vec3 h = normalize(wo + wi);
-  float voh = dot(wo, h);
-  if (voh > 0) pdf += ps * ggx.visibleNormalPdf(wo, h) / (4 * voh);
+float BrdfAt::pdf(const Vec3& wi) const {
+  if (!above_ || wi.z <= 0) return 0;
+  float pdf = (1 - ps_) * cosineHemispherePdf(wi.z);
+  Vec3 h = normalize(w_ + wi);
+  if (dot(w_, h) > 0) pdf += specPdfScale_ * b_.ggx.D(h);
   return pdf;
 }
 
-std::optional<BrdfSample> Brdf::sample(const Vec3& wo, float u1, Vec2 u2) const {
-  if (wo.z <= 0) return std::nullopt;
-  float ps = specularProbability(wo);
+std::optional<BrdfSample> BrdfAt::sample(float u1, Vec2 u2) const {
+  if (!above_) return std::nullopt;
   Vec3 wi;
-  bool spec = u1 < ps;
+  bool spec = u1 < ps_;
   if (spec) {
-    Vec3 h = ggx.sampleVisibleNormal(wo, u2);
-    wi = reflect(wo, h);
+    Vec3 h = b_.ggx.sampleVisibleNormal(w_, u2);
+    wi = reflect(w_, h);
   } else {
     wi = sampleCosineHemisphere(u2);
   }
   if (wi.z <= 0) return std::nullopt;
-  float p = pdf(wo, wi);
+  float p = pdf(wi);
   if (!(p > 0) || !std::isfinite(p)) return std::nullopt;
-  return BrdfSample{wi, eval(wo, wi), p, spec};
+  return BrdfSample{wi, eval(wi), p, spec};
 }
 
 // ---- Texture --------------------------------------------------------------

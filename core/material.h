@@ -94,6 +94,49 @@ struct Brdf {
   Vec3 diffuseReflectance() const { return baseColor * (1.0f - metallic); }
 };
 
+// Where the albedo table is read for one alpha (row and interpolation weight).
+struct AlbedoRow {
+  int a0 = 0;
+  float da = 0;
+};
+
+// A BRDF with its first direction fixed: the viewer at a gather point, or the
+// incoming direction at a virtual light. Every term that depends on that
+// direction alone (the albedo-scaling factor, Smith's lambda, the lobe
+// selection probability) is computed once, so evaluating many second
+// directions (one per virtual light, per cone sample) does not repeat it.
+// Brdf's eval/pdf/sample are this class with a one-off fixed direction, so
+// the two always agree.
+class BrdfAt {
+ public:
+  BrdfAt() = default;
+  BrdfAt(const Brdf& brdf, const Vec3& w);
+
+  const Brdf& brdf() const { return b_; }
+  const Vec3& w() const { return w_; }
+
+  struct Parts {
+    Vec3 diffuse, specular;
+    Vec3 total() const { return diffuse + specular; }
+  };
+  // f_r(w, wi) split into its diffuse and specular lobes.
+  Parts evalParts(const Vec3& wi) const;
+  Vec3 eval(const Vec3& wi) const { return evalParts(wi).total(); }
+  float pdf(const Vec3& wi) const;
+  std::optional<BrdfSample> sample(float u1, Vec2 u2) const;
+  float specularProbability() const { return ps_; }
+  // An upper bound of pdf(wi) over all directions wi.
+  float pdfBound() const { return pdfBound_; }
+
+ private:
+  Brdf b_;
+  Vec3 w_{0, 0, 1};
+  Vec3 kd_{0.0f};  // diffuse lobe divided by (1 - s E(wi))
+  float lambdaW_ = 0, ps_ = 0, specPdfScale_ = 0, pdfBound_ = 0;
+  AlbedoRow row_;
+  bool above_ = false;  // w.z > 0
+};
+
 // An RGBA image in [0,1] (as stored, not yet linearised).
 struct Texture {
   std::string name;

@@ -25,6 +25,11 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
   // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
   auto inCone = [&](const Vec3& l) { return 0.5 * double(lengthSquared(l - axis)) <= omc; };
 
+  // Strategies 2 and 3 only where their samples can land in the cone.
+  const double coneSolidAngle = 2.0 * M_PI * omc;
+  const bool useX = double(x.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
+  const bool useP = double(p.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
+
   double sum[3] = {0, 0, 0};
   // Cone samples are inside by construction (re-testing them in float would
   // reject some near the rim of tiny cones).
@@ -33,9 +38,11 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
     if ((!coneSample && !inCone(l)) || dot(l, x.ng) <= 0) return;
     Vec3 lx = x.frame.toLocal(l), lp = p.frame.toLocal(-l);
     if (lx.z <= 0 || lp.z <= 0) return;
-    Vec3 f = x.brdf.eval(x.woLocal, lx) * p.brdf.eval(p.wiLocal, lp) * (lx.z * lp.z);
+    Vec3 f = x.f.eval(lx) * p.f.eval(lp) * (lx.z * lp.z);
     if (isBlack(f)) return;
-    double pdfSum = pdfCone + double(x.brdf.pdf(x.woLocal, lx)) + double(p.brdf.pdf(p.wiLocal, lp));
+    double pdfSum = pdfCone;
+    if (useX) pdfSum += double(x.f.pdf(lx));
+    if (useP) pdfSum += double(p.f.pdf(lp));
     if (!(pdfSum > 0)) return;
     for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
   };
@@ -44,16 +51,20 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
     // Strategy 1: uniform in the cone.
     accumulate(coneFrame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true);
     // Strategy 2: the receiver's BRDF.
-    if (auto s = x.brdf.sample(x.woLocal, rng.uniform(), {rng.uniform(), rng.uniform()}))
-      accumulate(x.frame.toWorld(s->wi), false);
-    else
-      ++res.evaluations;
+    if (useX) {
+      if (auto s = x.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
+        accumulate(x.frame.toWorld(s->wi), false);
+      else
+        ++res.evaluations;
+    }
     // Strategy 3: the light's BRDF about its incoming direction (emission
     // leaves p along w; the receiver sees it along l = -w).
-    if (auto s = p.brdf.sample(p.wiLocal, rng.uniform(), {rng.uniform(), rng.uniform()}))
-      accumulate(-p.frame.toWorld(s->wi), false);
-    else
-      ++res.evaluations;
+    if (useP) {
+      if (auto s = p.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
+        accumulate(-p.frame.toWorld(s->wi), false);
+      else
+        ++res.evaluations;
+    }
   }
   // Balance heuristic with n samples per strategy: (1/n) sum f / sum_j pdf_j.
   double norm = 1.0 / (double(n) * M_PI * radius * radius);

@@ -9,12 +9,19 @@
 // around the direction to p. The radiance from one light is V * Phi * T_VSL.
 // As r -> 0, T_VSL -> f_x cos_x f_p cos_p / d^2, the unclamped VPL transfer.
 //
-// Quadrature: Monte Carlo with three strategies combined by the balance
+// Quadrature: Monte Carlo with up to three strategies combined by the balance
 // heuristic, n samples each: uniform directions in C, sampling f_x, and
 // sampling f_p about the light's incoming direction (BRDF samples outside C
 // contribute zero). Auto sample counts grow with the cone's solid angle:
 // n = max(1, round(33 (1 - cos))), so about 100 evaluations for a hemisphere
 // and 3 for a tiny cone.
+//
+// Strategy selection: a BRDF strategy whose pdf cannot put more than
+// kVslStrategyMass of its samples into C (pdf bound x solid angle of C) is
+// dropped for that pair; the cone strategy alone covers C, so the estimate
+// stays unbiased. Those BRDF samples would almost never land in C, and their
+// cost (a sample, two evaluations, two pdfs) dominates a narrow cone's. Lobes
+// that are narrow compared with C (near-mirror surfaces) keep their strategy.
 #pragma once
 
 #include "core/material.h"
@@ -23,17 +30,18 @@
 namespace vsl {
 
 struct VslReceiver {
-  Brdf brdf;
-  Frame frame;   // shading frame at x
-  Vec3 ng;       // geometric normal at x (directions below it contribute zero)
-  Vec3 woLocal;  // toward the viewer, in frame
+  BrdfAt f;     // the receiver's BRDF with wo (toward the viewer, local) fixed
+  Frame frame;  // shading frame at x
+  Vec3 ng;      // geometric normal at x (directions below it contribute zero)
 };
 
 struct VslEmitter {
-  Brdf brdf;
-  Frame frame;   // shading frame at p
-  Vec3 wiLocal;  // toward the light path's previous vertex, in frame
+  BrdfAt f;     // the light's BRDF with its incoming direction (local) fixed
+  Frame frame;  // shading frame at p
 };
+
+// See "Strategy selection" above.
+constexpr double kVslStrategyMass = 0.05;
 
 // 1 - cos of the cone's half-angle for a sphere of radius r at distance d
 // (1 when d <= r). Precise for r << d.

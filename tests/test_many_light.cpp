@@ -185,17 +185,15 @@ TEST(VirtualLights, KnnRadiiMatchBruteForce) {
 namespace {
 VslReceiver receiver(const Brdf& b, const Vec3& n, const Vec3& wo) {
   VslReceiver x;
-  x.brdf = b;
   x.frame = Frame(n, Vec3(1, 0, 0));
   x.ng = n;
-  x.woLocal = x.frame.toLocal(wo);
+  x.f = BrdfAt(b, x.frame.toLocal(wo));
   return x;
 }
 VslEmitter emitter(const Brdf& b, const Vec3& n, const Vec3& wi) {
   VslEmitter p;
-  p.brdf = b;
   p.frame = Frame(n, Vec3(0, 1, 0));
-  p.wiLocal = p.frame.toLocal(wi);
+  p.f = BrdfAt(b, p.frame.toLocal(wi));
   return p;
 }
 // Dense uniform-cone quadrature of the VSL integrand (the reference).
@@ -210,7 +208,7 @@ Vec3 coneReference(const VslReceiver& x, const VslEmitter& p, const Vec3& toLigh
       Vec3 l = f.toWorld(sampleUniformConeOmc({(i + 0.5f) / m, (j + 0.5f) / m}, float(omc)));
       Vec3 lx = x.frame.toLocal(l), lp = p.frame.toLocal(-l);
       if (lx.z <= 0 || lp.z <= 0 || dot(l, x.ng) <= 0) continue;
-      Vec3 v = x.brdf.eval(x.woLocal, lx) * p.brdf.eval(p.wiLocal, lp) * (lx.z * lp.z);
+      Vec3 v = x.f.eval(lx) * p.f.eval(lp) * (lx.z * lp.z);
       for (int c = 0; c < 3; ++c) s[c] += v[c];
     }
   double scale = 2 * M_PI * omc / (double(m) * m) / (M_PI * r * r);
@@ -245,15 +243,45 @@ TEST(VslIntegral, TendsToVplAsRadiusVanishes) {
     VslEmitter p = emitter(bp, np, wip);
     Vec3 lp = p.frame.toLocal(-l), lx = x.frame.toLocal(l);
     Vec3 vpl(0.0f);
-    if (lx.z > 0 && lp.z > 0) vpl = bx.eval(x.woLocal, lx) * bp.eval(p.wiLocal, lp) * (lx.z * lp.z / (d * d));
+    if (lx.z > 0 && lp.z > 0) vpl = bx.eval(x.f.w(), lx) * bp.eval(p.f.w(), lp) * (lx.z * lp.z / (d * d));
     for (double r : {1e-4 * d, 1e-7 * d}) {
       Rng g(trial, 1);
       VslResult v = vslTransfer(x, p, toLight, r, 0, g);
       for (int c = 0; c < 3; ++c)
         ASSERT_NEAR(v.transfer[c], vpl[c], 2e-3f * vpl[c] + 1e-7f) << "trial " << trial << " r " << r;
-      ASSERT_EQ(v.evaluations, 3);  // auto: one sample per strategy for a tiny cone
+      // Auto: one sample for a tiny cone, and rough lobes cannot put samples
+      // into it, so the cone strategy alone is used.
+      ASSERT_EQ(v.evaluations, 1);
     }
   }
+}
+
+// BRDF strategies are dropped exactly when their samples could not land in the
+// cone, and kept for lobes narrower than the cone (near-mirror surfaces).
+TEST(VslIntegral, StrategySelectionKeepsNarrowLobes) {
+  Vec3 toLight(0, 0, 1);
+  Vec3 wo = normalize(Vec3(0.1f, 0, 1));
+  auto evaluations = [&](float roughX, float roughP, double r) {
+    VslReceiver x = receiver(Brdf::fromGltf(Vec3(0.9f), 1.0f, roughX, 0), Vec3(0, 0, 1), wo);
+    // The light faces down at x, lit from just off its normal.
+    VslEmitter p = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, roughP, 0), Vec3(0, 0, -1), normalize(Vec3(0.05f, 0, -1)));
+    Rng g(3, 3);
+    return vslTransfer(x, p, toLight, r, 1, g).evaluations;
+  };
+  EXPECT_EQ(evaluations(0.5f, 0.5f, 1e-3), 1);   // rough lobes, tiny cone: cone only
+  EXPECT_EQ(evaluations(0.02f, 0.5f, 1e-3), 2);  // near-mirror receiver keeps its strategy
+  EXPECT_EQ(evaluations(0.5f, 0.02f, 1e-3), 2);  // near-mirror light keeps its strategy
+  EXPECT_EQ(evaluations(0.5f, 0.5f, 0.5), 3);    // wide cone: all three
+  // The bound behind the choice is a bound: no direction exceeds it.
+  Rng rng(5, 5);
+  for (float rough : {0.02f, 0.2f, 0.7f})
+    for (float metallic : {0.0f, 1.0f}) {
+      BrdfAt b(Brdf::fromGltf(Vec3(0.7f), metallic, rough, 0.5f), normalize(Vec3(0.5f, 0.2f, 0.4f)));
+      for (int i = 0; i < 20000; ++i) {
+        Vec3 wi = sampleUniformSphere({rng.uniform(), rng.uniform()});
+        ASSERT_LE(b.pdf(wi), b.pdfBound() * 1.0001f) << "rough " << rough << " metallic " << metallic;
+      }
+    }
 }
 
 // The MIS estimate is unbiased: its average over many runs matches a dense
@@ -264,7 +292,9 @@ TEST(VslIntegralStats, MatchesDenseQuadrature) {
   };
   // Lobes down to roughness 0.25 (alpha 0.06): narrower lobes need more than
   // the dense grid's 2000 x 2000 points to be a trustworthy reference.
-  for (Case c : {Case{0.3f, 0.3f, 0.2f}, Case{0.25f, 0.8f, 0.5f}, Case{0.8f, 0.25f, 0.3f}, Case{0.5f, 0.5f, 1.5f}}) {
+  for (Case c : {Case{0.3f, 0.3f, 0.2f}, Case{0.25f, 0.8f, 0.5f}, Case{0.8f, 0.25f, 0.3f}, Case{0.5f, 0.5f, 1.5f},
+                 // Narrow cones: rough lobes drop their strategies (one of them, or both).
+                 Case{0.25f, 0.9f, 0.05f}, Case{0.4f, 0.5f, 0.02f}}) {
     Brdf bx = Brdf::fromGltf(Vec3(0.9f), 1.0f, c.roughX, 0);
     Brdf bp = Brdf::fromGltf(Vec3(0.9f), 1.0f, c.roughP, 0);
     Vec3 toLight(0.3f, 0.1f, 1.0f);
