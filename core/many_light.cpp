@@ -151,33 +151,58 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   const size_t np = size_t(width_) * height_;
   std::vector<Vec3> direct(np), shared(np), layers[kLayers];
   for (auto& l : layers) l.assign(np, Vec3(0.0f));
+  // Pixels of a tile against blocks of lights: a block (kLightBlock x ~200
+  // bytes) stays in cache while every gather point of the tile visits it, so
+  // large batches are not streamed from memory once per pixel.
+  constexpr size_t kLightBlock = 256;
+  std::atomic<bool> abandoned{false};
   const bool complete = parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
     GatherCounters c;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const size_t pix = size_t(y) * width_ + x;
-        // Direct light: the reference's estimator, this batch's share of samples.
-        Vec3 dsum(0.0f);
-        for (int s = dBegin; s < dEnd; ++s) {
-          Vec3 Ld, Lind;
-          direct_.samplePixel(x, y, s, Ld, Lind, c.rays, c.nonFinite);
-          dsum += Ld;
-        }
-        direct[pix] = dsum / float(dEnd - dBegin);
-
-        Rng rng = Rng::forItem(pix, uint64_t(b), 2, seed);
-        GatherPoint gp = gatherer.eyePath(x, y, width_, height_, rng, c);
-        shared[pix] = gp.shared;
-        if (!gp.valid) continue;
-        double acc[kGatherLayers][3] = {};
-        for (size_t i = 0; i < nb; ++i) gatherer.evaluate(gp, batch[i], order_[begin + i], pix, acc, c);
-        for (int k = 0; k < kLayers; ++k) layers[k][pix] = Vec3(float(acc[k][0]), float(acc[k][1]), float(acc[k][2]));
+    const int tw = x1 - x0, n = tw * (y1 - y0);
+    std::vector<GatherPoint> gps(static_cast<size_t>(n));
+    struct Sums {
+      double v[kGatherLayers][3] = {};
+    };
+    std::vector<Sums> acc(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      const int x = x0 + i % tw, y = y0 + i / tw;
+      const size_t pix = size_t(y) * width_ + x;
+      // Direct light: the reference's estimator, this batch's share of samples.
+      Vec3 dsum(0.0f);
+      for (int s = dBegin; s < dEnd; ++s) {
+        Vec3 Ld, Lind;
+        direct_.samplePixel(x, y, s, Ld, Lind, c.rays, c.nonFinite);
+        dsum += Ld;
       }
+      direct[pix] = dsum / float(dEnd - dBegin);
+      Rng rng = Rng::forItem(pix, uint64_t(b), 2, seed);
+      gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
+      shared[pix] = gps[size_t(i)].shared;
+    }
+    for (size_t l0 = 0; l0 < nb; l0 += kLightBlock) {
+      if (stop && stop->load(std::memory_order_relaxed)) {
+        abandoned = true;
+        return;
+      }
+      const size_t l1 = std::min(nb, l0 + kLightBlock);
+      for (int i = 0; i < n; ++i) {
+        const GatherPoint& gp = gps[size_t(i)];
+        if (!gp.valid) continue;
+        const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
+        for (size_t l = l0; l < l1; ++l) gatherer.evaluate(gp, batch[l], order_[begin + l], pix, acc[size_t(i)].v, c);
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
+      const auto& a = acc[size_t(i)].v;
+      for (int k = 0; k < kLayers; ++k) layers[k][pix] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
+    }
     stats_.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
     stats_.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
     stats_.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
     stats_.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
   });
+  if (abandoned) return false;
   if (!complete) return false;
 
   // Merge: each batch estimates the all-N image as (N / nb) x its sum, with
