@@ -140,15 +140,16 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
   struct GatherResult {
     std::string name;
     uint32_t lights;
-    int size;
+    int width, height;
     double pairsPerSecond, raysPerSecond, seconds, raw;
   };
   std::vector<GatherResult> gathers;
   double rawBefore = rawRate;
-  auto gather = [&](const std::string& name, bool vsl, uint32_t n, int sz) {
+  auto gather = [&](const std::string& name, bool vsl, uint32_t n, int sz, int szY = 0) {
     ManyLightSettings m;
     m.lights = n;
-    m.width = m.height = sz;
+    m.width = sz;
+    m.height = szY > 0 ? szY : sz;
     m.batches = 1;
     m.directSamples = 1;
     m.computeVsl = vsl;
@@ -164,21 +165,23 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
     double raw = 0.5 * (rawBefore + rawAfter);
     rawBefore = rawAfter;
     const ManyLightStats& st = r.stats();
-    gathers.push_back({name, uint32_t(run.set.lights.size()), sz, st.pairs / sec, st.shadowRays / sec, sec, raw});
+    gathers.push_back(
+        {name, uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec, st.shadowRays / sec, sec, raw});
     std::printf(
         "%-4s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
         "%.2f s\n",
-        name.c_str(), uint32_t(run.set.lights.size()), sz, sz, st.pairs / sec * 1e-6, st.pairs / sec / raw,
+        name.c_str(), uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec * 1e-6, st.pairs / sec / raw,
         st.shadowRays / sec * 1e-6, st.shadowRays / sec / raw, raw * 1e-6, sec);
   };
   // Few lights (wide VSL cones, all in cache), more lights, a larger image,
-  // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one.
+  // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
+  // (eight 16x16 tiles, so that two threads share the work evenly).
   for (bool vsl : {false, true}) {
     const char* name = vsl ? "VSL" : "VPL";
     gather(name, vsl, 1000, size / 2);
     gather(name, vsl, 4000, size / 2);
     gather(name, vsl, 1000, size);
-    gather(name, vsl, 100000, std::max(size / 8, 8));
+    gather(name, vsl, 100000, 64, 32);
   }
 
   // Stages: light tracing and k-NN radii for 100,000 lights; MRCS over them.
@@ -222,7 +225,8 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
     for (const auto& g : gathers)
       j["gather"].push_back({{"method", g.name},
                              {"lights", g.lights},
-                             {"size", g.size},
+                             {"width", g.width},
+                             {"height", g.height},
                              {"pairsPerSecond", g.pairsPerSecond},
                              {"shadowRaysPerSecond", g.raysPerSecond},
                              {"rawOccludedRaysPerSecond", g.raw},

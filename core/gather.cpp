@@ -87,16 +87,9 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   Vec3 l = dist > 0 ? d / dist : gp.rx.frame.n;
   float cosX = dot(gp.rx.frame.n, l), cosXg = dot(gp.rx.ng, l);
   float cosP = -dot(L.n, l), cosPg = -dot(L.ng, l);
-  // VPL transfer (full BRDF and diffuse-only emission).
-  Vec3 Tfull(0.0f), Tdiff(0.0f);
-  bool vpl = computeVpl_ && d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0;
-  if (vpl) {
-    Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(l)) * (cosX * cosP / d2);
-    BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-l));
-    Tdiff = fxG * fp.diffuse;
-    Tfull = Tdiff + fxG * fp.specular;
-    vpl = !isBlack(Tfull) || !isBlack(Tdiff);
-  }
+  // VPLs: both sides must face each other (the BRDFs are evaluated after the
+  // visibility test, so blocked pairs never pay for them).
+  const bool vpl = computeVpl_ && d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0;
   // Could any direction of the VSL cone see both hemispheres?
   float sinC = dist > L.radius ? L.radius / dist : 1.0f;
   bool vslPossible = computeVsl_ && cosX > -sinC && cosP > -sinC;
@@ -121,6 +114,11 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
     return lum > clamp_ ? T * (clamp_ / lum) : T;
   };
   if (vpl) {
+    // Transfer of the full BRDF and of diffuse-only emission.
+    Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(l)) * (cosX * cosP / d2);
+    BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-l));
+    Vec3 Tdiff = fxG * fp.diffuse;
+    Vec3 Tfull = Tdiff + fxG * fp.specular;
     add(kVplFull, Tfull);
     add(kVplFullClamped, clamped(Tfull));
     add(kVplDiffuse, Tdiff);

@@ -173,22 +173,26 @@ BrdfAt::BrdfAt(const Brdf& brdf, const Vec3& w) : b_(brdf), w_(w), above_(w.z > 
   pdfBound_ = (1 - ps_) * kInvPi + specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay);
 }
 
-BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi) const {
+BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
   Parts p{Vec3(0.0f), Vec3(0.0f)};
+  if (pdfOut) *pdfOut = 0;
   if (!above_ || wi.z <= 0) return p;
   const float s = b_.specularWeight, m = b_.metallic;
   if (m < 1) p.diffuse = kd_ * (1 - s * albedoAt(row_, wi.z));
+  if (pdfOut) *pdfOut = (1 - ps_) * cosineHemispherePdf(wi.z);
   Vec3 h = w_ + wi;
   float hl = length(h);
   if (!(hl > 0)) return p;
   h /= hl;
-  float w = schlickWeight(std::max(dot(w_, h), 0.0f));
+  const float D = b_.ggx.D(h), voh = dot(w_, h);
+  if (pdfOut && voh > 0) *pdfOut += specPdfScale_ * D;
+  float w = schlickWeight(std::max(voh, 0.0f));
   // Fresnel blended between the dielectric (F0 = 0.04) and the metal (F0 = c).
   Vec3 Fm = b_.baseColor + (Vec3(1.0f) - b_.baseColor) * w;
   float Fd = s * (kDielectricF0 + (1 - kDielectricF0) * w);
   Vec3 F = Vec3(Fd * (1 - m)) + Fm * m;
   float G2 = 1.0f / (1.0f + lambdaW_ + b_.ggx.lambda(wi));
-  p.specular = F * (b_.ggx.D(h) * G2 / (4 * w_.z * wi.z));
+  p.specular = F * (D * G2 / (4 * w_.z * wi.z));
   return p;
 }
 
@@ -211,9 +215,10 @@ std::optional<BrdfSample> BrdfAt::sample(float u1, Vec2 u2) const {
     wi = sampleCosineHemisphere(u2);
   }
   if (wi.z <= 0) return std::nullopt;
-  float p = pdf(wi);
+  float p = 0;
+  Vec3 f = evalParts(wi, &p).total();
   if (!(p > 0) || !std::isfinite(p)) return std::nullopt;
-  return BrdfSample{wi, eval(wi), p, spec};
+  return BrdfSample{wi, f, p, spec};
 }
 
 // ---- Texture --------------------------------------------------------------

@@ -119,8 +119,9 @@ class BrdfAt {
     Vec3 diffuse, specular;
     Vec3 total() const { return diffuse + specular; }
   };
-  // f_r(w, wi) split into its diffuse and specular lobes.
-  Parts evalParts(const Vec3& wi) const;
+  // f_r(w, wi) split into its diffuse and specular lobes; with pdfOut, also
+  // pdf(wi) (sharing the half vector and D).
+  Parts evalParts(const Vec3& wi, float* pdfOut = nullptr) const;
   Vec3 eval(const Vec3& wi) const { return evalParts(wi).total(); }
   float pdf(const Vec3& wi) const;
   std::optional<BrdfSample> sample(float u1, Vec2 u2) const;

@@ -32,28 +32,33 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
 
   double sum[3] = {0, 0, 0};
   // Cone samples are inside by construction (re-testing them in float would
-  // reject some near the rim of tiny cones).
-  auto accumulate = [&](const Vec3& l, bool coneSample) {
+  // reject some near the rim of tiny cones). A BRDF-sampled direction brings
+  // its own BRDF's value and pdf.
+  auto accumulate = [&](const Vec3& l, bool coneSample, const BrdfSample* fromX, const BrdfSample* fromP) {
     ++res.evaluations;
     if ((!coneSample && !inCone(l)) || dot(l, x.ng) <= 0) return;
-    Vec3 lx = x.frame.toLocal(l), lp = p.frame.toLocal(-l);
+    Vec3 lx = fromX ? fromX->wi : x.frame.toLocal(l), lp = fromP ? fromP->wi : p.frame.toLocal(-l);
     if (lx.z <= 0 || lp.z <= 0) return;
-    Vec3 f = x.f.eval(lx) * p.f.eval(lp) * (lx.z * lp.z);
+    float pdfX = 0, pdfP = 0;
+    Vec3 fx = fromX ? fromX->f : x.f.evalParts(lx, useX ? &pdfX : nullptr).total();
+    Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, useP ? &pdfP : nullptr).total();
+    if (fromX) pdfX = fromX->pdf;
+    if (fromP) pdfP = fromP->pdf;
+    Vec3 f = fx * fp * (lx.z * lp.z);
     if (isBlack(f)) return;
-    double pdfSum = pdfCone;
-    if (useX) pdfSum += double(x.f.pdf(lx));
-    if (useP) pdfSum += double(p.f.pdf(lp));
+    double pdfSum = pdfCone + double(pdfX) + double(pdfP);
     if (!(pdfSum > 0)) return;
     for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
   };
 
   for (int i = 0; i < n; ++i) {
     // Strategy 1: uniform in the cone.
-    accumulate(coneFrame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true);
+    accumulate(coneFrame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr,
+               nullptr);
     // Strategy 2: the receiver's BRDF.
     if (useX) {
       if (auto s = x.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
-        accumulate(x.frame.toWorld(s->wi), false);
+        accumulate(x.frame.toWorld(s->wi), false, &*s, nullptr);
       else
         ++res.evaluations;
     }
@@ -61,7 +66,7 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
     // leaves p along w; the receiver sees it along l = -w).
     if (useP) {
       if (auto s = p.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
-        accumulate(-p.frame.toWorld(s->wi), false);
+        accumulate(-p.frame.toWorld(s->wi), false, nullptr, &*s);
       else
         ++res.evaluations;
     }
