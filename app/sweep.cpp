@@ -18,6 +18,7 @@
 #include "core/compare.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
+#include "core/mrcs.h"
 
 namespace vsl {
 
@@ -38,7 +39,7 @@ struct Point {
     std::ostringstream s;
     s << method;
     if (method != "pt") s << " N=" << lights;
-    if (method == "vsl" || method == "vsl-progressive") s << " s=" << radiusScale;
+    if (method.rfind("vsl", 0) == 0) s << " s=" << radiusScale;
     return s.str();
   }
 };
@@ -101,7 +102,7 @@ int runSweep(const SweepArgs& a) {
     if (!pts.empty()) pts.back().final = true;
   };
   auto log = [&](const Point& p) {
-    std::fprintf(stderr, "sweep: %-22s step %3d  %8.2f s  relMSE %.5f\n", p.series().c_str(), p.step, p.seconds,
+    std::fprintf(stderr, "sweep: %-34s step %3d  %8.2f s  relMSE %.5f\n", p.series().c_str(), p.step, p.seconds,
                  p.relMse);
   };
 
@@ -131,10 +132,16 @@ int runSweep(const SweepArgs& a) {
       finish();
       continue;
     }
-    if (method == "vsl-progressive") {
-      // Independent light sets with shrinking radii; the estimate is their mean.
+    // Pass-based methods: independent light sets, each rendered in full, the
+    // estimate being their mean. "-progressive" shrinks the radius per pass
+    // (r^2 *= (i+alpha)/(i+1)); "-mrcs" renders each pass with matrix
+    // row-column sampling instead of the brute-force gather.
+    const bool mrcs = method.find("-mrcs") != std::string::npos;
+    const bool progressive = method.find("progressive") != std::string::npos;
+    if (mrcs || progressive) {
+      const bool vsl = method.rfind("vsl", 0) == 0;
       for (uint32_t n : a.lights)
-        for (float sc : a.radiusScales) {
+        for (float sc : vsl ? a.radiusScales : std::vector<float>{0.0f}) {
           auto t0 = Clock::now();
           Image sum;
           for (int pass = 0;; ++pass) {
@@ -145,12 +152,20 @@ int runSweep(const SweepArgs& a) {
             m.seed = a.seed + 1000003ull * uint64_t(pass);
             m.batches = 1;
             m.directSamples = 1;
-            m.radiusScale = sc * progressiveRadiusFactor(pass, a.alpha);
-            m.computeVpl = false;
+            m.radiusScale = (sc > 0 ? sc : 1.0f) * (progressive ? progressiveRadiusFactor(pass, a.alpha) : 1.0f);
+            m.computeVsl = vsl;
+            m.computeVpl = !vsl;
             ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
-            ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
-            r.renderBatch(0);
-            Image v = r.images().vsl;
+            Image v;
+            if (mrcs) {
+              MrcsResult mr = renderMrcs(scene, *accel, lights, run.set, run.radii, m,
+                                         MrcsSettings{a.mrcsRows, a.mrcsClusters, m.seed});
+              v = vsl ? mr.images.vsl : mr.images.vpl;
+            } else {
+              ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
+              r.renderBatch(0);
+              v = vsl ? r.images().vsl : r.images().vpl;
+            }
             if (pass == 0) sum = Image(W, H);
             for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i];
             Image mean = sum;
@@ -281,9 +296,9 @@ int runSweep(const SweepArgs& a) {
                    path.c_str());
     }
   }
-  std::printf("%-24s %10s %12s\n", "configuration", "seconds", "relMSE");
+  std::printf("%-34s %10s %12s\n", "configuration", "seconds", "relMSE");
   for (const Point& p : pts)
-    if (p.final) std::printf("%-24s %10.2f %12.5f\n", p.series().c_str(), p.seconds, p.relMse);
+    if (p.final) std::printf("%-34s %10.2f %12.5f\n", p.series().c_str(), p.seconds, p.relMse);
   std::fprintf(stderr, "wrote %s/{sweep.csv, sweep.json, error_vs_time.png, pareto.png}\n", a.outDir.c_str());
   return 0;
 }

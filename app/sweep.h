@@ -10,13 +10,15 @@ namespace vsl {
 
 struct SweepArgs {
   std::string scene, reference, outDir;
-  std::vector<std::string> methods = {"pt", "vpl", "vsl"};  // also "vsl-progressive"
-  float alpha = 0.7f;                                       // for vsl-progressive
+  // Also vsl-progressive, vsl-mrcs, vsl-mrcs-progressive and vpl-mrcs (see sweep.cpp).
+  std::vector<std::string> methods = {"pt", "vpl", "vsl"};
+  float alpha = 0.7f;  // for vsl-progressive
   std::vector<uint32_t> lights = {1000, 10000};
   std::vector<float> radiusScales = {1.0f};
   double time = 30;  // seconds: the path tracer's budget, and a cap per many-light run
   int batches = 8;
-  uint64_t seed = 1;  // differ from the reference's seed, or the path tracer replays it
+  int mrcsRows = 300, mrcsClusters = 900;  // for the -mrcs methods
+  uint64_t seed = 1;                       // differ from the reference's seed, or the path tracer replays it
 };
 
 int runSweep(const SweepArgs& args);

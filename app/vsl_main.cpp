@@ -71,6 +71,13 @@ std::shared_ptr<const Scene> loadOrReport(const std::string& path, const std::st
   return r.scene;
 }
 
+// Parses --mrcs ROWS,CLUSTERS; reports and returns false when malformed.
+bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
+  if (std::sscanf(spec.c_str(), "%d,%d", &out.rows, &out.clusters) == 2 && out.validate().empty()) return true;
+  std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS with positive integers (got '%s')\n", spec.c_str());
+  return false;
+}
+
 json metricsJson(const ChannelMetrics& m) {
   return {{"mean", m.meanTest}, {"meanReference", m.meanRef}, {"bias", m.bias}, {"mae", m.mae},
           {"rmse", m.rmse},     {"relMSE", m.relMse}};
@@ -141,13 +148,7 @@ int cmdRender(RenderArgs& a) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;
     }
-    if (!a.mrcsSpec.empty()) {
-      if (std::sscanf(a.mrcsSpec.c_str(), "%d,%d", &a.mrcs.rows, &a.mrcs.clusters) != 2 || !a.mrcs.validate().empty()) {
-        std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS with positive integers (got '%s')\n",
-                     a.mrcsSpec.c_str());
-        return 2;
-      }
-    }
+    if (!a.mrcsSpec.empty() && !parseMrcsSpec(a.mrcsSpec, a.mrcs)) return 2;
   }
   auto t0 = Clock::now();
   auto scene = loadOrReport(a.scene, a.camera);
@@ -672,9 +673,11 @@ int main(int argc, char** argv) {
   sweep->add_option("scene", sw.scene, "Scene file")->required();
   sweep
       ->add_option("--methods", sw.methods,
-                   "Methods: pt, vpl, vsl, vsl-progressive (independent light sets with shrinking radii)")
+                   "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
+                   "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
+                   "vsl-mrcs-progressive (both)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"pt", "vpl", "vsl", "vsl-progressive"}))
+      ->check(CLI::IsMember({"pt", "vpl", "vsl", "vsl-progressive", "vsl-mrcs", "vpl-mrcs", "vsl-mrcs-progressive"}))
       ->default_str("pt,vpl,vsl");
   sweep->add_option("--lights", sw.lights, "Light counts, comma separated")
       ->delimiter(',')
@@ -693,6 +696,8 @@ int main(int argc, char** argv) {
   sweep->add_option("--batches", sw.batches, "Progressive batches per many-light run")
       ->default_str("8")
       ->check(CLI::Range(1, 64));
+  std::string sweepMrcs;
+  sweep->add_option("--mrcs", sweepMrcs, "ROWS,CLUSTERS for the -mrcs methods")->default_str("300,900");
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
   sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)")
       ->required();
@@ -731,7 +736,15 @@ int main(int argc, char** argv) {
   if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
   if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
   if (*info) return cmdInfo(infoScene, infoCamera);
-  if (*sweep) return runSweep(sw);
+  if (*sweep) {
+    if (!sweepMrcs.empty()) {
+      MrcsSettings ms{0, 0, 0};
+      if (!parseMrcsSpec(sweepMrcs, ms)) return 2;
+      sw.mrcsRows = ms.rows;
+      sw.mrcsClusters = ms.clusters;
+    }
+    return runSweep(sw);
+  }
   if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
   return 2;
 }

@@ -179,9 +179,8 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   ASSERT_EQ(
       run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
       0);
-  Proc r =
-      run("sweep " + scene("cornell-glossy") + " --methods pt,vpl,vsl --lights 40,80 --radius-scale 1 --time 0.2 " +
-          "--batches 2 --reference " + file("ref.exr") + " -o " + file("sweep"));
+  Proc r = run("sweep " + scene("cornell-glossy") + " --methods pt,vpl,vsl,vsl-mrcs --lights 40,80 --radius-scale 1 " +
+               "--time 0.2 --mrcs 20,10 --batches 2 --reference " + file("ref.exr") + " -o " + file("sweep"));
   ASSERT_EQ(r.code, 0) << r.out;
   std::ifstream csv(file("sweep/sweep.csv"));
   std::string line;
@@ -193,6 +192,7 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   EXPECT_EQ(finals["pt"], 1);
   EXPECT_EQ(finals["vpl"], 2);
   EXPECT_EQ(finals["vsl"], 2);
+  EXPECT_EQ(finals["vsl-mrcs"], 2);
   auto j = nlohmann::json::parse(std::ifstream(file("sweep/sweep.json")));
   EXPECT_FALSE(j["pareto"]["vsl"].empty());
   for (const char* png : {"sweep/error_vs_time.png", "sweep/pareto.png"}) {
@@ -202,4 +202,9 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   // A reference without an indirect layer is refused.
   ASSERT_EQ(run("compare " + file("ref.exr") + " " + file("ref.exr") + " -o " + file("err.exr")).code, 0);
   EXPECT_EQ(run("sweep " + scene("cornell-glossy") + " --reference " + file("err.exr") + " -o " + file("s2")).code, 1);
+  // A malformed --mrcs is refused before any work.
+  EXPECT_EQ(run("sweep " + scene("cornell-glossy") + " --methods vsl-mrcs --mrcs 10 --reference " + file("ref.exr") +
+                " -o " + file("s3"))
+                .code,
+            2);
 }
