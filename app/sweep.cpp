@@ -158,8 +158,9 @@ int runSweep(const SweepArgs& a) {
             ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
             Image v;
             if (mrcs) {
-              MrcsResult mr = renderMrcs(scene, *accel, lights, run.set, run.radii, m,
-                                         MrcsSettings{a.mrcsRows, a.mrcsClusters, m.seed});
+              MrcsSettings ms = a.mrcs;
+              ms.seed = m.seed;
+              MrcsResult mr = renderMrcs(scene, *accel, lights, run.set, run.radii, m, ms);
               v = vsl ? mr.images.vsl : mr.images.vpl;
             } else {
               ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "core/mrcs.h"
+
 namespace vsl {
 
 struct SweepArgs {
@@ -17,8 +19,8 @@ struct SweepArgs {
   std::vector<float> radiusScales = {1.0f};
   double time = 30;  // seconds: the path tracer's budget, and a cap per many-light run
   int batches = 8;
-  int mrcsRows = 300, mrcsClusters = 900;  // for the -mrcs methods
-  uint64_t seed = 1;                       // differ from the reference's seed, or the path tracer replays it
+  MrcsSettings mrcs;  // for the -mrcs methods (seed: per pass)
+  uint64_t seed = 1;  // differ from the reference's seed, or the path tracer replays it
 };
 
 int runSweep(const SweepArgs& args);

@@ -71,10 +71,14 @@ std::shared_ptr<const Scene> loadOrReport(const std::string& path, const std::st
   return r.scene;
 }
 
-// Parses --mrcs ROWS,CLUSTERS; reports and returns false when malformed.
+// Parses --mrcs ROWS,CLUSTERS[,MIX]; reports and returns false when malformed.
 bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
-  if (std::sscanf(spec.c_str(), "%d,%d", &out.rows, &out.clusters) == 2 && out.validate().empty()) return true;
-  std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS with positive integers (got '%s')\n", spec.c_str());
+  char tail = 0;
+  int n = std::sscanf(spec.c_str(), "%d,%d,%lf%c", &out.rows, &out.clusters, &out.uniformMix, &tail);
+  if ((n == 2 || n == 3) && out.validate().empty()) return true;
+  std::fprintf(stderr,
+               "error: --mrcs must be ROWS,CLUSTERS with positive integers, optionally ,MIX in [0,1] (got '%s')\n",
+               spec.c_str());
   return false;
 }
 
@@ -451,8 +455,8 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
   auto t1 = Clock::now();
   if (a.mrcs.rows > 0) {
     // Matrix row-column sampling: rows, clustering, representative columns.
-    std::fprintf(stderr, "render: MRCS with %d rows and %d clusters over %zu lights\n", a.mrcs.rows, a.mrcs.clusters,
-                 run.set.lights.size());
+    std::fprintf(stderr, "render: MRCS with %d rows and %d clusters (uniform mix %g) over %zu lights\n", a.mrcs.rows,
+                 a.mrcs.clusters, a.mrcs.uniformMix, run.set.lights.size());
     MrcsResult mr = renderMrcs(scene, accel, lights, run.set, run.radii, m, a.mrcs);
     im = std::move(mr.images);
     w = im.direct.width;
@@ -462,6 +466,7 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
     done = 1;
     mrcsJson = {{"rows", a.mrcs.rows},
                 {"clusters", a.mrcs.clusters},
+                {"uniformMix", a.mrcs.uniformMix},
                 {"rowSeconds", mr.rowSeconds},
                 {"clusterSeconds", mr.clusterSeconds},
                 {"columnSeconds", mr.columnSeconds},
@@ -623,7 +628,9 @@ int main(int argc, char** argv) {
                    "off")
       ->default_str("auto");
   render->add_flag("--diffuse-vpl", ra.many.diffuseOnly, "VPLs emit with their diffuse lobe only");
-  render->add_option("--mrcs", ra.mrcsSpec, "Matrix row-column sampling: ROWS,CLUSTERS (e.g. 300,900)");
+  render->add_option("--mrcs", ra.mrcsSpec,
+                     "Matrix row-column sampling: ROWS,CLUSTERS[,MIX] (e.g. 300,900; MIX: uniform share of the "
+                     "representative choice)");
   render->add_option("--batches", ra.many.batches, "Progressive light batches (growing sizes)")->default_str("8");
   render->add_option("--direct-samples", ra.many.directSamples, "Direct-light samples per pixel (many-light methods)")
       ->default_str("64");
@@ -697,7 +704,7 @@ int main(int argc, char** argv) {
       ->default_str("8")
       ->check(CLI::Range(1, 64));
   std::string sweepMrcs;
-  sweep->add_option("--mrcs", sweepMrcs, "ROWS,CLUSTERS for the -mrcs methods")->default_str("300,900");
+  sweep->add_option("--mrcs", sweepMrcs, "ROWS,CLUSTERS[,MIX] for the -mrcs methods")->default_str("300,900");
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
   sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)")
       ->required();
@@ -737,12 +744,7 @@ int main(int argc, char** argv) {
   if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
   if (*info) return cmdInfo(infoScene, infoCamera);
   if (*sweep) {
-    if (!sweepMrcs.empty()) {
-      MrcsSettings ms{0, 0, 0};
-      if (!parseMrcsSpec(sweepMrcs, ms)) return 2;
-      sw.mrcsRows = ms.rows;
-      sw.mrcsClusters = ms.clusters;
-    }
+    if (!sweepMrcs.empty() && !parseMrcsSpec(sweepMrcs, sw.mrcs)) return 2;
     return runSweep(sw);
   }
   if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);

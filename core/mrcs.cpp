@@ -14,6 +14,8 @@ std::string MrcsSettings::validate() const {
   if (rows < 1 || rows > 100000) return "mrcs rows: must be in [1,100000] (got " + std::to_string(rows) + ")";
   if (clusters < 1 || clusters > 1000000)
     return "mrcs clusters: must be in [1,1000000] (got " + std::to_string(clusters) + ")";
+  if (!(uniformMix >= 0 && uniformMix <= 1))
+    return "mrcs uniform mix: must be in [0,1] (got " + std::to_string(uniformMix) + ")";
   return "";
 }
 
@@ -37,7 +39,7 @@ float gaussian(Rng& r) {
 }  // namespace
 
 std::vector<Representative> clusterColumns(const std::vector<float>& columns, size_t lights, int rows, int clusters,
-                                           uint64_t seed, size_t* zeroColumns) {
+                                           uint64_t seed, size_t* zeroColumns, double uniformMix) {
   Rng rng(seed, 0x5eed);
   // Norms; zero columns cannot be represented (they are dark at every row).
   std::vector<double> norm(lights, 0.0);
@@ -176,22 +178,29 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
     queue.push(cl.size() - 1);
     ++live;
   }
-  // 3. One representative per cluster, chosen in proportion to its norm and
-  //    weighted by the cluster's norm sum over its own.
+  // 3. One representative per cluster, chosen with probability
+  //    p_i = (1 - mix) n_i / sum n + mix / |cluster| and weighted by 1 / p_i
+  //    (mix = 0: the cluster's norm sum over its own norm).
   for (const Cluster& c : cl) {
     if (c.members.empty()) continue;
     double total = 0;
     for (uint32_t i : c.members) total += norm[nz[i]];
-    double x = rng.uniformDouble() * total;
+    const double m = double(c.members.size());
     uint32_t pick = c.members.back();
-    for (uint32_t i : c.members) {
-      x -= norm[nz[i]];
-      if (x < 0) {
-        pick = i;
-        break;
+    if (rng.uniformDouble() < uniformMix) {
+      pick = c.members[std::min(size_t(rng.uniformDouble() * m), c.members.size() - 1)];
+    } else {
+      double x = rng.uniformDouble() * total;
+      for (uint32_t i : c.members) {
+        x -= norm[nz[i]];
+        if (x < 0) {
+          pick = i;
+          break;
+        }
       }
     }
-    reps.push_back({nz[pick], total / norm[nz[pick]]});
+    const double p = (1 - uniformMix) * norm[nz[pick]] / total + uniformMix / m;
+    reps.push_back({nz[pick], 1.0 / p});
   }
   return reps;
 }
@@ -293,8 +302,8 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   auto t1 = Clock::now();
   std::vector<Representative> repVsl, repVpl;
   const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
-  if (doVsl) repVsl = clusterColumns(colVsl, N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl);
-  if (doVpl) repVpl = clusterColumns(colVpl, N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl);
+  if (doVsl) repVsl = clusterColumns(colVsl, N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
+  if (doVpl) repVpl = clusterColumns(colVpl, N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
   colVsl = {};
   colVpl = {};
   res.clusterSeconds = since(t1);

@@ -11,7 +11,8 @@
 //      by splitting the costliest cluster (cost = (sum |rho|)^2 - |sum rho|^2)
 //      along a random projection;
 //   3. picks one representative per cluster with probability proportional to
-//      its column norm, weighted by the cluster's norm sum over its own;
+//      its column norm (optionally mixed with a uniform choice), weighted by
+//      one over that probability;
 //   4. renders full columns for the representatives only.
 // Cost: R x N + C x P pairs instead of P x N. Bias: lights whose reduced
 // column is zero (dark at every sampled row) are dropped; otherwise, for a
@@ -31,6 +32,12 @@ struct MrcsSettings {
   int rows = 300;
   int clusters = 900;
   uint64_t seed = 0;  // row and cluster choices (the light set has its own seed)
+  // Defensive share of the representative choice: a member is picked with
+  // probability (1 - mix) n_i / sum n + mix / |cluster|. 0 is the paper's
+  // norm-proportional choice; a positive share bounds the weight of a light
+  // whose sampled rows miss the region it lights (see clusterColumns).
+  double uniformMix = kDefaultUniformMix;
+  static constexpr double kDefaultUniformMix = 0.0;
   std::string validate() const;
 };
 
@@ -56,6 +63,7 @@ struct Representative {
   double weight;
 };
 std::vector<Representative> clusterColumns(const std::vector<float>& columns, size_t lights, int rows, int clusters,
-                                           uint64_t seed, size_t* zeroColumns = nullptr);
+                                           uint64_t seed, size_t* zeroColumns = nullptr,
+                                           double uniformMix = MrcsSettings::kDefaultUniformMix);
 
 }  // namespace vsl

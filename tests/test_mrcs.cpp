@@ -35,8 +35,12 @@ TEST(MrcsClustering, FewColumnsAreTheirOwnClusters) {
 }
 
 // For every row, sum over representatives of weight x column equals the row
-// sum in expectation (the weights undo the norm-proportional choice).
-TEST(MrcsClustering, RepresentativesAreUnbiasedForEveryRow) {
+// sum in expectation (the weights undo the norm-proportional choice, with or
+// without a defensive uniform share, which also bounds every weight).
+class MrcsMix : public ::testing::TestWithParam<double> {};
+INSTANTIATE_TEST_SUITE_P(Clustering, MrcsMix, ::testing::Values(0.0, 0.3));
+TEST_P(MrcsMix, RepresentativesAreUnbiasedForEveryRow) {
+  const double mix = GetParam();
   const int rows = 12, lights = 600, clusters = 40, trials = 600;
   Rng g(3, 3);
   std::vector<float> cols(size_t(lights) * rows);
@@ -48,8 +52,12 @@ TEST(MrcsClustering, RepresentativesAreUnbiasedForEveryRow) {
   for (int j = 0; j < lights; ++j)
     for (int r = 0; r < rows; ++r) exact[r] += cols[size_t(j) * rows + r];
   for (int t = 0; t < trials; ++t) {
-    auto reps = clusterColumns(cols, lights, rows, clusters, 100 + t);
+    auto reps = clusterColumns(cols, lights, rows, clusters, 100 + t, nullptr, mix);
     EXPECT_LE(reps.size(), size_t(clusters));
+    // A cluster holds at most all lights, so 1/p <= lights / mix.
+    if (mix > 0) {
+      for (const auto& rep : reps) ASSERT_LE(rep.weight, lights / mix * (1 + 1e-9));
+    }
     for (int r = 0; r < rows; ++r) {
       double e = 0;
       for (const auto& rep : reps) e += rep.weight * cols[size_t(rep.light) * rows + r];
