@@ -77,18 +77,37 @@ int runSweep(const SweepArgs& a) {
     return 1;
   }
   LightSampler lights(scene);
-  std::vector<Layer> refLayers;
-  if (!readExr(a.reference, refLayers, &err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
-    return 1;
-  }
-  const Image* ref = nullptr;
-  for (const Layer& l : refLayers)
-    if (l.name == "indirect") ref = &l.image;
-  if (!ref) {
-    std::fprintf(stderr, "error: %s: no 'indirect' layer (render it with vsl render --method pt)\n",
-                 a.reference.c_str());
-    return 1;
+  // The reference's indirect layer; a second, independent reference measures
+  // the first one's own noise: E relMSE(B vs A) ~ 2 x A's noise, and every
+  // measured relMSE carries A's noise on top of the method's error.
+  auto readIndirect = [&](const std::string& path, Image& out) {
+    std::vector<Layer> layers;
+    if (!readExr(path, layers, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return false;
+    }
+    for (Layer& l : layers)
+      if (l.name == "indirect") {
+        out = std::move(l.image);
+        return true;
+      }
+    std::fprintf(stderr, "error: %s: no 'indirect' layer (render it with vsl render --method pt)\n", path.c_str());
+    return false;
+  };
+  Image refImage, refB;
+  if (!readIndirect(a.reference, refImage)) return 1;
+  const Image* ref = &refImage;
+  double refNoise = 0;
+  if (!a.referenceB.empty()) {
+    if (!readIndirect(a.referenceB, refB)) return 1;
+    if (refB.width != ref->width || refB.height != ref->height) {
+      std::fprintf(stderr, "error: %s: %dx%d, but the reference is %dx%d\n", a.referenceB.c_str(), refB.width,
+                   refB.height, ref->width, ref->height);
+      return 1;
+    }
+    refNoise = 0.5 * compareImages(refB, *ref).average.relMse;
+    std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
+                 refNoise);
   }
   std::error_code ec;
   std::filesystem::create_directories(a.outDir, ec);
@@ -210,12 +229,14 @@ int runSweep(const SweepArgs& a) {
 
   // ---- CSV and JSON.
   std::ostringstream csv;
-  csv << "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final\n";
+  csv << "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final,relmse_minus_ref_noise\n";
   nlohmann::json js = {{"scene", a.scene}, {"reference", a.reference},        {"width", W},
                        {"height", H},      {"relMseEpsilon", kRelMseEpsilon}, {"points", nlohmann::json::array()}};
+  js["referenceNoiseRelMSE"] = refNoise;  // 0 without --reference-b
+  if (!a.referenceB.empty()) js["referenceB"] = a.referenceB;
   for (const Point& p : pts) {
     csv << p.method << "," << p.lights << "," << p.radiusScale << "," << p.step << "," << p.seconds << "," << p.relMse
-        << "," << p.rmse << "," << p.mean << "," << (p.final ? 1 : 0) << "\n";
+        << "," << p.rmse << "," << p.mean << "," << (p.final ? 1 : 0) << "," << p.relMse - refNoise << "\n";
     js["points"].push_back({{"method", p.method},
                             {"lights", p.lights},
                             {"radiusScale", p.radiusScale},
@@ -260,6 +281,7 @@ int runSweep(const SweepArgs& a) {
     gp1 << (first ? "" : ", ") << "'-' using 1:2 with linespoints title '" << name << "'";
     first = false;
   }
+  if (refNoise > 0) gp1 << ", " << refNoise << " with lines dashtype 2 lc rgb 'gray40' title 'reference noise'";
   gp1 << "\n";
   for (auto& [name, idx] : series) {
     for (size_t i : idx) gp1 << pts[i].seconds << " " << std::max(pts[i].relMse, 1e-12) << "\n";
@@ -297,9 +319,10 @@ int runSweep(const SweepArgs& a) {
                    path.c_str());
     }
   }
-  std::printf("%-34s %10s %12s\n", "configuration", "seconds", "relMSE");
+  std::printf("%-34s %10s %12s %16s\n", "configuration", "seconds", "relMSE", "minus ref noise");
   for (const Point& p : pts)
-    if (p.final) std::printf("%-34s %10.2f %12.5f\n", p.series().c_str(), p.seconds, p.relMse);
+    if (p.final)
+      std::printf("%-34s %10.2f %12.5f %16.5f\n", p.series().c_str(), p.seconds, p.relMse, p.relMse - refNoise);
   std::fprintf(stderr, "wrote %s/{sweep.csv, sweep.json, error_vs_time.png, pareto.png}\n", a.outDir.c_str());
   return 0;
 }

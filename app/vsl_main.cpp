@@ -708,6 +708,9 @@ int main(int argc, char** argv) {
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
   sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)")
       ->required();
+  sweep->add_option("--reference-b", sw.referenceB,
+                    "A second reference with another seed: relMSE(B, A)/2 estimates the reference's own noise, "
+                    "reported and subtracted in the column relmse_minus_ref_noise");
   sweep->add_option("-o,--output", sw.outDir, "Output directory")->required();
 
   std::string benchScene, benchJson;

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "core/image_io.h"
 
@@ -185,10 +186,16 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   std::ifstream csv(file("sweep/sweep.csv"));
   std::string line;
   std::getline(csv, line);
-  EXPECT_EQ(line, "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final");
+  EXPECT_EQ(line, "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final,relmse_minus_ref_noise");
   std::map<std::string, int> finals;
-  while (std::getline(csv, line))
-    if (line.back() == '1') finals[line.substr(0, line.find(','))]++;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    ASSERT_EQ(f.size(), 10u) << line;
+    if (f[8] == "1") finals[f[0]]++;
+    EXPECT_EQ(f[5], f[9]) << "without --reference-b nothing is subtracted: " << line;
+  }
   EXPECT_EQ(finals["pt"], 1);
   EXPECT_EQ(finals["vpl"], 2);
   EXPECT_EQ(finals["vsl"], 2);
@@ -202,6 +209,38 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   // A reference without an indirect layer is refused.
   ASSERT_EQ(run("compare " + file("ref.exr") + " " + file("ref.exr") + " -o " + file("err.exr")).code, 0);
   EXPECT_EQ(run("sweep " + scene("cornell-glossy") + " --reference " + file("err.exr") + " -o " + file("s2")).code, 1);
+  // A second reference measures the first one's noise: relMSE(B, A) / 2 is
+  // reported and subtracted.
+  ASSERT_EQ(
+      run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 9 -o " + file("refB.exr"))
+          .code,
+      0);
+  Proc c = run("compare " + file("refB.exr") + " " + file("ref.exr") + " --layer indirect --json");
+  ASSERT_EQ(c.code, 0) << c.out;
+  double ab = nlohmann::json::parse(c.out.substr(c.out.find('{')))["average"]["relMSE"];
+  ASSERT_GT(ab, 0);
+  r = run("sweep " + scene("cornell-glossy") + " --methods pt --time 0.1 --reference " + file("ref.exr") +
+          " --reference-b " + file("refB.exr") + " -o " + file("sweepB"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto jb = nlohmann::json::parse(std::ifstream(file("sweepB/sweep.json")));
+  EXPECT_NEAR(double(jb["referenceNoiseRelMSE"]), ab / 2, 1e-9 * ab);
+  std::ifstream csvB(file("sweepB/sweep.csv"));
+  std::getline(csvB, line);
+  while (std::getline(csvB, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    ASSERT_EQ(f.size(), 10u);
+    EXPECT_NEAR(std::stod(f[9]), std::stod(f[5]) - ab / 2, 1e-5 * std::stod(f[5]) + 1e-9) << line;
+  }
+  // A second reference of another size is refused.
+  ASSERT_EQ(
+      run("render " + scene("cornell-glossy") + " --spp 1 --width 8 --height 8 --seed 9 -o " + file("small.exr")).code,
+      0);
+  EXPECT_EQ(run("sweep " + scene("cornell-glossy") + " --methods pt --time 0.1 --reference " + file("ref.exr") +
+                " --reference-b " + file("small.exr") + " -o " + file("sweepC"))
+                .code,
+            1);
   // A malformed --mrcs is refused before any work.
   EXPECT_EQ(run("sweep " + scene("cornell-glossy") + " --methods vsl-mrcs --mrcs 10 --reference " + file("ref.exr") +
                 " -o " + file("s3"))
