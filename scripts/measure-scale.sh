@@ -49,7 +49,7 @@ step "MRCS 100k" "$OUT/mrcs.json" "$VSL" render "$G" $S --method vsl --lights 10
 for scene in kitchen tableau; do
   step "$scene sweep" "$OUT/sweep-$scene/sweep.csv" "$VSL" sweep "assets/scenes/$scene.gltf" \
     --methods pt,vsl-mrcs,vpl-mrcs --lights 30000,100000 --time "$TIME" \
-    --reference "$OUT/$scene-refA.exr" -o "$OUT/sweep-$scene"
+    --reference "$OUT/$scene-refA.exr" --reference-b "$OUT/$scene-refB.exr" -o "$OUT/sweep-$scene"
 done
 
 # The brute-force gather for the MRCS comparison (~26 G pairs at 512^2: the long step).
