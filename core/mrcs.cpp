@@ -310,6 +310,11 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
 
   // 4. Full columns for the representatives.
   auto t2 = Clock::now();
+  std::vector<GatherLight> repGl;
+  for (const Representative& r : repVsl) {
+    repGl.push_back(gl[r.light]);
+    if (mrcs.spreadVslRadius) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
+  }
   res.images.vsl = Image(W, H);
   res.images.vpl = Image(W, H);
   parallelFor(size_t(H), [&](size_t y) {
@@ -321,9 +326,10 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
       Vec3 vsl = gp.shared, vpl = gp.shared;
       if (gp.valid) {
         double sv[3] = {}, sp[3] = {};
-        for (const Representative& r : repVsl) {
+        for (size_t q = 0; q < repVsl.size(); ++q) {
+          const Representative& r = repVsl[q];
           double acc[kGatherLayers][3] = {};
-          vslOnly.evaluate(gp, gl[r.light], r.light, pix, acc, cnt);
+          vslOnly.evaluate(gp, repGl[q], r.light, pix, acc, cnt);
           for (int k = 0; k < 3; ++k) sv[k] += r.weight * acc[kVslLayer][k];
         }
         for (const Representative& r : repVpl) {
