@@ -634,8 +634,9 @@ int main(int argc, char** argv) {
   render->add_option("--mrcs", ra.mrcsSpec,
                      "Matrix row-column sampling: ROWS,CLUSTERS[,MIX] (e.g. 300,900; MIX: uniform share of the "
                      "representative choice)");
-  render->add_flag("--mrcs-spread", ra.mrcsSpread,
-                   "MRCS: a VSL representative of weight w gets radius r sqrt(w) (fewer blobs; about 10% darker, slower)");
+  render->add_flag(
+      "--mrcs-spread", ra.mrcsSpread,
+      "MRCS: a VSL representative of weight w gets radius r sqrt(w) (fewer blobs; about 10% darker, slower)");
   render->add_option("--batches", ra.many.batches, "Progressive light batches (growing sizes)")->default_str("8");
   render->add_option("--direct-samples", ra.many.directSamples, "Direct-light samples per pixel (many-light methods)")
       ->default_str("64");
