@@ -34,6 +34,14 @@ Proc run(const std::string& args) {
   return r;
 }
 
+// The comma-separated fields of one CSV line (the sweep's CSV has no quoting).
+std::vector<std::string> csvFields(const std::string& line) {
+  std::vector<std::string> f;
+  std::stringstream ss(line);
+  for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+  return f;
+}
+
 Proc shell(const std::string& cmd) {
   Proc r{-1, ""};
   FILE* p = popen((cmd + " 2>&1").c_str(), "r");
@@ -189,9 +197,7 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   EXPECT_EQ(line, "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final,relmse_minus_ref_noise");
   std::map<std::string, int> finals;
   while (std::getline(csv, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    std::vector<std::string> f = csvFields(line);
     ASSERT_EQ(f.size(), 10u) << line;
     if (f[8] == "1") finals[f[0]]++;
     EXPECT_EQ(f[5], f[9]) << "without --reference-b nothing is subtracted: " << line;
@@ -227,9 +233,7 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   std::ifstream csvB(file("sweepB/sweep.csv"));
   std::getline(csvB, line);
   while (std::getline(csvB, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    std::vector<std::string> f = csvFields(line);
     ASSERT_EQ(f.size(), 10u);
     EXPECT_NEAR(std::stod(f[9]), std::stod(f[5]) - ab / 2, 1e-5 * std::stod(f[5]) + 1e-9) << line;
   }
