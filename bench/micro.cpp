@@ -71,7 +71,7 @@ void BM_VslCone(benchmark::State& state) {
   Vec3 toLight(0.2f, 0.1f, 1.0f);
   double radius = state.range(0) / 100.0;
   Rng r(9, 9);
-  for (auto _ : state) benchmark::DoNotOptimize(vslTransfer(x, p, toLight, radius, 0, r));
+  for (auto _ : state) benchmark::DoNotOptimize(vslTransfer(x, p, toLight, radius, {}, r));
   state.SetItemsProcessed(int64_t(state.iterations()));
 }
 BENCHMARK(BM_VslCone)->Arg(1)->Arg(50);

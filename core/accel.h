@@ -38,21 +38,28 @@ class Accel {
   std::unique_ptr<Impl> impl_;
 };
 
+// Moves p off its surface by an amount relative to the coordinates' magnitude,
+// along nLit (unit, or zero for no offset).
+inline Vec3 offsetToLitSide(const Vec3& p, const Vec3& nLit) {
+  float scale = 1e-4f * std::max(1.0f, std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z))));
+  return p + nLit * scale;
+}
 // Offsets a ray origin off a surface along its geometric normal, toward the
 // side of direction w, by an amount relative to the coordinates' magnitude.
 inline Vec3 offsetRayOrigin(const Vec3& p, const Vec3& ng, const Vec3& w) {
-  float scale = 1e-4f * std::max(1.0f, std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z))));
-  return p + ng * (dot(ng, w) >= 0 ? scale : -scale);
+  return offsetToLitSide(p, dot(ng, w) >= 0 ? ng : -ng);
 }
 
 // A shadow ray between two surface points, each moved off its surface along
-// its geometric normal toward the other (a zero normal, as for a point light,
-// means no offset). tMax stops just short of the target. Returns false when
-// the points coincide.
+// its own geometric normal, which must face that point's lit side: the side
+// the viewer or the arriving light path is on (a zero normal, as for a point
+// light, means no offset). Moving an end toward the other point instead would
+// put it on the far side of a thin wall when the other point lies behind it,
+// and light would leak through. tMax stops just short of the target. Returns
+// false when the points coincide.
 inline bool segmentRay(const Vec3& from, const Vec3& nFrom, const Vec3& to, const Vec3& nTo, Ray& ray) {
-  Vec3 w = to - from;
-  ray.o = offsetRayOrigin(from, nFrom, w);
-  Vec3 d = offsetRayOrigin(to, nTo, -w) - ray.o;
+  ray.o = offsetToLitSide(from, nFrom);
+  Vec3 d = offsetToLitSide(to, nTo) - ray.o;
   float dist = length(d);
   if (!(dist > 0)) return false;
   ray.d = d / dist;

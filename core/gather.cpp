@@ -14,13 +14,13 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
   return g;
 }
 
-Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, int vslSamples,
+Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, VslOptions vsl,
                    bool computeVsl, bool computeVpl, uint64_t seed)
     : scene_(scene),
       accel_(accel),
       lights_(lights),
       clamp_(clampBound),
-      vslSamples_(vslSamples),
+      vsl_(vsl),
       computeVsl_(computeVsl),
       computeVpl_(computeVpl),
       seed_(seed) {}
@@ -87,12 +87,14 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   Vec3 l = dist > 0 ? d / dist : gp.rx.frame.n;
   float cosX = dot(gp.rx.frame.n, l), cosXg = dot(gp.rx.ng, l);
   float cosP = -dot(L.n, l), cosPg = -dot(L.ng, l);
-  // VPLs: both sides must face each other (the BRDFs are evaluated after the
-  // visibility test, so blocked pairs never pay for them).
-  const bool vpl = computeVpl_ && d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0;
-  // Could any direction of the VSL cone see both hemispheres?
-  float sinC = dist > L.radius ? L.radius / dist : 1.0f;
-  bool vslPossible = computeVsl_ && cosX > -sinC && cosP > -sinC;
+  // Both sides must face each other along the direction to the light's
+  // centre, by shading and geometric normals, for VPLs and VSLs alike (as in
+  // the VSL authors' shader). Without this a VSL on the back of a thin wall,
+  // with the receiver inside its sphere, would light the wall's front through
+  // it. The BRDFs are evaluated after the visibility test, so blocked pairs
+  // never pay for them.
+  if (!(d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0)) return;
+  const bool vpl = computeVpl_, vslPossible = computeVsl_;
   if (!vpl && !vslPossible) return;
   // One visibility ray feeds every estimate.
   Ray s;
@@ -126,7 +128,7 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   }
   if (vslPossible) {
     Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
-    VslResult r = vslTransfer(gp.rx, L.em, d, L.radius, vslSamples_, prng);
+    VslResult r = vslTransfer(gp.rx, L.em, d, L.radius, vsl_, prng);
     c.vslEvaluations += uint64_t(r.evaluations);
     add(kVslLayer, r.transfer);
   }

@@ -36,7 +36,7 @@ struct GatherCounters {
 class Gatherer {
  public:
   // clampBound: the VPL clamp on the luminance of the transfer.
-  Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, int vslSamples,
+  Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, VslOptions vsl,
            bool computeVsl, bool computeVpl, uint64_t seed);
 
   // Camera ray through (x + jitter, y + jitter), continued through
@@ -52,7 +52,7 @@ class Gatherer {
   const Accel& accel_;
   const LightSampler& lights_;
   float clamp_;
-  int vslSamples_;
+  VslOptions vsl_;
   bool computeVsl_, computeVpl_;
   uint64_t seed_;
 };

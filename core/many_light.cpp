@@ -56,6 +56,7 @@ std::string ManyLightSettings::describe() const {
     s << "off";
   else
     s << clamp;
+  if (clippedDisk) s << " --clipped-disk";
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();
 }
@@ -144,7 +145,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   });
 
   const uint64_t seed = settings_.seed;
-  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), clamp_, settings_.vslSamples, settings_.computeVsl,
+  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), clamp_, settings_.vslOptions(), settings_.computeVsl,
                     settings_.computeVpl, seed);
 
   // Per-batch buffers, merged into the films only if the batch completes.

@@ -39,6 +39,7 @@
 #include "core/film.h"
 #include "core/pathtracer.h"
 #include "core/virtual_lights.h"
+#include "core/vsl_integral.h"
 
 namespace vsl {
 
@@ -54,6 +55,8 @@ struct ManyLightSettings {
   int knn = 10;              // k
   float globalRadius = 0;    // > 0: one radius = globalRadius x scene bounding radius
   int vslSamples = 0;        // per strategy; 0 = auto (grows with the cone angle)
+  bool clippedDisk = false;  // VSL normalised by the clipped disk's area (vsl_integral.h)
+  VslOptions vslOptions() const { return {vslSamples, clippedDisk}; }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
   bool diffuseOnly = false;  // diffuse-only emission for "the" VPL image

@@ -1,5 +1,7 @@
 #include "core/vsl_integral.h"
 
+#include <algorithm>
+
 #include "core/sampling.h"
 
 namespace vsl {
@@ -10,16 +12,28 @@ double vslConeOneMinusCos(double r, double d) {
   return s2 / (1.0 + std::sqrt(1.0 - s2));
 }
 
-int vslAutoSamples(double oneMinusCos) { return std::max(1, int(std::lround(33.0 * oneMinusCos))); }
+int vslAutoSamples(double oneMinusCos) {
+  // theta = 2 asin(sqrt((1 - cos) / 2)) keeps precision for tiny cones.
+  double theta = 2.0 * std::asin(std::sqrt(std::clamp(0.5 * oneMinusCos, 0.0, 1.0)));
+  return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));
+}
+
+double vslClippedDiskArea(double r, double h) {
+  if (!(r > 0)) return 0;
+  double t = h / r;
+  if (t >= 1) return M_PI * r * r;
+  if (t <= -1) return 0;
+  return r * r * (0.5 * M_PI + std::asin(t) + t * std::sqrt(1.0 - t * t));
+}
 
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
-                      int samplesPerStrategy, Rng& rng) {
+                      const VslOptions& options, Rng& rng) {
   VslResult res;
   double d = length(toLight);
   // The cone's axis; a point exactly at the light looks along its normal.
   Vec3 axis = d > 0 ? toLight / float(d) : x.frame.n;
   double omc = vslConeOneMinusCos(radius, d);
-  int n = samplesPerStrategy > 0 ? samplesPerStrategy : vslAutoSamples(omc);
+  int n = options.samplesPerStrategy > 0 ? options.samplesPerStrategy : vslAutoSamples(omc);
   double pdfCone = 1.0 / (2.0 * M_PI * omc);
   Frame coneFrame(axis);
   // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
@@ -72,7 +86,9 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
     }
   }
   // Balance heuristic with n samples per strategy: (1/n) sum f / sum_j pdf_j.
-  double norm = 1.0 / (double(n) * M_PI * radius * radius);
+  double area = options.clippedDisk ? vslClippedDiskArea(radius, dot(toLight, x.ng)) : M_PI * radius * radius;
+  if (!(area > 0)) return res;
+  double norm = 1.0 / (double(n) * area);
   Vec3 t(float(sum[0] * norm), float(sum[1] * norm), float(sum[2] * norm));
   res.transfer = isFinite(t) ? t : Vec3(0.0f);
   return res;

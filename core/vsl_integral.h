@@ -12,9 +12,22 @@
 // Quadrature: Monte Carlo with up to three strategies combined by the balance
 // heuristic, n samples each: uniform directions in C, sampling f_x, and
 // sampling f_p about the light's incoming direction (BRDF samples outside C
-// contribute zero). Auto sample counts grow with the cone's solid angle:
-// n = max(1, round(33 (1 - cos))), so about 100 evaluations for a hemisphere
-// and 3 for a tiny cone.
+// contribute zero). Auto sample counts grow with the cone's half-angle theta,
+// as in the authors' shader: n = 1 + floor(100 theta / (pi/2)) per strategy,
+// so 6 at 5 degrees, 17 at 15 and 101 for a hemisphere. (A count that grows
+// with the solid angle instead gives one sample per strategy up to about 15
+// degrees, and glossy-to-glossy pairs then have a relative standard deviation
+// near 0.8 per estimate.)
+//
+// Normalisation: by default the light's flux is spread over pi r^2, the
+// expected area of surface inside the sphere. With the clipped-disk option
+// (from a third-party copy of the authors' shader; off by default) it is
+// spread over the part of the disk of radius r around p that lies on the
+// receiver's side of the receiver's tangent plane,
+//   A(h) = r^2 (pi/2 + asin(h/r)) + h sqrt(r^2 - h^2),
+// h = signed distance of p from that plane (A = pi r^2 for h >= r). This
+// offsets part of the darkening of surfaces next to a corner. As r -> 0,
+// h/r grows and A -> pi r^2, so the VPL limit is unchanged.
 //
 // Strategy selection: a BRDF strategy whose pdf cannot put more than
 // kVslStrategyMass of its samples into C (pdf bound x solid angle of C) is
@@ -43,19 +56,28 @@ struct VslEmitter {
 // See "Strategy selection" above.
 constexpr double kVslStrategyMass = 0.05;
 
+struct VslOptions {
+  int samplesPerStrategy = 0;  // <= 0: automatic (see above)
+  bool clippedDisk = false;    // divide by the clipped disk's area instead of pi r^2
+};
+
 // 1 - cos of the cone's half-angle for a sphere of radius r at distance d
 // (1 when d <= r). Precise for r << d.
 double vslConeOneMinusCos(double r, double d);
-// Auto sample count per strategy for a cone.
+// Auto sample count per strategy for a cone: 1 + floor(100 theta / (pi/2)).
 int vslAutoSamples(double oneMinusCos);
+// Area of the disk of radius r whose centre lies at signed distance h on the
+// kept side of a line (the receiver's tangent plane): pi r^2 for h >= r, 0 for
+// h <= -r.
+double vslClippedDiskArea(double r, double h);
 
 struct VslResult {
   Vec3 transfer;  // T_VSL (per unit flux), finite
   int evaluations = 0;
 };
 
-// toLight = p - x. samplesPerStrategy <= 0 selects the automatic count.
+// toLight = p - x.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
-                      int samplesPerStrategy, Rng& rng);
+                      const VslOptions& options, Rng& rng);
 
 }  // namespace vsl

@@ -7,6 +7,7 @@
 
 #include "chi2.h"
 #include "core/many_light.h"
+#include "core/mrcs.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "core/vsl_integral.h"
@@ -222,7 +223,52 @@ TEST(VslIntegral, ConeSolidAngleIsPreciseForTinyCones) {
   EXPECT_NEAR(vslConeOneMinusCos(1e-6, 1), 0.5e-12, 1e-24);
   EXPECT_NEAR(vslConeOneMinusCos(0.5, 1), 1 - std::sqrt(0.75), 1e-15);
   EXPECT_EQ(vslAutoSamples(1e-9), 1);
-  EXPECT_EQ(vslAutoSamples(1.0), 33);
+  // The authors' rule, 1 + floor(100 theta / (pi/2)): 6 at 5 degrees, 17 at
+  // 15, 101 for a hemisphere (x inside the sphere).
+  auto omc = [](double deg) { return 1 - std::cos(deg * M_PI / 180); };
+  EXPECT_EQ(vslAutoSamples(omc(5)), 6);
+  EXPECT_EQ(vslAutoSamples(omc(15)), 17);
+  EXPECT_EQ(vslAutoSamples(omc(45)), 51);
+  EXPECT_EQ(vslAutoSamples(1.0), 101);
+  EXPECT_EQ(vslAutoSamples(vslConeOneMinusCos(std::sin(10 * M_PI / 180), 1)), 12);
+}
+
+// The clipped disk's area: pi r^2 when the receiver's tangent plane misses the
+// disk, half of it when the plane passes through p, against a dense count of
+// grid points of the disk on the kept side; and in the r -> 0 limit (h fixed)
+// the VSL with the clipped disk tends to the unclipped one.
+TEST(VslIntegral, ClippedDiskAreaMatchesDenseQuadrature) {
+  EXPECT_DOUBLE_EQ(vslClippedDiskArea(2, 3), M_PI * 4);
+  EXPECT_DOUBLE_EQ(vslClippedDiskArea(2, -3), 0);
+  EXPECT_NEAR(vslClippedDiskArea(2, 0), M_PI * 2, 1e-12);
+  for (double t : {-0.9, -0.5, -0.1, 0.2, 0.6, 0.95}) {
+    const int n = 2000;
+    const double r = 1.5, h = t * r;
+    long inside = 0;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        double x = (i + 0.5) / n * 2 - 1, y = (j + 0.5) / n * 2 - 1;  // in units of r
+        // The plane's line is y = -h/r: the kept side holds the centre when h > 0.
+        if (x * x + y * y <= 1 && y >= -t) ++inside;
+      }
+    double dense = 4 * r * r * double(inside) / (double(n) * n);
+    EXPECT_NEAR(vslClippedDiskArea(r, h), dense, 2e-3 * r * r) << "h/r " << t;
+  }
+  Brdf b = Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.5f, 0.5f);
+  VslReceiver x = receiver(b, Vec3(0, 0, 1), normalize(Vec3(0.2f, 0, 1)));
+  VslEmitter p = emitter(b, Vec3(0, 0, -1), normalize(Vec3(0.1f, 0, -1)));
+  Vec3 toLight(0.1f, 0.0f, 0.05f);  // p 0.05 above x's tangent plane
+  for (double r : {1e-3, 1e-5}) {
+    Rng g1(1, 1), g2(1, 1);
+    Vec3 plain = vslTransfer(x, p, toLight, r, {4, false}, g1).transfer;
+    Vec3 clipped = vslTransfer(x, p, toLight, r, {4, true}, g2).transfer;
+    EXPECT_NEAR(clipped.y, plain.y, 1e-6 * plain.y) << "r " << r;
+  }
+  // Close to the plane, the clipped disk is smaller and the VSL brighter.
+  Rng g1(2, 2), g2(2, 2);
+  Vec3 plain = vslTransfer(x, p, toLight, 0.1, {4, false}, g1).transfer;
+  Vec3 clipped = vslTransfer(x, p, toLight, 0.1, {4, true}, g2).transfer;
+  EXPECT_NEAR(clipped.y / plain.y, M_PI * 0.01 / vslClippedDiskArea(0.1, 0.05), 1e-4);
 }
 
 // As r -> 0 the VSL transfer tends to the unclamped VPL transfer.
@@ -246,7 +292,7 @@ TEST(VslIntegral, TendsToVplAsRadiusVanishes) {
     if (lx.z > 0 && lp.z > 0) vpl = bx.eval(x.f.w(), lx) * bp.eval(p.f.w(), lp) * (lx.z * lp.z / (d * d));
     for (double r : {1e-4 * d, 1e-7 * d}) {
       Rng g(trial, 1);
-      VslResult v = vslTransfer(x, p, toLight, r, 0, g);
+      VslResult v = vslTransfer(x, p, toLight, r, {}, g);
       for (int c = 0; c < 3; ++c)
         ASSERT_NEAR(v.transfer[c], vpl[c], 2e-3f * vpl[c] + 1e-7f) << "trial " << trial << " r " << r;
       // Auto: one sample for a tiny cone, and rough lobes cannot put samples
@@ -266,7 +312,7 @@ TEST(VslIntegral, StrategySelectionKeepsNarrowLobes) {
     // The light faces down at x, lit from just off its normal.
     VslEmitter p = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, roughP, 0), Vec3(0, 0, -1), normalize(Vec3(0.05f, 0, -1)));
     Rng g(3, 3);
-    return vslTransfer(x, p, toLight, r, 1, g).evaluations;
+    return vslTransfer(x, p, toLight, r, {1}, g).evaluations;
   };
   EXPECT_EQ(evaluations(0.5f, 0.5f, 1e-3), 1);   // rough lobes, tiny cone: cone only
   EXPECT_EQ(evaluations(0.02f, 0.5f, 1e-3), 2);  // near-mirror receiver keeps its strategy
@@ -309,7 +355,7 @@ TEST(VslIntegralStats, MatchesDenseQuadrature) {
     double s = 0, s2 = 0;
     for (int i = 0; i < runs; ++i) {
       Rng g(i, 5);
-      double v = vslTransfer(x, p, toLight, c.r, 2, g).transfer.y;
+      double v = vslTransfer(x, p, toLight, c.r, {2}, g).transfer.y;
       s += v;
       s2 += v * v;
     }
@@ -354,7 +400,7 @@ TEST(VslIntegral, ExtremesStayFinite) {
           // Grazing view and grazing light.
           VslReceiver x = receiver(bx, Vec3(0, 0, 1), normalize(Vec3(1, 0, 1e-3f)));
           VslEmitter p = emitter(b, Vec3(0, 0, -1), normalize(Vec3(-1, 0, -1e-3f)));
-          VslResult res = vslTransfer(x, p, toLight, r, 0, rng);
+          VslResult res = vslTransfer(x, p, toLight, r, {}, rng);
           ASSERT_TRUE(isFinite(res.transfer)) << "rough " << rough << " r " << r;
           ASSERT_GE(res.transfer.x, 0.0f);
           // Bounded: the integrand is at most f_max^2 over a hemisphere and
@@ -674,4 +720,100 @@ TEST(ManyLight, ProgressiveRadiiShrinkTowardZero) {
   // prod (k + alpha)/(k + 1) ~ C n^(alpha - 1): r^2 falls like n^-0.3.
   EXPECT_LT(progressiveRadiusFactor(1999, 0.7f), 0.4f);
   EXPECT_GT(progressiveRadiusFactor(1999, 0.7f), 0.1f);
+}
+
+// ---- Thin surfaces ------------------------------------------------------------------
+
+namespace {
+
+void addQuad(Scene& s, Vec3 o, Vec3 eu, Vec3 ev, uint32_t material) {  // faces cross(eu, ev)
+  uint32_t b = uint32_t(s.positions.size());
+  for (Vec3 p : {o, o + eu, o + eu + ev, o + ev}) {
+    s.positions.push_back(p);
+    s.normals.push_back(Vec3(0.0f));
+    s.tangents.push_back(Vec3(0.0f));
+    s.tangentSigns.push_back(1);
+    s.uvs.push_back({0, 0});
+    s.boundsMin = min(s.boundsMin, p);
+    s.boundsMax = max(s.boundsMax, p);
+  }
+  s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+  s.triMaterial.insert(s.triMaterial.end(), {material, material});
+}
+
+// A large zero-thickness sheet, tilted so that its points' coordinates are not
+// exact, lit from behind by a small emitter that faces its back. The camera
+// looks at the front. Nothing in front of the sheet reflects, so every light
+// path that reaches the front face would have to pass through the sheet: the
+// front's indirect light is exactly zero for the path tracer, and must be for
+// every many-light method, however large the VSL radius (virtual lights on
+// the back lie within r of front points).
+std::shared_ptr<Scene> backLitSheet(bool doubleSided) {
+  auto s = std::make_shared<Scene>();
+  s->path = doubleSided ? "<back-lit double-sided sheet>" : "<back-lit one-sided sheet>";
+  Material sheet;
+  sheet.name = "sheet";
+  sheet.baseColor = Vec3(0.8f);
+  sheet.metallic = 0;
+  sheet.roughness = 0.4f;
+  sheet.doubleSided = doubleSided;
+  Material emitter;
+  emitter.name = "emitter";
+  emitter.baseColor = Vec3(0.0f);
+  emitter.metallic = 0;
+  emitter.specularWeight = 0;
+  emitter.emission = Vec3(10.0f);
+  s->materials = {sheet, emitter, Material()};
+  Vec3 n = normalize(Vec3(0.3f, 0.2f, 1.0f));  // the sheet's front normal
+  Frame f(n);
+  addQuad(*s, f.toWorld(Vec3(-20, -20, 0)), f.toWorld(Vec3(40, 0, 0)), f.toWorld(Vec3(0, 40, 0)), 0);
+  // The emitter, 0.5 behind the sheet, facing it (+n).
+  addQuad(*s, f.toWorld(Vec3(-0.3f, -0.3f, -0.5f)), f.toWorld(Vec3(0.6f, 0, 0)), f.toWorld(Vec3(0, 0.6f, 0)), 1);
+  s->camera.position = n * 1.5f;
+  s->camera.forward = -n;
+  s->camera.right = f.toWorld(Vec3(1, 0, 0));
+  s->camera.up = cross(s->camera.right, s->camera.forward);
+  s->camera.yfov = 1.2f;
+  return s;
+}
+
+}  // namespace
+
+TEST(ManyLight, NoLightThroughThinSheets) {
+  for (bool doubleSided : {false, true}) {
+    SCOPED_TRACE(doubleSided ? "double-sided" : "one-sided");
+    Loaded l;
+    l.scene = backLitSheet(doubleSided);
+    std::string err;
+    l.accel = Accel::build(*l.scene, &err);
+    ASSERT_TRUE(l.accel) << err;
+    l.lights = std::make_unique<LightSampler>(*l.scene);
+    Reference ref = ptIndirect(l, 16, 16, 64, 3);
+    EXPECT_EQ(ref.mean, 0.0) << "the path tracer finds no indirect light on the front";
+    // Radii well above the light spacing (so that back lights sit inside the
+    // spheres of front points), as k-NN radii and as one global radius.
+    for (float globalRadius : {0.0f, 0.02f}) {
+      ManyLightSettings s;
+      s.lights = 3000;
+      s.width = s.height = 16;
+      s.batches = 1;
+      s.radiusScale = 4;
+      s.globalRadius = globalRadius;
+      s.clamp = std::numeric_limits<float>::infinity();
+      s.seed = 11;
+      ManyLightRun run;
+      ManyLightImages im = renderMany(l, s, &run);
+      ASSERT_GT(run.set.lights.size(), 1000u) << "the back of the sheet must hold virtual lights";
+      EXPECT_EQ(channelMean(im.vsl), 0.0) << "VSL, global radius " << globalRadius;
+      EXPECT_EQ(channelMean(im.vplUnclamped), 0.0);
+      EXPECT_EQ(channelMean(im.vplDiffuse), 0.0);
+      EXPECT_EQ(channelMean(im.vpl), 0.0);
+      MrcsSettings ms;
+      ms.rows = 16;
+      ms.clusters = 64;
+      MrcsResult mr = renderMrcs(*l.scene, *l.accel, *l.lights, run.set, run.radii, s, ms);
+      EXPECT_EQ(channelMean(mr.images.vsl), 0.0) << "MRCS VSL";
+      EXPECT_EQ(channelMean(mr.images.vpl), 0.0) << "MRCS VPL";
+    }
+  }
 }
