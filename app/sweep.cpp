@@ -7,6 +7,7 @@
 // either way).
 #include "app/sweep.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -31,9 +32,10 @@ struct Point {
   std::string method;
   uint32_t lights = 0;
   float radiusScale = 0;
+  int set = 0;  // independent run of the configuration
   int step = 0;
   double seconds = 0;
-  double relMse = 0, rmse = 0, mean = 0;
+  double relMse = 0, rmse = 0, mean = 0, worst1 = 0;
   bool final = false;
   std::string series() const {
     std::ostringstream s;
@@ -44,14 +46,27 @@ struct Point {
   }
 };
 
-Point measure(const std::string& method, uint32_t lights, float scale, int step, double seconds, const Image& img,
-              const Image& ref) {
-  CompareResult c = compareImages(img, ref);
-  return {method, lights, scale, step, seconds, c.average.relMse, c.average.rmse, c.average.meanTest, false};
+// The finals of one configuration over its independent runs.
+struct Summary {
+  std::string method, series;
+  uint32_t lights = 0;
+  float radiusScale = 0;
+  int sets = 0;
+  double seconds = 0, relMse = 0, q1 = 0, q3 = 0, mean = 0, worst1 = 0;  // medians and quartiles
+};
+
+// Linear-interpolated quantile of unsorted values.
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  double x = q * double(v.size() - 1);
+  size_t i = size_t(x);
+  return i + 1 < v.size() ? v[i] + (x - double(i)) * (v[i + 1] - v[i]) : v[i];
 }
 
 // Indices of the points on the lower-left (time, error) envelope.
-std::vector<size_t> paretoFront(const std::vector<Point>& pts, const std::vector<size_t>& idx) {
+template <class T>
+std::vector<size_t> paretoFront(const std::vector<T>& pts, const std::vector<size_t>& idx) {
   std::vector<size_t> sorted = idx;
   std::sort(sorted.begin(), sorted.end(), [&](size_t a, size_t b) { return pts[a].seconds < pts[b].seconds; });
   std::vector<size_t> front;
@@ -59,6 +74,150 @@ std::vector<size_t> paretoFront(const std::vector<Point>& pts, const std::vector
   for (size_t i : sorted)
     if (pts[i].relMse < best) best = pts[i].relMse, front.push_back(i);
   return front;
+}
+
+// Everything one run needs: the scene, the reference and the arguments.
+struct SweepContext {
+  const SweepArgs& a;
+  const Scene& scene;
+  const Accel& accel;
+  const LightSampler& lights;
+  const Image& ref;
+  int W, H;
+  std::vector<Point>& pts;
+
+  void record(const std::string& method, uint32_t n, float sc, int set, int step, double seconds, const Image& img) {
+    CompareResult c = compareImages(img, ref);
+    pts.push_back({method, n, sc, set, step, seconds, c.average.relMse, c.average.rmse, c.average.meanTest,
+                   worstPixelShare(img, ref), false});
+    const Point& p = pts.back();
+    std::fprintf(stderr, "sweep: %-34s set %d step %3d  %8.2f s  relMSE %.5f\n", p.series().c_str(), set, step, seconds,
+                 p.relMse);
+  }
+  void finish() {
+    if (!pts.empty()) pts.back().final = true;
+  }
+  // Independent runs differ in every seed.
+  uint64_t seedOf(int set, int pass = 0) const {
+    return a.seed + 7919ull * uint64_t(set) + 1000003ull * uint64_t(pass);
+  }
+  ManyLightSettings manySettings(const std::string& method, uint32_t n, float scale, uint64_t seed) const {
+    ManyLightSettings m = a.many;
+    m.lights = n;
+    m.width = W;
+    m.height = H;
+    m.seed = seed;
+    m.directSamples = 1;
+    m.radiusScale = scale > 0 ? scale : 1.0f;
+    m.computeVsl = method.rfind("vsl", 0) == 0;
+    m.computeVpl = !m.computeVsl;
+    return m;
+  }
+
+  // The path tracer, measured at 1, 2, 4, ... passes and at the budget.
+  void runPt(int set) {
+    RenderSettings rs;
+    rs.width = W;
+    rs.height = H;
+    rs.seed = seedOf(set);
+    PathTracer pt(scene, accel, lights, rs);
+    Film d(W, H), ind(W, H);
+    PtCounters c;
+    double el = 0;
+    int next = 1;
+    for (int pass = 0;; ++pass) {
+      auto t0 = Clock::now();
+      pt.renderPass(pass, d, ind, c);
+      el += since(t0);
+      bool last = el >= a.time;
+      if (pass + 1 == next || last) {
+        record("pt", 0, 0, set, pass + 1, el, ind.image());
+        next *= 2;
+      }
+      if (last) break;
+    }
+    finish();
+  }
+
+  // Pass-based methods: independent light sets, each rendered in full, the
+  // estimate being their mean. "-progressive" shrinks the radius per pass
+  // (r^2 *= (i+alpha)/(i+1)); "-mrcs" renders each pass with matrix
+  // row-column sampling instead of the brute-force gather.
+  void runPasses(const std::string& method, uint32_t n, float sc, int set) {
+    const bool mrcs = method.find("-mrcs") != std::string::npos;
+    const bool progressive = method.find("progressive") != std::string::npos;
+    auto t0 = Clock::now();
+    Image sum(W, H);
+    for (int pass = 0;; ++pass) {
+      ManyLightSettings m = manySettings(method, n, sc, seedOf(set, pass));
+      m.batches = 1;
+      if (progressive) m.radiusScale *= progressiveRadiusFactor(pass, a.alpha);
+      ManyLightRun run = prepareManyLights(scene, accel, lights, m);
+      Image v;
+      if (mrcs) {
+        MrcsSettings ms = a.mrcs;
+        ms.seed = m.seed;
+        MrcsResult mr = renderMrcs(scene, accel, lights, run.set, run.radii, m, ms);
+        v = m.computeVsl ? mr.images.vsl : mr.images.vpl;
+      } else {
+        ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+        r.renderBatch(0);
+        v = m.computeVsl ? r.images().vsl : r.images().vpl;
+      }
+      for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i];
+      Image mean = sum;
+      for (float& x : mean.rgb) x /= float(pass + 1);
+      double el = since(t0);
+      record(method, n, sc, set, pass + 1, el, mean);
+      if (el >= a.time) break;
+    }
+    finish();
+  }
+
+  // Brute force: one light set in progressive batches (each batch an unbiased
+  // estimate of the all-lights image), capped by the budget. The clock
+  // includes light tracing and k-NN, and only this method's own gather.
+  void runBatches(const std::string& method, uint32_t n, float sc, int set) {
+    ManyLightSettings m = manySettings(method, n, sc, seedOf(set));
+    m.batches = a.batches;
+    auto t0 = Clock::now();
+    ManyLightRun run = prepareManyLights(scene, accel, lights, m);
+    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+    for (int b = 0; b < r.batchCount(); ++b) {
+      r.renderBatch(b);
+      ManyLightImages im = r.images();
+      double el = since(t0);
+      record(method, n, sc, set, b + 1, el, m.computeVsl ? im.vsl : im.vpl);
+      if (a.time > 0 && el >= a.time) break;
+    }
+    finish();
+  }
+};
+
+std::vector<Summary> summarise(const std::vector<Point>& pts) {
+  std::map<std::string, std::vector<size_t>> groups;
+  std::vector<std::string> order;
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (pts[i].final) {
+      std::string key = pts[i].series();
+      if (!groups.count(key)) order.push_back(key);
+      groups[key].push_back(i);
+    }
+  std::vector<Summary> out;
+  for (const std::string& key : order) {
+    const std::vector<size_t>& idx = groups[key];
+    std::vector<double> sec, rel, mean, worst;
+    for (size_t i : idx) {
+      sec.push_back(pts[i].seconds);
+      rel.push_back(pts[i].relMse);
+      mean.push_back(pts[i].mean);
+      worst.push_back(pts[i].worst1);
+    }
+    const Point& p = pts[idx.front()];
+    out.push_back({p.method, key, p.lights, p.radiusScale, int(idx.size()), quantile(sec, 0.5), quantile(rel, 0.5),
+                   quantile(rel, 0.25), quantile(rel, 0.75), quantile(mean, 0.5), quantile(worst, 0.5)});
+  }
+  return out;
 }
 
 }  // namespace
@@ -116,165 +275,105 @@ int runSweep(const SweepArgs& a) {
     return 1;
   }
   const int W = ref->width, H = ref->height;
+  const double refMean = compareImages(*ref, *ref).average.meanRef;
   std::vector<Point> pts;
-  auto finish = [&] {
-    if (!pts.empty()) pts.back().final = true;
-  };
-  auto log = [&](const Point& p) {
-    std::fprintf(stderr, "sweep: %-34s step %3d  %8.2f s  relMSE %.5f\n", p.series().c_str(), p.step, p.seconds,
-                 p.relMse);
-  };
-
+  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts};
   for (const std::string& method : a.methods) {
     if (method == "pt") {
-      RenderSettings rs;
-      rs.width = W;
-      rs.height = H;
-      rs.seed = a.seed;
-      PathTracer pt(scene, *accel, lights, rs);
-      Film d(W, H), ind(W, H);
-      PtCounters c;
-      double el = 0;
-      int next = 1;
-      for (int pass = 0;; ++pass) {
-        auto t0 = Clock::now();
-        pt.renderPass(pass, d, ind, c);
-        el += since(t0);
-        bool last = el >= a.time;
-        if (pass + 1 == next || last) {
-          pts.push_back(measure("pt", 0, 0, pass + 1, el, ind.image(), *ref));
-          log(pts.back());
-          next *= 2;
-        }
-        if (last) break;
-      }
-      finish();
+      for (int set = 0; set < a.sets; ++set) ctx.runPt(set);
       continue;
     }
-    // Pass-based methods: independent light sets, each rendered in full, the
-    // estimate being their mean. "-progressive" shrinks the radius per pass
-    // (r^2 *= (i+alpha)/(i+1)); "-mrcs" renders each pass with matrix
-    // row-column sampling instead of the brute-force gather.
-    const bool mrcs = method.find("-mrcs") != std::string::npos;
-    const bool progressive = method.find("progressive") != std::string::npos;
-    if (mrcs || progressive) {
-      const bool vsl = method.rfind("vsl", 0) == 0;
-      for (uint32_t n : a.lights)
-        for (float sc : vsl ? a.radiusScales : std::vector<float>{0.0f}) {
-          auto t0 = Clock::now();
-          Image sum;
-          for (int pass = 0;; ++pass) {
-            ManyLightSettings m;
-            m.lights = n;
-            m.width = W;
-            m.height = H;
-            m.seed = a.seed + 1000003ull * uint64_t(pass);
-            m.batches = 1;
-            m.directSamples = 1;
-            m.radiusScale = (sc > 0 ? sc : 1.0f) * (progressive ? progressiveRadiusFactor(pass, a.alpha) : 1.0f);
-            m.computeVsl = vsl;
-            m.computeVpl = !vsl;
-            ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
-            Image v;
-            if (mrcs) {
-              MrcsSettings ms = a.mrcs;
-              ms.seed = m.seed;
-              MrcsResult mr = renderMrcs(scene, *accel, lights, run.set, run.radii, m, ms);
-              v = vsl ? mr.images.vsl : mr.images.vpl;
-            } else {
-              ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
-              r.renderBatch(0);
-              v = vsl ? r.images().vsl : r.images().vpl;
-            }
-            if (pass == 0) sum = Image(W, H);
-            for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i];
-            Image mean = sum;
-            for (float& x : mean.rgb) x /= float(pass + 1);
-            double el = since(t0);
-            pts.push_back(measure(method, n, sc, pass + 1, el, mean, *ref));
-            log(pts.back());
-            if (el >= a.time) break;
-          }
-          finish();
-        }
-      continue;
-    }
-    std::vector<float> scales = method == "vsl" ? a.radiusScales : std::vector<float>{0.0f};
+    const bool passes = method.find("-mrcs") != std::string::npos || method.find("progressive") != std::string::npos;
+    const bool vsl = method.rfind("vsl", 0) == 0;
     for (uint32_t n : a.lights)
-      for (float sc : scales) {
-        ManyLightSettings m;
-        m.lights = n;
-        m.width = W;
-        m.height = H;
-        m.seed = a.seed;
-        m.batches = a.batches;
-        m.directSamples = 1;
-        m.radiusScale = sc > 0 ? sc : 1.0f;
-        m.computeVsl = method == "vsl";
-        m.computeVpl = method == "vpl";
-        auto t0 = Clock::now();
-        ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
-        ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
-        for (int b = 0; b < r.batchCount(); ++b) {
-          r.renderBatch(b);
-          ManyLightImages im = r.images();
-          double el = since(t0);  // includes light tracing and k-NN
-          pts.push_back(measure(method, n, sc, b + 1, el, method == "vsl" ? im.vsl : im.vpl, *ref));
-          log(pts.back());
-          if (a.time > 0 && el >= a.time) break;
-        }
-        finish();
-      }
+      for (float sc : vsl ? a.radiusScales : std::vector<float>{0.0f})
+        for (int set = 0; set < a.sets; ++set)
+          passes ? ctx.runPasses(method, n, sc, set) : ctx.runBatches(method, n, sc, set);
   }
+  const std::vector<Summary> summary = summarise(pts);
 
-  // ---- CSV and JSON.
-  std::ostringstream csv;
-  csv << "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final,relmse_minus_ref_noise\n";
-  nlohmann::json js = {{"scene", a.scene}, {"reference", a.reference},        {"width", W},
-                       {"height", H},      {"relMseEpsilon", kRelMseEpsilon}, {"points", nlohmann::json::array()}};
+  // ---- CSV and JSON: every point, and the summary of the finals per configuration.
+  std::ostringstream csv, sumCsv;
+  csv << "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise\n";
+  nlohmann::json js = {{"scene", a.scene},
+                       {"reference", a.reference},
+                       {"width", W},
+                       {"height", H},
+                       {"sets", a.sets},
+                       {"relMseEpsilon", kRelMseEpsilon},
+                       {"referenceIndirectMean", refMean},
+                       {"settings", a.many.describe()},
+                       {"points", nlohmann::json::array()},
+                       {"summary", nlohmann::json::array()}};
   js["referenceNoiseRelMSE"] = refNoise;  // 0 without --reference-b
   if (!a.referenceB.empty()) js["referenceB"] = a.referenceB;
   for (const Point& p : pts) {
-    csv << p.method << "," << p.lights << "," << p.radiusScale << "," << p.step << "," << p.seconds << "," << p.relMse
-        << "," << p.rmse << "," << p.mean << "," << (p.final ? 1 : 0) << "," << p.relMse - refNoise << "\n";
+    csv << p.method << "," << p.lights << "," << p.radiusScale << "," << p.set << "," << p.step << "," << p.seconds
+        << "," << p.relMse << "," << p.rmse << "," << p.mean << "," << p.worst1 << "," << (p.final ? 1 : 0) << ","
+        << p.relMse - refNoise << "\n";
     js["points"].push_back({{"method", p.method},
                             {"lights", p.lights},
                             {"radiusScale", p.radiusScale},
+                            {"set", p.set},
                             {"step", p.step},
                             {"seconds", p.seconds},
                             {"relMSE", p.relMse},
                             {"rmse", p.rmse},
                             {"mean", p.mean},
+                            {"worst1Share", p.worst1},
                             {"final", p.final}});
   }
-  // Pareto fronts of the final points, per method.
+  sumCsv << "method,lights,radius_scale,sets,seconds_median,relmse_median,relmse_q1,relmse_q3,"
+            "relmse_median_minus_ref_noise,mean_median,mean_vs_reference,worst1_share_median\n";
+  for (const Summary& m : summary) {
+    double meanRatio = refMean > 0 ? m.mean / refMean - 1 : 0;
+    sumCsv << m.method << "," << m.lights << "," << m.radiusScale << "," << m.sets << "," << m.seconds << ","
+           << m.relMse << "," << m.q1 << "," << m.q3 << "," << m.relMse - refNoise << "," << m.mean << "," << meanRatio
+           << "," << m.worst1 << "\n";
+    js["summary"].push_back({{"method", m.method},
+                             {"lights", m.lights},
+                             {"radiusScale", m.radiusScale},
+                             {"sets", m.sets},
+                             {"secondsMedian", m.seconds},
+                             {"relMSEMedian", m.relMse},
+                             {"relMSEQ1", m.q1},
+                             {"relMSEQ3", m.q3},
+                             {"relMSEMedianMinusReferenceNoise", m.relMse - refNoise},
+                             {"meanMedian", m.mean},
+                             {"meanVsReference", meanRatio},
+                             {"worst1ShareMedian", m.worst1}});
+  }
+  // Pareto fronts of the configurations' medians, per method.
   std::map<std::string, std::vector<size_t>> finals;
-  for (size_t i = 0; i < pts.size(); ++i)
-    if (pts[i].final) finals[pts[i].method].push_back(i);
+  for (size_t i = 0; i < summary.size(); ++i) finals[summary[i].method].push_back(i);
   std::map<std::string, std::vector<size_t>> fronts;
   for (auto& [m, idx] : finals) {
-    fronts[m] = paretoFront(pts, idx);
+    fronts[m] = paretoFront(summary, idx);
     for (size_t i : fronts[m])
-      js["pareto"][m].push_back({{"lights", pts[i].lights},
-                                 {"radiusScale", pts[i].radiusScale},
-                                 {"seconds", pts[i].seconds},
-                                 {"relMSE", pts[i].relMse}});
+      js["pareto"][m].push_back({{"lights", summary[i].lights},
+                                 {"radiusScale", summary[i].radiusScale},
+                                 {"seconds", summary[i].seconds},
+                                 {"relMSE", summary[i].relMse}});
   }
   std::filesystem::path dir(a.outDir);
-  for (auto [name, text] :
-       {std::pair<std::string, std::string>{"sweep.csv", csv.str()}, {"sweep.json", js.dump(2) + "\n"}})
+  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", csv.str()},
+                            {"summary.csv", sumCsv.str()},
+                            {"sweep.json", js.dump(2) + "\n"}})
     if (!writeTextFile((dir / name).string(), text, &err)) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
 
-  // ---- Plots (gnuplot scripts with inline data).
+  // ---- Plots (gnuplot scripts with inline data): the first run of each
+  // configuration against time, and the medians with their quartiles.
   std::map<std::string, std::vector<size_t>> series;
-  for (size_t i = 0; i < pts.size(); ++i) series[pts[i].series()].push_back(i);
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (pts[i].set == 0) series[pts[i].series()].push_back(i);
   std::ostringstream gp1, gp2;
   gp1 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "error_vs_time.png").string() << "'\n"
       << "set logscale xy\nset xlabel 'compute time (s)'\nset ylabel 'relMSE of the indirect image (eps = 0.01)'\n"
-      << "set title 'Error against time: " << std::filesystem::path(a.scene).stem().string() << "'\nset key outside\n"
+      << "set title 'Error against time (first of " << a.sets
+      << " runs each): " << std::filesystem::path(a.scene).stem().string() << "'\nset key outside\n"
       << "plot ";
   bool first = true;
   for (auto& [name, idx] : series) {
@@ -288,20 +387,23 @@ int runSweep(const SweepArgs& a) {
     gp1 << "e\n";
   }
   gp2 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "pareto.png").string() << "'\n"
-      << "set logscale xy\nset xlabel 'compute time (s)'\nset ylabel 'relMSE of the indirect image'\n"
+      << "set logscale xy\nset xlabel 'compute time (s, median)'\n"
+      << "set ylabel 'relMSE of the indirect image (median, bars: quartiles)'\n"
       << "set title 'Pareto fronts (lower left is better): " << std::filesystem::path(a.scene).stem().string()
       << "'\nset key outside\nplot ";
   first = true;
   for (auto& [m, idx] : finals) {
-    gp2 << (first ? "" : ", ") << "'-' using 1:2 with points pt 7 title '" << m
-        << " runs', '-' using 1:2 with lines lw 2 title '" << m << " front'";
+    gp2 << (first ? "" : ", ") << "'-' using 1:2:3:4 with yerrorbars pt 7 title '" << m
+        << " configurations', '-' using 1:2 with lines lw 2 title '" << m << " front'";
     first = false;
   }
   gp2 << "\n";
   for (auto& [m, idx] : finals) {
-    for (size_t i : idx) gp2 << pts[i].seconds << " " << std::max(pts[i].relMse, 1e-12) << "\n";
+    for (size_t i : idx)
+      gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << " " << std::max(summary[i].q1, 1e-12)
+          << " " << std::max(summary[i].q3, 1e-12) << "\n";
     gp2 << "e\n";
-    for (size_t i : fronts[m]) gp2 << pts[i].seconds << " " << std::max(pts[i].relMse, 1e-12) << "\n";
+    for (size_t i : fronts[m]) gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << "\n";
     gp2 << "e\n";
   }
   for (auto [name, text] :
@@ -319,11 +421,15 @@ int runSweep(const SweepArgs& a) {
                    path.c_str());
     }
   }
-  std::printf("%-34s %10s %12s %16s\n", "configuration", "seconds", "relMSE", "minus ref noise");
-  for (const Point& p : pts)
-    if (p.final)
-      std::printf("%-34s %10.2f %12.5f %16.5f\n", p.series().c_str(), p.seconds, p.relMse, p.relMse - refNoise);
-  std::fprintf(stderr, "wrote %s/{sweep.csv, sweep.json, error_vs_time.png, pareto.png}\n", a.outDir.c_str());
+  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %.3g\n", a.sets, refMean,
+              kRelMseEpsilon);
+  std::printf("%-30s %9s %10s %21s %10s %9s %7s\n", "configuration", "seconds", "relMSE", "quartiles", "-ref noise",
+              "mean", "worst1%");
+  for (const Summary& m : summary)
+    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f\n", m.series.c_str(), m.seconds, m.relMse,
+                m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0, m.worst1);
+  std::fprintf(stderr, "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png}\n",
+               a.outDir.c_str());
   return 0;
 }
 

@@ -1,5 +1,6 @@
 // `vsl sweep`: a grid of methods x light counts x radius scales against a
-// reference, with CSV, JSON and error-vs-time / Pareto plots.
+// reference, each configuration run with several independent light sets (or
+// seeds), with CSV, JSON and error-vs-time / Pareto plots.
 #pragma once
 
 #include <cstdint>
@@ -22,6 +23,13 @@ struct SweepArgs {
   int batches = 8;
   MrcsSettings mrcs;  // for the -mrcs methods (seed: per pass)
   uint64_t seed = 1;  // differ from the reference's seed, or the path tracer replays it
+  // Independent runs per configuration (light sets, or path-tracer seeds): a
+  // many-light method's error is heavy-tailed and one light set decides
+  // nothing. Finals are summarised by the median and interquartile range.
+  int sets = 5;
+  // Template for the many-light runs: k, VSL samples, clipped disk, where eye
+  // paths continue (lights, seed, radius scale, batches are set per run).
+  ManyLightSettings many;
 };
 
 int runSweep(const SweepArgs& args);

@@ -601,6 +601,16 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
   return 0;
 }
 
+// Options of the VSL gather shared by render and sweep.
+void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
+  cmd->add_flag("--clipped-disk", m.clippedDisk,
+                "VSL: spread the flux over the part of the disk on the receiver's side of its tangent plane");
+  cmd->add_option("--continue-alpha", m.continueAlpha,
+                  "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
+      ->default_str(std::to_string(ManyLightSettings().continueAlpha))
+      ->check(CLI::Range(0.0, 1.0));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -631,6 +641,7 @@ int main(int argc, char** argv) {
                    "off")
       ->default_str("auto");
   render->add_flag("--diffuse-vpl", ra.many.diffuseOnly, "VPLs emit with their diffuse lobe only");
+  addVslOptions(render, ra.many);
   render->add_option("--mrcs", ra.mrcsSpec,
                      "Matrix row-column sampling: ROWS,CLUSTERS[,MIX] (e.g. 300,900; MIX: uniform share of the "
                      "representative choice)");
@@ -720,6 +731,11 @@ int main(int argc, char** argv) {
                     "A second reference with another seed: relMSE(B, A)/2 estimates the reference's own noise, "
                     "reported and subtracted in the column relmse_minus_ref_noise");
   sweep->add_option("-o,--output", sw.outDir, "Output directory")->required();
+  sweep->add_option("--sets", sw.sets, "Independent light sets (or path-tracer seeds) per configuration")
+      ->default_str("5")
+      ->check(CLI::Range(1, 1000));
+  sweep->add_option("--knn", sw.many.knn, "k for the VSL radius")->default_str("10")->check(CLI::Range(1, 1000));
+  addVslOptions(sweep, sw.many);
 
   std::string benchScene, benchJson;
   double benchSeconds = 3;

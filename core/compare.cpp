@@ -1,5 +1,10 @@
 #include "core/compare.h"
 
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <vector>
+
 namespace vsl {
 
 CompareResult compareImages(const Image& test, const Image& ref, double epsilon) {
@@ -45,6 +50,26 @@ CompareResult compareImages(const Image& test, const Image& ref, double epsilon)
   }
   r.average.rmse = std::sqrt(r.average.rmse);
   return r;
+}
+
+double worstPixelShare(const Image& test, const Image& ref, double fraction, double epsilon) {
+  const size_t n = size_t(test.width) * test.height;
+  std::vector<double> e(n, 0.0);
+  double total = 0;
+  for (size_t i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      double t = test.rgb[3 * i + c], f = ref.rgb[3 * i + c];
+      if (std::isfinite(t) && std::isfinite(f)) e[i] += (t - f) * (t - f) / (f * f + epsilon) / 3;
+    }
+    total += e[i];
+  }
+  if (!(total > 0) || n == 0) return 0;
+  size_t k = std::max<size_t>(1, size_t(std::ceil(fraction * double(n))));
+  k = std::min(k, n);
+  std::nth_element(e.begin(), e.begin() + std::ptrdiff_t(k - 1), e.end(), std::greater<double>());
+  double worst = 0;
+  for (size_t i = 0; i < k; ++i) worst += e[i];
+  return worst / total;
 }
 
 ErrorImages errorImages(const Image& test, const Image& ref, double epsilon) {

@@ -32,6 +32,12 @@ struct ErrorImages {
 };
 ErrorImages errorImages(const Image& test, const Image& ref, double epsilon = kRelMseEpsilon);
 
+// Share of the summed per-pixel relative squared error (channels averaged)
+// held by the worst `fraction` of pixels: near `fraction` for evenly spread
+// error, near 1 when a few outliers (speckles, blobs) hold it all. 0 for a
+// perfect image.
+double worstPixelShare(const Image& test, const Image& ref, double fraction = 0.01, double epsilon = kRelMseEpsilon);
+
 // A false-colour map (black-blue-magenta-yellow-white) of v / vmax.
 Vec3 falseColour(float t);
 

@@ -14,16 +14,17 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
   return g;
 }
 
-Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, VslOptions vsl,
-                   bool computeVsl, bool computeVpl, uint64_t seed)
+Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                   const ManyLightSettings& settings, float clampBound, bool computeVsl, bool computeVpl)
     : scene_(scene),
       accel_(accel),
       lights_(lights),
       clamp_(clampBound),
-      vsl_(vsl),
+      vsl_(settings.vslOptions()),
+      continueAlpha_(settings.continueAlpha),
       computeVsl_(computeVsl),
       computeVpl_(computeVpl),
-      seed_(seed) {}
+      seed_(settings.seed) {}
 
 namespace {
 constexpr int kMaxSpecularChain = 8;
@@ -44,7 +45,7 @@ GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gat
     Brdf brdf = scene_.brdf(sh);
     Vec3 woL = sh.shading.toLocal(wo);
     if (woL.z <= 0) return gp;
-    if (brdf.isNearSpecular() && j + 1 < kMaxSpecularChain) {
+    if (brdf.isNarrowMetal(continueAlpha_) && j + 1 < kMaxSpecularChain) {
       auto bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
       if (!bs) return gp;
       Vec3 wi = sh.shading.toWorld(bs->wi);

@@ -6,8 +6,7 @@
 
 #include "core/accel.h"
 #include "core/lights.h"
-#include "core/virtual_lights.h"
-#include "core/vsl_integral.h"
+#include "core/many_light.h"
 
 namespace vsl {
 
@@ -35,9 +34,10 @@ struct GatherCounters {
 
 class Gatherer {
  public:
-  // clampBound: the VPL clamp on the luminance of the transfer.
-  Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, float clampBound, VslOptions vsl,
-           bool computeVsl, bool computeVpl, uint64_t seed);
+  // clampBound: the VPL clamp on the luminance of the transfer. From the
+  // settings: the VSL quadrature, where eye paths continue, the seed.
+  Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, const ManyLightSettings& settings,
+           float clampBound, bool computeVsl, bool computeVpl);
 
   // Camera ray through (x + jitter, y + jitter), continued through
   // near-specular surfaces to the first surface that is not.
@@ -53,6 +53,7 @@ class Gatherer {
   const LightSampler& lights_;
   float clamp_;
   VslOptions vsl_;
+  float continueAlpha_;
   bool computeVsl_, computeVpl_;
   uint64_t seed_;
 };

@@ -36,6 +36,8 @@ std::string ManyLightSettings::validate() const {
     e << "vsl-samples: must be auto or in [1,4096] (got " << vslSamples << ")";
   else if (std::isnan(clamp))
     e << "clamp: must be a number, 'auto' or 'off'";
+  else if (!(continueAlpha >= 0 && continueAlpha <= 1))
+    e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
   return e.str();
@@ -57,6 +59,7 @@ std::string ManyLightSettings::describe() const {
   else
     s << clamp;
   if (clippedDisk) s << " --clipped-disk";
+  s << " --continue-alpha " << continueAlpha;
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();
 }
@@ -145,8 +148,8 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   });
 
   const uint64_t seed = settings_.seed;
-  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), clamp_, settings_.vslOptions(), settings_.computeVsl,
-                    settings_.computeVpl, seed);
+  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), settings_, clamp_, settings_.computeVsl,
+                    settings_.computeVpl);
 
   // Per-batch buffers, merged into the films only if the batch completes.
   const size_t np = size_t(width_) * height_;

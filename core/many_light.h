@@ -56,6 +56,9 @@ struct ManyLightSettings {
   float globalRadius = 0;    // > 0: one radius = globalRadius x scene bounding radius
   int vslSamples = 0;        // per strategy; 0 = auto (grows with the cone angle)
   bool clippedDisk = false;  // VSL normalised by the clipped disk's area (vsl_integral.h)
+  // Eye paths continue through pure metals whose GGX alpha is below this
+  // along both axes, instead of gathering there (see "Gathering" above).
+  float continueAlpha = kNearSpecularAlpha;
   VslOptions vslOptions() const { return {vslSamples, clippedDisk}; }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off

@@ -88,7 +88,9 @@ struct Brdf {
   std::optional<BrdfSample> sample(const Vec3& wo, float u1, Vec2 u2) const;
   // Probability that sample() picks the specular lobe.
   float specularProbability(const Vec3& wo) const;
-  bool isNearSpecular() const { return ggx.ax < kNearSpecularAlpha && ggx.ay < kNearSpecularAlpha && metallic >= 1.0f; }
+  bool isNearSpecular() const { return isNarrowMetal(kNearSpecularAlpha); }
+  // A pure metal whose lobe is narrower than alpha along both axes.
+  bool isNarrowMetal(float alpha) const { return ggx.ax < alpha && ggx.ay < alpha && metallic >= 1.0f; }
   // Diffuse reflectance rho_d (the Lambertian part's albedo before the
   // energy-compensation factors).
   Vec3 diffuseReflectance() const { return baseColor * (1.0f - metallic); }

@@ -220,9 +220,9 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   const float clampBound = manyLightClampBound(scene, settings);
   const int vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   const bool doVsl = settings.computeVsl, doVpl = settings.computeVpl;
-  Gatherer both(scene, accel, lights, clampBound, settings.vslOptions(), doVsl, doVpl, settings.seed);
-  Gatherer vslOnly(scene, accel, lights, clampBound, settings.vslOptions(), true, false, settings.seed);
-  Gatherer vplOnly(scene, accel, lights, clampBound, settings.vslOptions(), false, true, settings.seed);
+  Gatherer both(scene, accel, lights, settings, clampBound, doVsl, doVpl);
+  Gatherer vslOnly(scene, accel, lights, settings, clampBound, true, false);
+  Gatherer vplOnly(scene, accel, lights, settings, clampBound, false, true);
 
   // Gather points (one per pixel) and direct light.
   RenderSettings rs;

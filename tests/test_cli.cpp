@@ -2,6 +2,7 @@
 // and files that real tools (exrheader) read.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <algorithm>
 
 #include <array>
 #include <cstdio>
@@ -189,25 +190,52 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
       run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
       0);
   Proc r = run("sweep " + scene("cornell-glossy") + " --methods pt,vpl,vsl,vsl-mrcs --lights 40,80 --radius-scale 1 " +
-               "--time 0.2 --mrcs 20,10 --batches 2 --reference " + file("ref.exr") + " -o " + file("sweep"));
+               "--time 0.2 --mrcs 20,10 --batches 2 --sets 3 --reference " + file("ref.exr") + " -o " + file("sweep"));
   ASSERT_EQ(r.code, 0) << r.out;
   std::ifstream csv(file("sweep/sweep.csv"));
   std::string line;
   std::getline(csv, line);
-  EXPECT_EQ(line, "method,lights,radius_scale,step,seconds,relmse,rmse,mean,final,relmse_minus_ref_noise");
+  EXPECT_EQ(line,
+            "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise");
   std::map<std::string, int> finals;
+  // Final relMSE per configuration, one per independent light set.
+  std::map<std::string, std::vector<double>> finalRel;
   while (std::getline(csv, line)) {
     std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 10u) << line;
-    if (f[8] == "1") finals[f[0]]++;
-    EXPECT_EQ(f[5], f[9]) << "without --reference-b nothing is subtracted: " << line;
+    ASSERT_EQ(f.size(), 12u) << line;
+    double worst = std::stod(f[9]);
+    EXPECT_TRUE(worst >= 0.01 - 1e-9 && worst <= 1) << "the worst 1% hold at least 1% of the error: " << line;
+    if (f[10] == "1") {
+      finals[f[0]]++;
+      finalRel[f[0] + " " + f[1]].push_back(std::stod(f[6]));
+    }
+    EXPECT_EQ(f[6], f[11]) << "without --reference-b nothing is subtracted: " << line;
   }
-  EXPECT_EQ(finals["pt"], 1);
-  EXPECT_EQ(finals["vpl"], 2);
-  EXPECT_EQ(finals["vsl"], 2);
-  EXPECT_EQ(finals["vsl-mrcs"], 2);
+  EXPECT_EQ(finals["pt"], 3);
+  EXPECT_EQ(finals["vpl"], 6);
+  EXPECT_EQ(finals["vsl"], 6);
+  EXPECT_EQ(finals["vsl-mrcs"], 6);
+  // The summary holds the median of each configuration's three finals.
+  std::ifstream sum(file("sweep/summary.csv"));
+  std::getline(sum, line);
+  EXPECT_EQ(line.rfind("method,lights,radius_scale,sets,seconds_median,relmse_median,relmse_q1,relmse_q3", 0), 0u);
+  int rows = 0;
+  while (std::getline(sum, line)) {
+    std::vector<std::string> f = csvFields(line);
+    ASSERT_EQ(f.size(), 12u) << line;
+    EXPECT_EQ(f[3], "3");
+    std::vector<double> v = finalRel[f[0] + " " + f[1]];
+    ASSERT_EQ(v.size(), 3u) << line;
+    std::sort(v.begin(), v.end());
+    EXPECT_NEAR(std::stod(f[5]), v[1], 1e-4 * v[1]) << line;
+    EXPECT_LE(std::stod(f[6]), std::stod(f[5]));
+    EXPECT_GE(std::stod(f[7]), std::stod(f[5]));
+    ++rows;
+  }
+  EXPECT_EQ(rows, 7);  // pt; vpl, vsl and vsl-mrcs at two light counts
   auto j = nlohmann::json::parse(std::ifstream(file("sweep/sweep.json")));
   EXPECT_FALSE(j["pareto"]["vsl"].empty());
+  EXPECT_EQ(j["summary"].size(), 7u);
   for (const char* png : {"sweep/error_vs_time.png", "sweep/pareto.png"}) {
     Proc s = shell(std::string(VSL_BINARY_DIR) + "/bin/png_stats " + file(png) + " 5");
     EXPECT_EQ(s.code, 0) << png << ": " << s.out;
@@ -234,8 +262,8 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   std::getline(csvB, line);
   while (std::getline(csvB, line)) {
     std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 10u);
-    EXPECT_NEAR(std::stod(f[9]), std::stod(f[5]) - ab / 2, 1e-5 * std::stod(f[5]) + 1e-9) << line;
+    ASSERT_EQ(f.size(), 12u);
+    EXPECT_NEAR(std::stod(f[11]), std::stod(f[6]) - ab / 2, 1e-5 * std::stod(f[6]) + 1e-9) << line;
   }
   // A second reference of another size is refused.
   ASSERT_EQ(
