@@ -609,6 +609,10 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                   "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
       ->default_str(std::to_string(ManyLightSettings().continueAlpha))
       ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--lobe-radius", m.lobeRadius,
+                  "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")
+      ->default_str("0")
+      ->check(CLI::Range(0.0, 100.0));
 }
 
 }  // namespace

@@ -59,7 +59,8 @@ void BM_BrdfSample(benchmark::State& state) {
 }
 BENCHMARK(BM_BrdfSample);
 
-// The cone integral for a narrow (1 sample per strategy) and a wide cone.
+// The cone integral for a narrow cone (0.6 degrees: 1 sample per strategy), a
+// 15-degree cone (17 per strategy) and a 29-degree one (33 per strategy).
 void BM_VslCone(benchmark::State& state) {
   VslReceiver x;
   x.f = BrdfAt(Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.5f, 0.0f), normalize(Vec3(0.3f, 0.1f, 1.0f)));
@@ -74,7 +75,7 @@ void BM_VslCone(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(vslTransfer(x, p, toLight, radius, {}, r));
   state.SetItemsProcessed(int64_t(state.iterations()));
 }
-BENCHMARK(BM_VslCone)->Arg(1)->Arg(50);
+BENCHMARK(BM_VslCone)->Arg(1)->Arg(27)->Arg(50);
 
 void BM_KnnRadii(benchmark::State& state) {
   Rng r(11, 11);

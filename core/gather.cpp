@@ -11,6 +11,7 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
   g.em.frame = v.frame();
   g.em.f = BrdfAt(v.brdf(), g.em.frame.toLocal(decodeUnit(v.wi)));
   g.radius = radius;
+  g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
   return g;
 }
 
@@ -22,6 +23,7 @@ Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& l
       clamp_(clampBound),
       vsl_(settings.vslOptions()),
       continueAlpha_(settings.continueAlpha),
+      lobeRadius_(settings.lobeRadius),
       computeVsl_(computeVsl),
       computeVpl_(computeVpl),
       seed_(settings.seed) {}
@@ -129,7 +131,8 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   }
   if (vslPossible) {
     Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
-    VslResult r = vslTransfer(gp.rx, L.em, d, L.radius, vsl_, prng);
+    float radius = lobeRadius_ > 0 ? std::max(L.radius, lobeRadius_ * dist * L.alpha) : L.radius;
+    VslResult r = vslTransfer(gp.rx, L.em, d, radius, vsl_, prng);
     c.vslEvaluations += uint64_t(r.evaluations);
     add(kVslLayer, r.transfer);
   }

@@ -18,6 +18,7 @@ struct GatherLight {
   Vec3 p, Phi, n, ng;
   VslEmitter em;
   float radius;
+  float alpha;  // the narrower GGX axis of the light's specular lobe
 };
 GatherLight decodeGatherLight(const VirtualLight& v, float radius);
 
@@ -53,7 +54,7 @@ class Gatherer {
   const LightSampler& lights_;
   float clamp_;
   VslOptions vsl_;
-  float continueAlpha_;
+  float continueAlpha_, lobeRadius_;
   bool computeVsl_, computeVpl_;
   uint64_t seed_;
 };

@@ -36,6 +36,8 @@ std::string ManyLightSettings::validate() const {
     e << "vsl-samples: must be auto or in [1,4096] (got " << vslSamples << ")";
   else if (std::isnan(clamp))
     e << "clamp: must be a number, 'auto' or 'off'";
+  else if (!(lobeRadius >= 0 && lobeRadius <= 100))
+    e << "lobe-radius: must be in [0,100] (got " << lobeRadius << ")";
   else if (!(continueAlpha >= 0 && continueAlpha <= 1))
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
@@ -59,6 +61,7 @@ std::string ManyLightSettings::describe() const {
   else
     s << clamp;
   if (clippedDisk) s << " --clipped-disk";
+  if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
   s << " --continue-alpha " << continueAlpha;
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();

@@ -56,6 +56,12 @@ struct ManyLightSettings {
   float globalRadius = 0;    // > 0: one radius = globalRadius x scene bounding radius
   int vslSamples = 0;        // per strategy; 0 = auto (grows with the cone angle)
   bool clippedDisk = false;  // VSL normalised by the clipped disk's area (vsl_integral.h)
+  // Lobe-aware minimum radius (0 = off): for a receiver at distance d, the
+  // radius is at least lobeRadius x d x alpha, alpha the narrower GGX axis of
+  // the light's specular lobe, so that the cone is about as wide as the
+  // light's emission lobe (a VSL whose cone is narrower than that lobe is a
+  // spiky unclamped VPL). Trades those spikes for blur.
+  float lobeRadius = 0;
   // Eye paths continue through pure metals whose GGX alpha is below this
   // along both axes, instead of gathering there (see "Gathering" above).
   float continueAlpha = kNearSpecularAlpha;
