@@ -3,10 +3,11 @@
 # clamped VPL over independent light sets, the radius scale and k, and where
 # eye paths continue through narrow metals.
 #   bash scripts/measure-vsl.sh [OUT_DIR] [WIDTH] [STUDY...]
-# STUDY: radius (scales 1, 2, 4 at 2,000 and 10,000 lights), knn (k = 5 and
+# STUDY: radius (scales 1 and 2 at 2,000 and 10,000 lights), knn (k = 5 and
 # 20 at scale 2), lobe (the lobe-aware minimum radius), continue
 # (--continue-alpha on a near-mirror box), compare (VSL vs VPL at 10,000
-# lights with the default settings). Environment: SETS (default 5), SPP
+# lights with the default settings), equal (each method's best configuration
+# at an equal time budget). Environment: TIME (budget, default 10), MRCS, SETS (default 5), SPP
 # (reference samples per pixel for each of the two references, default 4096),
 # SCENES (default: cornell-glossy tableau kitchen hall), VSL (the binary).
 # Every sweep writes OUT_DIR/<scene>-<study>/summary.csv; finished steps are
@@ -18,6 +19,8 @@ WIDTH=${2:-64}
 shift 2 || true
 STUDIES=${*:-radius continue compare}
 SETS=${SETS:-5}
+TIME=${TIME:-10}         # equal-time budget, seconds
+MRCS=${MRCS:-100,300}    # rows,clusters for the -mrcs methods
 SPP=${SPP:-4096}
 SCENES=${SCENES:-cornell-glossy tableau kitchen hall}
 VSL=${VSL:-build/bin/vsl}
@@ -33,12 +36,15 @@ references() {  # references NAME PATH
     [ -e "$f" ] || "$VSL" render "$2" --method pt --spp "$SPP" --width "$WIDTH" --seed "$seed" -o "$f"
   done
 }
-sweep() {  # sweep NAME PATH SUBDIR ARGS...
+sweep() {  # sweep NAME PATH SUBDIR ARGS... (equal quality: no time cap, one batch)
+  sweep_args "$@" --time 100000 --batches 1
+}
+sweep_args() {  # sweep_args NAME PATH SUBDIR ARGS...
   local name=$1 path=$2 dir="$OUT/$1-$3"
   shift 3
   if [ -e "$dir/summary.csv" ]; then echo "skip $dir"; return; fi
   "$VSL" sweep "$path" --reference "$OUT/$name-refA.exr" --reference-b "$OUT/$name-refB.exr" --sets "$SETS" \
-    --time 100000 --batches 1 -o "$dir" "$@" | tee "$dir.txt"
+    -o "$dir" "$@" | tee "$dir.txt"
 }
 
 for study in $STUDIES; do
@@ -47,7 +53,7 @@ for study in $STUDIES; do
       for s in $SCENES; do
         p=$(scene_path "$s"); n=$(basename "$p" .gltf)
         references "$n" "$p"
-        sweep "$n" "$p" radius-k10 --methods vpl,vsl --lights 2000,10000 --radius-scale 1,2,4
+        sweep "$n" "$p" radius-k10 --methods vpl,vsl --lights 2000,10000 --radius-scale 1,2
       done ;;
     knn)
       for s in $SCENES; do
@@ -76,12 +82,28 @@ PY
       references cornell-mirror "$p"
       for a in 0.01 0.02 0.05; do
         sweep cornell-mirror "$p" "continue-$a" --methods vpl,vsl --lights 10000 --continue-alpha "$a"
+      done
+      # And through every metal of the glossy scenes (alpha 0.04-0.12 there).
+      for s in $SCENES; do
+        p=$(scene_path "$s"); n=$(basename "$p" .gltf)
+        references "$n" "$p"
+        sweep "$n" "$p" continue-0.15 --methods vpl,vsl --lights 10000 --continue-alpha 0.15
       done ;;
     compare)
       for s in $SCENES; do
         p=$(scene_path "$s"); n=$(basename "$p" .gltf)
         references "$n" "$p"
         sweep "$n" "$p" compare --methods vpl,vsl --lights 10000
+      done ;;
+    equal)
+      # Equal time: each method's own clock; every configuration of a method
+      # gets the budget (brute force in batches, or independent MRCS light
+      # sets averaged), and each method is judged by its best configuration.
+      for s in $SCENES; do
+        p=$(scene_path "$s"); n=$(basename "$p" .gltf)
+        references "$n" "$p"
+        sweep_args "$n" "$p" "equal-$TIME" --methods pt,vpl,vsl,vpl-mrcs,vsl-mrcs --lights 2000,10000 \
+          --mrcs "$MRCS" --time "$TIME" --batches 8
       done ;;
     *) echo "unknown study '$study'" >&2; exit 2 ;;
   esac
