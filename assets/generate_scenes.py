@@ -17,10 +17,11 @@ Scenes
                   brushed-metal reflector panels, which light metal and glazed
                   objects on a polished table by glossy reflection (clamped VPL
                   keeps about a third of the indirect light).
-  kitchen         the paper's kitchen: LED strips hidden under the wall cabinets
-                  and bulbs inside pendant shades; glossy stone counter, tiled
-                  splashback and floor, lacquered cabinets, brushed-steel range
-                  hood and fridge (clamped VPL loses about a quarter).
+  kitchen         the paper's kitchen: LED strips hidden under the wall
+                  cabinets and small diffusers under pendant domes; glossy stone
+                  counter, tiled splashback and floor, lacquered cabinets,
+                  brushed-steel range hood and fridge (clamped VPL loses about a
+                  quarter of the indirect light).
   hall            the paper's concert hall: curved walls and ceiling sails of
                   pure metal (metallic 1, no diffuse component) washed by spots,
                   organ pipes, a stage and terraced seats (the walls carry most
@@ -500,7 +501,7 @@ def tableau():
     g.mesh("steel-cube", box([-0.3, 0.856, -0.95], [0.11, 0.11, 0.11], angle=-0.4), brushed_h, tangents=True)
     # A ceiling spot aimed steeply at the panels: its beam passes over the
     # objects, and the panels reflect it down onto them from 0.2-0.6 m away.
-    g.spot("key", [0.2, 3.1, 0.2], [0.0, 1.25, -1.2], 120.0, color=(1.0, 0.95, 0.85), inner_deg=12, outer_deg=17)
+    g.spot("key", [0.2, 3.1, 0.2], [0.0, 1.25, -1.2], 360.0, color=(1.0, 0.95, 0.85), inner_deg=12, outer_deg=17)
     g.camera("main", [0.0, 1.5, 1.3], [0.0, 0.98, -0.85], 40, 4 / 3)
     return g
 
@@ -511,11 +512,11 @@ def cylinder(center, radius, height, segments=24):
 
 
 def kitchen():
-    """The paper's kitchen: almost all light is indirect. Small hidden sources
-    (LED strips under the wall cabinets, bulbs inside pendant shades) light a
-    glossy stone counter, a glossy tiled splashback and a glossy island top; the
-    rest of the room (lacquered cabinets, a brushed-steel range hood and fridge,
-    a glossy tiled floor) is lit by what they reflect."""
+    """The paper's kitchen: most of the room is lit indirectly. Small hidden
+    sources (LED strips under the wall cabinets, small diffusers under the
+    pendant domes) light a glossy stone counter, a glossy tiled splashback and a
+    glossy island top; the rest of the room (lacquered cabinets, a brushed-steel
+    range hood and fridge, a glossy tiled floor) is lit by what they reflect."""
     g = Gltf("kitchen")
     wall = g.material("wall", base=(0.62, 0.6, 0.55), roughness=1.0)
     ceiling = g.material("ceiling", base=(0.8, 0.8, 0.78), roughness=1.0)
@@ -535,7 +536,8 @@ def kitchen():
     wood = g.material("oak", base=(0.5, 0.33, 0.18), roughness=0.6)
     fruit = g.material("oranges", base=(0.8, 0.3, 0.03), roughness=0.5)
     strip = g.material("led-strip", base=(0.8, 0.8, 0.8), roughness=1.0, emission=(1.0, 0.82, 0.62), strength=500.0)
-    bulb = g.material("pendant-bulb", base=(0.8, 0.8, 0.8), roughness=1.0, emission=(1.0, 0.8, 0.6), strength=240.0)
+    diffuser = g.material("pendant-diffuser", base=(0.8, 0.8, 0.8), roughness=1.0, emission=(1.0, 0.8, 0.6),
+                          strength=40.0)
     # Room 4.6 x 2.7 x 4.2; the back wall is at z = -2.1.
     g.mesh("walls", box([0, 1.35, 0], [4.6, 2.7, 4.2], inward=True, skip=("+y", "-y")), wall)
     g.mesh("ceiling", quad([-2.3, 2.7, -2.1], [4.6, 0, 0], [0, 0, 4.2]), ceiling)
@@ -546,10 +548,10 @@ def kitchen():
     g.mesh("counter", box([-0.6, 0.9, -1.785], [3.42, 0.04, 0.63]), counter)
     g.mesh("cooktop", quad([-0.9, 0.921, -1.55], [0.6, 0, 0], [0, 0, -0.5]), glass)
     g.mesh("splashback", quad([-2.29, 0.92, -2.099], [3.4, 0, 0], [0, 0.53, 0]), splash)
-    # Wall cabinets, with LED strips hidden behind a lip under their front edge.
+    # Wall cabinets, with LED strips on their undersides (out of sight from
+    # standing height).
     for name, cx, w in (("wall-cabinet-left", -1.65, 1.3), ("wall-cabinet-right", 0.45, 1.3)):
         g.mesh(name, box([cx, 1.85, -1.925], [w, 0.8, 0.35]), cabinet)
-        g.mesh(name + "-lip", box([cx, 1.43, -1.76], [w, 0.04, 0.02]), cabinet)
         g.mesh(name + "-strip", quad([cx - w / 2 + 0.05, 1.449, -1.82], [w - 0.1, 0, 0], [0, 0, 0.03]), strip)
     # Range hood between the wall cabinets: a sloped canopy and a chimney.
     g.mesh("hood-canopy", box([-0.6, 1.6, -1.86], [0.8, 0.16, 0.48]), hood, tangents=True)
@@ -569,11 +571,12 @@ def kitchen():
     for i, (ox, oz) in enumerate(((-0.74, 0.03), (-0.66, 0.09), (-0.69, -0.02))):
         g.mesh("orange-%d" % i, sphere([ox, 0.995 + 0.01 * i, oz], 0.045, rings=12, segments=24), fruit)
     g.mesh("cutting-board", box([0.25, 0.931, 0.15], [0.45, 0.02, 0.3], angle=0.2), wood)
+    # Pendants: solid copper domes with a small diffuser disc underneath (a shade
+    # lit from inside would be a thin two-sided surface).
     for name, px in (("pendant-left", -0.85), ("pendant-right", 0.25)):
-        g.mesh(name + "-shade", lathe([px, 1.45, 0.1], [(0.0, 0.28), (0.03, 0.28), (0.06, 0.2), (0.17, 0.0),
-                                                       (0.165, 0.0), (0.055, 0.195), (0.025, 0.27), (0.0, 0.27)],
-                                      segments=48, steps=32), copper)
-        g.mesh(name + "-bulb", quad([px - 0.03, 1.69, 0.07], [0.06, 0, 0], [0, 0, 0.06]), bulb)
+        g.mesh(name + "-shade", lathe([px, 1.45, 0.1], [(0.0, 0.0), (0.17, 0.0), (0.165, 0.03), (0.06, 0.22),
+                                                       (0.03, 0.28), (0.0, 0.28)], segments=48, steps=32), copper)
+        g.mesh(name + "-diffuser", lathe([px, 1.449, 0.1], [(0.0, 0.0), (0.12, 0.0)], segments=48), diffuser)
         g.mesh(name + "-cord", box([px, 2.215, 0.1], [0.01, 0.97, 0.01]), steel)
     for i, sx in enumerate((-0.85, -0.3, 0.25)):
         g.mesh("stool-seat-%d" % i, cylinder([sx, 0.7, 0.9], 0.18, 0.05), wood)

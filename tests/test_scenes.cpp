@@ -14,11 +14,11 @@
 // Noise argument. The fractions are ratios of image means over all pixels.
 // The reference's standard error is estimated from its per-pixel sample
 // variance and asserted below 4% of its mean (measured here: tableau 2.6%,
-// kitchen 2.1%, hall 2.4%; 4096-spp runs gave 0.9%, 0.75% and 0.9%, as the
+// kitchen 1.2%, hall 2.4%; 4096-spp runs gave 0.9%, 0.46% and 0.9%, as the
 // square-root law predicts, so the estimate is not fooled by a heavy tail).
 // Clamped VPL's image mean varies far less between light sets (clamping
 // removes the spikes). The fractions measured here (tableau 0.33, kitchen
-// 0.73, hall diffuse-only 0.35 and metal share 0.60) therefore sit at least
+// 0.75, hall diffuse-only 0.35 and metal share 0.60) therefore sit at least
 // 4 standard errors inside their bounds. Unclamped VPL is spiky (10-25%
 // between light sets at these counts), so it is only checked loosely, as
 // evidence that the indirect light can be gathered from virtual lights at
