@@ -13,13 +13,20 @@ Scenes
                   no specular lobe (KHR_materials_specular specularFactor 0):
                   radiance everywhere is Le / (1 - a) = 2.
   cornell-glossy  Cornell box with a glossy floor and a metal box.
-  tableau         brushed anisotropic metal panels and objects on a table,
-                  lit mostly indirectly by a spot aimed at a wall.
-  kitchen         room lit by cove lights hidden on the upper cabinets and aimed
-                  at the ceiling; glossy counter, anisotropic range hood,
-                  diffuse cabinets.
-  hall            curved pure-metal walls (no diffuse component) lit by a stage
-                  spot light.
+  tableau         the paper's anisotropic tableau: a ceiling spot aimed at three
+                  brushed-metal reflector panels, which light metal and glazed
+                  objects on a polished table by glossy reflection (clamped VPL
+                  keeps about a third of the indirect light).
+  kitchen         the paper's kitchen: LED strips hidden under the wall
+                  cabinets and small diffusers under pendant domes; glossy stone
+                  counter, tiled splashback and floor, lacquered cabinets,
+                  brushed-steel range hood and fridge (clamped VPL loses about a
+                  quarter of the indirect light).
+  hall            the paper's concert hall: curved walls and ceiling sails of
+                  pure metal (metallic 1, no diffuse component) washed by spots,
+                  organ pipes, a stage and terraced seats (the walls carry most
+                  of the indirect light; diffuse-only VPLs get none of it).
+The many-light fractions are asserted by tests/test_scenes.cpp.
 Only the Python standard library is used; output is deterministic.
 """
 import base64
@@ -137,30 +144,6 @@ def box(center, size, angle=0.0, inward=False, skip=()):
     return m
 
 
-def cylinder_wall(center, radius, height, a0, a1, segments, inward=True):
-    """Vertical cylindrical wall between angles a0..a1 (around +Y, angle 0 = -Z).
-    Tangents run along the circumference (brushing follows the curve)."""
-    m = Mesh()
-    for i in range(segments + 1):
-        a = a0 + (a1 - a0) * i / segments
-        d = [math.sin(a), 0.0, -math.cos(a)]
-        circ = [math.cos(a), 0.0, math.sin(a)]
-        n = mul(d, -1) if inward else d
-        for j in (0, 1):
-            m.p.append(add(center, [d[0] * radius, j * height, d[2] * radius]))
-            m.n.append(n)
-            m.t.append(circ + [1.0])
-            m.uv.append([i / segments, 1 - j])
-    for i in range(segments):
-        a, b, c, d = 2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1
-        # Winding so that the front face matches n.
-        if inward:
-            m.idx += [a, d, c, a, c, b]
-        else:
-            m.idx += [a, b, c, a, c, d]
-    return m
-
-
 def sphere(center, radius, rings=24, segments=48):
     m = Mesh()
     for r in range(rings + 1):
@@ -181,6 +164,131 @@ def sphere(center, radius, rings=24, segments=48):
             if r != rings - 1:
                 m.idx += [b, c, d]
     return m
+
+
+
+def grid_surface(f, nu, nv, toward=None, closed_u=False):
+    """Parametric surface P = f(u, v), u and v in [0, 1], on an nu x nv grid of quads.
+    Normals come from the partial derivatives; the front face is flipped so that, at
+    the surface's middle, it faces toward the given point. Tangents run
+    along dP/du (the brushing direction of anisotropic metals)."""
+    m = Mesh()
+    e = 1e-4
+
+    def frame(u, v):
+        p = f(u, v)
+        du = sub(f(min(u + e, 1.0), v), f(max(u - e, 0.0), v))
+        dv = sub(f(u, min(v + e, 1.0)), f(u, max(v - e, 0.0)))
+        if dot(du, du) < 1e-20:  # pole: the circumference shrinks to a point
+            du = sub(f(min(u + e, 1.0), min(max(v, 1e-3), 1 - 1e-3)), f(max(u - e, 0.0), min(max(v, 1e-3), 1 - 1e-3)))
+        if dot(dv, dv) < 1e-20:
+            dv = sub(f(u, min(v + 1e-3, 1.0)), f(u, max(v - 1e-3, 0.0)))
+        return p, norm(du), norm(cross(du, dv))
+
+    flip = False
+    if toward is not None:
+        p, _, n = frame(0.5, 0.5)
+        flip = dot(n, sub(toward, p)) < 0
+    for j in range(nv + 1):
+        for i in range(nu + 1):
+            u, v = i / nu, j / nv
+            if closed_u and i == nu:
+                u = 0.0
+            p, t, n = frame(u, v)
+            m.p.append(p)
+            m.n.append(mul(n, -1) if flip else n)
+            m.t.append(t + [1.0])
+            m.uv.append([u, 1 - v])
+    w = nu + 1
+    for j in range(nv):
+        for i in range(nu):
+            a, b, c, d = j * w + i, j * w + i + 1, (j + 1) * w + i + 1, (j + 1) * w + i
+            for tri in ([a, d, c], [a, c, b]) if flip else ([a, b, c], [a, c, d]):
+                # Skip the zero-area triangles at poles (a circumference of radius 0).
+                p0, p1, p2 = (m.p[k] for k in tri)
+                area2 = cross(sub(p1, p0), sub(p2, p0))
+                if dot(area2, area2) > 1e-18:
+                    m.idx += tri
+    return m
+
+
+def lathe(center, profile, segments=48, steps=None, crease_deg=30.0):
+    """Surface of revolution about +Y through center. profile: points (r, y) traced
+    from the axis at the bottom, over the outside and (for hollow objects) back down
+    the inside; faces point away from the material. With `steps`, each profile
+    segment is split in proportion to its length. Normals are smooth along the
+    profile except at corners sharper than crease_deg, where vertices are split.
+    Tangents run around the axis (lathe-turned brushing)."""
+    lengths = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(profile, profile[1:])]
+    pts = [profile[0]]
+    for (r0, y0), (r1, y1), length in zip(profile, profile[1:], lengths):
+        n = max(1, round(steps * length / sum(lengths))) if steps else 1
+        pts += [(r0 + (r1 - r0) * k / n, y0 + (y1 - y0) * k / n) for k in range(1, n + 1)]
+    # Outward normal of each profile segment in the (r, y) plane.
+    seg_n = []
+    for (r0, y0), (r1, y1) in zip(pts, pts[1:]):
+        l = math.hypot(r1 - r0, y1 - y0)
+        seg_n.append((((y1 - y0) / l, -(r1 - r0) / l) if l > 0 else (0.0, 0.0)))
+    # Rings: (profile index, normal); a crease gives two rings at one point.
+    rings = [(0, seg_n[0])]
+    cos_crease = math.cos(math.radians(crease_deg))
+    for k in range(1, len(pts) - 1):
+        n0, n1 = seg_n[k - 1], seg_n[k]
+        if n0[0] * n1[0] + n0[1] * n1[1] < cos_crease:
+            rings += [(k, n0), (k, n1)]
+        else:
+            l = math.hypot(n0[0] + n1[0], n0[1] + n1[1])
+            rings.append((k, ((n0[0] + n1[0]) / l, (n0[1] + n1[1]) / l)))
+    rings.append((len(pts) - 1, seg_n[-1]))
+    m = Mesh()
+    for k, (nr, ny) in rings:
+        r, y = pts[k]
+        for i in range(segments + 1):
+            a = 2 * math.pi * (i % segments) / segments
+            c, s_ = math.cos(a), math.sin(a)
+            m.p.append([center[0] + r * c, center[1] + y, center[2] - r * s_])
+            m.n.append([nr * c, ny, -nr * s_])
+            m.t.append([-s_, 0.0, -c, 1.0])
+            m.uv.append([i / segments, 1 - k / (len(pts) - 1)])
+    w = segments + 1
+    for j in range(len(rings) - 1):
+        if rings[j][0] == rings[j + 1][0]:
+            continue  # the two rings of a crease
+        for i in range(segments):
+            a, b, c, d = j * w + i, j * w + i + 1, (j + 1) * w + i + 1, (j + 1) * w + i
+            for tri in ([a, b, c], [a, c, d]):
+                p0, p1, p2 = (m.p[q] for q in tri)
+                area2 = cross(sub(p1, p0), sub(p2, p0))
+                if dot(area2, area2) > 1e-18:  # skip the zero-area triangles at the axis
+                    m.idx += tri
+    return m
+
+
+def torus(center, major, minor, axis_angle=0.0, segments=64, rings=24):
+    """Torus around the Y axis tilted by axis_angle about X (outward faces)."""
+    ca, sa = math.cos(axis_angle), math.sin(axis_angle)
+
+    def f(u, v):
+        a, b = 2 * math.pi * u, 2 * math.pi * v
+        x = (major + minor * math.cos(b)) * math.cos(a)
+        z = -(major + minor * math.cos(b)) * math.sin(a)
+        y = minor * math.sin(b)
+        return [center[0] + x, center[1] + ca * y - sa * z, center[2] + sa * y + ca * z]
+
+    return grid_surface(f, segments, rings, closed_u=True)
+
+
+def curved_panel(center, width, height, bend, yaw=0.0, nu=32, nv=8):
+    """Rectangular panel width x height centred at center, bent into an arc of
+    sagitta `bend` along its width, rotated by yaw about +Y; the front face (its
+    concave side) looks along the rotated +Z."""
+    def f(u, v):
+        x = (u - 0.5) * width
+        y = (v - 0.5) * height
+        z = bend * (1 - (2 * u - 1) ** 2)
+        return add(center, rot_y([x, y, z], yaw))
+
+    return grid_surface(f, nu, nv, toward=add(center, rot_y([0, 0, 10], yaw)))
 
 
 # ---- glTF writer ------------------------------------------------------------
@@ -313,77 +421,232 @@ def cornell_glossy():
     return g
 
 
+def vase_profile(h, r_foot, r_belly, r_neck, r_lip, wall=0.008, n=24):
+    """Closed profile of a hollow vase: bottom, outside up to the lip, inside down."""
+    out = [(0.0, 0.0)]
+    for k in range(n + 1):
+        t = k / n
+        # Belly at 35% height, neck at 80%, flaring lip at the top.
+        r = (r_foot + (r_belly - r_foot) * math.sin(min(t / 0.35, 1.0) * math.pi / 2) if t < 0.35 else
+             r_belly + (r_neck - r_belly) * (0.5 - 0.5 * math.cos(math.pi * (t - 0.35) / 0.45)) if t < 0.8 else
+             r_neck + (r_lip - r_neck) * ((t - 0.8) / 0.2) ** 2)
+        out.append((r, t * h))
+    inner = [(max(r - wall, 0.002), y) for r, y in reversed(out[1:])]
+    inner[-1] = (inner[-1][0], wall)
+    return out + inner + [(0.0, wall)]
+
+
+def bowl_profile(r, h, wall=0.01, n=16):
+    """Closed profile of a hemispherical bowl on a small foot."""
+    out = [(0.0, 0.0), (r * 0.35, 0.0)]
+    for k in range(1, n + 1):
+        a = (math.pi / 2) * k / n
+        out.append((r * 0.35 + (r - r * 0.35) * math.sin(a), h * (1 - math.cos(a))))
+    inner = [(max(x - wall, 0.002), y + wall * 0.5) for x, y in reversed(out[2:])]
+    return out + inner + [(0.0, wall)]
+
+
 def tableau():
+    """The paper's anisotropic tableau: the only light is a ceiling spot aimed at
+    three brushed-metal reflector panels behind a table, so the table and the
+    objects on it are lit by glossy reflection from the panels, and most of what
+    the camera sees is glossy (metal objects, a lacquered tray) reflecting them."""
     g = Gltf("tableau")
-    wall = g.material("wall", base=(0.75, 0.73, 0.7), roughness=1.0)
-    card = g.material("reflector-card", base=(0.9, 0.88, 0.85), roughness=1.0)
-    wood = g.material("table", base=(0.35, 0.2, 0.1), roughness=0.45)
-    brushed_h = g.material("brushed-steel-h", base=(0.92, 0.92, 0.94), metallic=1.0, roughness=0.35,
-                           anisotropy=0.85, rotation=0.0)
-    brushed_v = g.material("brushed-steel-v", base=(0.95, 0.8, 0.55), metallic=1.0, roughness=0.35,
-                           anisotropy=0.85, rotation=math.pi / 2)
-    brushed_s = g.material("brushed-sphere", base=(0.9, 0.9, 0.92), metallic=1.0, roughness=0.3, anisotropy=0.9)
-    blue = g.material("blue-ceramic", base=(0.1, 0.2, 0.6), roughness=0.2)
-    # Room 6 x 3 x 6.
-    g.mesh("room", box([0, 1.5, 0], [6, 3, 6], inward=True), wall)
-    g.mesh("table", box([0, 0.75, -0.5], [2.4, 0.08, 1.4]), wood)
-    g.mesh("table-leg", box([0, 0.355, -0.5], [0.2, 0.71, 0.2]), wood)
-    g.mesh("panel-left", box([-0.6, 1.14, -0.85], [0.7, 0.7, 0.03], angle=0.35), brushed_h, tangents=True)
-    g.mesh("panel-right", box([0.55, 1.14, -0.9], [0.7, 0.7, 0.03], angle=-0.3), brushed_v, tangents=True)
-    g.mesh("sphere", sphere([0.05, 0.99, -0.3], 0.2), brushed_s, tangents=True)
-    g.mesh("cube", box([-0.55, 0.89, -0.15], [0.2, 0.2, 0.2], angle=0.6), blue)
-    # The spot lights a large white card on the left; the table sees the card.
-    g.mesh("card", quad([-2.9, 0.5, 1.0], [0, 0, -2.5], [0, 2.3, 0]), card)
-    g.spot("key", [1.5, 2.6, 1.8], [-2.9, 1.6, -0.2], 250.0, color=(1.0, 0.95, 0.85), inner_deg=15, outer_deg=22)
-    g.camera("main", [0.0, 1.55, 1.9], [0.0, 0.95, -0.6], 38, 4 / 3)
+    wall = g.material("wall", base=(0.16, 0.15, 0.14), roughness=1.0)
+    ceiling = g.material("ceiling", base=(0.3, 0.3, 0.3), roughness=1.0)
+    floor = g.material("floor", base=(0.18, 0.12, 0.08), roughness=0.6)
+    table_top = g.material("polished-walnut", base=(0.2, 0.11, 0.06), roughness=0.15)
+    wood = g.material("table-wood", base=(0.25, 0.14, 0.07), roughness=0.5)
+    tray = g.material("black-lacquer", base=(0.03, 0.03, 0.03), roughness=0.12)
+    brushed_v = g.material("brushed-steel-v", base=(0.93, 0.93, 0.95), metallic=1.0, roughness=0.15,
+                           anisotropy=0.8, rotation=math.pi / 2)
+    brushed_h = g.material("brushed-steel-h", base=(0.93, 0.93, 0.95), metallic=1.0, roughness=0.15,
+                           anisotropy=0.8, rotation=0.0)
+    brass = g.material("brushed-brass", base=(0.95, 0.78, 0.45), metallic=1.0, roughness=0.2, anisotropy=0.85)
+    copper = g.material("brushed-copper", base=(0.95, 0.62, 0.5), metallic=1.0, roughness=0.22, anisotropy=0.7)
+    alu = g.material("brushed-aluminium", base=(0.91, 0.92, 0.92), metallic=1.0, roughness=0.2, anisotropy=0.9)
+    silver = g.material("polished-silver", base=(0.97, 0.96, 0.94), metallic=1.0, roughness=0.12)
+    gold = g.material("gold", base=(1.0, 0.8, 0.4), metallic=1.0, roughness=0.18)
+    glaze = g.material("blue-glaze", base=(0.08, 0.16, 0.45), roughness=0.1)
+    red = g.material("red-glaze", base=(0.5, 0.06, 0.05), roughness=0.15)
+    # Room 6 x 3.2 x 6, table top at y = 0.8.
+    g.mesh("room-walls", box([0, 1.6, 0], [6, 3.2, 6], inward=True, skip=("+y", "-y")), wall)
+    g.mesh("ceiling", quad([-3, 3.2, -3], [6, 0, 0], [0, 0, 6]), ceiling)
+    g.mesh("floor", quad([-3, 0, 3], [6, 0, 0], [0, 0, -6]), floor)
+    g.mesh("table-top", box([0, 0.78, -0.7], [2.4, 0.04, 1.2]), table_top)
+    for i, (lx, lz) in enumerate(((-1.1, -1.22), (1.1, -1.22), (-1.1, -0.18), (1.1, -0.18))):
+        g.mesh("table-leg-%d" % i, box([lx, 0.38, lz], [0.07, 0.76, 0.07]), wood)
+    g.mesh("tray", box([0.45, 0.81, -0.55], [0.6, 0.02, 0.36], angle=-0.15), tray)
+    # Three brushed reflector panels standing on the table's back edge, gently
+    # concave, like a folding screen (brushing vertical in the middle,
+    # horizontal outside), each on a thin wooden back.
+    for name, cx, cz, yaw, mat in (("panel-left", -0.78, -1.08, 0.5, brushed_h),
+                                   ("panel-centre", 0.0, -1.25, 0.0, brushed_v),
+                                   ("panel-right", 0.78, -1.08, -0.5, brushed_h)):
+        g.mesh(name, curved_panel([cx, 1.21, cz], 0.75, 0.78, 0.04, yaw=yaw, nu=40, nv=16), mat, tangents=True)
+        back = [cx - 0.015 * math.sin(yaw), 1.21, cz - 0.015 * math.cos(yaw)]
+        g.mesh(name + "-back", curved_panel(back, 0.75, 0.78, 0.04, yaw=yaw + math.pi, nu=8, nv=1), wood)
+    # Objects on the table in front of the panels, below the spot's beam.
+    g.mesh("brushed-sphere", sphere([0.05, 0.955, -0.8], 0.155, rings=48, segments=96), alu, tangents=True)
+    g.mesh("brass-vase", lathe([-0.5, 0.801, -0.85], vase_profile(0.4, 0.06, 0.11, 0.04, 0.065), segments=64),
+           brass, tangents=True)
+    g.mesh("copper-bowl", lathe([0.55, 0.83, -0.62], bowl_profile(0.13, 0.08), segments=64), copper, tangents=True)
+    g.mesh("silver-goblet", lathe([-0.2, 0.801, -0.55], [(0.0, 0.0), (0.06, 0.0), (0.065, 0.008), (0.012, 0.02),
+                                                        (0.01, 0.12), (0.05, 0.16), (0.065, 0.26),
+                                                        (0.058, 0.26), (0.044, 0.165), (0.0, 0.15)],
+                                   segments=48, steps=40), silver, tangents=True)
+    g.mesh("gold-ring", torus([0.33, 0.89, -0.9], 0.075, 0.018, axis_angle=1.3), gold)
+    g.mesh("blue-vase", lathe([-0.85, 0.801, -0.6], vase_profile(0.26, 0.045, 0.085, 0.035, 0.045), segments=48), glaze)
+    g.mesh("red-cube", box([0.8, 0.871, -0.85], [0.14, 0.14, 0.14], angle=0.5), red)
+    g.mesh("steel-cube", box([-0.3, 0.856, -0.95], [0.11, 0.11, 0.11], angle=-0.4), brushed_h, tangents=True)
+    # A ceiling spot aimed steeply at the panels: its beam passes over the
+    # objects, and the panels reflect it down onto them from 0.2-0.6 m away.
+    g.spot("key", [0.2, 3.1, 0.2], [0.0, 1.25, -1.2], 360.0, color=(1.0, 0.95, 0.85), inner_deg=12, outer_deg=17)
+    g.camera("main", [0.0, 1.5, 1.3], [0.0, 0.98, -0.85], 40, 4 / 3)
     return g
 
 
+def cylinder(center, radius, height, segments=24):
+    """Closed vertical cylinder standing on center (outward faces)."""
+    return lathe(center, [(0.0, 0.0), (radius, 0.0), (radius, height), (0.0, height)], segments=segments, steps=6)
+
+
 def kitchen():
+    """The paper's kitchen: most of the room is lit indirectly. Small hidden
+    sources (LED strips under the wall cabinets, small diffusers under the
+    pendant domes) light a glossy stone counter, a glossy tiled splashback and a
+    glossy island top; the rest of the room (lacquered cabinets, a brushed-steel
+    range hood and fridge, a glossy tiled floor) is lit by what they reflect."""
     g = Gltf("kitchen")
-    wall = g.material("wall", base=(0.8, 0.78, 0.72), roughness=1.0)
-    floor = g.material("floor-tiles", base=(0.45, 0.42, 0.38), roughness=0.3)
-    cabinet = g.material("cabinet", base=(0.55, 0.6, 0.65), roughness=0.9)
-    counter = g.material("granite-counter", base=(0.12, 0.12, 0.13), roughness=0.08)
-    hood = g.material("range-hood", base=(0.9, 0.9, 0.92), metallic=1.0, roughness=0.3, anisotropy=0.8,
+    wall = g.material("wall", base=(0.62, 0.6, 0.55), roughness=1.0)
+    ceiling = g.material("ceiling", base=(0.8, 0.8, 0.78), roughness=1.0)
+    floor = g.material("floor-tiles", base=(0.3, 0.28, 0.26), roughness=0.1)
+    cabinet = g.material("cabinet-lacquer", base=(0.22, 0.3, 0.36), roughness=0.3)
+    counter = g.material("granite-counter", base=(0.1, 0.1, 0.11), roughness=0.1)
+    splash = g.material("splashback-tiles", base=(0.82, 0.82, 0.8), roughness=0.1)
+    quartz = g.material("quartz-top", base=(0.85, 0.84, 0.8), roughness=0.08)
+    glass = g.material("cooktop-glass", base=(0.02, 0.02, 0.02), roughness=0.05)
+    hood = g.material("range-hood", base=(0.9, 0.9, 0.92), metallic=1.0, roughness=0.25, anisotropy=0.8,
                       rotation=math.pi / 2)
-    steel = g.material("stove-steel", base=(0.7, 0.7, 0.72), metallic=1.0, roughness=0.2)
-    cove = g.material("cove-light", base=(0.8, 0.8, 0.8), roughness=1.0, emission=(1.0, 0.8, 0.6), strength=6.0)
-    # Room 4 x 2.6 x 4, back wall at z = -2.
-    g.mesh("room", box([0, 1.3, 0], [4, 2.6, 4], inward=True), wall, )
-    g.mesh("floor", quad([-1.999, 0.001, 1.999], [3.998, 0, 0], [0, 0, -3.998]), floor)
-    # Base cabinets with a glossy counter along the back wall (a gap for the stove).
-    for name, cx, w in (("base-left", -1.15, 1.7), ("base-right", 1.15, 1.7)):
-        g.mesh(name, box([cx, 0.43, -1.7], [w, 0.86, 0.6]), cabinet)
-        g.mesh(name + "-top", box([cx, 0.88, -1.69], [w, 0.04, 0.64]), counter)
-    g.mesh("stove", box([0, 0.45, -1.7], [0.6, 0.9, 0.6]), steel)
-    # Upper cabinets, with a range hood between them.
-    for name, cx in (("upper-left", -1.15), ("upper-right", 1.15)):
-        g.mesh(name, box([cx, 1.85, -1.8], [1.7, 0.8, 0.4]), cabinet)
-    g.mesh("hood", box([0, 1.75, -1.75], [0.6, 0.5, 0.5]), hood, tangents=True)
-    g.mesh("hood-chimney", box([0, 2.3, -1.85], [0.3, 0.6, 0.3]), hood, tangents=True)
-    # Cove lights on top of the upper cabinets, facing the ceiling, hidden by a valance.
-    for name, cx in (("cove-left", -1.15), ("cove-right", 1.15)):
-        g.mesh(name, quad([cx - 0.8, 2.255, -1.65], [1.6, 0, 0], [0, 0, -0.3]), cove)
-        g.mesh(name + "-valance", box([cx, 2.3, -1.58], [1.7, 0.1, 0.02]), cabinet)
-    g.camera("main", [1.3, 1.45, 1.8], [-0.4, 1.05, -1.8], 55, 4 / 3)
+    fridge = g.material("fridge-steel", base=(0.88, 0.88, 0.9), metallic=1.0, roughness=0.25, anisotropy=0.8,
+                        rotation=math.pi / 2)
+    steel = g.material("polished-steel", base=(0.85, 0.85, 0.87), metallic=1.0, roughness=0.15)
+    copper = g.material("copper-shade", base=(0.95, 0.64, 0.54), metallic=1.0, roughness=0.2)
+    enamel = g.material("white-enamel", base=(0.9, 0.9, 0.88), roughness=0.2)
+    wood = g.material("oak", base=(0.5, 0.33, 0.18), roughness=0.6)
+    fruit = g.material("oranges", base=(0.8, 0.3, 0.03), roughness=0.5)
+    strip = g.material("led-strip", base=(0.8, 0.8, 0.8), roughness=1.0, emission=(1.0, 0.82, 0.62), strength=500.0)
+    diffuser = g.material("pendant-diffuser", base=(0.8, 0.8, 0.8), roughness=1.0, emission=(1.0, 0.8, 0.6),
+                          strength=40.0)
+    # Room 4.6 x 2.7 x 4.2; the back wall is at z = -2.1.
+    g.mesh("walls", box([0, 1.35, 0], [4.6, 2.7, 4.2], inward=True, skip=("+y", "-y")), wall)
+    g.mesh("ceiling", quad([-2.3, 2.7, -2.1], [4.6, 0, 0], [0, 0, 4.2]), ceiling)
+    g.mesh("floor", quad([-2.3, 0, 2.1], [4.6, 0, 0], [0, 0, -4.2]), floor)
+    # Base cabinets and counter along the back wall, a cooktop, a splashback.
+    g.mesh("base-cabinets", box([-0.6, 0.44, -1.8], [3.4, 0.88, 0.6]), cabinet)
+    g.mesh("plinth", box([-0.6, 0.05, -1.48], [3.4, 0.1, 0.04]), wood)
+    g.mesh("counter", box([-0.6, 0.9, -1.785], [3.42, 0.04, 0.63]), counter)
+    g.mesh("cooktop", quad([-0.9, 0.921, -1.55], [0.6, 0, 0], [0, 0, -0.5]), glass)
+    g.mesh("splashback", quad([-2.29, 0.92, -2.099], [3.4, 0, 0], [0, 0.53, 0]), splash)
+    # Wall cabinets, with LED strips on their undersides (out of sight from
+    # standing height).
+    for name, cx, w in (("wall-cabinet-left", -1.65, 1.3), ("wall-cabinet-right", 0.45, 1.3)):
+        g.mesh(name, box([cx, 1.85, -1.925], [w, 0.8, 0.35]), cabinet)
+        g.mesh(name + "-strip", quad([cx - w / 2 + 0.05, 1.449, -1.82], [w - 0.1, 0, 0], [0, 0, 0.03]), strip)
+    # Range hood between the wall cabinets: a sloped canopy and a chimney.
+    g.mesh("hood-canopy", box([-0.6, 1.6, -1.86], [0.8, 0.16, 0.48]), hood, tangents=True)
+    g.mesh("hood-chimney", box([-0.6, 2.18, -1.97], [0.3, 1.04, 0.26]), hood, tangents=True)
+    g.mesh("kettle", lathe([-0.75, 0.922, -1.8], [(0.0, 0.0), (0.09, 0.0), (0.1, 0.03), (0.1, 0.14), (0.07, 0.2),
+                                                 (0.03, 0.22), (0.0, 0.22)], segments=48, steps=24), steel,
+           tangents=True)
+    g.mesh("pot", lathe([-0.4, 0.922, -1.65], [(0.0, 0.0), (0.11, 0.0), (0.11, 0.13), (0.1, 0.13), (0.1, 0.01),
+                                              (0.0, 0.01)], segments=48, steps=16), steel)
+    # A brushed-steel fridge on the right of the counter.
+    g.mesh("fridge", box([1.7, 1.0, -1.75], [0.9, 2.0, 0.7]), fridge, tangents=True)
+    g.mesh("fridge-handle", box([1.32, 1.15, -1.38], [0.03, 0.6, 0.03]), steel)
+    # The island with a glossy quartz top, two pendants above it and stools.
+    g.mesh("island", box([-0.3, 0.44, 0.1], [2.0, 0.88, 0.9]), cabinet)
+    g.mesh("island-top", box([-0.3, 0.9, 0.1], [2.1, 0.04, 1.0]), quartz)
+    g.mesh("fruit-bowl", lathe([-0.7, 0.921, 0.05], bowl_profile(0.15, 0.08), segments=48), enamel)
+    for i, (ox, oz) in enumerate(((-0.74, 0.03), (-0.66, 0.09), (-0.69, -0.02))):
+        g.mesh("orange-%d" % i, sphere([ox, 0.995 + 0.01 * i, oz], 0.045, rings=12, segments=24), fruit)
+    g.mesh("cutting-board", box([0.25, 0.931, 0.15], [0.45, 0.02, 0.3], angle=0.2), wood)
+    # Pendants: solid copper domes with a small diffuser disc underneath (a shade
+    # lit from inside would be a thin two-sided surface).
+    for name, px in (("pendant-left", -0.85), ("pendant-right", 0.25)):
+        g.mesh(name + "-shade", lathe([px, 1.45, 0.1], [(0.0, 0.0), (0.17, 0.0), (0.165, 0.03), (0.06, 0.22),
+                                                       (0.03, 0.28), (0.0, 0.28)], segments=48, steps=32), copper)
+        g.mesh(name + "-diffuser", lathe([px, 1.449, 0.1], [(0.0, 0.0), (0.12, 0.0)], segments=48), diffuser)
+        g.mesh(name + "-cord", box([px, 2.215, 0.1], [0.01, 0.97, 0.01]), steel)
+    for i, sx in enumerate((-0.85, -0.3, 0.25)):
+        g.mesh("stool-seat-%d" % i, cylinder([sx, 0.7, 0.9], 0.18, 0.05), wood)
+        g.mesh("stool-post-%d" % i, cylinder([sx, 0.02, 0.9], 0.025, 0.68, segments=12), steel)
+        g.mesh("stool-foot-%d" % i, cylinder([sx, 0.001, 0.9], 0.16, 0.019), steel)
+    g.camera("main", [1.7, 1.6, 1.95], [-0.5, 1.0, -1.3], 55, 4 / 3)
     return g
 
 
 def hall():
+    """The paper's concert hall: curved walls and ceiling sails of pure metal
+    (metallic 1, no diffuse component), washed by spots from the stage edge, so
+    most indirect light reaches the seats, stage and floor by glossy reflection
+    from the walls, which diffuse-only VPLs cannot emit."""
     g = Gltf("hall")
-    metal = g.material("hall-metal", base=(0.95, 0.75, 0.55), metallic=1.0, roughness=0.2)
-    floor = g.material("stage-floor", base=(0.5, 0.35, 0.2), roughness=0.7)
-    seats = g.material("seating", base=(0.45, 0.08, 0.08), roughness=0.9)
-    g.mesh("floor", quad([-6, 0, 3], [12, 0, 0], [0, 0, -10], subdiv=4), floor)
-    g.mesh("curved-walls", cylinder_wall([0, 0, 0], 5.0, 4.0, -1.9, 1.9, 64), metal)
-    g.mesh("inner-shell", cylinder_wall([0, 0, -0.5], 3.2, 2.6, -0.9, 0.9, 48), metal)
-    g.mesh("stage", box([0, 0.3, -2.0], [3.0, 0.6, 1.6]), floor)
-    for i in range(3):
-        g.mesh("seats-%d" % i, box([0, 0.25 + 0.1 * i, 0.4 + 0.8 * i], [3.5, 0.5 + 0.2 * i, 0.4]), seats)
-    g.spot("stage-light", [0.0, 3.6, 2.5], [0.0, 0.6, -1.6], 60.0, color=(1.0, 0.9, 0.75), inner_deg=22,
-           outer_deg=32)
-    g.camera("main", [0.0, 2.4, 4.2], [0.0, 1.2, -2.5], 60, 16 / 9)
+    metal = g.material("hall-metal", base=(0.95, 0.8, 0.62), metallic=1.0, roughness=0.35)
+    pipes = g.material("organ-pipes", base=(0.92, 0.9, 0.86), metallic=1.0, roughness=0.2)
+    floor = g.material("stage-floor", base=(0.5, 0.34, 0.2), roughness=0.5)
+    aisle = g.material("aisle-floor", base=(0.3, 0.2, 0.12), roughness=0.7)
+    shell = g.material("dark-shell", base=(0.12, 0.1, 0.09), roughness=1.0)
+    seats = g.material("seating", base=(0.5, 0.07, 0.07), roughness=0.9)
+    piano = g.material("piano-lacquer", base=(0.02, 0.02, 0.02), roughness=0.08)
+    # The enclosing shell: 16 x 11 x 18, the stage at the back (z < -3).
+    g.mesh("shell", box([0, 5.5, 0], [16, 11, 18], inward=True, skip=("-y",)), shell)
+    g.mesh("floor", quad([-8, 0, 9], [16, 0, 0], [0, 0, -18]), aisle)
+    g.mesh("stage", box([0, 0.5, -6.0], [12, 1.0, 6.0]), floor, tangents=False)
+    # Curved side walls: sails that lean in toward the top and ripple along the
+    # hall, from the back of the stage to the back of the seating.
+    for side in (-1, 1):
+        def wall_surface(u, v, side=side):
+            z = -8.8 + 17.6 * u
+            y = 0.2 + 9.6 * v
+            x = side * (7.4 - 0.45 * math.sin(2 * math.pi * 2.5 * u) * (0.6 + 0.4 * v) - 1.6 * v * v
+                        + 0.5 * math.sin(math.pi * u) * v)
+            return [x, y, z]
+        g.mesh("curved-wall-%s" % ("lr"[side > 0]), grid_surface(wall_surface, 160, 48, toward=[0, 4, 0]), metal)
+    # Ceiling sails: shallow vaults, convex downward, between the walls.
+    for k, zc in enumerate((-6.5, -3.0, 0.5, 4.0, 7.5)):
+        def sail(u, v, zc=zc, k=k):
+            x = -5.6 + 11.2 * u
+            z = zc - 1.6 + 3.2 * v
+            y = 9.4 - 0.3 * (k % 2) - 0.7 * math.sin(math.pi * u) - 0.25 * math.sin(math.pi * v)
+            return [x, y, z]
+        g.mesh("ceiling-sail-%d" % k, grid_surface(sail, 48, 12, toward=[0, 0, zc]), metal)
+    # Organ: pipes in a curved front on the back wall.
+    for i in range(31):
+        t = (i - 15) / 15
+        h = 4.8 - 2.2 * abs(t) + 0.6 * math.cos(7 * t)
+        x = 4.5 * t
+        z = -8.3 + 0.8 * t * t
+        g.mesh("organ-pipe-%02d" % i, cylinder([x, 1.001, z], 0.12, h + 1.0, segments=16), pipes)
+    g.mesh("piano", box([1.8, 1.5, -5.2], [1.5, 1.0, 2.2], angle=0.4, skip=("-y",)), piano)
+    # Terraced seating: 11 rows in three blocks, each row a riser, a cushion
+    # and a back.
+    for r in range(11):
+        z = -1.5 + 0.95 * r
+        rise = 0.18 * r
+        if r:
+            g.mesh("riser-%02d" % r, box([0, rise / 2, z], [14.0, rise, 0.95]), aisle)
+        for bi, (cx, w) in enumerate(((-4.6, 3.6), (0.0, 4.6), (4.6, 3.6))):
+            g.mesh("seats-%02d-%d" % (r, bi), box([cx, rise + 0.251, z + 0.05], [w, 0.5, 0.5]), seats)
+            g.mesh("backs-%02d-%d" % (r, bi), box([cx, rise + 0.7, z + 0.32], [w, 0.9, 0.1]), seats)
+    # Light: a stage spot and four wall washers on the lighting bridge, aimed at
+    # the curved walls, which reflect their light down onto the seats.
+    g.spot("stage-light", [0.0, 7.4, 4.0], [0.0, 1.0, -5.0], 500.0, color=(1.0, 0.9, 0.75), inner_deg=14,
+           outer_deg=20)
+    for name, x, z in (("wash-left-stage", -2.5, -4.5), ("wash-left-seats", -2.5, 2.5),
+                       ("wash-right-stage", 2.5, -4.5), ("wash-right-seats", 2.5, 2.5)):
+        g.spot(name, [x, 7.5, z], [2.7 * x, 4.0, z], 1250.0, color=(1.0, 0.85, 0.7), inner_deg=16, outer_deg=24)
+    g.camera("main", [0.0, 4.8, 8.4], [0.0, 2.6, -6.0], 62, 16 / 9)
     return g
 
 
