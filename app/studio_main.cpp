@@ -213,14 +213,18 @@ void onWindowEvent(GLFWwindow*, int) { gInput = true; }
 void onRefresh(GLFWwindow*) { gInput = true; }
 
 // Quit within two seconds whatever the worker is doing: it is asked to stop
-// and given 1.5 s. Hack: a stage that cannot be interrupted (parsing a huge
+// and given 1 s. Hack: a stage that cannot be interrupted (parsing a huge
 // scene file, building a k-d tree over millions of lights) would hold the
 // join for longer, so then the process exits without waiting; there is
 // nothing to save.
 void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
   glfwHideWindow(win);
-  if (studio.session() && !studio.session()->shutdown(1.5)) {
-    std::fprintf(stderr, "vsl-studio: the renderer did not stop within 1.5 s (%s); exiting without waiting\n",
+  auto t0 = Clock::now();
+  if (studio.session() && studio.session()->shutdown(1.0)) {
+    std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n",
+                 std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  } else if (studio.session()) {
+    std::fprintf(stderr, "vsl-studio: the renderer did not stop within 1 s (%s); exiting without waiting\n",
                  studio.session()->status().stage.c_str());
     std::fflush(stderr);
     std::_Exit(0);
@@ -279,7 +283,7 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
       if (scripted || settle > 0)
         glfwPollEvents();
       else
-        glfwWaitEventsTimeout(animate ? 0.25 : 0.5);
+        glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : animate ? 0.25 : 0.5);
       holdShortKeyPresses();
       if (gInput) gInput = false, settle = 3;
       const bool due = animate && Clock::now() - lastDraw > std::chrono::milliseconds(240);

@@ -88,10 +88,8 @@ Studio::Studio(const StudioOptions& options) : options_(options), settings_(opti
   settings_.scene = options.scene;
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
-  if (options.startSession) {
-    session_ = std::make_unique<Session>();
-    restart();
-  }
+  if (options.startSession) session_ = std::make_unique<Session>();
+  restart();
 }
 
 Studio::~Studio() = default;
@@ -126,6 +124,8 @@ void Studio::restart(bool fromScratch) {
   settingsError_.clear();
   settingsErrorKey_.clear();
 }
+
+bool Studio::restartPending() const { return restartAt_ != std::chrono::steady_clock::time_point(); }
 
 void Studio::applySettings(const StudioSettings& settings) {
   settings_ = settings;
@@ -198,7 +198,7 @@ void Studio::pullSnapshot() {
 
 bool Studio::busy() const { return session_ && session_->status().busy(); }
 
-bool Studio::wantsFrame() const { return !session_ || session_->version() != drawnVersion_; }
+bool Studio::wantsFrame() const { return !session_ || session_->version() != drawnVersion_ || restartPending(); }
 
 std::string Studio::fatalError() const {
   if (!session_) return "";
@@ -208,7 +208,7 @@ std::string Studio::fatalError() const {
 }
 
 bool Studio::sourceStale(Source s) const {
-  if (!snap_ || !session_) return false;
+  if (!snap_) return false;
   const StudioSettings& a = snap_->settings;
   if (s == Source::Reference)  // the reference belongs to the scene and the resolution only
     return a.scene != accepted_.scene || a.many.width != accepted_.many.width || a.many.height != accepted_.many.height;
@@ -330,6 +330,10 @@ void Studio::frame() {
   ImGui::BeginChild("controls", ImVec2(330, 0), true);
   controlsPanel();
   ImGui::EndChild();
+  if (restartPending() && std::chrono::steady_clock::now() >= restartAt_ && !ImGui::GetIO().WantTextInput) {
+    restartAt_ = {};
+    restart();
+  }
   ImGui::SameLine();
   ImGui::BeginChild("right", ImVec2(0, 0), false);
   float bottom = std::min(260.0f, ImGui::GetContentRegionAvail().y * 0.4f);
@@ -483,7 +487,9 @@ void Studio::controlsPanel() {
   track("reference spp",
         ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("reference spp");
-  if (changed) restart();
+  // Restarts wait until the controls rest for a moment (a drag pauses, or
+  // typed text is entered): each restart throws away the light set.
+  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
   if (ImGui::Button("Restart")) restart(true);
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
   ImGui::SameLine();

@@ -75,6 +75,8 @@ class Studio {
   // (the busy mark animates while the window has focus).
   bool wantsFrame() const;
   bool busy() const;
+  // A settings change waits for the controls to rest before it restarts.
+  bool restartPending() const;
   // Why the session cannot render ("" if it can): the first scene did not
   // load. The headless front end exits with it.
   std::string fatalError() const;
@@ -131,7 +133,8 @@ class Studio {
   std::string settingsError_, settingsErrorKey_;  // the rejected value's reason, and its control
   uint64_t seenRunErrors_ = 0;
   std::string lastControl_ = "width";  // the control changed last (where a memory refusal is shown)
-  bool wipeGrabbed_ = false;           // the current drag moves the wipe's split line
+  bool wipeGrabbed_ = false;
+  std::chrono::steady_clock::time_point restartAt_{};  // when a pending settings change restarts           // the current drag moves the wipe's split line
   std::unique_ptr<Session> session_;
   std::shared_ptr<const Snapshot> snap_;
   uint64_t serial_ = 0;
