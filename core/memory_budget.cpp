@@ -31,7 +31,9 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height) {
   px += 3 * 9 * rgb;   // snapshots: the session's, the UI's, one being built
   px += 2 * 7 * rgb;   // GL textures (llvmpipe keeps them in RAM) and their upload copies
   px += 4 * rgb;       // UI scratch: error map, component sums, metrics
+  px += 28 * rgb;      // an export: 17 EXR layers and the 11 images they are made of
   e.bytesPerPixel = px;
+  e.fixedBytes = uint64_t(150) << 20;  // measured: the GL driver, ImGui, threads, a small scene and its BVH
   e.lightBytes = lights * e.bytesPerLight;
   e.pixelBytes = uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * e.bytesPerPixel;
   return e;
@@ -82,9 +84,9 @@ std::string checkStudioMemory(uint64_t lights, int width, int height, uint64_t a
     << " may be used (" << int(fraction * 100) << "% of " << formatBytes(available) << " available)";
   // The largest settings that fit, each with the other held.
   if (e.pixelBytes < budget)
-    m << "; at this resolution at most " << (budget - e.pixelBytes) / e.bytesPerLight << " lights fit";
-  if (e.lightBytes < budget && width > 0 && height > 0) {
-    double pixels = double(budget - e.lightBytes) / double(e.bytesPerPixel);
+    m << "; at this resolution at most " << (budget - e.pixelBytes - e.fixedBytes) / e.bytesPerLight << " lights fit";
+  if (e.lightBytes + e.fixedBytes < budget && width > 0 && height > 0) {
+    double pixels = double(budget - e.lightBytes - e.fixedBytes) / double(e.bytesPerPixel);
     double aspect = double(width) / double(height);
     int maxWidth = int(std::floor(std::sqrt(pixels * aspect)));
     if (maxWidth >= 8) m << "; with these lights a width of at most " << maxWidth << " px fits";

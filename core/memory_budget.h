@@ -17,8 +17,8 @@ namespace vsl {
 
 struct MemoryEstimate {
   uint64_t bytesPerLight = 0, bytesPerPixel = 0;
-  uint64_t lightBytes = 0, pixelBytes = 0;
-  uint64_t total() const { return lightBytes + pixelBytes; }
+  uint64_t fixedBytes = 0, lightBytes = 0, pixelBytes = 0;
+  uint64_t total() const { return fixedBytes + lightBytes + pixelBytes; }
 };
 
 // The studio's peak for `lights` virtual lights at width x height pixels.
@@ -35,9 +35,9 @@ std::string formatBytes(uint64_t bytes);
 // Empty when the estimate fits in `fraction` of `available` bytes (or when
 // available is 0, unknown); else a message that states the estimate, the
 // budget and the largest light count and width that fit, e.g.
-// "needs about 295 GB (1.1 KB per pixel at 16384x16384, 160 B per light);
-// 17 GB may be used (75% of 23 GB available); at this resolution at most
-// 90000000 lights fit, with these lights a width of at most 3900 px".
+// "needs about 286 GB (1.1 KB per pixel at 16384x16384, 178 B per light);
+// 19 GB may be used (75% of 25 GB available); with these lights a width of
+// at most 4177 px fits".
 std::string checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75);
 
 }  // namespace vsl

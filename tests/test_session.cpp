@@ -158,7 +158,7 @@ TEST(Session, RefusesSettingsThatDoNotFitInMemory) {
   Session session;
   uint64_t g = session.restart(small("furnace", 50, 8));
   ASSERT_TRUE(waitFor(session, g, [](const Snapshot& s) { return s.batchesDone > 0; }));
-  session.setAvailableMemoryForTesting(uint64_t(200) << 20);  // 200 MB
+  session.setAvailableMemoryForTesting(uint64_t(400) << 20);  // 400 MB
   StudioSettings huge = small("furnace", 50, 8);
   huge.many.width = 16384;
   huge.many.height = 0;  // from the camera: 16384x16384 for the furnace

@@ -132,9 +132,9 @@ class Studio {
   uint64_t drawnVersion_ = 0;
   std::string settingsError_, settingsErrorKey_;  // the rejected value's reason, and its control
   uint64_t seenRunErrors_ = 0;
-  std::string lastControl_ = "width";  // the control changed last (where a memory refusal is shown)
-  bool wipeGrabbed_ = false;
-  std::chrono::steady_clock::time_point restartAt_{};  // when a pending settings change restarts           // the current drag moves the wipe's split line
+  std::string lastControl_ = "width";                  // the control changed last (where a memory refusal is shown)
+  bool wipeGrabbed_ = false;                           // the current drag moves the wipe's split line
+  std::chrono::steady_clock::time_point restartAt_{};  // when a pending settings change restarts
   std::unique_ptr<Session> session_;
   std::shared_ptr<const Snapshot> snap_;
   uint64_t serial_ = 0;
