@@ -274,22 +274,25 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
     const bool scripted = a.frames > 0 || !a.exportDir.empty();
     auto lastDraw = Clock::now();
     for (int frame = 0; !glfwWindowShouldClose(win);) {
-      // Idle when idle: sleep in the event queue unless input arrived, the
-      // session has news, or (focused only) the busy mark should turn, four
-      // times a second (a frame costs ~50 ms of a core under software GL).
+      // Idle when idle: sleep in the event queue; draw after input (a few
+      // frames, so a click's press and release both land), for news from the
+      // renderer (at most 4 per second focused, 1 unfocused), and once a
+      // second while busy and focused for the busy mark. Minimised: never.
+      // A frame costs ~50-60 ms of a core under software GL.
       const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
       const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
-      const bool animate = focused && !iconified && studio.busy();
       if (scripted || settle > 0)
         glfwPollEvents();
       else
-        glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : animate ? 0.25 : 0.5);
+        glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
       holdShortKeyPresses();
       if (gInput) gInput = false, settle = 3;
-      const bool due = animate && Clock::now() - lastDraw > std::chrono::milliseconds(240);
-      if (!scripted && settle == 0 && (iconified || (!studio.wantsFrame() && !due))) continue;
+      const double since = std::chrono::duration<double>(Clock::now() - lastDraw).count();
+      const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
+      const bool tick = focused && studio.busy() && since >= 1.0;
+      if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
       if (settle > 0) --settle;
-      if (studio.wantsFrame()) settle = std::max(settle, 1);  // one more frame lets dialogs and layout settle
+      if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
       auto t0 = Clock::now();
       lastDraw = t0;
       ImGui_ImplOpenGL3_NewFrame();

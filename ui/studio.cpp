@@ -1126,10 +1126,29 @@ std::string slug(Source s) {
 
 const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
 
-// The false-colour error map of test against ref under a metric, with a
-// colour bar (0 at the left, vmax at the right) in 16 rows below the image.
-std::vector<uint8_t> errorMapWithBar(const Image& test, const Image& ref, ErrorMetric metric, float vmax, int* rows) {
-  const int w = test.width, h = test.height, bar = 16;
+// Per-pixel error of test against ref under a metric, averaged over the
+// channels (as the studio's maps show it), in every channel.
+Image errorMap(const Image& test, const Image& ref, ErrorMetric metric) {
+  Image m(test.width, test.height);
+  for (size_t i = 0; i + 2 < test.rgb.size(); i += 3) {
+    float e = 0;
+    for (int c = 0; c < 3; ++c) {
+      float r = ref.rgb[i + c], d = test.rgb[i + c] - r;
+      float v = metric == ErrorMetric::Absolute           ? std::abs(d)
+                : metric == ErrorMetric::RelativeAbsolute ? std::abs(d) / (std::abs(r) + kEps)
+                : metric == ErrorMetric::Squared          ? d * d
+                                                          : d * d / (r * r + kEps);
+      e += std::isfinite(v) ? v / 3 : 0.0f;
+    }
+    m.rgb[i] = m.rgb[i + 1] = m.rgb[i + 2] = e;
+  }
+  return m;
+}
+
+// An error map in false colour (0 black ... vmax white), with a colour bar in
+// 16 rows below it.
+std::vector<uint8_t> falseColourWithBar(const Image& map, float vmax, int* rows) {
+  const int w = map.width, h = map.height, bar = 16;
   std::vector<uint8_t> px(size_t(w) * (h + bar) * 3, 20);
   auto put = [&](int x, int y, const Vec3& c) {
     uint8_t* q = &px[(size_t(y) * w + x) * 3];
@@ -1138,19 +1157,7 @@ std::vector<uint8_t> errorMapWithBar(const Image& test, const Image& ref, ErrorM
     q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
   };
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      Vec3 t = test.at(x, y), r = ref.at(x, y);
-      float e = 0;
-      for (int c = 0; c < 3; ++c) {
-        float d = t[c] - r[c];
-        float v = metric == ErrorMetric::Absolute           ? std::abs(d)
-                  : metric == ErrorMetric::RelativeAbsolute ? std::abs(d) / (std::abs(r[c]) + kEps)
-                  : metric == ErrorMetric::Squared          ? d * d
-                                                            : d * d / (r[c] * r[c] + kEps);
-        e += std::isfinite(v) ? v / 3 : 0.0f;
-      }
-      put(x, y, falseColour(e / std::max(vmax, 1e-12f)));
-    }
+    for (int x = 0; x < w; ++x) put(x, y, falseColour(map.at(x, y).x / std::max(vmax, 1e-12f)));
   for (int y = h + 4; y < h + bar; ++y)
     for (int x = 0; x < w; ++x) put(x, y, falseColour((x + 0.5f) / w));
   *rows = h + bar;
@@ -1262,19 +1269,22 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
     if (!writePng(path(name), *img, view_.exposure, &err)) return fail(err);
     files.push_back(path(name));
   }
-  // Error maps of each method, one shared scale, with a colour bar.
+  // Error maps of each method on one shared scale (set by hand, or the
+  // largest 99th percentile), with a colour bar.
   Image refScratch;
   const Image* ref = referenceImage(view_.component, refScratch);
-  float vmax = view_.errorScale;
-  if (!(vmax > 0))
-    for (Source m : kMetricSources) vmax = std::max(vmax, autoScale_[int(m)]);
-  if (!(vmax > 0)) vmax = 1;
+  std::vector<Image> maps;
+  float vmax = view_.errorScale, autoMax = 0;
   for (Source m : kMetricSources) {
     Image scratch;
+    maps.push_back(errorMap(*componentImage(m, view_.component, scratch), *ref, view_.metric));
+    autoMax = std::max(autoMax, percentile99(maps.back()));
+  }
+  if (!(vmax > 0)) vmax = autoMax > 0 ? autoMax : 1.0f;
+  for (size_t i = 0; i < maps.size(); ++i) {
     int rows = 0;
-    std::vector<uint8_t> px =
-        errorMapWithBar(*componentImage(m, view_.component, scratch), *ref, view_.metric, vmax, &rows);
-    std::string name = "error-" + slug(m) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
+    std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
+    std::string name = "error-" + slug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
     if (!writePngRgb8(path(name), s.width, rows, px, &err)) return fail(err);
     files.push_back(path(name));
   }
