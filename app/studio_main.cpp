@@ -11,6 +11,7 @@
 #include <imgui_impl_opengl3.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -52,7 +53,8 @@ std::vector<std::string> bundledScenes() {
 struct Script {
   const Args& args;
   Clock::time_point start = Clock::now();
-  bool exported = false;
+  bool exported = false, failed = false;
+  std::string exportFolder = {};
   Clock::time_point lastProgress = Clock::now();
 
   // Returns true when the loop should end after this frame.
@@ -61,38 +63,61 @@ struct Script {
     auto snap = studio.snapshot();
     if (headlessProgress && std::chrono::duration<double>(Clock::now() - lastProgress).count() > 5 && snap) {
       lastProgress = Clock::now();
-      std::fprintf(stderr, "rendering: batch %d/%d, %zu/%zu lights, reference %d spp, %.0f s\n", snap->batchesDone,
-                   snap->batchCount, snap->lightsProcessed, snap->lightsTotal, snap->ptSpp, el);
+      std::fprintf(stderr, "rendering: %zu/%zu lights (%.0f%%), reference %d/%d spp, %.0f s\n", snap->lightsProcessed,
+                   snap->lightsTotal,
+                   100.0 * double(snap->lightsProcessed) / double(std::max<size_t>(snap->lightsTotal, 1)), snap->ptSpp,
+                   snap->settings.maxReferenceSpp, el);
     }
     if (!args.exportDir.empty() && !exported) {
       bool ready = args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900;
       if (ready) {
-        std::string err;
+        std::string err, folder;
         std::vector<std::string> written;
-        if (studio.exportAll(args.exportDir, &err, &written)) {
-          for (const std::string& w : written) std::fprintf(stderr, "wrote %s\n", w.c_str());
-        } else {
-          std::fprintf(stderr, "error: export failed: %s\n", err.c_str());
-        }
         exported = true;
-        if (!args.screenshot.empty()) saveScreenshot(fbw, fbh);
+        if (studio.exportAll(args.exportDir, &err, &written, &folder)) {
+          for (const std::string& w : written) std::fprintf(stderr, "wrote %s\n", w.c_str());
+          exportFolder = folder;
+        } else {
+          std::fprintf(
+              stderr, "error: export failed: %s%s\n", err.c_str(),
+              snap ? "" : " (no picture yet: give --after more seconds, or leave it out to wait for the render)");
+          failed = true;
+          return true;
+        }
+        if (!args.screenshot.empty() && !saveScreenshot(fbw, fbh)) return failed = true;
         if (args.frames == 0) return true;
       }
     }
     if (args.frames > 0 && frame + 1 >= args.frames) {
-      if (!args.screenshot.empty()) saveScreenshot(fbw, fbh);
+      if (!args.screenshot.empty() && !saveScreenshot(fbw, fbh)) failed = true;
       return true;
     }
     return false;
   }
 
-  void saveScreenshot(int fbw, int fbh) {
+  bool saveScreenshot(int fbw, int fbh) {
     std::vector<uint8_t> px = ui::readFramebuffer(0, 0, fbw, fbh, fbh);
     std::string err;
-    if (writePngRgb8(args.screenshot, fbw, fbh, px, &err))
+    if (writePngRgb8(args.screenshot, fbw, fbh, px, &err)) {
       std::fprintf(stderr, "wrote %s\n", args.screenshot.c_str());
-    else
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return true;
+    }
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return false;
+  }
+
+  // Headless runs end at once, with exit status 1, when they cannot succeed:
+  // the first scene did not load (missing, unreadable, no emitters), the
+  // settings were refused, or the render failed.
+  bool fatal(const ui::Studio& studio) {
+    std::string why = studio.fatalError();
+    if (why.empty() && !studio.settingsError().empty() && !studio.snapshot()) why = studio.settingsError();
+    if (why.empty() && !studio.errorDialog().empty() && !studio.busy() && !studio.snapshot())
+      why = studio.errorDialog();
+    if (why.empty()) return false;
+    std::fprintf(stderr, "error: %s\n", why.c_str());
+    failed = true;
+    return true;
   }
 };
 
@@ -138,9 +163,12 @@ int runHeadless(const Args& a, int w, int h) {
       glClear(GL_COLOR_BUFFER_BIT);
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
       studio.afterRender(w, h);
-      if (script.afterFrame(studio, frame, w, h, true)) break;
+      if (script.fatal(studio) || script.afterFrame(studio, frame, w, h, true)) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(33));  // the renderer gets the cores
     }
+    result = script.failed ? 1 : 0;
+    if (!script.exportFolder.empty())
+      std::fprintf(stderr, "vsl-studio: exported to %s/\n", script.exportFolder.c_str());
   }
   ui::shutdown();
   ImGui_ImplOpenGL3_Shutdown();
@@ -149,12 +177,58 @@ int runHeadless(const Args& a, int w, int h) {
 }
 
 ui::Studio* gStudio = nullptr;
+// Set by every input callback: the loop draws a few frames after any input,
+// so that a press and its release (a short click) both reach ImGui.
+bool gInput = false;
+// Dear ImGui 1.86 reads key state once per frame, so a key pressed and
+// released between two frames (a quick tap, or xdotool) would never be
+// seen. Keys pressed since the last frame are held down for one frame.
+std::vector<int> gPressed, gReleaseNext;
+void holdShortKeyPresses() {
+  ImGuiIO& io = ImGui::GetIO();
+  for (int k : gReleaseNext)
+    if (std::find(gPressed.begin(), gPressed.end(), k) == gPressed.end()) io.KeysDown[k] = false;
+  gReleaseNext.clear();
+  // Modifiers are not held: text typed right after them would read as shortcuts.
+  for (int k : gPressed)
+    if (!io.KeysDown[k] && (k < GLFW_KEY_LEFT_SHIFT || k > GLFW_KEY_RIGHT_SUPER))
+      io.KeysDown[k] = true, gReleaseNext.push_back(k);
+  gPressed.clear();
+}
 void onDrop(GLFWwindow*, int count, const char** paths) {
+  gInput = true;
   if (gStudio && count > 0) gStudio->openScene(paths[0]);
 }
-// Ctrl+Q quits. Installed before the ImGui backend, which chains to it.
+// Installed before the ImGui backend, which chains to them. Ctrl+Q quits.
 void onKey(GLFWwindow* win, int key, int, int action, int mods) {
+  gInput = true;
+  if (action == GLFW_PRESS && key >= 0 && key < int(IM_ARRAYSIZE(ImGuiIO::KeysDown))) gPressed.push_back(key);
   if (key == GLFW_KEY_Q && action == GLFW_PRESS && (mods & GLFW_MOD_CONTROL)) glfwSetWindowShouldClose(win, 1);
+}
+void onMouseButton(GLFWwindow*, int, int, int) { gInput = true; }
+void onCursor(GLFWwindow*, double, double) { gInput = true; }
+void onScroll(GLFWwindow*, double, double) { gInput = true; }
+void onChar(GLFWwindow*, unsigned) { gInput = true; }
+void onWindowEvent(GLFWwindow*, int) { gInput = true; }
+void onRefresh(GLFWwindow*) { gInput = true; }
+
+// Quit within two seconds whatever the worker is doing: it is asked to stop
+// and given 1 s. Hack: a stage that cannot be interrupted (parsing a huge
+// scene file, building a k-d tree over millions of lights) would hold the
+// join for longer, so then the process exits without waiting; there is
+// nothing to save.
+void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
+  glfwHideWindow(win);
+  auto t0 = Clock::now();
+  if (studio.session() && studio.session()->shutdown(1.0)) {
+    std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n",
+                 std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  } else if (studio.session()) {
+    std::fprintf(stderr, "vsl-studio: the renderer did not stop within 1 s (%s); exiting without waiting\n",
+                 studio.session()->status().stage.c_str());
+    std::fflush(stderr);
+    std::_Exit(0);
+  }
 }
 void onGlfwError(int code, const char* msg) { log::warning("GLFW error " + std::to_string(code) + ": " + msg); }
 
@@ -180,18 +254,47 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
   ImGui::GetIO().IniFilename = nullptr;
   ImGui::StyleColorsDark();
   glfwSetKeyCallback(win, onKey);
+  glfwSetMouseButtonCallback(win, onMouseButton);
+  glfwSetCursorPosCallback(win, onCursor);
+  glfwSetScrollCallback(win, onScroll);
+  glfwSetCharCallback(win, onChar);
+  glfwSetWindowFocusCallback(win, onWindowEvent);
+  glfwSetCursorEnterCallback(win, onWindowEvent);
+  glfwSetWindowRefreshCallback(win, onRefresh);
   ImGui_ImplGlfw_InitForOpenGL(win, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
+  int rc = 0;
   {
     ui::Studio studio(studioOptions(a));
     gStudio = &studio;
     glfwSetDropCallback(win, onDrop);
     Script script{a};
     double busyMs = 0;
-    int frames = 0;
-    for (int frame = 0; !glfwWindowShouldClose(win); ++frame) {
+    int frames = 0, settle = 3;  // frames still owed after input
+    const bool scripted = a.frames > 0 || !a.exportDir.empty();
+    auto lastDraw = Clock::now();
+    for (int frame = 0; !glfwWindowShouldClose(win);) {
+      // Idle when idle: sleep in the event queue; draw after input (a few
+      // frames, so a click's press and release both land), for news from the
+      // renderer (at most 4 per second focused, 1 unfocused), and once a
+      // second while busy and focused for the busy mark. Minimised: never.
+      // A frame costs ~50-60 ms of a core under software GL.
+      const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
+      const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
+      if (scripted || settle > 0)
+        glfwPollEvents();
+      else
+        glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
+      holdShortKeyPresses();
+      if (gInput) gInput = false, settle = 3;
+      const double since = std::chrono::duration<double>(Clock::now() - lastDraw).count();
+      const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
+      const bool tick = focused && studio.busy() && since >= 1.0;
+      if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
+      if (settle > 0) --settle;
+      if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
       auto t0 = Clock::now();
-      glfwPollEvents();
+      lastDraw = t0;
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
@@ -208,9 +311,12 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
       glfwSwapBuffers(win);
       busyMs += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
       ++frames;
+      ++frame;
       // Cap the UI at ~60 frames per second so the renderer keeps the cores.
       std::this_thread::sleep_until(t0 + std::chrono::milliseconds(16));
     }
+    quitPromptly(win, studio);
+    rc = script.failed ? 1 : 0;
     gStudio = nullptr;
     if (frames > 0)
       std::fprintf(stderr, "vsl-studio: %d frames, mean UI frame time %.1f ms (events, UI, GL render, swap)\n", frames,
@@ -222,7 +328,7 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
   ImGui::DestroyContext();
   glfwDestroyWindow(win);
   glfwTerminate();
-  return 0;
+  return rc;
 }
 
 }  // namespace
@@ -274,9 +380,5 @@ int main(int argc, char** argv) {
     std::error_code ec;
     std::filesystem::create_directories(a.exportDir, ec);
   }
-  int rc = runHeadless(a, w, h);
-  if (rc == 0 && !a.exportDir.empty())
-    std::fprintf(stderr, "vsl-studio: the comparison (EXR with every layer, JSON metrics, PNGs) is in %s/\n",
-                 a.exportDir.c_str());
-  return rc;
+  return runHeadless(a, w, h);
 }

@@ -1,12 +1,71 @@
+// Sections: [1] settings and the public interface  [2] the worker loop
+//           [3] scenes  [4] preparing a job  [5] rendering and snapshots
 #include "core/session.h"
 
+#include <algorithm>
 #include <chrono>
+#include <new>
 #include <sstream>
 
 #include "core/compare.h"
 #include "core/log.h"
+#include "core/memory_budget.h"
 
 namespace vsl {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+double grey(const Image& img, size_t i) {
+  return (double(img.rgb[3 * i]) + img.rgb[3 * i + 1] + img.rgb[3 * i + 2]) / 3;
+}
+
+}  // namespace
+
+// describe() covers the user-facing settings; the rest are compared by hand.
+bool sameImageSettings(const StudioSettings& a, const StudioSettings& b) {
+  return a.scene == b.scene && a.maxReferenceSpp == b.maxReferenceSpp && a.many.describe() == b.many.describe() &&
+         a.many.lightMaxDepth == b.many.lightMaxDepth && a.many.computeVsl == b.many.computeVsl &&
+         a.many.computeVpl == b.many.computeVpl;
+}
+
+// A render in progress: its light set, renderers and bookkeeping. Heap-held
+// so that the renderer's references into `prep` stay valid.
+struct Session::Job {
+  StudioSettings settings;
+  ManyLightRun prep;
+  std::unique_ptr<ManyLightRenderer> ml;
+  std::unique_ptr<PathTracer> pt;
+  PtCounters ptCounters;
+  int batch = 0;
+  double mlSeconds = 0;  // light tracing, k-NN and gathering
+  double ptStart = 0;    // the reference's compute time when the job began
+  int sppStart = 0;      // and its sample count
+  float radiusMin = 0, radiusMedian = 0, radiusMax = 0;
+  Clock::time_point t0;  // wall clock at the job's start
+  std::vector<ErrorSample> history;
+};
+
+// Worker-owned state: the current scene survives failed loads, and the
+// reference (keyed by scene and resolution) survives restarts.
+struct Session::Worker {
+  std::shared_ptr<const Scene> scene;
+  std::unique_ptr<Accel> accel;
+  std::unique_ptr<LightSampler> lights;
+  std::string scenePath;
+  struct Reference {
+    std::string key;  // scene and resolution
+    Film direct, indirect;
+    std::vector<double> squares;
+    int spp = 0;
+    double seconds = 0;
+  } ref;
+  std::unique_ptr<Job> job;  // destroyed before the scene it points into
+};
+
+// ---- [1] Settings and the public interface ------------------------------------------
 
 std::string StudioSettings::validate() const {
   if (scene.empty()) return "scene: no scene path given";
@@ -18,17 +77,40 @@ std::string StudioSettings::validate() const {
 Session::Session() : worker_([this] { run(); }) {}
 
 Session::~Session() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    quit_ = true;
-    stop_.store(true);
-  }
-  wake_.notify_all();
+  shutdown(1e9);
   worker_.join();
 }
 
-uint64_t Session::restart(const StudioSettings& settings, std::string* error) {
-  if (std::string e = settings.validate(); !e.empty()) {
+bool Session::shutdown(double seconds) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  quit_ = true;
+  stop_.store(true);
+  wake_.notify_all();
+  return exitedCv_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return exited_; });
+}
+
+std::string Session::checkMemory(const StudioSettings& s, int width, int height) const {
+  uint64_t available = memoryForTesting_.load();
+  if (available == 0) available = availableMemoryBytes();
+  std::string m = checkStudioMemory(s.many.lights, width, height, available);
+  return m.empty() ? m
+                   : "memory: " + std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" +
+                         std::to_string(height) + " " + m;
+}
+
+uint64_t Session::restart(const StudioSettings& settings, std::string* error, bool fromScratch) {
+  std::string e = settings.validate();
+  if (e.empty()) {
+    // The resolution as the worker will resolve it, with the scene's aspect
+    // if it is the current scene (else square; the worker checks again).
+    Status st = status();
+    int w = settings.many.width > 0 ? settings.many.width : RenderSettings::kDefaultResolution;
+    int h = settings.many.height;
+    float aspect = st.scene == settings.scene && st.sceneAspect > 0 ? st.sceneAspect : 1.0f;
+    if (h <= 0) h = std::max(1, int(std::lround(w / aspect)));
+    e = checkMemory(settings, w, h);
+  }
+  if (!e.empty()) {
     if (error) *error = e;
     return 0;
   }
@@ -37,10 +119,12 @@ uint64_t Session::restart(const StudioSettings& settings, std::string* error) {
     std::lock_guard<std::mutex> lock(mutex_);
     next_ = settings;
     pending_ = true;
+    pendingFromScratch_ = fromScratch;
     g = generation_.fetch_add(1) + 1;
     status_.generation = g;
-    stop_.store(true);  // the worker stops between tiles
+    stop_.store(true);  // the worker stops at its next check
   }
+  ++version_;
   wake_.notify_all();
   return g;
 }
@@ -54,198 +138,323 @@ std::shared_ptr<const Snapshot> Session::latest(uint64_t haveSerial) const {
 
 Session::Status Session::status() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return status_;
+  Status s = status_;
+  s.stageSeconds = since(stageStart_);
+  return s;
 }
 
-void Session::setStage(const std::string& stage) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  status_.stage = stage;
+void Session::setStage(const std::string& stage, uint32_t lightsTarget) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (status_.stage != stage) stageStart_ = Clock::now();
+    status_.stage = stage;
+    status_.lightsTarget = lightsTarget;
+  }
+  ++version_;
+}
+
+void Session::reportRunError(const std::string& message) {
+  log::error(message);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_.runError = message;
+    ++status_.runErrorSerial;
+  }
+  ++version_;
 }
 
 bool Session::publish(std::shared_ptr<Snapshot> s) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  // A snapshot of an older generation is stale: drop it.
-  if (s->generation != generation_.load()) return false;
-  s->serial = ++serial_;
-  latest_ = std::move(s);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // A snapshot of an older generation is stale: drop it.
+    if (s->generation != generation_.load()) return false;
+    s->serial = ++serial_;
+    latest_ = std::move(s);
+  }
+  ++version_;
   return true;
 }
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-double grey(const Image& img, size_t i) {
-  return (double(img.rgb[3 * i]) + img.rgb[3 * i + 1] + img.rgb[3 * i + 2]) / 3;
-}
-
-}  // namespace
+// ---- [2] The worker loop -------------------------------------------------------------
 
 void Session::run() {
-  // Worker-owned state: the current scene survives failed loads.
-  std::shared_ptr<const Scene> scene;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
-  std::string scenePath;
-  struct Reference {
-    std::string key;  // scene and resolution
-    Film direct, indirect;
-    std::vector<double> squares;
-    int spp = 0;
-    double seconds = 0;
-  } ref;
-
+  Worker w;
   while (true) {
     StudioSettings s;
     uint64_t gen;
+    bool fromScratch;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      if (!pending_ && !quit_) status_.stage = scene ? "done" : "idle";
+      if (!pending_ && !quit_) {
+        std::string idle = w.scene ? "done" : "idle";
+        if (status_.stage != idle) stageStart_ = Clock::now(), ++version_;
+        status_.stage = idle;
+      }
       wake_.wait(lock, [&] { return quit_ || pending_; });
-      if (quit_) return;
+      if (quit_) break;
       s = next_;
+      fromScratch = pendingFromScratch_;
       pending_ = false;
       gen = generation_.load();
       stop_.store(false);
     }
-    auto stopped = [&] { return stop_.load(std::memory_order_relaxed); };
-
-    // ---- Scene: load off the UI thread; keep the previous one on failure.
-    if (!scene || s.scene != scenePath) {
-      setStage("loading");
-      LoadResult r = loadScene(s.scene);
-      std::unique_ptr<Accel> a;
-      std::string err = r.error;
-      if (r.scene) {
-        a = Accel::build(*r.scene, &err);
-      }
-      if (!r.scene || !a) {
-        log::error("cannot load scene: " + err);
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          status_.loadError = err;
-          ++status_.loadErrorSerial;
-        }
-        if (!scene) continue;
-        s.scene = scenePath;  // keep rendering the previous scene with the new settings
-      } else {
-        scene = r.scene;
-        accel = std::move(a);
-        lights = std::make_unique<LightSampler>(*scene);
-        scenePath = s.scene;
-        for (const std::string& w : scene->warnings) log::warning(w);
-        std::lock_guard<std::mutex> lock(mutex_);
-        status_.loadError.clear();
-        status_.scene = scenePath;
-        status_.sceneWarnings = scene->warnings;
-      }
-    }
-    if (stopped()) continue;
-    if (lights->empty()) {
-      log::error(scenePath + ": the scene has no lights");
-      continue;
-    }
-
-    // ---- Virtual lights.
-    auto t0 = Clock::now();
-    setStage("tracing lights");
-    ManyLightRun prep = prepareManyLights(*scene, *accel, *lights, s.many, &stop_);
-    if (stopped()) continue;
-    ManyLightRenderer ml(*scene, *accel, *lights, prep.set, prep.radii, s.many);
-    // The reference depends only on the scene and the resolution: it keeps
-    // converging across restarts that change the many-light settings.
-    RenderSettings rs;
-    rs.width = ml.width();
-    rs.height = ml.height();
-    rs.seed = 0;
-    std::string refKey = scenePath + "|" + std::to_string(rs.width) + "x" + std::to_string(rs.height);
-    if (ref.key != refKey) {
-      ref = Reference();
-      ref.key = refKey;
-      ref.direct = Film(rs.width, rs.height);
-      ref.indirect = Film(rs.width, rs.height);
-      ref.squares.assign(size_t(rs.width) * rs.height, 0.0);
-    }
-    PathTracer pt(*scene, *accel, *lights, rs);
-    Film& ptDirect = ref.direct;
-    Film& ptIndirect = ref.indirect;
-    std::vector<double>& ptSquares = ref.squares;
-    PtCounters ptCounters;
-    setStage("rendering");
-
-    // ---- Interleave: equal time for the many-light methods and the reference.
-    std::vector<ErrorSample> history;
-    double mlSeconds = prep.set.seconds + prep.knnSeconds, ptStart = ref.seconds;
-    double& ptSeconds = ref.seconds;
-    int& spp = ref.spp;
-    int batch = 0;
-    while (!stopped()) {
-      bool progressed = false;
-      if (batch < ml.batchCount()) {
-        auto tb = Clock::now();
-        if (!ml.renderBatch(batch, &stop_)) break;
-        mlSeconds += since(tb);
-        ++batch;
-        progressed = true;
-      }
-      // The reference catches up to the many-light methods' compute time (at
-      // least one pass per step), so the error-vs-time plot compares equal time.
-      bool ptStep = false;
-      while (spp < s.maxReferenceSpp && !stopped() && (!ptStep || ptSeconds - ptStart < mlSeconds)) {
-        auto tp = Clock::now();
-        if (!pt.renderPass(spp, ptDirect, ptIndirect, ptCounters, &stop_, &ptSquares)) {
-          ++spp;  // some pixels have this sample: never reuse its index
-          break;
-        }
-        ptSeconds += since(tp);
-        ++spp;
-        ptStep = progressed = true;
-      }
-      if (stopped() || !progressed) break;
-
-      auto snap = std::make_shared<Snapshot>();
-      snap->generation = gen;
-      snap->settings = s;
-      snap->width = ml.width();
-      snap->height = ml.height();
-      snap->many = ml.images();
-      snap->ptDirect = ptDirect.image();
-      snap->ptIndirect = ptIndirect.image();
-      snap->ptSpp = spp;
-      snap->lightsProcessed = ml.lightsProcessed();
-      snap->lightsTotal = prep.set.lights.size();
-      snap->batchesDone = batch;
-      snap->batchCount = ml.batchCount();
-      snap->seconds = since(t0);
-      snap->lightTracingSeconds = prep.set.seconds;
-      snap->pairsPerSecond = ml.stats().pairs / std::max(ml.stats().gatherSeconds, 1e-9);
-      snap->nonFinite = ml.stats().nonFinite + ptCounters.nonFinite + prep.set.nonFiniteRejected;
-      // Errors against the reference's indirect image; the reference's own
-      // expected relMSE comes from its per-pixel sample variance.
-      ErrorSample e;
-      e.manySeconds = mlSeconds;
-      e.ptSeconds = ptSeconds;
-      // The same relMSE as `vsl compare` and the studio's metrics table.
-      e.vsl = compareImages(snap->many.vsl, snap->ptIndirect).average.relMse;
-      e.vpl = compareImages(snap->many.vpl, snap->ptIndirect).average.relMse;
-      double ptErr = 0;
-      size_t np = ptSquares.size();
-      for (size_t i = 0; i < np && spp > 0; ++i) {
-        // Per-pixel sample counts can differ by one after a cancelled pass.
-        double n = std::max(ptIndirect.weight(int(i % rs.width), int(i / rs.width)), 1.0);
-        double m = grey(snap->ptIndirect, i);
-        double var = std::max(ptSquares[i] / n - m * m, 0.0) / n;
-        ptErr += var / (m * m + 1e-2);
-      }
-      e.pt = np ? ptErr / double(np) : 0;
-      history.push_back(e);
-      snap->history = history;
-      snap->manyLightDone = batch >= ml.batchCount();
-      snap->referenceDone = spp >= s.maxReferenceSpp;
-      publish(std::move(snap));
+    // Nothing escapes the worker: a failure is reported and the UI keeps its
+    // last picture. The job and the reference may be half-updated, so both go.
+    try {
+      step(w, s, gen, fromScratch);
+    } catch (const std::bad_alloc&) {
+      w.job.reset();
+      w.ref = Worker::Reference();
+      reportRunError("out of memory while rendering (" + s.many.describe() +
+                     "); the render stopped and the last picture stays. Try fewer lights or a smaller width.");
+    } catch (const std::exception& e) {
+      w.job.reset();
+      w.ref = Worker::Reference();
+      reportRunError(std::string("the render failed: ") + e.what());
     }
   }
+  w.job.reset();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    exited_ = true;
+  }
+  exitedCv_.notify_all();
+}
+
+// One generation: the scene, a memory check at the real resolution, then a
+// new or resumed job.
+void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) {
+  if (!ensureScene(w, s) || stopped()) return;
+  int width = s.many.width, height = s.many.height;
+  resolveResolution(*w.scene, width, height);
+  if (std::string e = checkMemory(s, width, height); !e.empty()) {
+    reportRunError("settings refused (the previous render goes on): " + e);
+    if (!w.job) return;
+    s = w.job->settings;  // keep the render that fits
+  }
+  if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s))) w.job.reset();
+  if (!w.job) w.job = prepare(w, s);
+  if (!w.job) return;  // stopped while preparing
+  render(w, *w.job, gen);
+}
+
+// ---- [3] Scenes ----------------------------------------------------------------------
+
+// Loads s.scene unless it is the current scene. On failure (including a scene
+// without emitters) the previous scene stays and s.scene is set back to it;
+// returns false only when there is no scene at all.
+bool Session::ensureScene(Worker& w, StudioSettings& s) {
+  if (w.scene && s.scene == w.scenePath) return true;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_.loading = s.scene;
+  }
+  setStage("loading");
+  LoadResult r = loadScene(s.scene);
+  std::unique_ptr<Accel> accel;
+  std::unique_ptr<LightSampler> lights;
+  std::string err = r.error;
+  bool noEmitters = false;
+  if (r.scene) accel = Accel::build(*r.scene, &err);
+  if (accel) {
+    lights = std::make_unique<LightSampler>(*r.scene);
+    if (lights->empty()) {
+      noEmitters = true;
+      err = s.scene +
+            ": the scene has no emitters (no emissive material and no KHR_lights_punctual light), so every method "
+            "renders black";
+      for (const std::string& warning : r.scene->warnings) err += "\n" + warning;  // e.g. an unsupported extension
+    }
+  }
+  if (!r.scene || !accel || noEmitters) {
+    log::error("cannot load scene: " + err);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      status_.loadError = err;
+      status_.noEmitters = noEmitters;
+      ++status_.loadErrorSerial;
+    }
+    ++version_;
+    if (!w.scene) return false;
+    s.scene = w.scenePath;  // keep rendering the previous scene with the other new settings
+    return true;
+  }
+  w.job.reset();  // it points into the old scene
+  w.scene = r.scene;
+  w.accel = std::move(accel);
+  w.lights = std::move(lights);
+  w.scenePath = s.scene;
+  for (const std::string& warning : w.scene->warnings) log::warning(warning);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_.loadError.clear();
+    status_.scene = w.scenePath;
+    status_.sceneAspect = w.scene->camera.aspect > 0 ? w.scene->camera.aspect : 1.0f;
+    status_.sceneWarnings = w.scene->warnings;
+  }
+  ++version_;
+  return true;
+}
+
+// ---- [4] Preparing a job -------------------------------------------------------------
+
+// Light tracing and radii, as prepareManyLights does, but with the stop flag
+// reaching the k-NN step too. Null if stopped.
+std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& s) {
+  auto job = std::make_unique<Job>();
+  job->settings = s;
+  job->t0 = Clock::now();
+  setStage("tracing lights", s.many.lights);
+  LightTracingSettings lt;
+  lt.count = s.many.lights;
+  lt.seed = s.many.seed;
+  lt.maxDepth = s.many.lightMaxDepth;
+  job->prep.set = traceVirtualLights(*w.scene, *w.accel, *w.lights, lt, &stop_);
+  if (stopped()) return nullptr;
+  setStage("k-NN radii", s.many.lights);
+  auto tk = Clock::now();
+  const float R = std::max(w.scene->boundingRadius(), 1e-6f);
+  if (s.many.globalRadius > 0)
+    job->prep.radii.assign(job->prep.set.lights.size(), s.many.globalRadius * R);
+  else
+    job->prep.radii = knnRadii(job->prep.set.lights, s.many.knn, s.many.radiusScale, 0.1f * R, 1e-9f * R, &stop_);
+  if (stopped()) return nullptr;
+  job->prep.knnSeconds = since(tk);
+  if (!job->prep.radii.empty()) {
+    std::vector<float> r = job->prep.radii;
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    job->radiusMedian = r[r.size() / 2];
+    auto [lo, hi] = std::minmax_element(r.begin(), r.end());
+    job->radiusMin = *lo;
+    job->radiusMax = *hi;
+  }
+  job->ml = std::make_unique<ManyLightRenderer>(*w.scene, *w.accel, *w.lights, job->prep.set, job->prep.radii, s.many);
+
+  // The reference depends only on the scene and the resolution: it keeps
+  // converging across restarts that change the many-light settings.
+  RenderSettings rs;
+  rs.width = job->ml->width();
+  rs.height = job->ml->height();
+  rs.seed = 0;
+  std::string refKey = w.scenePath + "|" + std::to_string(rs.width) + "x" + std::to_string(rs.height);
+  if (w.ref.key != refKey) {
+    w.ref = Worker::Reference();
+    w.ref.key = refKey;
+    w.ref.direct = Film(rs.width, rs.height);
+    w.ref.indirect = Film(rs.width, rs.height);
+    w.ref.squares.assign(size_t(rs.width) * rs.height, 0.0);
+  }
+  job->pt = std::make_unique<PathTracer>(*w.scene, *w.accel, *w.lights, rs);
+  job->mlSeconds = job->prep.set.seconds + job->prep.knnSeconds;
+  job->ptStart = w.ref.seconds;
+  job->sppStart = w.ref.spp;
+  return job;
+}
+
+// ---- [5] Rendering and snapshots -----------------------------------------------------
+
+// Interleaves equal compute time for the many-light methods and the
+// reference, publishing after each step, until both are done or stopped.
+void Session::render(Worker& w, Job& job, uint64_t gen) {
+  setStage("rendering");
+  // A resumed job shows its picture under the new generation at once.
+  if (job.batch > 0) publish(makeSnapshot(w, job, gen));
+  Worker::Reference& ref = w.ref;
+  while (!stopped()) {
+    bool progressed = false;
+    if (job.batch < job.ml->batchCount()) {
+      auto tb = Clock::now();
+      if (!job.ml->renderBatch(job.batch, &stop_)) break;
+      job.mlSeconds += since(tb);
+      ++job.batch;
+      progressed = true;
+    }
+    // The reference catches up to the many-light methods' compute time (at
+    // least one pass per step), so the error-vs-time plot compares equal time.
+    bool ptStep = false;
+    while (ref.spp < job.settings.maxReferenceSpp && !stopped() &&
+           (!ptStep || ref.seconds - job.ptStart < job.mlSeconds)) {
+      auto tp = Clock::now();
+      if (!job.pt->renderPass(ref.spp, ref.direct, ref.indirect, job.ptCounters, &stop_, &ref.squares)) {
+        ++ref.spp;  // some pixels have this sample: never reuse its index
+        break;
+      }
+      ref.seconds += since(tp);
+      ++ref.spp;
+      ptStep = progressed = true;
+    }
+    if (stopped() || !progressed) break;
+    publish(makeSnapshot(w, job, gen));
+  }
+}
+
+std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen) const {
+  const ManyLightRenderer& ml = *job.ml;
+  const Worker::Reference& ref = w.ref;
+  auto snap = std::make_shared<Snapshot>();
+  snap->generation = gen;
+  snap->settings = job.settings;
+  snap->width = ml.width();
+  snap->height = ml.height();
+  snap->many = ml.images();
+  snap->ptDirect = ref.direct.image();
+  snap->ptIndirect = ref.indirect.image();
+  snap->ptSpp = ref.spp;
+  snap->lightsProcessed = ml.lightsProcessed();
+  snap->lightsTotal = job.prep.set.lights.size();
+  snap->batchesDone = job.batch;
+  snap->batchCount = ml.batchCount();
+  snap->seconds = since(job.t0);
+  snap->lightTracingSeconds = job.prep.set.seconds;
+  snap->knnSeconds = job.prep.knnSeconds;
+  snap->gatherSeconds = ml.stats().gatherSeconds;
+  snap->referenceSeconds = ref.seconds;
+  snap->clampBound = ml.clampBound();
+  snap->sceneRadius = w.scene->boundingRadius();
+  snap->radiusMin = job.radiusMin;
+  snap->radiusMedian = job.radiusMedian;
+  snap->radiusMax = job.radiusMax;
+  snap->pairs = ml.stats().pairs.load();
+  snap->vslEvaluations = ml.stats().vslEvaluations.load();
+  snap->pairsPerSecond = ml.stats().pairs / std::max(ml.stats().gatherSeconds, 1e-9);
+  snap->nonFinite = ml.stats().nonFinite + job.ptCounters.nonFinite + job.prep.set.nonFiniteRejected;
+  // Progress: rates over compute time, remaining time at those rates.
+  if (ml.stats().gatherSeconds > 0) {
+    snap->lightsPerSecond = double(snap->lightsProcessed) / ml.stats().gatherSeconds;
+    snap->manyRemainingSeconds =
+        double(snap->lightsTotal - snap->lightsProcessed) / std::max(snap->lightsPerSecond, 1e-9);
+  }
+  if (double t = ref.seconds - job.ptStart; t > 0 && ref.spp > job.sppStart) {
+    snap->referenceSppPerSecond = (ref.spp - job.sppStart) / t;
+    snap->referenceRemainingSeconds = std::max(job.settings.maxReferenceSpp - ref.spp, 0) / snap->referenceSppPerSecond;
+  }
+  // Errors against the reference's indirect image (the same relMSE as `vsl
+  // compare` and the studio's table); the reference's own expected relMSE
+  // comes from its per-pixel sample variance.
+  ErrorSample e;
+  e.manySeconds = job.mlSeconds;
+  e.ptSeconds = ref.seconds;
+  e.vsl = compareImages(snap->many.vsl, snap->ptIndirect).average.relMse;
+  e.vpl = compareImages(snap->many.vpl, snap->ptIndirect).average.relMse;
+  double ptErr = 0;
+  const size_t np = ref.squares.size();
+  const int width = ref.indirect.width();
+  for (size_t i = 0; i < np && ref.spp > 0; ++i) {
+    // Per-pixel sample counts can differ by one after a cancelled pass.
+    double n = std::max(ref.indirect.weight(int(i % width), int(i / width)), 1.0);
+    double m = grey(snap->ptIndirect, i);
+    double var = std::max(ref.squares[i] / n - m * m, 0.0) / n;
+    ptErr += var / (m * m + 1e-2);
+  }
+  e.pt = np ? ptErr / double(np) : 0;
+  // The history is the job's; a resumed job republishes without a new point.
+  std::vector<ErrorSample>& history = job.history;
+  if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)
+    history.push_back(e);
+  snap->history = history;
+  snap->manyLightDone = job.batch >= ml.batchCount();
+  snap->referenceDone = ref.spp >= job.settings.maxReferenceSpp;
+  return snap;
 }
 
 }  // namespace vsl

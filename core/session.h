@@ -6,15 +6,26 @@
 // for rendering.
 //
 // Generations: every restart() bumps the generation. The worker checks a stop
-// flag between tiles, so a restart takes effect within one tile of work, and
+// flag between tiles, between chunks of light paths and between chunks of
+// k-NN queries, so a restart takes effect within one such step of work, and
 // publish() drops any snapshot whose generation is no longer current: after
 // restart() returns generation g, latest() never returns a snapshot older
 // than g.
-// A scene that fails to load leaves the previous scene in place; the error is
-// reported through status() and the log.
+// Work that is kept: a render interrupted by a restart whose settings turn out
+// to be the same (a failed load, settings refused for memory, a value changed
+// and changed back) resumes where it stopped instead of starting over, and
+// publishes under the new generation at once. A scene that fails to load or
+// has no emitters leaves the previous scene and its render in place; the
+// error is reported through status() and the log.
+// Bounded work: restart() refuses settings whose memory estimate
+// (memory_budget.h) does not fit, and the worker checks again once the
+// scene's resolution is known. An exception in the worker (std::bad_alloc
+// included) is reported through status() and never escapes; the last picture
+// stays with the UI.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -32,6 +43,10 @@ struct StudioSettings {
   int maxReferenceSpp = 4096;
   std::string validate() const;
 };
+
+// True when a and b produce the same images (the same scene and every
+// setting that changes a pixel).
+bool sameImageSettings(const StudioSettings& a, const StudioSettings& b);
 
 // Error of each method's indirect image against the reference at one moment.
 struct ErrorSample {
@@ -51,9 +66,23 @@ struct Snapshot {
   int ptSpp = 0;
   size_t lightsProcessed = 0, lightsTotal = 0;
   int batchesDone = 0, batchCount = 0;
-  double seconds = 0;  // since the generation started
-  double lightTracingSeconds = 0;
+  double seconds = 0;  // wall time since the job started (a resumed job keeps its clock)
+  double lightTracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0;
+  double referenceSeconds = 0;  // compute time in the reference, across restarts
+  // Resolved settings: the VPL clamp bound in use, radii of the VSLs, and
+  // the VSL samples actually drawn (auto grows with the cone angle).
+  float clampBound = 0;
+  float sceneRadius = 0;  // bounding radius R
+  float radiusMin = 0, radiusMedian = 0, radiusMax = 0;
+  uint64_t pairs = 0, vslEvaluations = 0;
   double pairsPerSecond = 0;
+  // Progress. The many-light work is proportional to the lights gathered (every
+  // light costs every pixel the same), so lightsProcessed / lightsTotal is its
+  // fraction of the work; rates and remaining times come from compute time.
+  double lightsPerSecond = 0;       // gathered per second of gather time
+  double manyRemainingSeconds = 0;  // at that rate; 0 when done
+  double referenceSppPerSecond = 0;
+  double referenceRemainingSeconds = 0;  // if it had the machine to itself
   uint64_t nonFinite = 0;
   std::vector<ErrorSample> history;
   bool manyLightDone = false, referenceDone = false;
@@ -67,33 +96,68 @@ class Session {
   Session& operator=(const Session&) = delete;
 
   // Starts (or restarts) rendering with these settings; returns the new
-  // generation. Invalid settings are rejected (returns 0, error in *error).
-  uint64_t restart(const StudioSettings& settings, std::string* error = nullptr);
+  // generation. Invalid settings, and settings whose memory estimate does
+  // not fit, are rejected: returns 0 with the reason (and the estimate) in
+  // *error, and the current render goes on. fromScratch: never resume an
+  // interrupted render with the same settings.
+  uint64_t restart(const StudioSettings& settings, std::string* error = nullptr, bool fromScratch = false);
   // The newest snapshot of the current generation if its serial is greater
   // than `haveSerial`, else null.
   std::shared_ptr<const Snapshot> latest(uint64_t haveSerial) const;
 
   struct Status {
     uint64_t generation = 0;
-    std::string scene;             // the scene being rendered
+    std::string scene;             // the scene being rendered ("" before the first successful load)
+    float sceneAspect = 0;         // its camera's width / height (0 if unknown)
     std::string loadError;         // the last failed load ("" if none); cleared by a successful load
     uint64_t loadErrorSerial = 0;  // increases with every failed load
-    std::string stage;             // "idle", "loading", "tracing lights", "rendering", "done"
+    bool noEmitters = false;       // the last failed load was a scene without emitters
+    std::string runError;          // the last refused or failed render ("out of memory ...")
+    uint64_t runErrorSerial = 0;   // increases with every refused or failed render
+    // "idle", "loading", "tracing lights", "k-NN radii", "rendering", "done"
+    std::string stage;
+    std::string loading;        // the path being loaded while stage is "loading"
+    double stageSeconds = 0;    // wall time since the stage began
+    uint32_t lightsTarget = 0;  // the light count being traced
     std::vector<std::string> sceneWarnings;
+    bool busy() const { return stage != "idle" && stage != "done"; }
   };
   Status status() const;
   uint64_t generation() const { return generation_.load(); }
+  // Increases whenever a snapshot is published or the status changes: the UI
+  // redraws only when it moved.
+  uint64_t version() const { return version_.load(); }
+
+  // Asks the worker to stop and waits up to `seconds` for it to leave; true
+  // if it has. Stages that cannot be interrupted (parsing a scene file,
+  // building a k-d tree) may take longer; the caller decides what to do then.
+  bool shutdown(double seconds);
+  // Tests: pretend this many bytes are available (0: ask the system).
+  void setAvailableMemoryForTesting(uint64_t bytes) { memoryForTesting_.store(bytes); }
 
  private:
+  struct Job;
+  struct Worker;
   void run();
+  void step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch);
+  bool ensureScene(Worker& w, StudioSettings& s);
+  std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s);
+  void render(Worker& w, Job& job, uint64_t gen);
+  std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;
   bool publish(std::shared_ptr<Snapshot> s);
-  void setStage(const std::string& stage);
+  void setStage(const std::string& stage, uint32_t lightsTarget = 0);
+  void reportRunError(const std::string& message);
+  bool stopped() const { return stop_.load(std::memory_order_relaxed); }
+  std::string checkMemory(const StudioSettings& s, int width, int height) const;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  bool quit_ = false;
-  bool pending_ = false;
+  std::condition_variable exitedCv_;
+  bool quit_ = false, exited_ = false;
+  bool pending_ = false, pendingFromScratch_ = false;
   StudioSettings next_;
+  std::atomic<uint64_t> version_{0}, memoryForTesting_{0};
+  std::chrono::steady_clock::time_point stageStart_ = std::chrono::steady_clock::now();
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};
   std::shared_ptr<const Snapshot> latest_;

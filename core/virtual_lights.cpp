@@ -186,13 +186,14 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
 }  // namespace
 
 std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, float scale, float fallback,
-                            float minRadius) {
+                            float minRadius, const std::atomic<bool>* stop) {
   std::vector<float> radii(lights.size(), std::max(scale * fallback, minRadius));
   if (lights.size() < 2 || k < 1) return radii;
   LightCloud cloud{lights};
   KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   const size_t want = std::min<size_t>(size_t(k) + 1, lights.size());  // the light itself is its own 0th neighbour
   parallelFor((lights.size() + 1023) / 1024, [&](size_t c) {
+    if (stop && stop->load(std::memory_order_relaxed)) return;
     std::vector<uint32_t> idx(want);
     std::vector<float> d2(want);
     for (size_t i = c * 1024; i < std::min(lights.size(), (c + 1) * 1024); ++i) {

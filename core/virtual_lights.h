@@ -78,7 +78,9 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
 // With fewer than k+1 lights, k shrinks to what exists; a single light gets
 // scale x fallback. Non-finite or zero distances give the smallest positive
 // radius `minRadius`.
+// If *stop becomes true, the queries end early (between chunks of 1024
+// lights) and the radii are incomplete: the caller must discard them.
 std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, float scale, float fallback,
-                            float minRadius);
+                            float minRadius, const std::atomic<bool>* stop = nullptr);
 
 }  // namespace vsl

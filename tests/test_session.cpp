@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <map>
 #include <thread>
 
+#include "core/memory_budget.h"
 #include "core/session.h"
+#include "core/virtual_lights.h"
 
 using namespace vsl;
 using namespace std::chrono_literals;
@@ -147,4 +150,126 @@ TEST(Session, DestroyedWhileRenderingStopsPromptly) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20 * i));
   }  // the destructor cancels between tiles and joins; a hang fails by timeout
   SUCCEED();
+}
+
+// Settings whose memory estimate does not fit are refused before anything
+// stops: restart() returns 0 with the estimate, and the render goes on.
+TEST(Session, RefusesSettingsThatDoNotFitInMemory) {
+  Session session;
+  uint64_t g = session.restart(small("furnace", 50, 8));
+  ASSERT_TRUE(waitFor(session, g, [](const Snapshot& s) { return s.batchesDone > 0; }));
+  session.setAvailableMemoryForTesting(uint64_t(400) << 20);  // 400 MB
+  StudioSettings huge = small("furnace", 50, 8);
+  huge.many.width = 16384;
+  huge.many.height = 0;  // from the camera: 16384x16384 for the furnace
+  std::string err;
+  EXPECT_EQ(session.restart(huge, &err), 0u);
+  EXPECT_NE(err.find("memory:"), std::string::npos) << err;
+  EXPECT_NE(err.find("needs about"), std::string::npos) << err;
+  EXPECT_NE(err.find("at most"), std::string::npos) << "offers the largest setting that fits: " << err;
+  EXPECT_EQ(session.generation(), g) << "the running render is untouched";
+  StudioSettings many = small("furnace", 20'000'000, 8);
+  EXPECT_EQ(session.restart(many, &err), 0u);
+  EXPECT_NE(err.find("lights fit"), std::string::npos) << err;
+}
+
+TEST(Session, MemoryEstimateIsItemised) {
+  MemoryEstimate e = estimateStudioMemory(1000, 100, 50);
+  EXPECT_GE(e.bytesPerLight, sizeof(VirtualLight));
+  EXPECT_EQ(e.lightBytes, 1000 * e.bytesPerLight);
+  EXPECT_EQ(e.pixelBytes, 5000 * e.bytesPerPixel);
+  EXPECT_EQ(checkStudioMemory(1000, 100, 50, 0), "") << "unknown availability applies no limit";
+  EXPECT_EQ(checkStudioMemory(1000, 100, 50, e.total() * 2), "");
+  EXPECT_NE(checkStudioMemory(1000, 100, 50, e.total() / 2), "");
+}
+
+// Every stage stops promptly on a restart, light tracing and k-NN included
+// (generous bound: the machine is shared; the k-d tree build itself cannot be
+// interrupted, so the light count keeps it short).
+TEST(Session, RestartStopsLightTracingAndKnnPromptly) {
+  Session session;
+  for (int delayMs : {50, 400, 900}) {
+    uint64_t g = session.restart(small("cornell-glossy", 400000, 8));
+    std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+    Session::Status st = session.status();
+    auto t0 = std::chrono::steady_clock::now();
+    uint64_t g2 = session.restart(small("furnace", 30, 8));
+    ASSERT_EQ(g2, g + 1);
+    auto snap = waitFor(session, g2, [](const Snapshot& s) { return s.batchesDone > 0; });
+    ASSERT_TRUE(snap);
+    double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_LT(seconds, 20.0) << "stage when restarted: " << st.stage;
+  }
+}
+
+// A failed load (or a scene without emitters) does not restart the render:
+// the interrupted job resumes under the new generation with its batches.
+TEST(Session, FailedLoadResumesTheRunningRender) {
+  Session session;
+  StudioSettings s = small("cornell-glossy", 3000, 24);
+  s.many.batches = 16;
+  s.maxReferenceSpp = 64;
+  uint64_t g1 = session.restart(s);
+  auto before = waitFor(session, g1, [](const Snapshot& x) { return x.batchesDone >= 2; });
+  ASSERT_TRUE(before);
+  StudioSettings bad = s;
+  bad.scene = std::string(VSL_SOURCE_DIR) + "/does-not-exist.gltf";
+  uint64_t g2 = session.restart(bad);
+  auto after = waitFor(session, g2, [](const Snapshot&) { return true; });
+  ASSERT_TRUE(after);
+  EXPECT_GE(after->batchesDone, before->batchesDone) << "the render went on instead of starting over";
+  EXPECT_EQ(after->settings.scene, s.scene);
+  EXPECT_FALSE(session.status().noEmitters);
+}
+
+TEST(Session, SceneWithoutEmittersIsReportedAndKeepsThePreviousScene) {
+  // A single grey triangle and no light.
+  std::string path = std::string(VSL_BINARY_DIR) + "/no-emitters.gltf";
+  {
+    std::ofstream f(path);
+    f << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+      "bufferViews":[{"buffer":0,"byteLength":36}],
+      "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
+  }
+  Session session;
+  uint64_t g1 = session.restart(small("furnace", 50, 8));
+  ASSERT_TRUE(waitFor(session, g1, [](const Snapshot& s) { return s.batchesDone > 0; }));
+  StudioSettings dark = small("furnace", 50, 8);
+  dark.scene = path;
+  uint64_t g2 = session.restart(dark);
+  ASSERT_TRUE(waitFor(session, g2, [](const Snapshot& s) { return s.batchesDone > 0; }));
+  Session::Status st = session.status();
+  EXPECT_TRUE(st.noEmitters);
+  EXPECT_NE(st.loadError.find("no emitters"), std::string::npos) << st.loadError;
+  EXPECT_EQ(st.scene, asset("furnace"));
+}
+
+// A scene that cannot load with nothing before it: no render, and the UI can
+// tell (the headless studio exits with the reason).
+TEST(Session, FirstSceneMissingIsReported) {
+  Session session;
+  StudioSettings s = small("furnace", 50, 8);
+  s.scene = std::string(VSL_SOURCE_DIR) + "/missing.gltf";
+  session.restart(s);
+  for (int i = 0; i < 3000 && session.status().loadErrorSerial == 0; ++i) std::this_thread::sleep_for(10ms);
+  Session::Status st = session.status();
+  EXPECT_GT(st.loadErrorSerial, 0u);
+  EXPECT_TRUE(st.scene.empty());
+  EXPECT_TRUE(session.shutdown(10));
+}
+
+TEST(Session, ProgressCountsLightsAndTime) {
+  Session session;
+  uint64_t g = session.restart(small("cornell-glossy", 500, 16));
+  auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_GT(snap->lightsPerSecond, 0);
+  EXPECT_EQ(snap->manyRemainingSeconds, 0);
+  EXPECT_GT(snap->clampBound, 0);
+  EXPECT_GT(snap->radiusMedian, 0);
+  EXPECT_LE(snap->radiusMin, snap->radiusMedian);
+  EXPECT_LE(snap->radiusMedian, snap->radiusMax);
+  EXPECT_GT(snap->sceneRadius, 0);
 }

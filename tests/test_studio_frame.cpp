@@ -5,6 +5,11 @@
 #include <gtest/gtest.h>
 #include <imgui.h>
 #include <imgui_impl_opengl3.h>
+#include <stb_image.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "core/compare.h"
 #include "core/image_io.h"
@@ -32,7 +37,7 @@ class StudioFrame : public ::testing::Test {
     io.DisplaySize = ImVec2(kW, kH);
     ASSERT_TRUE(ImGui_ImplOpenGL3_Init("#version 330 core"));
     ui::StudioOptions o;
-    o.scene = "synthetic";
+    o.scene = "synthetic.gltf";  // the snapshot's settings: its images are current
     o.startSession = false;
     studio = std::make_unique<ui::Studio>(o);
     studio->setSnapshotForTesting(makeSnapshot());
@@ -193,4 +198,168 @@ TEST_F(StudioFrame, ErrorMapUsesTheStatedColourMap) {
   EXPECT_EQ(compareGrid(
                 px, studio->drawnImages()[0], [&](int, int) { return want; }, 3),
             0);
+}
+
+namespace {
+// One frame with this input (old ImGui 1.86 input API).
+struct Input {
+  ImVec2 mouse{-1, -1};
+  bool down = false;
+  float wheel = 0;
+  int key = -1;
+};
+}  // namespace
+
+class StudioInput : public StudioFrame {
+ protected:
+  void frameWith(const Input& in) {
+    ImGuiIO& io = ImGui::GetIO();
+    io.MousePos = in.mouse;
+    io.MouseDown[0] = in.down;
+    io.MouseWheel = in.wheel;
+    if (in.key >= 0) io.KeysDown[in.key] = true;
+    renderFrames(1);
+    if (in.key >= 0) io.KeysDown[in.key] = false;
+  }
+};
+
+// A panel whose image belongs to older settings is flagged and dimmed; the
+// reference stays current when only many-light settings changed.
+TEST_F(StudioFrame, StalePanelsAreDimmedAndBadged) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide3;
+  v.component = Component::Indirect;
+  StudioSettings current = studio->snapshot()->settings;
+  studio->applySettings(current);
+  auto px = renderFrames();
+  EXPECT_FALSE(studio->panelStale(0));
+  const auto& d0 = studio->drawnImages()[0];
+  Vec3 fresh = pixel(px, int(d0.p0.x + 0.75f * (d0.p1.x - d0.p0.x)), int(d0.p0.y + 0.75f * (d0.p1.y - d0.p0.y)));
+
+  StudioSettings changed = current;
+  changed.many.lights = current.many.lights + 1000;
+  studio->applySettings(changed);
+  px = renderFrames();
+  EXPECT_TRUE(studio->panelStale(0)) << "VSL belongs to the old light count";
+  EXPECT_TRUE(studio->panelStale(1));
+  EXPECT_FALSE(studio->panelStale(2)) << "the reference depends only on scene and resolution";
+  const auto& d = studio->drawnImages()[0];
+  Vec3 dim = pixel(px, int(d.p0.x + 0.75f * (d.p1.x - d.p0.x)), int(d.p0.y + 0.75f * (d.p1.y - d.p0.y)));
+  EXPECT_LT(dim.x + dim.y + dim.z, 0.7f * (fresh.x + fresh.y + fresh.z)) << "a stale image is dimmed";
+
+  // The first picture of the new settings clears it.
+  auto snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->settings = changed;
+  studio->setSnapshotForTesting(snap);
+  renderFrames(1);
+  EXPECT_FALSE(studio->panelStale(0));
+}
+
+// T swaps the two methods in a 2-up view (never the same one twice) and
+// toggles VSL and VPL in a single view; number keys pick panel 1's image.
+TEST_F(StudioInput, KeysNeverShowOneMethodTwice) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide2;
+  v.panels[0] = ui::Source::Vsl;
+  v.panels[1] = ui::Source::Vpl;
+  renderFrames(2);
+  Input t;
+  t.key = 'T';
+  frameWith(t);
+  EXPECT_EQ(v.panels[0], ui::Source::Vpl);
+  EXPECT_EQ(v.panels[1], ui::Source::Vsl);
+  frameWith(Input());
+  frameWith(t);
+  EXPECT_EQ(v.panels[0], ui::Source::Vsl);
+  EXPECT_EQ(v.panels[1], ui::Source::Vpl);
+  Input two;
+  two.key = '2';  // VPL (clamped), shown in panel 2: the panels swap
+  frameWith(Input());
+  frameWith(two);
+  EXPECT_EQ(v.panels[0], ui::Source::Vpl);
+  EXPECT_EQ(v.panels[1], ui::Source::Vsl);
+  v.mode = ui::ViewMode::Single;
+  frameWith(Input());
+  frameWith(t);
+  EXPECT_EQ(v.panels[0], ui::Source::Vsl);
+}
+
+// The wheel zooms about the cursor: the image point under it stays put.
+TEST_F(StudioInput, ZoomKeepsThePointUnderTheCursor) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Single;
+  renderFrames(2);
+  auto uvAt = [&](ImVec2 m) {
+    const auto& d = studio->drawnImages()[0];
+    return ImVec2(d.uv0.x + (m.x - d.p0.x) / (d.p1.x - d.p0.x) * (d.uv1.x - d.uv0.x),
+                  d.uv0.y + (m.y - d.p0.y) / (d.p1.y - d.p0.y) * (d.uv1.y - d.uv0.y));
+  };
+  const auto& d = studio->drawnImages()[0];
+  ImVec2 m(d.p0.x + 0.2f * (d.p1.x - d.p0.x), d.p0.y + 0.7f * (d.p1.y - d.p0.y));
+  ImVec2 before = uvAt(m);
+  Input in;
+  in.mouse = m;
+  in.wheel = 3;
+  frameWith(in);
+  in.wheel = 0;
+  frameWith(in);
+  EXPECT_GT(v.zoom, 1.4f);
+  ImVec2 after = uvAt(m);
+  EXPECT_NEAR(after.x, before.x, 2e-3f);
+  EXPECT_NEAR(after.y, before.y, 2e-3f);
+}
+
+// A drag that starts on the wipe's split line moves the line all the way
+// with the cursor (it never turns into a pan).
+TEST_F(StudioInput, WipeDragFollowsTheCursor) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Wipe;
+  v.wipe = 0.5f;
+  renderFrames(2);
+  const auto left = studio->drawnImages()[0];
+  const auto right = studio->drawnImages()[1];
+  const float x0 = left.p0.x, w = right.p1.x - left.p0.x, y = (left.p0.y + left.p1.y) / 2;
+  Input in;
+  in.mouse = ImVec2(x0 + 0.5f * w, y);
+  frameWith(in);
+  in.down = true;
+  frameWith(in);
+  for (int k = 10; k >= 2; --k) {  // 0.5 down to 0.1 of the width
+    in.mouse = ImVec2(x0 + 0.05f * float(k) * w, y);
+    frameWith(in);
+  }
+  EXPECT_NEAR(v.wipe, 0.1f, 0.02f);
+  EXPECT_NEAR(v.center.x, 0.5f, 1e-6f) << "no pan";
+  in.down = false;
+  frameWith(in);
+}
+
+// Each export is a new folder; PNGs are at the render's resolution; the JSON
+// holds the resolved clamp and the machine.
+TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
+  renderFrames(1);
+  std::string dir = std::string(VSL_BINARY_DIR) + "/studio-export-test";
+  std::filesystem::remove_all(dir);
+  std::string err, f1, f2;
+  std::vector<std::string> w1, w2;
+  ASSERT_TRUE(studio->exportAll(dir, &err, &w1, &f1)) << err;
+  ASSERT_TRUE(studio->exportAll(dir, &err, &w2, &f2)) << err;
+  EXPECT_NE(f1, f2);
+  EXPECT_TRUE(std::filesystem::exists(f1 + "/metrics.json"));
+  EXPECT_TRUE(std::filesystem::exists(f2 + "/metrics.json"));
+  int pngs = 0;
+  for (const std::string& f : w1) {
+    if (f.size() < 4 || f.substr(f.size() - 4) != ".png") continue;
+    ++pngs;
+    int w = 0, h = 0, n = 0;
+    ASSERT_TRUE(stbi_info(f.c_str(), &w, &h, &n)) << f;
+    EXPECT_EQ(w, 64) << f;
+    EXPECT_EQ(h, f.find("/error-") != std::string::npos ? 32 + 16 : 32) << f;
+  }
+  EXPECT_GE(pngs, 11);
+  std::ifstream js(f1 + "/metrics.json");
+  nlohmann::json j = nlohmann::json::parse(js);
+  EXPECT_TRUE(j["settings"]["clamp"].contains("bound"));
+  EXPECT_TRUE(j["machine"].contains("renderThreads"));
+  EXPECT_TRUE(j["settings"]["vslSamples"].contains("meanPerPair"));
 }

@@ -7,11 +7,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/parallel.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 
@@ -37,6 +41,12 @@ const char* sourceName(Source s) {
       break;
   }
   return "?";
+}
+
+std::string panelTitle(Source s, Component c) {
+  // The lost-energy maps are differences of indirect images whatever the component.
+  const char* comp = s == Source::LostClamping || s == Source::LostDiffuse ? "indirect" : componentName(c);
+  return std::string(sourceName(s)) + " (" + comp + ")";
 }
 
 namespace {
@@ -78,17 +88,13 @@ Studio::Studio(const StudioOptions& options) : options_(options), settings_(opti
   settings_.scene = options.scene;
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
-  if (options.startSession) {
-    session_ = std::make_unique<Session>();
-    restart();
-  }
+  if (options.startSession) session_ = std::make_unique<Session>();
+  restart();
 }
 
 Studio::~Studio() = default;
 
-void Studio::restart() {
-  if (!session_) return;
-  std::string err;
+void Studio::restart(bool fromScratch) {
   settings_.many.clamp = clampOff_ ? INFINITY : (clampAuto_ ? -1.0f : clampValue_);
   if (!vslAuto_ && settings_.many.vslSamples == 0) settings_.many.vslSamples = 4;
   if (vslAuto_) settings_.many.vslSamples = 0;
@@ -96,11 +102,40 @@ void Studio::restart() {
     settings_.many.globalRadius = 0;
   else if (settings_.many.globalRadius <= 0)
     settings_.many.globalRadius = 0.02f;
-  restartedAt_ = std::chrono::steady_clock::now();
-  if ((restartGeneration_ = session_->restart(settings_, &err)) == 0) {
-    message_ = "settings rejected: " + err;
-    log::error(message_);
+  if (!session_) {
+    accepted_ = settings_;
+    return;
   }
+  std::string err;
+  uint64_t g = session_->restart(settings_, &err, fromScratch);
+  if (g == 0) {
+    // Shown next to the control it names ("lights: ..."), or next to the
+    // control last changed for a memory refusal; the render goes on.
+    size_t colon = err.find(':');
+    settingsErrorKey_ = colon != std::string::npos && colon < 20 ? err.substr(0, colon) : lastControl_;
+    if (settingsErrorKey_ == "memory") settingsErrorKey_ = lastControl_;
+    settingsError_ = err;
+    log::warning("settings rejected: " + err);
+    return;
+  }
+  restartedAt_ = std::chrono::steady_clock::now();
+  restartGeneration_ = g;
+  accepted_ = settings_;
+  settingsError_.clear();
+  settingsErrorKey_.clear();
+}
+
+bool Studio::restartPending() const { return restartAt_ != std::chrono::steady_clock::time_point(); }
+
+void Studio::applySettings(const StudioSettings& settings) {
+  settings_ = settings;
+  scenePath_ = settings.scene;
+  clampOff_ = std::isinf(settings.many.clamp);
+  clampAuto_ = settings.many.clamp < 0;
+  if (!clampOff_ && !clampAuto_) clampValue_ = settings.many.clamp;
+  vslAuto_ = settings.many.vslSamples == 0;
+  globalRadius_ = settings.many.globalRadius > 0;
+  restart();
 }
 
 void Studio::openScene(const std::string& path) {
@@ -118,6 +153,7 @@ void Studio::setSnapshotForTesting(std::shared_ptr<const Snapshot> s) {
 
 void Studio::pullSnapshot() {
   if (!session_) return;
+  drawnVersion_ = session_->version();  // read first: a change after this is seen next frame
   if (auto s = session_->latest(serial_)) {
     serial_ = s->serial;
     if (s->generation != firstPictureGeneration_ && s->generation == restartGeneration_) {
@@ -138,10 +174,50 @@ void Studio::pullSnapshot() {
   Session::Status st = session_->status();
   if (st.loadErrorSerial > seenLoadErrors_) {
     seenLoadErrors_ = st.loadErrorSerial;
-    errorDialog_ = "Could not load the scene; the previous scene stays open.\n\n" + st.loadError;
-    scenePath_ = st.scene.empty() ? scenePath_ : st.scene;
-    settings_.scene = scenePath_;
+    // The loader's message is shown as it is (it names the file, the element
+    // and the reason, e.g. an unsupported required extension).
+    if (st.scene.empty())
+      errorDialog_ = "Could not load the scene.\n\n" + st.loadError;
+    else if (st.noEmitters)
+      errorDialog_ = "This scene has no emitters, so there is nothing to compare; " +
+                     std::filesystem::path(st.scene).filename().string() + " stays open and keeps rendering.\n\n" +
+                     st.loadError;
+    else
+      errorDialog_ = "Could not load the scene; " + std::filesystem::path(st.scene).filename().string() +
+                     " stays open and keeps rendering.\n\n" + st.loadError;
+    if (!st.scene.empty()) {
+      scenePath_ = st.scene;
+      settings_.scene = accepted_.scene = st.scene;
+    }
   }
+  if (st.runErrorSerial > seenRunErrors_) {
+    seenRunErrors_ = st.runErrorSerial;
+    errorDialog_ = st.runError;
+  }
+}
+
+bool Studio::busy() const { return session_ && session_->status().busy(); }
+
+bool Studio::wantsFrame() const { return !session_ || session_->version() != drawnVersion_ || restartPending(); }
+
+std::string Studio::fatalError() const {
+  if (!session_) return "";
+  Session::Status st = session_->status();
+  if (st.scene.empty() && st.loadErrorSerial > 0) return st.loadError;
+  return "";
+}
+
+bool Studio::sourceStale(Source s) const {
+  if (!snap_) return false;
+  const StudioSettings& a = snap_->settings;
+  if (s == Source::Reference)  // the reference belongs to the scene and the resolution only
+    return a.scene != accepted_.scene || a.many.width != accepted_.many.width || a.many.height != accepted_.many.height;
+  return !sameImageSettings(a, accepted_);
+}
+
+bool Studio::panelStale(int i) const {
+  if (view_.mode == ViewMode::Wipe && i < 2) return sourceStale(view_.panels[0]) || sourceStale(view_.panels[1]);
+  return sourceStale(view_.panels[std::clamp(i, 0, 2)]);
 }
 
 const Image* Studio::referenceImage(Component c, Image& scratch) const {
@@ -254,6 +330,10 @@ void Studio::frame() {
   ImGui::BeginChild("controls", ImVec2(330, 0), true);
   controlsPanel();
   ImGui::EndChild();
+  if (restartPending() && std::chrono::steady_clock::now() >= restartAt_ && !ImGui::GetIO().WantTextInput) {
+    restartAt_ = {};
+    restart();
+  }
   ImGui::SameLine();
   ImGui::BeginChild("right", ImVec2(0, 0), false);
   float bottom = std::min(260.0f, ImGui::GetContentRegionAvail().y * 0.4f);
@@ -276,12 +356,16 @@ void Studio::frame() {
   ImGui::EndChild();
   ImGui::EndChild();
 
-  if (!errorDialog_.empty()) ImGui::OpenPopup("Error");
+  // One dialog gathers failures (tev); Esc and Enter close it like OK.
+  if (!errorDialog_.empty() && !ImGui::IsPopupOpen("Error")) ImGui::OpenPopup("Error");
   if (ImGui::BeginPopupModal("Error", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
     ImGui::PushTextWrapPos(600);
     ImGui::TextUnformatted(errorDialog_.c_str());
     ImGui::PopTextWrapPos();
-    if (ImGui::Button("OK")) {
+    const bool key = ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape)) ||
+                     ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) ||
+                     ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_KeyPadEnter));
+    if (ImGui::Button("OK") || key || errorDialog_.empty()) {
       errorDialog_.clear();
       ImGui::CloseCurrentPopup();
     }
@@ -293,13 +377,33 @@ void Studio::frame() {
 
 // ---- [3] Controls --------------------------------------------------------------------
 
+void Studio::errorField(const char* key) {
+  if (settingsError_.empty() || settingsErrorKey_ != key) return;
+  ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.45f, 0.4f, 1));
+  ImGui::TextWrapped("%s", settingsError_.c_str());
+  ImGui::PopStyleColor();
+}
+
+namespace {
+void warningText(const char* text) {
+  ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.8f, 0.3f, 1));
+  ImGui::TextWrapped("%s", text);
+  ImGui::PopStyleColor();
+}
+}  // namespace
+
 void Studio::controlsPanel() {
   bool changed = false;
+  // Records which control changed, so that a refusal is shown beside it.
+  auto track = [&](const char* key, bool c) {
+    if (c) lastControl_ = key, changed = true;
+  };
   ImGui::TextUnformatted("Scene");
   ImGui::SetNextItemWidth(-60);
   bool enter = ImGui::InputText("##path", &scenePath_, ImGuiInputTextFlags_EnterReturnsTrue);
   ImGui::SameLine();
   if (ImGui::Button("Load") || enter) openScene(scenePath_);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Or drop a .gltf/.glb on the window");
   if (!options_.bundled.empty()) {
     std::string current = std::filesystem::path(settings_.scene).stem().string();
     ImGui::SetNextItemWidth(-1);
@@ -311,59 +415,95 @@ void Studio::controlsPanel() {
       ImGui::EndCombo();
     }
   }
-  ImGui::TextDisabled("(or drop a .gltf/.glb on the window)");
+  errorField("scene");
 
   sectionTitle("Virtual lights");
   ManyLightSettings& m = settings_.many;
   int lights = int(m.lights);
   if (ImGui::SliderInt("lights", &lights, 100, 1000000, "%d", ImGuiSliderFlags_Logarithmic)) {
-    m.lights = uint32_t(std::clamp(lights, 1, 50000000));
-    changed = true;
+    m.lights = uint32_t(std::max(lights, 1));
+    track("lights", true);
   }
-  changed |= ImGui::Checkbox("global radius", &globalRadius_);
+  errorField("lights");
+  track("global radius", ImGui::Checkbox("global radius", &globalRadius_));
   if (globalRadius_) {
-    changed |= ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene", ImGuiSliderFlags_Logarithmic);
+    track("radius",
+          ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene", ImGuiSliderFlags_Logarithmic));
+    errorField("radius");
   } else {
-    changed |= ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f", ImGuiSliderFlags_Logarithmic);
-    changed |= ImGui::SliderInt("k (nearest)", &m.knn, 1, 64);
+    track("radius-scale",
+          ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f", ImGuiSliderFlags_Logarithmic));
+    errorField("radius-scale");
+    track("knn", ImGui::SliderInt("k (nearest)", &m.knn, 1, 64));
+    errorField("knn");
   }
-  changed |= ImGui::Checkbox("auto VSL samples", &vslAuto_);
-  if (!vslAuto_) changed |= ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic);
+  // Values that make VSL meaningless: spheres as large as the scene blur
+  // everything into a dim wash, or go black when they swallow the receivers.
+  if (snap_ && !sourceStale(Source::Vsl) && snap_->sceneRadius > 0 && snap_->radiusMedian > 0.5f * snap_->sceneRadius) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "VSL radii (median %.3g) exceed half the scene's radius (%.3g): VSL is blurred out or black. "
+                  "Lower the radius.",
+                  snap_->radiusMedian, snap_->sceneRadius);
+    warningText(buf);
+  } else if (!globalRadius_ && m.radiusScale > 20) {
+    warningText("A radius scale this large makes VSL spheres larger than most scenes: VSL goes dark or black.");
+  }
+  track("vsl-samples", ImGui::Checkbox("auto VSL samples", &vslAuto_));
+  if (!vslAuto_)
+    track("vsl-samples", ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
+  errorField("vsl-samples");
   sectionTitle("VPL");
-  changed |= ImGui::Checkbox("clamp off", &clampOff_);
+  track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
   if (!clampOff_) {
     ImGui::SameLine();
-    changed |= ImGui::Checkbox("auto bound", &clampAuto_);
+    track("clamp", ImGui::Checkbox("auto bound", &clampAuto_));
     if (!clampAuto_)
-      changed |= ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic);
+      track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Bound on the luminance of f_x cos_x f_p cos_p / d^2 per virtual light.\nAuto: 1/(pi^2 (0.1 R)^2), R the "
         "scene's bounding radius.");
-  changed |= ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly);
+  if (snap_ && !clampOff_ && clampAuto_) ImGui::TextDisabled("auto bound = %.4g", snap_->clampBound);
+  errorField("clamp");
+  track("diffuse", ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly));
 
   sectionTitle("Render");
   int seed = int(m.seed);
   if (ImGui::InputInt("seed", &seed)) {
     m.seed = uint64_t(std::max(seed, 0));
-    changed = true;
+    track("seed", true);
   }
   int width = m.width > 0 ? m.width : 256;
   if (ImGui::SliderInt("width", &width, 32, 2048, "%d px", ImGuiSliderFlags_Logarithmic)) {
     m.width = width;
     m.height = 0;  // from the camera's aspect
-    changed = true;
+    track("width", true);
   }
-  changed |= ImGui::SliderInt("batches", &m.batches, 1, 64);
-  changed |=
-      ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic);
-  if (changed) restart();
-  if (ImGui::Button("Restart")) restart();
+  errorField("width");
+  track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
+  errorField("batches");
+  track("reference spp",
+        ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
+  errorField("reference spp");
+  // Restarts wait until the controls rest for a moment (a drag pauses, or
+  // typed text is entered): each restart throws away the light set.
+  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  if (ImGui::Button("Restart")) restart(true);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
+  ImGui::SameLine();
+  if (ImGui::Button("Reset to defaults")) {
+    StudioSettings d = options_.settings;
+    d.scene = settings_.scene;
+    applySettings(d);
+  }
+  for (const char* k : {"seed", "global radius", "diffuse"}) errorField(k);
 
   sectionTitle("View");
   int mode = int(view_.mode);
   if (ImGui::Combo("layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Keys: T swaps VSL and VPL; 1-7 put that image in panel 1");
   int panels = view_.mode == ViewMode::Single ? 1 : view_.mode == ViewMode::SideBySide3 ? 3 : 2;
   for (int i = 0; i < panels; ++i) {
     int src = int(view_.panels[i]);
@@ -372,10 +512,6 @@ void Studio::controlsPanel() {
     for (int k = 0; k < int(Source::Count); ++k) names.push_back(sourceName(Source(k)));
     if (ImGui::Combo(label.c_str(), &src, names.data(), int(names.size()))) view_.panels[i] = Source(src);
   }
-  if (view_.mode == ViewMode::Single && ImGui::Button("Toggle VPL / VSL  (T)"))
-    view_.panels[0] = view_.panels[0] == Source::Vsl ? Source::Vpl : Source::Vsl;
-  if (ImGui::IsKeyPressed('T') && !ImGui::GetIO().WantTextInput)
-    view_.panels[0] = view_.panels[0] == Source::Vsl ? Source::Vpl : Source::Vsl;
   int comp = int(view_.component);
   if (ImGui::Combo("component", &comp, kComponentNames, 3)) view_.component = Component(comp);
   int disp = int(view_.display);
@@ -406,32 +542,112 @@ void Studio::controlsPanel() {
   if (ImGui::Button("Save view (PNG)")) {
     std::error_code ec;
     std::filesystem::create_directories(exportDir_, ec);
-    savePngPath_ = (std::filesystem::path(exportDir_) / "view.png").string();
+    savePngPath_ = uniquePath(exportDir_, exportStem() + "-view", ".png");
     savePngPending_ = true;
   }
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("A screen grab of the view area, in a new file");
   ImGui::SameLine();
-  if (ImGui::Button("Export EXR + JSON")) {
-    std::string err;
+  if (ImGui::Button("Export images")) {
+    std::string err, folder;
     std::vector<std::string> written;
-    if (exportAll(exportDir_, &err, &written))
-      message_ = "wrote " + std::to_string(written.size()) + " files to " + exportDir_;
+    if (exportAll(exportDir_, &err, &written, &folder))
+      message_ = "wrote " + std::to_string(written.size()) + " files to " + folder;
     else
       errorDialog_ = "Export failed; existing files are untouched.\n\n" + err;
   }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
   if (!message_.empty()) ImGui::TextWrapped("%s", message_.c_str());
 }
 
 // ---- [4] Views -----------------------------------------------------------------------
 
+namespace {
+std::string humanSeconds(double t) {
+  char buf[32];
+  if (t < 60)
+    std::snprintf(buf, sizeof buf, "%.0f s", std::ceil(t));
+  else if (t < 3600)
+    std::snprintf(buf, sizeof buf, "%d min %02d s", int(t) / 60, int(t) % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%.1f h", t / 3600);
+  return buf;
+}
+std::string humanCount(double v) {
+  char buf[32];
+  if (v >= 1e6)
+    std::snprintf(buf, sizeof buf, "%.2fM", v * 1e-6);
+  else if (v >= 1e4)
+    std::snprintf(buf, sizeof buf, "%.1fk", v * 1e-3);
+  else
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+}  // namespace
+
+// Two fixed lines above the images: what the worker is doing (with a busy
+// mark), and progress of each method in work done, rate and time left.
+void Studio::statusBar() {
+  Session::Status st = session_ ? session_->status() : Session::Status();
+  const bool busyNow = st.busy();
+  const char* spin = "|/-\\";
+  const char mark = busyNow ? spin[int(ImGui::GetTime() * 6) % 4] : ' ';
+  std::string what;
+  if (st.stage == "loading")
+    what = "loading " + std::filesystem::path(st.loading).filename().string();
+  else if (st.stage == "tracing lights")
+    what = "tracing " + std::to_string(st.lightsTarget) + " virtual lights";
+  else if (st.stage == "k-NN radii")
+    what = "k-NN radii of " + std::to_string(st.lightsTarget) + " lights";
+  else
+    what = st.stage.empty() ? "idle" : st.stage;
+  if (busyNow && st.stage != "rendering") what += "  " + humanSeconds(st.stageSeconds);
+  bool anyStale = false;
+  for (int i = 0; i < 3; ++i) anyStale |= snap_ && panelStale(i);
+  if (busyNow)
+    ImGui::TextColored(ImVec4(0.5f, 0.85f, 1, 1), "[%c] %s", mark, what.c_str());
+  else
+    ImGui::Text("[%c] %s", mark, what.c_str());
+  if (anyStale) {
+    ImGui::SameLine();
+    ImGui::TextColored(ImVec4(1, 0.75f, 0.2f, 1), "  dimmed panels show the previous settings until their new picture");
+  }
+  const bool current = snap_ && !sourceStale(Source::Vsl);
+  if (!current) {
+    ImGui::TextDisabled(snap_ ? "waiting for the first picture of the current settings" : "no picture yet");
+    return;
+  }
+  const Snapshot& s = *snap_;
+  char overlay[64], detail[160];
+  float fm = s.lightsTotal ? float(double(s.lightsProcessed) / double(s.lightsTotal)) : 0.0f;
+  std::snprintf(overlay, sizeof overlay, "VSL+VPL %.0f%%", 100 * fm);
+  ImGui::ProgressBar(fm, ImVec2(130, 0), overlay);
+  ImGui::SameLine();
+  std::snprintf(detail, sizeof detail, "%zu / %zu lights  %s lights/s  %s", s.lightsProcessed, s.lightsTotal,
+                humanCount(s.lightsPerSecond).c_str(),
+                s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
+  ImGui::TextUnformatted(detail);
+  ImGui::SameLine(0, 24);
+  float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
+  std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
+  ImGui::ProgressBar(fr, ImVec2(130, 0), overlay);
+  ImGui::SameLine();
+  std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
+                humanCount(s.referenceSppPerSecond).c_str(),
+                s.referenceDone ? "done" : ("~" + humanSeconds(s.referenceRemainingSeconds) + " left").c_str());
+  ImGui::TextUnformatted(detail);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Time left at the current rate with the machine to itself; the reference shares it with the "
+        "many-light methods until they finish.");
+}
+
 void Studio::viewsPanel() {
+  statusBar();
   ImVec2 origin = ImGui::GetCursorScreenPos(), avail = ImGui::GetContentRegionAvail();
   viewMin_ = origin;
   viewMax_ = ImVec2(origin.x + avail.x, origin.y + avail.y);
-  if (!snap_ || snap_->width == 0) {
-    std::string stage = session_ ? session_->status().stage : "idle";
-    ImGui::Text("Waiting for the first picture (%s)...", stage.c_str());
-    return;
-  }
+  if (!snap_ || snap_->width == 0) return;
   ImDrawList* dl = ImGui::GetWindowDrawList();
   const bool maps = view_.display != Display::Image;
   if (maps) avail.y -= 28;  // room for the legend
@@ -442,10 +658,9 @@ void Studio::viewsPanel() {
   // Fit the image into a panel, keeping its aspect.
   float w = panelW, h = panelW / aspect;
   if (h > panelH) h = panelH, w = panelH * aspect;
+  handleViewInput(origin, avail, panelW, w, h, n);
   // Zoom and pan: the visible UV window.
   float half = 0.5f / view_.zoom;
-  view_.center.x = std::clamp(view_.center.x, half, 1 - half);
-  view_.center.y = std::clamp(view_.center.y, half, 1 - half);
   ImVec2 uv0(view_.center.x - half, view_.center.y - half), uv1(view_.center.x + half, view_.center.y + half);
 
   // One colour scale for every map on screen, so panels compare fairly.
@@ -462,12 +677,20 @@ void Studio::viewsPanel() {
       p.mode = DisplayMode::Tonemap;
       p.scale = std::exp2(view_.exposure);
     } else {
-      float vmax = mapMax;
       p.mode = view_.display == Display::Error ? DisplayMode::FalseColour : DisplayMode::Signed;
-      p.scale = 1.0f / std::max(vmax, 1e-12f);
+      p.scale = 1.0f / std::max(mapMax, 1e-12f);
     }
     return p;
   };
+  // A stale image is dimmed and badged until its first new picture.
+  auto staleMark = [&](ImVec2 p0, ImVec2 p1) {
+    dl->AddRectFilled(p0, p1, IM_COL32(0, 0, 0, 150));
+    const char* badge = "STALE - previous settings";
+    ImVec2 ts = ImGui::CalcTextSize(badge);
+    dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(120, 80, 0, 230));
+    dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
+  };
+  const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
   for (int i = 0; i < n; ++i) {
     ImVec2 p0(origin.x + i * (panelW + 8) + (panelW - w) / 2, origin.y + labelH);
     ImVec2 p1(p0.x + w, p0.y + h);
@@ -478,37 +701,154 @@ void Studio::viewsPanel() {
       drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
       drawn_.push_back({ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, b});
+      if (sourceStale(a)) staleMark(p0, ImVec2(sx, p1.y));
+      if (sourceStale(b)) staleMark(ImVec2(sx, p0.y), p1);
       dl->AddLine(ImVec2(sx, p0.y), ImVec2(sx, p1.y), IM_COL32(255, 255, 255, 200), 1.5f);
-      dl->AddText(ImVec2(p0.x, origin.y), IM_COL32_WHITE,
-                  (std::string(sourceName(a)) + "  |  " + sourceName(b)).c_str());
+      dl->AddText(ImVec2(p0.x, origin.y), panelStale(0) ? staleTitle : IM_COL32_WHITE,
+                  (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
     } else {
       Source s = view_.panels[i];
       drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
       drawn_.push_back({p0, p1, uv0, uv1, s});
-      dl->AddText(ImVec2(p0.x, origin.y), IM_COL32_WHITE, sourceName(s));
+      bool stale = sourceStale(s);
+      if (stale) staleMark(p0, p1);
+      dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
+                  (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
     }
   }
-  // Interaction over the whole view area: wheel zooms, drag pans (in wipe
-  // mode, dragging near the split line moves it).
-  ImGui::SetCursorScreenPos(origin);
-  ImGui::InvisibleButton("viewarea", ImVec2(std::max(avail.x, 1.0f), std::max(avail.y, 1.0f)));
-  if (ImGui::IsItemHovered()) {
-    float wheel = ImGui::GetIO().MouseWheel;
-    if (wheel != 0) view_.zoom = std::clamp(view_.zoom * std::pow(1.15f, wheel), 1.0f, 64.0f);
-  }
-  if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
-    ImVec2 d = ImGui::GetIO().MouseDelta;
-    float splitX = origin.x + (panelW - w) / 2 + view_.wipe * w;
-    if (view_.mode == ViewMode::Wipe && std::abs(ImGui::GetIO().MouseClickedPos[0].x - splitX) < 40) {
-      view_.wipe = std::clamp((ImGui::GetIO().MousePos.x - (origin.x + (panelW - w) / 2)) / w, 0.0f, 1.0f);
-    } else {
-      view_.center.x -= d.x / w / view_.zoom;
-      view_.center.y -= d.y / h / view_.zoom;
-    }
-  }
+  if (ImGui::IsItemHovered()) probe(ImGui::GetIO().MousePos);
   if (maps) {
     ImGui::SetCursorScreenPos(ImVec2(origin.x, origin.y + labelH + h + 6));
     legend(mapMax);
+  }
+}
+
+// Wheel zooms about the cursor, a drag pans, and in wipe mode a drag that
+// starts on the split line moves it (decided once, when the button goes
+// down). Keys: T swaps VSL and VPL without ever showing one method twice;
+// 1-7 put that image in panel 1 (swapping with a panel that shows it).
+void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float panelW, float w, float h, int n) {
+  ImGuiIO& io = ImGui::GetIO();
+  const float labelH = ImGui::GetTextLineHeightWithSpacing();
+  auto imageX0 = [&](int i) { return origin.x + i * (panelW + 8) + (panelW - w) / 2; };
+  ImGui::SetCursorScreenPos(origin);
+  ImGui::InvisibleButton("viewarea", ImVec2(std::max(avail.x, 1.0f), std::max(avail.y, 1.0f)));
+  const bool hovered = ImGui::IsItemHovered();
+  const float splitX = imageX0(0) + view_.wipe * w;
+  if (hovered && io.MouseWheel != 0) {
+    float zoom = std::clamp(view_.zoom * std::pow(1.15f, io.MouseWheel), 1.0f, 64.0f);
+    for (int i = 0; i < n; ++i) {
+      float fx = (io.MousePos.x - imageX0(i)) / w, fy = (io.MousePos.y - origin.y - labelH) / h;
+      if (fx < 0 || fx > 1 || fy < 0 || fy > 1) continue;
+      // Keep the image point under the cursor where it is.
+      float oldHalf = 0.5f / view_.zoom, newHalf = 0.5f / zoom;
+      float u = view_.center.x - oldHalf + fx * 2 * oldHalf, v = view_.center.y - oldHalf + fy * 2 * oldHalf;
+      view_.center = ImVec2(u + newHalf - fx * 2 * newHalf, v + newHalf - fy * 2 * newHalf);
+    }
+    view_.zoom = zoom;
+  }
+  if (ImGui::IsItemActivated())
+    wipeGrabbed_ = view_.mode == ViewMode::Wipe && std::abs(io.MouseClickedPos[0].x - splitX) < 16;
+  if (ImGui::IsItemActive() && wipeGrabbed_) {
+    view_.wipe = std::clamp((io.MousePos.x - imageX0(0)) / w, 0.0f, 1.0f);
+  } else if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
+    view_.center.x -= io.MouseDelta.x / w / view_.zoom;
+    view_.center.y -= io.MouseDelta.y / h / view_.zoom;
+  }
+  if (!ImGui::IsItemActive()) wipeGrabbed_ = false;
+  if (view_.mode == ViewMode::Wipe && (wipeGrabbed_ || (hovered && std::abs(io.MousePos.x - splitX) < 16)))
+    ImGui::SetMouseCursor(ImGuiMouseCursor_ResizeEW);
+  const float half = 0.5f / view_.zoom;
+  view_.center.x = std::clamp(view_.center.x, half, 1 - half);
+  view_.center.y = std::clamp(view_.center.y, half, 1 - half);
+
+  if (io.WantTextInput || ImGui::IsPopupOpen("", ImGuiPopupFlags_AnyPopupId)) return;
+  Source* p = view_.panels;
+  const int shown = view_.mode == ViewMode::SideBySide3 ? 3 : view_.mode == ViewMode::Single ? 1 : 2;
+  if (ImGui::IsKeyPressed('T')) {
+    if (shown == 1)
+      p[0] = p[0] == Source::Vsl ? Source::Vpl : Source::Vsl;
+    else
+      std::swap(p[0], p[1]);
+  }
+  for (int k = 0; k < int(Source::Count); ++k) {
+    if (!ImGui::IsKeyPressed('1' + k)) continue;
+    for (int i = 1; i < shown; ++i)
+      if (p[i] == Source(k)) p[i] = p[0];
+    p[0] = Source(k);
+  }
+}
+
+bool Studio::pixelValue(Source src, Component c, int x, int y, Vec3* out) const {
+  const Snapshot& s = *snap_;
+  auto at = [&](const Image& im) { return x < im.width && y < im.height ? im.at(x, y) : Vec3(0.0f); };
+  const Image* indirect = nullptr;
+  switch (src) {
+    case Source::Reference:
+      *out = c == Component::Direct     ? at(s.ptDirect)
+             : c == Component::Indirect ? at(s.ptIndirect)
+                                        : at(s.ptDirect) + at(s.ptIndirect);
+      return true;
+    case Source::LostClamping:
+      *out = at(s.many.lostToClamping);
+      return true;
+    case Source::LostDiffuse:
+      *out = at(s.many.lostToDiffuse);
+      return true;
+    case Source::Vsl:
+      indirect = &s.many.vsl;
+      break;
+    case Source::Vpl:
+      indirect = &s.many.vpl;
+      break;
+    case Source::VplUnclamped:
+      indirect = &s.many.vplUnclamped;
+      break;
+    case Source::VplDiffuse:
+      indirect = &s.many.vplDiffuse;
+      break;
+    case Source::Count:
+      return false;
+  }
+  *out = c == Component::Direct     ? at(s.many.direct)
+         : c == Component::Indirect ? at(*indirect)
+                                    : at(s.many.direct) + at(*indirect);
+  return true;
+}
+
+// The pixel probe: the value of every shown image under the cursor, and each
+// method's error there against the reference (the map's metric).
+void Studio::probe(const ImVec2& mouse) {
+  for (const DrawnImage& d : drawn_) {
+    if (mouse.x < d.p0.x || mouse.x >= d.p1.x || mouse.y < d.p0.y || mouse.y >= d.p1.y) continue;
+    float u = d.uv0.x + (mouse.x - d.p0.x) / (d.p1.x - d.p0.x) * (d.uv1.x - d.uv0.x);
+    float v = d.uv0.y + (mouse.y - d.p0.y) / (d.p1.y - d.p0.y) * (d.uv1.y - d.uv0.y);
+    int x = std::clamp(int(u * snap_->width), 0, snap_->width - 1);
+    int y = std::clamp(int(v * snap_->height), 0, snap_->height - 1);
+    Vec3 ref;
+    pixelValue(Source::Reference, view_.component, x, y, &ref);
+    ImGui::BeginTooltip();
+    ImGui::Text("pixel (%d, %d), %s component", x, y, componentName(view_.component));
+    std::vector<Source> listed;
+    const int shown = view_.mode == ViewMode::SideBySide3 ? 3 : view_.mode == ViewMode::Single ? 1 : 2;
+    for (int i = 0; i < shown; ++i)
+      if (std::find(listed.begin(), listed.end(), view_.panels[i]) == listed.end()) listed.push_back(view_.panels[i]);
+    if (std::find(listed.begin(), listed.end(), Source::Reference) == listed.end()) listed.push_back(Source::Reference);
+    for (Source src : listed) {
+      Vec3 val;
+      pixelValue(src, view_.component, x, y, &val);
+      ImGui::Text("%-22s %.4g %.4g %.4g", sourceName(src), val.x, val.y, val.z);
+      if (src == Source::Reference || src == Source::LostClamping || src == Source::LostDiffuse) continue;
+      float t = (val.x + val.y + val.z) / 3, r = (ref.x + ref.y + ref.z) / 3, dd = t - r;
+      float e = view_.metric == ErrorMetric::Absolute           ? std::abs(dd)
+                : view_.metric == ErrorMetric::RelativeAbsolute ? std::abs(dd) / (std::abs(r) + kEps)
+                : view_.metric == ErrorMetric::Squared          ? dd * dd
+                                                                : dd * dd / (r * r + kEps);
+      ImGui::SameLine();
+      ImGui::TextDisabled("  error %.3g (%s), signed %+.3g", e, kMetricNames[int(view_.metric)], dd);
+    }
+    ImGui::EndTooltip();
+    return;
   }
 }
 
@@ -568,17 +908,25 @@ void Studio::metricsPanel() {
   }
   const Snapshot& s = *snap_;
   updateMetrics();
+  const bool stale = sourceStale(Source::Vsl);
   ImGui::BeginGroup();
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 480);
   ImGui::Text("%s  |  %dx%d  |  %s component", std::filesystem::path(s.settings.scene).filename().c_str(), s.width,
               s.height, kComponentNames[int(view_.component)]);
-  ImGui::Text("lights %zu / %zu  (batch %d/%d)   reference %d spp   %.1f s", s.lightsProcessed, s.lightsTotal,
-              s.batchesDone, s.batchCount, s.ptSpp, s.seconds);
-  ImGui::Text("gather %.2f M pairs/s   light tracing %.2f s   non-finite rejected %llu", s.pairsPerSecond * 1e-6,
-              s.lightTracingSeconds, (unsigned long long)s.nonFinite);
-  ImGui::Text("UI frame %.1f ms   change -> picture %.0f ms   launch -> picture %.0f ms", lastFrameMs_,
-              restartToPictureMs_, launchToPictureMs_);
-  if (ImGui::BeginTable("metrics", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
-    ImGui::TableSetupColumn("method vs reference");
+  if (stale) {
+    ImGui::SameLine();
+    ImGui::TextColored(ImVec4(1, 0.75f, 0.2f, 1), "[stale]");
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("These numbers belong to the previous settings");
+  }
+  ImGui::TextWrapped("gather %.2f M pairs/s  tracing %.2f s  k-NN %.2f s  non-finite %llu", s.pairsPerSecond * 1e-6,
+                     s.lightTracingSeconds, s.knnSeconds, (unsigned long long)s.nonFinite);
+  ImGui::TextWrapped("UI frame %.1f ms  change -> picture %.0f ms  launch -> picture %.0f ms", lastFrameMs_,
+                     restartToPictureMs_, launchToPictureMs_);
+  ImGui::PopTextWrapPos();
+  // A fixed outer width: the table's row lines end at the table, not under the plot.
+  if (ImGui::BeginTable("metrics", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(430, 0))) {
+    ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
+                            ImGuiTableColumnFlags_WidthStretch);
     ImGui::TableSetupColumn("mean");
     ImGui::TableSetupColumn("RMSE");
     ImGui::TableSetupColumn("relMSE");
@@ -603,24 +951,52 @@ void Studio::metricsPanel() {
     ImGui::TableNextColumn();
     ImGui::TextUnformatted("-");
     ImGui::TableNextColumn();
-    ImGui::Text("~%.3g", s.history.empty() ? 0.0 : s.history.back().pt);
-    if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("The reference's own expected relMSE (indirect), from its sample variance");
+    // The reference's own error is tracked for the indirect component (where
+    // the methods differ); it is not shown under another component's title.
+    if (view_.component == Component::Indirect) {
+      ImGui::Text("~%.3g", s.history.empty() ? 0.0 : s.history.back().pt);
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("The reference's own expected relMSE (indirect), from its sample variance");
+    } else {
+      ImGui::TextDisabled("n/a");
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("The reference's own error is estimated for the indirect component only");
+    }
     ImGui::EndTable();
   }
   ImGui::EndGroup();
-  ImGui::SameLine();
+  ImGui::SameLine(0, 12);
   plotErrors(
       ImVec2(std::max(ImGui::GetContentRegionAvail().x, 100.0f), std::max(ImGui::GetContentRegionAvail().y, 80.0f)));
 }
+
+namespace {
+// Tick values for a log axis over [lo, hi]: decades, plus 2 and 5 when the
+// range spans fewer than three decades.
+std::vector<double> logTicks(double lo, double hi) {
+  std::vector<double> t;
+  const bool fine = hi / lo < 1e3;
+  for (double d = std::pow(10.0, std::floor(std::log10(lo))); d <= hi * 1.0001; d *= 10)
+    for (double m : {1.0, 2.0, 5.0}) {
+      if (m != 1 && !fine) continue;
+      double v = d * m;
+      if (v >= lo * 0.9999 && v <= hi * 1.0001) t.push_back(v);
+    }
+  return t;
+}
+}  // namespace
 
 void Studio::plotErrors(const ImVec2& size) {
   const auto& h = snap_->history;
   ImDrawList* dl = ImGui::GetWindowDrawList();
   ImVec2 p0 = ImGui::GetCursorScreenPos(), p1(p0.x + size.x, p0.y + size.y);
-  dl->AddRect(p0, p1, IM_COL32(120, 120, 120, 255));
   ImGui::Dummy(size);
-  if (h.empty()) return;
+  // The title sits above the plot area, never over the curves.
+  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255), "relMSE (indirect) vs compute time on each image");
+  const float titleH = ImGui::GetTextLineHeight() + 4, padL = 56, padB = 18, padR = 56;
+  ImVec2 a(p0.x + padL, p0.y + titleH + 4), b(p1.x - padR, p1.y - padB);
+  dl->AddRect(ImVec2(a.x, a.y), ImVec2(b.x, b.y), IM_COL32(120, 120, 120, 255));
+  if (h.empty() || b.x - a.x < 40 || b.y - a.y < 30) return;
   // Log-log axes over every series' range.
   double tMin = 1e30, tMax = 1e-30, eMin = 1e30, eMax = 1e-30;
   for (const ErrorSample& e : h) {
@@ -629,16 +1005,36 @@ void Studio::plotErrors(const ImVec2& size) {
     for (double v : {e.vsl, e.vpl, e.pt})
       if (v > 0) eMin = std::min(eMin, v), eMax = std::max(eMax, v);
   }
-  if (!(tMax > tMin)) tMax = tMin * 10;
-  if (!(eMax > eMin)) eMax = eMin * 10;
-  const float padL = 50, padB = 16;
-  ImVec2 a(p0.x + padL, p0.y + 4), b(p1.x - 4, p1.y - padB);
+  if (tMin > tMax || eMin > eMax) return;
+  if (!(tMax > tMin * 1.5)) tMin /= 1.5, tMax *= 1.5;
+  if (!(eMax > eMin * 1.5)) eMin /= 1.5, eMax *= 1.5;
   auto X = [&](double t) {
     return a.x + float((std::log(t) - std::log(tMin)) / (std::log(tMax) - std::log(tMin))) * (b.x - a.x);
   };
   auto Y = [&](double e) {
     return b.y - float((std::log(e) - std::log(eMin)) / (std::log(eMax) - std::log(eMin))) * (b.y - a.y);
   };
+  // Labelled ticks with faint grid lines.
+  char buf[32];
+  float lastLabelY = 1e9f;
+  for (double v : logTicks(eMin, eMax)) {
+    float y = Y(v);
+    if (y > lastLabelY - 13) continue;
+    lastLabelY = y;
+    dl->AddLine(ImVec2(a.x, y), ImVec2(b.x, y), IM_COL32(70, 70, 70, 255));
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    dl->AddText(ImVec2(a.x - 6 - ImGui::CalcTextSize(buf).x, y - 7), IM_COL32_WHITE, buf);
+  }
+  float lastLabelEnd = -1e9f;
+  for (double v : logTicks(tMin, tMax)) {
+    float x = X(v);
+    dl->AddLine(ImVec2(x, a.y), ImVec2(x, b.y), IM_COL32(70, 70, 70, 255));
+    std::snprintf(buf, sizeof buf, "%.3g s", v);
+    float tw = ImGui::CalcTextSize(buf).x;
+    if (x - tw / 2 < lastLabelEnd + 6) continue;  // labels never overlap: skip this one
+    dl->AddText(ImVec2(x - tw / 2, b.y + 2), IM_COL32_WHITE, buf);
+    lastLabelEnd = x + tw / 2;
+  }
   struct Series {
     const char* name;
     ImU32 colour;
@@ -653,26 +1049,21 @@ void Studio::plotErrors(const ImVec2& size) {
       {"PT", IM_COL32(120, 220, 120, 255), [](const ErrorSample& e) { return e.ptSeconds; },
        [](const ErrorSample& e) { return e.pt; }},
   };
-  float ly = a.y;
-  for (const Series& s : series) {
+  float ly = a.y + 2;
+  dl->PushClipRect(a, b, true);
+  for (const Series& sr : series) {
     std::vector<ImVec2> pts;
     for (const ErrorSample& e : h)
-      if (s.t(e) > 0 && s.v(e) > 0) pts.push_back(ImVec2(X(s.t(e)), Y(s.v(e))));
-    if (pts.size() >= 2) dl->AddPolyline(pts.data(), int(pts.size()), s.colour, 0, 2.0f);
-    for (const ImVec2& q : pts) dl->AddCircleFilled(q, 2.5f, s.colour);
-    dl->AddText(ImVec2(b.x - 40, ly + 16), s.colour, s.name);
+      if (sr.t(e) > 0 && sr.v(e) > 0) pts.push_back(ImVec2(X(sr.t(e)), Y(sr.v(e))));
+    if (pts.size() >= 2) dl->AddPolyline(pts.data(), int(pts.size()), sr.colour, 0, 2.0f);
+    for (const ImVec2& q : pts) dl->AddCircleFilled(q, 2.5f, sr.colour);
+  }
+  dl->PopClipRect();
+  // The legend sits in the right margin, outside the curves.
+  for (const Series& sr : series) {
+    dl->AddText(ImVec2(b.x + 8, ly), sr.colour, sr.name);
     ly += 14;
   }
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.2g", eMax);
-  dl->AddText(ImVec2(p0.x + 2, a.y), IM_COL32_WHITE, buf);
-  std::snprintf(buf, sizeof buf, "%.2g", eMin);
-  dl->AddText(ImVec2(p0.x + 2, b.y - 12), IM_COL32_WHITE, buf);
-  std::snprintf(buf, sizeof buf, "%.2g s", tMin);
-  dl->AddText(ImVec2(a.x, b.y + 1), IM_COL32_WHITE, buf);
-  std::snprintf(buf, sizeof buf, "%.2g s", tMax);
-  dl->AddText(ImVec2(b.x - ImGui::CalcTextSize(buf).x, b.y + 1), IM_COL32_WHITE, buf);
-  dl->AddText(ImVec2(a.x + 60, a.y), IM_COL32(200, 200, 200, 255), "relMSE (indirect) vs compute time, log-log");
 }
 
 // ---- [6] Log ---------------------------------------------------------------------------
@@ -709,20 +1100,138 @@ void Studio::afterRender(int fbWidth, int fbHeight) {
   }
 }
 
-bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written) {
-  if (!snap_ || snap_->width == 0) {
-    if (error) *error = "nothing to export yet";
-    return false;
+namespace {
+
+std::string slug(Source s) {
+  switch (s) {
+    case Source::Vsl:
+      return "vsl";
+    case Source::Vpl:
+      return "vpl-clamped";
+    case Source::Reference:
+      return "reference";
+    case Source::VplUnclamped:
+      return "vpl-unclamped";
+    case Source::VplDiffuse:
+      return "vpl-diffuse";
+    case Source::LostClamping:
+      return "lost-to-clamping";
+    case Source::LostDiffuse:
+      return "lost-to-diffuse";
+    case Source::Count:
+      break;
   }
+  return "image";
+}
+
+const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
+
+// Per-pixel error of test against ref under a metric, averaged over the
+// channels (as the studio's maps show it), in every channel.
+Image errorMap(const Image& test, const Image& ref, ErrorMetric metric) {
+  Image m(test.width, test.height);
+  for (size_t i = 0; i + 2 < test.rgb.size(); i += 3) {
+    float e = 0;
+    for (int c = 0; c < 3; ++c) {
+      float r = ref.rgb[i + c], d = test.rgb[i + c] - r;
+      float v = metric == ErrorMetric::Absolute           ? std::abs(d)
+                : metric == ErrorMetric::RelativeAbsolute ? std::abs(d) / (std::abs(r) + kEps)
+                : metric == ErrorMetric::Squared          ? d * d
+                                                          : d * d / (r * r + kEps);
+      e += std::isfinite(v) ? v / 3 : 0.0f;
+    }
+    m.rgb[i] = m.rgb[i + 1] = m.rgb[i + 2] = e;
+  }
+  return m;
+}
+
+// An error map in false colour (0 black ... vmax white), with a colour bar in
+// 16 rows below it.
+std::vector<uint8_t> falseColourWithBar(const Image& map, float vmax, int* rows) {
+  const int w = map.width, h = map.height, bar = 16;
+  std::vector<uint8_t> px(size_t(w) * (h + bar) * 3, 20);
+  auto put = [&](int x, int y, const Vec3& c) {
+    uint8_t* q = &px[(size_t(y) * w + x) * 3];
+    q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
+    q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
+    q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) put(x, y, falseColour(map.at(x, y).x / std::max(vmax, 1e-12f)));
+  for (int y = h + 4; y < h + bar; ++y)
+    for (int x = 0; x < w; ++x) put(x, y, falseColour((x + 0.5f) / w));
+  *rows = h + bar;
+  return px;
+}
+
+std::string firstLineOf(const char* path, const std::string& key) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(key, 0) == 0) {
+      size_t c = line.find(':');
+      std::string v = c == std::string::npos ? line : line.substr(c + 1);
+      v.erase(0, v.find_first_not_of(" \t"));
+      return v;
+    }
+  return "";
+}
+
+nlohmann::json machineJson() {
+  return {{"cpu", firstLineOf("/proc/cpuinfo", "model name")},
+          {"hardwareThreads", std::thread::hardware_concurrency()},
+          {"renderThreads", threadCount()},
+          {"memory", firstLineOf("/proc/meminfo", "MemTotal")}};
+}
+
+std::string utcStamp() {
+  std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%SZ", &tm);
+  return buf;
+}
+
+}  // namespace
+
+std::string Studio::exportStem() const {
+  std::string scene = snap_ ? snap_->settings.scene : settings_.scene;
+  return std::filesystem::path(scene).stem().string() + "-" + utcStamp();
+}
+
+std::string Studio::uniquePath(const std::string& dir, const std::string& stem, const std::string& ext) {
+  std::filesystem::path p = std::filesystem::path(dir) / (stem + ext);
+  for (int k = 2; std::filesystem::exists(p); ++k)
+    p = std::filesystem::path(dir) / (stem + "-" + std::to_string(k) + ext);
+  return p.string();
+}
+
+bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written,
+                       std::string* folderOut) {
+  auto fail = [&](const std::string& e) {
+    if (error) *error = e;
+    return false;
+  };
+  if (!snap_ || snap_->width == 0) return fail("nothing to export yet");
+  const Snapshot& s = *snap_;
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) {
-    if (error) *error = dir + ": cannot create the directory (" + ec.message() + ")";
-    return false;
+  if (ec) return fail(dir + ": cannot create the directory (" + ec.message() + ")");
+  // A new folder per export; create_directory fails if it exists, so two
+  // exports in the same second (or two studios) never share one.
+  const std::string stem = exportStem();
+  std::filesystem::path folder;
+  for (int k = 1;; ++k) {
+    folder = std::filesystem::path(dir) / (k == 1 ? stem : stem + "-" + std::to_string(k));
+    if (std::filesystem::create_directory(folder, ec)) break;
+    if (ec) return fail(folder.string() + ": cannot create the directory (" + ec.message() + ")");
+    if (k > 1000) return fail(folder.string() + ": too many exports with this name");
   }
-  const Snapshot& s = *snap_;
-  std::string stem = std::filesystem::path(s.settings.scene).stem().string();
-  std::filesystem::path base = std::filesystem::path(dir) / ("studio-" + stem);
+  std::vector<std::string> files;
+  auto path = [&](const std::string& name) { return (folder / name).string(); };
+
+  // Every layer, linear, in one EXR.
   Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl),
         vplFull = add(s.many.direct, s.many.vpl);
   ErrorImages ev = errorImages(s.many.vsl, s.ptIndirect), ep = errorImages(s.many.vpl, s.ptIndirect);
@@ -743,29 +1252,48 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                                {"error-vsl-relsq", ev.relSquared},
                                {"error-vpl-signed", ep.signedDiff},
                                {"error-vpl-relsq", ep.relSquared}};
-  std::string exr = base.string() + ".exr", js = base.string() + ".json", png = base.string() + ".png";
   std::string err;
-  if (!writeExr(exr, layers, &err,
+  if (!writeExr(path("images.exr"), layers, &err,
                 {{"vsl.version", VSL_VERSION},
                  {"vsl.scene", s.settings.scene},
-                 {"vsl.settings", s.settings.many.describe()}})) {
-    if (error) *error = err;
-    return false;
+                 {"vsl.settings", s.settings.many.describe()}}))
+    return fail(err);
+  files.push_back(path("images.exr"));
+
+  // Every image at the render's resolution, the shown component and exposure.
+  const char* comp = componentName(view_.component);
+  for (int i = 0; i < int(Source::Count); ++i) {
+    Image scratch;
+    const Image* img = componentImage(Source(i), view_.component, scratch);
+    std::string name = slug(Source(i)) + "-" + comp + ".png";
+    if (!writePng(path(name), *img, view_.exposure, &err)) return fail(err);
+    files.push_back(path(name));
   }
-  // PNG: the first panel's image as displayed (tone mapped at the current exposure).
-  Image scratch;
-  const Image* first = componentImage(view_.panels[0], view_.component, scratch);
-  if (!writePng(png, *first, view_.exposure, &err)) {
-    if (error) *error = err;
-    return false;
+  // Error maps of each method on one shared scale (set by hand, or the
+  // largest 99th percentile), with a colour bar.
+  Image refScratch;
+  const Image* ref = referenceImage(view_.component, refScratch);
+  std::vector<Image> maps;
+  float vmax = view_.errorScale, autoMax = 0;
+  for (Source m : kMetricSources) {
+    Image scratch;
+    maps.push_back(errorMap(*componentImage(m, view_.component, scratch), *ref, view_.metric));
+    autoMax = std::max(autoMax, percentile99(maps.back()));
   }
+  if (!(vmax > 0)) vmax = autoMax > 0 ? autoMax : 1.0f;
+  for (size_t i = 0; i < maps.size(); ++i) {
+    int rows = 0;
+    std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
+    std::string name = "error-" + slug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
+    if (!writePngRgb8(path(name), s.width, rows, px, &err)) return fail(err);
+    files.push_back(path(name));
+  }
+
   nlohmann::json metrics;
   for (Source src : kMetricSources) {
     for (Component c : {Component::Full, Component::Indirect}) {
       Image sc, rs;
-      const Image* img = componentImage(src, c, sc);
-      const Image* ref = referenceImage(c, rs);
-      CompareResult r = compareImages(*img, *ref);
+      CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
       metrics[sourceName(src)][componentName(c)] = {
           {"mean", r.average.meanTest}, {"rmse", r.average.rmse}, {"relMSE", r.average.relMse}};
     }
@@ -774,38 +1302,68 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   for (const ErrorSample& e : s.history)
     hist.push_back(
         {{"manySeconds", e.manySeconds}, {"vsl", e.vsl}, {"vpl", e.vpl}, {"ptSeconds", e.ptSeconds}, {"pt", e.pt}});
+  const ManyLightSettings& m = s.settings.many;
+  // The clamp as resolved: its mode and the bound actually used.
+  nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
+  clamp["bound"] = std::isinf(m.clamp) ? nlohmann::json(nullptr) : nlohmann::json(s.clampBound);
   nlohmann::json j = {{"version", VSL_VERSION},
                       {"scene", s.settings.scene},
+                      {"exportedUtc", utcStamp()},
+                      {"replay", "vsl render " + s.settings.scene + " --method all " + m.describe()},
                       {"settings",
-                       {{"describe", s.settings.many.describe()},
-                        {"lights", s.settings.many.lights},
-                        {"radiusScale", s.settings.many.radiusScale},
-                        {"knn", s.settings.many.knn},
-                        {"globalRadius", s.settings.many.globalRadius},
-                        {"vslSamples", s.settings.many.vslSamples},
-                        {"clamp", std::isinf(s.settings.many.clamp) ? -2.0 : double(s.settings.many.clamp)},
-                        {"diffuseOnly", s.settings.many.diffuseOnly},
-                        {"seed", s.settings.many.seed},
-                        {"batches", s.settings.many.batches},
+                       {{"lights", m.lights},
+                        {"radius",
+                         {{"mode", m.globalRadius > 0 ? "global" : "knn"},
+                          {"scale", m.radiusScale},
+                          {"knn", m.knn},
+                          {"globalFraction", m.globalRadius},
+                          {"sceneRadius", s.sceneRadius},
+                          {"min", s.radiusMin},
+                          {"median", s.radiusMedian},
+                          {"max", s.radiusMax}}},
+                        {"vslSamples",
+                         {{"setting", m.vslSamples > 0 ? nlohmann::json(m.vslSamples) : nlohmann::json("auto")},
+                          {"meanPerPair", s.pairs ? double(s.vslEvaluations) / double(s.pairs) : 0.0}}},
+                        {"clamp", clamp},
+                        {"diffuseOnly", m.diffuseOnly},
+                        {"seed", m.seed},
+                        {"batches", m.batches},
+                        {"directSamples", m.directSamples},
+                        {"lightMaxDepth", m.lightMaxDepth},
                         {"maxReferenceSpp", s.settings.maxReferenceSpp}}},
                       {"width", s.width},
                       {"height", s.height},
-                      {"lightsProcessed", s.lightsProcessed},
-                      {"lightsTotal", s.lightsTotal},
-                      {"referenceSpp", s.ptSpp},
-                      {"seconds", s.seconds},
-                      {"lightTracingSeconds", s.lightTracingSeconds},
-                      {"pairsPerSecond", s.pairsPerSecond},
+                      {"samples",
+                       {{"lightsTraced", s.lightsTotal},
+                        {"lightsGathered", s.lightsProcessed},
+                        {"batchesDone", s.batchesDone},
+                        {"batchCount", s.batchCount},
+                        {"referenceSpp", s.ptSpp},
+                        {"pairs", s.pairs},
+                        {"vslEvaluations", s.vslEvaluations}}},
+                      {"timings",
+                       {{"wallSeconds", s.seconds},
+                        {"lightTracingSeconds", s.lightTracingSeconds},
+                        {"knnSeconds", s.knnSeconds},
+                        {"gatherSeconds", s.gatherSeconds},
+                        {"referenceSeconds", s.referenceSeconds},
+                        {"pairsPerSecond", s.pairsPerSecond}}},
+                      {"machine", machineJson()},
+                      {"complete", {{"manyLight", s.manyLightDone}, {"reference", s.referenceDone}}},
                       {"nonFiniteRejected", s.nonFinite},
+                      {"view",
+                       {{"component", comp},
+                        {"exposure", view_.exposure},
+                        {"errorMetric", kMetricNames[int(view_.metric)]},
+                        {"errorMapMax", vmax}}},
                       {"metricsAgainstReference", metrics},
                       {"relMseEpsilon", kEps},
                       {"errorHistory", hist}};
-  if (!writeTextFile(js, j.dump(2) + "\n", &err)) {
-    if (error) *error = err;
-    return false;
-  }
-  if (written) *written = {exr, js, png};
-  log::info("exported " + exr + ", " + js + ", " + png);
+  if (!writeTextFile(path("metrics.json"), j.dump(2) + "\n", &err)) return fail(err);
+  files.push_back(path("metrics.json"));
+  if (written) *written = files;
+  if (folderOut) *folderOut = folder.string();
+  log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
   return true;
 }
 

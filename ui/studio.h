@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/compare.h"
+#include "core/math.h"
 #include "core/session.h"
 #include "ui/gl_image.h"
 
@@ -24,6 +25,8 @@ enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSqua
 enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
 
 const char* sourceName(Source s);
+// "VSL (indirect)": the source's name and the component it shows.
+std::string panelTitle(Source s, Component c);
 
 struct StudioOptions {
   std::string scene;                 // initial scene
@@ -58,9 +61,32 @@ class Studio {
   void afterRender(int framebufferWidth, int framebufferHeight);
 
   void openScene(const std::string& path);
-  // Writes EXR (every image and error map), JSON (settings, metrics,
-  // timings, version) and a PNG of the current view's images to dir.
-  bool exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written = nullptr);
+  // Writes one new folder under dir, named <scene>-<UTC timestamp> (with a
+  // counter if that exists: nothing is ever overwritten), holding the EXR
+  // (every image and error map), a PNG of every image at the render's native
+  // resolution (the shown component and exposure; error maps with a colour
+  // bar) and a JSON with every resolved setting, the metrics, the machine,
+  // the thread count and the timings. *folder receives its path.
+  bool exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written = nullptr,
+                 std::string* folder = nullptr);
+
+  // True when the session changed since the last frame (a new snapshot, a
+  // new stage, an error): the caller redraws. busy(): work is in progress
+  // (the busy mark animates while the window has focus).
+  bool wantsFrame() const;
+  bool busy() const;
+  // A settings change waits for the controls to rest before it restarts.
+  bool restartPending() const;
+  // Why the session cannot render ("" if it can): the first scene did not
+  // load. The headless front end exits with it.
+  std::string fatalError() const;
+  // The message next to a rejected control ("" if none).
+  const std::string& settingsError() const { return settingsError_; }
+  const std::string& errorDialog() const { return errorDialog_; }
+  // Panel i's image does not belong to the current settings.
+  bool panelStale(int i) const;
+  // Applies settings as if set in the controls (tests and the command line).
+  void applySettings(const StudioSettings& settings);
 
   std::shared_ptr<const Snapshot> snapshot() const { return snap_; }
   Session* session() { return session_.get(); }
@@ -84,8 +110,16 @@ class Studio {
   void metricsPanel();
   void logPanel();
   void plotErrors(const ImVec2& size);
-  void restart();
+  void restart(bool fromScratch = false);
   void pullSnapshot();
+  bool sourceStale(Source s) const;
+  void statusBar();
+  void probe(const ImVec2& mouse);
+  void handleViewInput(const ImVec2& origin, const ImVec2& avail, float panelW, float w, float h, int n);
+  void errorField(const char* key);
+  bool pixelValue(Source s, Component c, int x, int y, Vec3* out) const;
+  std::string exportStem() const;  // <scene>-<UTC timestamp>
+  static std::string uniquePath(const std::string& dir, const std::string& stem, const std::string& ext);
   void updateTextures();
   const Image* componentImage(Source s, Component c, Image& scratch) const;
   const Image* referenceImage(Component c, Image& scratch) const;
@@ -94,6 +128,13 @@ class Studio {
 
   StudioOptions options_;
   StudioSettings settings_;
+  StudioSettings accepted_;  // what the session renders now
+  uint64_t drawnVersion_ = 0;
+  std::string settingsError_, settingsErrorKey_;  // the rejected value's reason, and its control
+  uint64_t seenRunErrors_ = 0;
+  std::string lastControl_ = "width";                  // the control changed last (where a memory refusal is shown)
+  bool wipeGrabbed_ = false;                           // the current drag moves the wipe's split line
+  std::chrono::steady_clock::time_point restartAt_{};  // when a pending settings change restarts
   std::unique_ptr<Session> session_;
   std::shared_ptr<const Snapshot> snap_;
   uint64_t serial_ = 0;

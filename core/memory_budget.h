@@ -1,0 +1,43 @@
+// Memory estimates made before a render starts, so that a setting that cannot
+// fit is refused with a number instead of growing until the process dies.
+//
+// The estimate is an upper bound in the usual case, built from the sizes of
+// the buffers the studio's pipeline holds at its peak (see memory_budget.cpp
+// for the itemised counts): per virtual light (the set while it grows, radii,
+// the k-d tree, the decoded batch) and per pixel (the many-light films and
+// batch buffers, the reference films, the snapshots in flight, the GL
+// textures). Scene geometry is not counted: it is already loaded when the
+// estimate matters.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace vsl {
+
+struct MemoryEstimate {
+  uint64_t bytesPerLight = 0, bytesPerPixel = 0;
+  uint64_t fixedBytes = 0, lightBytes = 0, pixelBytes = 0;
+  uint64_t total() const { return fixedBytes + lightBytes + pixelBytes; }
+};
+
+// The studio's peak for `lights` virtual lights at width x height pixels.
+MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height);
+
+// Bytes this process may still allocate: MemAvailable from /proc/meminfo,
+// lowered to the cgroup's memory.max minus its current use when that is
+// smaller. 0 when neither can be read (then no limit is applied).
+uint64_t availableMemoryBytes();
+
+// "1.5 GB", "730 MB", "12 KB".
+std::string formatBytes(uint64_t bytes);
+
+// Empty when the estimate fits in `fraction` of `available` bytes (or when
+// available is 0, unknown); else a message that states the estimate, the
+// budget and the largest light count and width that fit, e.g.
+// "needs about 286 GB (1.1 KB per pixel at 16384x16384, 178 B per light);
+// 19 GB may be used (75% of 25 GB available); with these lights a width of
+// at most 4177 px fits".
+std::string checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75);
+
+}  // namespace vsl
