@@ -273,7 +273,7 @@ ManyLightRun prepareManyLights(const Scene& scene, const Accel& accel, const Lig
   if (settings.globalRadius > 0) {
     run.radii.assign(run.set.lights.size(), settings.globalRadius * R);
   } else {
-    run.radii = knnRadii(run.set.lights, settings.knn, settings.radiusScale, 0.1f * R, 1e-9f * R);
+    run.radii = knnRadii(run.set.lights, settings.knn, settings.radiusScale, 0.1f * R, 1e-9f * R, stop);
   }
   run.knnSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;
