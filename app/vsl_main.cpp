@@ -750,15 +750,25 @@ int main(int argc, char** argv) {
     return 2;
   }
   log::setEchoLevel(LogLevel::Warning);
-  if (*render) return cmdRender(ra);
-  if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
-  if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
-  if (*info) return cmdInfo(infoScene, infoCamera);
-  if (*sweep) {
-    if (!sweepMrcs.empty() && !parseMrcsSpec(sweepMrcs, sw.mrcs)) return 2;
-    sw.mrcs.spreadVslRadius = sweepSpread;
-    return runSweep(sw);
+  // Every subcommand runs inside one handler: running out of memory (or any
+  // other exception a library throws) is reported and exits 1, never aborts.
+  try {
+    if (*render) return cmdRender(ra);
+    if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
+    if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
+    if (*info) return cmdInfo(infoScene, infoCamera);
+    if (*sweep) {
+      if (!sweepMrcs.empty() && !parseMrcsSpec(sweepMrcs, sw.mrcs)) return 2;
+      sw.mrcs.spreadVslRadius = sweepSpread;
+      return runSweep(sw);
+    }
+    if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "error: out of memory (the scene, image or settings need more than this machine has)\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
   }
-  if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
   return 2;
 }

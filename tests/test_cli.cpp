@@ -251,3 +251,67 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
                 .code,
             2);
 }
+
+// ---- Hardening (issue 12) -------------------------------------------------------
+
+namespace {
+
+// A noisy EXR: its PNG does not compress below a few kilobytes.
+void writeNoiseExr(const std::string& path, int w, int h, uint32_t seed = 12345) {
+  vsl::Image img(w, h);
+  uint32_t x = seed;
+  for (float& v : img.rgb) {
+    x = x * 1664525u + 1013904223u;
+    v = float(x >> 8) * 0x1p-24f;
+  }
+  std::string err;
+  ASSERT_TRUE(vsl::writeExr(path, {{"", img}}, &err)) << err;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+// Defect 1: on a full disk (injected: an 8 KiB file-size limit, SIGXFSZ
+// ignored, so writes fail with EFBIG as they would with ENOSPC) tonemap and
+// compare exit 1 with the reason and leave the good PNG as it was.
+TEST_F(Cli, FullDiskKeepsTheGoodPngAndExitsOne) {
+  writeNoiseExr(file("a.exr"), 96, 96);
+  writeNoiseExr(file("b.exr"), 96, 96, 777);
+  std::ofstream(file("good.png")) << "good";
+  std::string limit = "bash -c 'ulimit -f 8; trap \"\" XFSZ; exec " + std::string(VSL_BINARY_DIR) + "/bin/vsl ";
+  Proc r = shell(limit + "tonemap " + file("a.exr") + " -o " + file("good.png") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(file("good.png")), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("File too large"), std::string::npos) << r.out;
+  EXPECT_EQ(slurp(file("good.png")), "good");
+  r = shell(limit + "compare " + file("a.exr") + " " + file("b.exr") + " --png " + file("good.png") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(slurp(file("good.png")), "good");
+  r = shell(limit + "compare " + file("a.exr") + " " + file("b.exr") + " -o " + file("good.png") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(slurp(file("good.png")), "good");
+  size_t n = 0;
+  for ([[maybe_unused]] auto& e : fs::directory_iterator(dir)) ++n;
+  EXPECT_EQ(n, 3u) << "temporary files left behind";
+  // /dev/full fails every write with ENOSPC.
+  r = run("tonemap " + file("a.exr") + " -o /dev/full");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("No space left on device"), std::string::npos) << r.out;
+}
+
+// Defect 8: -o /dev/null writes through and leaves the device in place.
+TEST_F(Cli, DeviceOutputsAreWrittenThrough) {
+  writeNoiseExr(file("a.exr"), 8, 8);
+  Proc r = run("tonemap " + file("a.exr") + " -o /dev/null");
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = run("render " + scene("furnace") + " --spp 1 --width 8 --height 8 -o /dev/null --json /dev/null");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  EXPECT_TRUE(fs::exists("/dev/null"));
+}
