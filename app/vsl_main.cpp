@@ -159,6 +159,17 @@ int cmdRender(RenderArgs& a) {
   auto t0 = Clock::now();
   auto scene = loadOrReport(a.scene, a.camera);
   if (!scene) return 1;
+  // The camera's aspect ratio fills in a missing side: the result must still
+  // be within the resolution cap.
+  int w0 = a.settings.width, h0 = a.settings.height;
+  resolveResolution(*scene, w0, h0);
+  if (w0 > RenderSettings::kMaxResolution || h0 > RenderSettings::kMaxResolution) {
+    std::fprintf(stderr,
+                 "error: %s: the camera's aspect ratio %g turns the requested size into %dx%d, over the limit of %d "
+                 "a side; give both --width and --height\n",
+                 a.scene.c_str(), scene->camera.aspect, w0, h0, RenderSettings::kMaxResolution);
+    return 2;
+  }
   std::string err;
   auto accel = Accel::build(*scene, &err);
   if (!accel) {
@@ -179,7 +190,8 @@ int cmdRender(RenderArgs& a) {
   int passes = 0;
   const RenderSettings& s = a.settings;
   while (true) {
-    if (s.timeLimit > 0 ? secondsSince(t1) >= s.timeLimit : passes >= s.spp) break;
+    // At least one pass: a time budget too short for one still renders one.
+    if (passes > 0 && (s.timeLimit > 0 ? secondsSince(t1) >= s.timeLimit : passes >= s.spp)) break;
     pt.renderPass(passes, direct, indirect, counters);
     ++passes;
     double el = secondsSince(t1);
