@@ -1113,6 +1113,79 @@ struct TypeChecker {
   }
 };
 
+// Triangles a mesh declares, from accessor counts alone (0 where invalid:
+// the walk reports those).
+uint64_t declaredTriangles(const tinygltf::Model& model, int meshIndex) {
+  if (meshIndex < 0 || size_t(meshIndex) >= model.meshes.size()) return 0;
+  uint64_t n = 0;
+  for (const auto& prim : model.meshes[meshIndex].primitives) {
+    int acc = prim.indices;
+    if (acc < 0) {
+      auto it = prim.attributes.find("POSITION");
+      acc = it == prim.attributes.end() ? -1 : it->second;
+    }
+    if (acc < 0 || size_t(acc) >= model.accessors.size()) continue;
+    uint64_t count = model.accessors[acc].count;
+    int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_TRIANGLES)
+      n += count / 3;
+    else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN)
+      n += count >= 3 ? count - 2 : 0;
+  }
+  return n;
+}
+
+// Before walking: node instances and triangles of the whole hierarchy,
+// counted per node once (post-order over the DAG, saturating), so that a
+// small file whose shared subtrees multiply into billions of triangles is
+// refused at once instead of after millions of instances. A cycle stops the
+// count; the walk then reports it with the node's name.
+void checkInstancedSize(const tinygltf::Model& model, const std::vector<int>& roots, const std::string& file,
+                        size_t maxTriangles) {
+  static constexpr uint64_t kSaturated = uint64_t(1) << 62;
+  auto add = [](uint64_t a, uint64_t b) { return std::min(a + b, kSaturated); };
+  size_t n = model.nodes.size();
+  std::vector<uint64_t> visits(n, 0), tris(n, 0);
+  std::vector<char> state(n, 0);  // 0 new, 1 on the stack, 2 done
+  std::vector<std::pair<int, size_t>> stack;
+  uint64_t totalVisits = 0, totalTris = 0;
+  for (int root : roots) {
+    if (root < 0 || size_t(root) >= n) return;
+    if (state[root] != 2) {
+      stack.push_back({root, 0});
+      state[root] = 1;
+      while (!stack.empty()) {
+        auto& [node, next] = stack.back();
+        const std::vector<int>& children = model.nodes[node].children;
+        if (next < children.size()) {
+          int c = children[next++];
+          if (c < 0 || size_t(c) >= n || state[c] == 1) return;  // invalid or a cycle: the walk reports it
+          if (state[c] == 0) {
+            state[c] = 1;
+            stack.push_back({c, 0});
+          }
+          continue;
+        }
+        uint64_t v = 1, t = declaredTriangles(model, model.nodes[node].mesh);
+        for (int c : children) v = add(v, visits[c]), t = add(t, tris[c]);
+        visits[node] = v;
+        tris[node] = t;
+        state[node] = 2;
+        stack.pop_back();
+      }
+    }
+    totalVisits = add(totalVisits, visits[root]);
+    totalTris = add(totalTris, tris[root]);
+  }
+  auto count = [&](uint64_t v) { return v >= kSaturated ? std::string("more than 4e18") : std::to_string(v); };
+  if (totalVisits > kMaxNodeVisits)
+    throw LoadError{file + ": the node hierarchy has " + count(totalVisits) + " node instances, more than " +
+                    std::to_string(kMaxNodeVisits) + " (shared subtrees multiply)"};
+  if (totalTris > maxTriangles)
+    throw LoadError{file + ": the scene expands to " + count(totalTris) + " triangles, more than " +
+                    std::to_string(maxTriangles) + " (meshes instanced through the node hierarchy multiply)"};
+}
+
 // An emitter whose power overflows would be dropped by the light sampler and
 // the render would come out black: name it instead.
 void checkEmittedPower(const Scene& scene, const std::string& file) {
@@ -1225,6 +1298,7 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
       for (size_t i = 0; i < model.nodes.size(); ++i)
         if (!isChild[i]) roots.push_back(int(i));
     }
+    checkInstancedSize(model, roots, path, options.maxTriangles);
     std::vector<char> onPath(model.nodes.size(), 0);
     size_t visits = 0;
     for (int r : roots) L.walk(r, onPath, visits, options);

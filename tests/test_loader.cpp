@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -675,9 +676,15 @@ TEST_F(LoaderTest, TinyFilesCannotDeclareHugeScenes) {
 
   LoadOptions small;
   small.maxTriangles = 100000;
-  r = load(writeDoc(dagDoc(20, true), "dag.gltf"), small);  // 2^19 instances of 2 triangles
+  r = load(writeDoc(dagDoc(17, true), "dag.gltf"), small);  // 2^16 instances of 2 triangles
   ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("expands to more than 100000 triangles"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("expands to 131072 triangles, more than 100000"), std::string::npos) << r.error;
+  // Counted before walking: the default limit with 2^29 instances fails at once.
+  auto t0 = std::chrono::steady_clock::now();
+  r = load(writeDoc(dagDoc(30, true), "bigdag.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("node instances"), std::string::npos) << r.error;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
   r = load(writeDoc(dagDoc(12, true), "smalldag.gltf"), small);  // 2^11 instances: fine
   ASSERT_TRUE(r.scene) << r.error;
   EXPECT_EQ(r.scene->triangleCount(), 4096u);
