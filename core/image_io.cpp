@@ -189,6 +189,13 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
 
 bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error) {
   layers.clear();
+  // Only regular files: a FIFO would block and /dev/zero never ends.
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    if (error)
+      *error = path + (S_ISDIR(st.st_mode) ? ": is a directory" : ": not a regular file (a FIFO, device or socket)");
+    return false;
+  }
   try {
     Imf::InputFile file(path.c_str());
     const Imf::Header& header = file.header();

@@ -198,3 +198,16 @@ TEST_F(ImageIo, PatchedExrDataWindowIsRefusedBeforeAllocation) {
   EXPECT_FALSE(readExr(file("overflow.exr"), layers, &err));
   EXPECT_NE(err.find("data window"), std::string::npos) << err;
 }
+
+// Reading: only regular files (a FIFO would block).
+TEST_F(ImageIo, ReadingRefusesSpecialFiles) {
+  std::vector<Layer> layers;
+  std::string err;
+  EXPECT_FALSE(readExr("/dev/zero", layers, &err));
+  EXPECT_NE(err.find("/dev/zero: not a regular file"), std::string::npos) << err;
+  ASSERT_EQ(mkfifo(file("fifo.exr").c_str(), 0600), 0);
+  EXPECT_FALSE(readExr(file("fifo.exr"), layers, &err));
+  EXPECT_NE(err.find("not a regular file"), std::string::npos) << err;
+  EXPECT_FALSE(readExr(dir.string(), layers, &err));
+  EXPECT_NE(err.find("is a directory"), std::string::npos) << err;
+}
