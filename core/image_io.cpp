@@ -226,7 +226,7 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     uint64_t fileBytes = std::filesystem::file_size(path, ec);
     if (ec) fileBytes = 0;
     uint64_t need = uint64_t(w) * uint64_t(h) * 12 * names.size();
-    uint64_t plausible = std::max<uint64_t>(uint64_t(256) << 20, fileBytes * 4096);
+    uint64_t plausible = std::max<uint64_t>(uint64_t(16) << 20, fileBytes * 4096);
     if (need > plausible) {
       if (error)
         *error = path + ": data window " + std::to_string(w) + "x" + std::to_string(h) + " with " +

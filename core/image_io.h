@@ -33,7 +33,7 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
 // Reads every RGB layer (channels NAME.R/G/B, or R/G/B for the default layer).
 // The data window is checked before any allocation: at most 65536 pixels a
 // side, and no more decoded bytes than the file could plausibly hold (4096
-// times its size, with a 256 MiB floor), so a patched header cannot exhaust
+// times its size, with a 16 MiB floor), so a patched header cannot exhaust
 // memory.
 bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error);
 
