@@ -381,15 +381,20 @@ std::string formatPoint(double x, double y, double z) {
   return s.str();
 }
 
-// Throws unless a world-space point is one the ray tracer can take.
+// Whether the ray tracer can take a world-space point.
+bool worldPointOk(const double p[3]) {
+  return std::abs(p[0]) <= kMaxWorldCoordinate && std::abs(p[1]) <= kMaxWorldCoordinate &&
+         std::abs(p[2]) <= kMaxWorldCoordinate;
+}
+
+// Throws unless a world-space point is one the ray tracer can take (the
+// message is built only on failure: this runs for every vertex).
 void checkWorldPoint(const double p[3], const std::string& what) {
-  for (int i = 0; i < 3; ++i)
-    if (!(std::abs(p[i]) <= kMaxWorldCoordinate)) {
-      std::ostringstream s;
-      s << what << " lies at " << formatPoint(p[0], p[1], p[2]) << " in world space, outside +-" << kMaxWorldCoordinate
-        << " (the ray tracer cannot represent it)";
-      throw LoadError{s.str()};
-    }
+  if (worldPointOk(p)) return;
+  std::ostringstream s;
+  s << what << " lies at " << formatPoint(p[0], p[1], p[2]) << " in world space, outside +-" << kMaxWorldCoordinate
+    << " (the ray tracer cannot represent it)";
+  throw LoadError{s.str()};
 }
 
 // xf applied to a point, in double (no float overflow before the range check).
@@ -411,6 +416,8 @@ struct Loader {
   std::vector<int> textureSlot;  // glTF texture index -> Scene::textures index
   std::set<std::string> warned;
   uint64_t inputBytes = 0;  // the file and its buffers: bounds zero-filled accessors
+  uint64_t texels = 0;      // texels of all textures so far
+  uint64_t maxTexels = LoadOptions{}.maxTexels;
   size_t maxTriangles = LoadOptions{}.maxTriangles;
 
   void warn(const std::string& m) {
@@ -433,6 +440,12 @@ struct Loader {
     if (!t.extensions.empty())
       for (auto& [k, v] : t.extensions)
         warn(quoted("texture", gltfIndex, t.name) + ": extension " + k + " is not supported (ignored)");
+    // Every texture is expanded to float RGBA (16 bytes a texel), also when
+    // many textures share one image: bound the total before allocating.
+    texels += uint64_t(img.width) * uint64_t(img.height);
+    if (texels > maxTexels)
+      throw LoadError{where + ": textures would hold more than " + std::to_string(maxTexels) +
+                      " texels in total (16 bytes each as float RGBA)"};
     Texture tex;
     tex.name = img.name.empty() ? img.uri : img.name;
     tex.width = img.width;
@@ -677,7 +690,7 @@ struct Loader {
     for (size_t i = 0; i < nv; ++i) {
       double world[3];
       transformPoint(xf, pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], world);
-      checkWorldPoint(world, where + ": POSITION[" + std::to_string(i) + "]");
+      if (!worldPointOk(world)) checkWorldPoint(world, where + ": POSITION[" + std::to_string(i) + "]");
       Vec3 p{float(world[0]), float(world[1]), float(world[2])};
       scene.positions.push_back(p);
       scene.boundsMin = min(scene.boundsMin, p);
@@ -1261,6 +1274,7 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
     L.inputBytes = bytes.size();
     for (const auto& b : model.buffers) L.inputBytes += b.data.size();
     L.maxTriangles = options.maxTriangles;
+    L.maxTexels = options.maxTexels;
     bytes = {};
     if (!warn.empty()) {
       std::istringstream ws(warn);

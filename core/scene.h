@@ -104,6 +104,8 @@ struct LoadOptions {
   // The flattened scene may hold at most this many triangles (instancing
   // through the node hierarchy multiplies a small file's meshes).
   size_t maxTriangles = 20'000'000;
+  // Texels of all textures together (each is expanded to float RGBA).
+  size_t maxTexels = size_t(1) << 27;
 };
 
 struct LoadResult {
@@ -117,7 +119,7 @@ struct LoadResult {
 // absolute paths, no "..", no symlinks leading out, no fallback to the current
 // directory); JSON nesting at most 64 levels; node hierarchy at most 1024
 // levels and 1,000,000 node instances; options.maxTriangles triangles;
-// textures at most 2^26 pixels; world-space coordinates of geometry, camera
+// textures at most 2^26 pixels each and options.maxTexels together; world-space coordinates of geometry, camera
 // and lights within +-1e9; camera aspectRatio in [1/32, 32].
 LoadResult loadScene(const std::string& path, const LoadOptions& options = {});
 

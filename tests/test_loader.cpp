@@ -786,3 +786,38 @@ TEST_F(LoaderTest, WrongTypesOfKnownPropertiesAreNamed) {
   ASSERT_FALSE(r.scene);
   EXPECT_NE(r.error.find("'doubleSided' must be true or false"), std::string::npos) << r.error;
 }
+
+// Defect 5: textures are expanded to float RGBA per texture, also when many
+// share one image; an image header may claim any size.
+TEST_F(LoaderTest, TextureMemoryIsBounded) {
+  std::string err;
+  std::vector<uint8_t> px(512 * 512 * 3, 128);
+  ASSERT_TRUE(writePngRgb8((dir / "big.png").string(), 512, 512, px, &err)) << err;
+  Doc d = quadDoc();
+  d.j["images"] = {{{"uri", "big.png"}}};
+  d.j["textures"] = {{{"source", 0}}, {{"source", 0}}, {{"source", 0}}};
+  auto& m = d.j["materials"][0];
+  m["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {{"index", 1}};
+  m["emissiveTexture"] = {{"index", 2}};
+  LoadOptions o;
+  o.maxTexels = 3 * 512 * 512;
+  LoadResult ok = load(writeDoc(d, "ok.gltf"), o);
+  ASSERT_TRUE(ok.scene) << ok.error;
+  o.maxTexels = 3 * 512 * 512 - 1;
+  LoadResult r = load(writeDoc(d, "many.gltf"), o);
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("texels in total"), std::string::npos) << r.error;
+  // A PNG whose header claims 10000x10000 is refused before decoding (stb
+  // itself refuses more than 2^30 bytes).
+  std::ifstream in(dir / "big.png", std::ios::binary);
+  std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const uint8_t side[4] = {0, 0, 0x27, 0x10};  // 10000, big-endian, in IHDR
+  std::memcpy(&png[16], side, 4);
+  std::memcpy(&png[20], side, 4);
+  write("huge.png", png);
+  d.j["images"] = {{{"uri", "huge.png"}}};
+  r = load(writeDoc(d, "huge.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("10000x10000 pixels is more than the texture limit"), std::string::npos) << r.error;
+}
