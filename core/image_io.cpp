@@ -117,10 +117,19 @@ bool writeAndRename(const std::string& path, const char* data, size_t size, std:
 
 bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error) {
   const char* bytes = static_cast<const char*>(data);
-  // Follow symbolic links (also dangling ones): replace the file a link names
-  // and keep the link.
-  std::filesystem::path target = path;
+  // Devices, FIFOs and sockets (also behind links such as /dev/stdout, whose
+  // /proc/self/fd/1 may name a pipe) are written through; directories refused.
   struct stat st;
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) {
+      if (error) *error = path + ": is a directory";
+      return false;
+    }
+    if (!S_ISREG(st.st_mode)) return writeThrough(path, bytes, size, error);
+  }
+  // A regular file or none: follow symbolic links (also dangling ones) to the
+  // file to replace, and keep the links.
+  std::filesystem::path target = path;
   for (int hops = 0; ::lstat(target.c_str(), &st) == 0 && S_ISLNK(st.st_mode); ++hops) {
     std::error_code ec;
     std::filesystem::path next = std::filesystem::read_symlink(target, ec);
@@ -129,13 +138,6 @@ bool writeFileAtomically(const std::string& path, const void* data, size_t size,
       return false;
     }
     target = next.is_absolute() ? next : target.parent_path() / next;
-  }
-  if (::stat(target.c_str(), &st) == 0) {
-    if (S_ISDIR(st.st_mode)) {
-      if (error) *error = path + ": is a directory";
-      return false;
-    }
-    if (!S_ISREG(st.st_mode)) return writeThrough(target.string(), bytes, size, error);
   }
   return writeAndRename(target.string(), bytes, size, error);
 }

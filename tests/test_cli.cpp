@@ -315,6 +315,11 @@ TEST_F(Cli, DeviceOutputsAreWrittenThrough) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
   EXPECT_TRUE(fs::exists("/dev/null"));
+  // /dev/stdout into a pipe (/proc/self/fd/1 names "pipe:[N]", not a path).
+  r = shell("bash -c 'set -o pipefail; " + std::string(VSL_BINARY_DIR) + "/bin/vsl tonemap " + file("a.exr") +
+            " -o /dev/stdout 2>/dev/null | od -c | sed -n 1p'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("P   N   G"), std::string::npos) << r.out;
 }
 
 namespace {
