@@ -5,7 +5,7 @@
 # Exit status: libFuzzer's (0 = nothing found). Crash reproducers are written
 # to WORK_CORPUS/../ as crash-*, leak-*, oom-* or timeout-*.
 set -euo pipefail
-fuzzer=$1 work=$2 seeds=$3 seconds=$4
+fuzzer=$(realpath "$1") work=$(realpath -m "$2") seeds=$(realpath "$3") seconds=$4
 mkdir -p "$work"
 cp -n "$seeds"/* "$work"/ 2>/dev/null || true
 cd "$(dirname "$work")"
