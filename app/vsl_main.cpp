@@ -159,6 +159,17 @@ int cmdRender(RenderArgs& a) {
   auto t0 = Clock::now();
   auto scene = loadOrReport(a.scene, a.camera);
   if (!scene) return 1;
+  // The camera's aspect ratio fills in a missing side: the result must still
+  // be within the resolution cap.
+  int w0 = a.settings.width, h0 = a.settings.height;
+  resolveResolution(*scene, w0, h0);
+  if (w0 > RenderSettings::kMaxResolution || h0 > RenderSettings::kMaxResolution) {
+    std::fprintf(stderr,
+                 "error: %s: the camera's aspect ratio %g turns the requested size into %dx%d, over the limit of %d "
+                 "a side; give both --width and --height\n",
+                 a.scene.c_str(), scene->camera.aspect, w0, h0, RenderSettings::kMaxResolution);
+    return 2;
+  }
   std::string err;
   auto accel = Accel::build(*scene, &err);
   if (!accel) {
@@ -179,7 +190,8 @@ int cmdRender(RenderArgs& a) {
   int passes = 0;
   const RenderSettings& s = a.settings;
   while (true) {
-    if (s.timeLimit > 0 ? secondsSince(t1) >= s.timeLimit : passes >= s.spp) break;
+    // At least one pass: a time budget too short for one still renders one.
+    if (passes > 0 && (s.timeLimit > 0 ? secondsSince(t1) >= s.timeLimit : passes >= s.spp)) break;
     pt.renderPass(passes, direct, indirect, counters);
     ++passes;
     double el = secondsSince(t1);
@@ -770,15 +782,25 @@ int main(int argc, char** argv) {
     return 2;
   }
   log::setEchoLevel(LogLevel::Warning);
-  if (*render) return cmdRender(ra);
-  if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
-  if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
-  if (*info) return cmdInfo(infoScene, infoCamera);
-  if (*sweep) {
-    if (!sweepMrcs.empty() && !parseMrcsSpec(sweepMrcs, sw.mrcs)) return 2;
-    sw.mrcs.spreadVslRadius = sweepSpread;
-    return runSweep(sw);
+  // Every subcommand runs inside one handler: running out of memory (or any
+  // other exception a library throws) is reported and exits 1, never aborts.
+  try {
+    if (*render) return cmdRender(ra);
+    if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
+    if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
+    if (*info) return cmdInfo(infoScene, infoCamera);
+    if (*sweep) {
+      if (!sweepMrcs.empty() && !parseMrcsSpec(sweepMrcs, sw.mrcs)) return 2;
+      sw.mrcs.spreadVslRadius = sweepSpread;
+      return runSweep(sw);
+    }
+    if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "error: out of memory (the scene, image or settings need more than this machine has)\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
   }
-  if (*bench) return runBench(benchScene, benchSeconds, benchSize, benchJson);
   return 2;
 }

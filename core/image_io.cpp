@@ -6,17 +6,46 @@
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
+#include <fcntl.h>
 #include <stb_image_write.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
 
 namespace vsl {
 
 namespace {
+
+// An in-memory OpenEXR output stream: the file is encoded here first so that
+// writing it to disk is one checked, atomic operation.
+class MemoryOStream : public Imf::OStream {
+ public:
+  MemoryOStream() : Imf::OStream("memory") {}
+  void write(const char c[], int n) override {
+    if (pos_ + size_t(n) > data_.size()) data_.resize(pos_ + size_t(n));
+    std::memcpy(data_.data() + pos_, c, size_t(n));
+    pos_ += size_t(n);
+  }
+  uint64_t tellp() override { return pos_; }
+  void seekp(uint64_t pos) override {
+    pos_ = size_t(pos);
+    if (pos_ > data_.size()) data_.resize(pos_);
+  }
+  const std::vector<char>& data() const { return data_; }
+
+ private:
+  std::vector<char> data_;
+  size_t pos_ = 0;
+};
+
+constexpr int64_t kMaxExrSide = 65536;
+
+std::string errnoText(int e) { return std::strerror(e); }
 
 // A temporary path beside the target, unique within and across processes.
 std::string temporaryPath(const std::string& path) {
@@ -24,21 +53,96 @@ std::string temporaryPath(const std::string& path) {
   return path + ".tmp-" + std::to_string(getpid()) + "-" + std::to_string(counter.fetch_add(1));
 }
 
-// Moves the finished temporary file over the target, or removes it on failure.
-bool commit(const std::string& tmp, const std::string& path, bool ok, std::string* error) {
-  std::error_code ec;
-  if (!ok) {
-    std::filesystem::remove(tmp, ec);
+// Writes all bytes to fd, retrying short writes and EINTR. Returns 0 or errno.
+int writeAll(int fd, const char* p, size_t n) {
+  while (n > 0) {
+    ssize_t k = ::write(fd, p, n);
+    if (k < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    if (k == 0) return EIO;
+    p += k;
+    n -= size_t(k);
+  }
+  return 0;
+}
+
+// Device, FIFO or socket: write through, as `cat > /dev/null` would.
+bool writeThrough(const std::string& path, const char* data, size_t size, std::string* error) {
+  int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) {
+    if (error) *error = path + ": cannot open for writing (" + errnoText(errno) + ")";
     return false;
   }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    if (error) *error = path + ": cannot rename the finished file into place (" + ec.message() + ")";
+  int e = writeAll(fd, data, size);
+  if (::close(fd) != 0 && e == 0 && errno != EINTR) e = errno;
+  if (e != 0) {
+    if (error) *error = path + ": cannot write (" + errnoText(e) + ")";
     return false;
   }
   return true;
 }
+
+// Temporary file, checked writes, fsync, checked close, rename, directory fsync.
+bool writeAndRename(const std::string& path, const char* data, size_t size, std::string* error) {
+  std::string tmp = temporaryPath(path);
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
+  if (fd < 0) {
+    if (error) *error = path + ": cannot create a temporary file beside it (" + errnoText(errno) + ")";
+    return false;
+  }
+  const char* step = "cannot write";
+  int e = writeAll(fd, data, size);
+  if (e == 0 && ::fsync(fd) != 0) e = errno, step = "cannot flush to disk";
+  if (::close(fd) != 0 && e == 0 && errno != EINTR) e = errno, step = "cannot close";
+  if (e == 0 && ::rename(tmp.c_str(), path.c_str()) != 0)
+    e = errno, step = "cannot rename the finished file into place";
+  if (e != 0) {
+    ::unlink(tmp.c_str());
+    if (error) *error = path + ": " + step + " (" + errnoText(e) + "); any existing file is unchanged";
+    return false;
+  }
+  // Make the rename itself durable; a failure here loses nothing already there.
+  std::string dir = std::filesystem::path(path).parent_path().string();
+  int dfd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  return true;
+}
+
+}  // namespace
+
+bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error) {
+  const char* bytes = static_cast<const char*>(data);
+  // Devices, FIFOs and sockets (also behind links such as /dev/stdout, whose
+  // /proc/self/fd/1 may name a pipe) are written through; directories refused.
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) {
+      if (error) *error = path + ": is a directory";
+      return false;
+    }
+    if (!S_ISREG(st.st_mode)) return writeThrough(path, bytes, size, error);
+  }
+  // A regular file or none: follow symbolic links (also dangling ones) to the
+  // file to replace, and keep the links.
+  std::filesystem::path target = path;
+  for (int hops = 0; ::lstat(target.c_str(), &st) == 0 && S_ISLNK(st.st_mode); ++hops) {
+    std::error_code ec;
+    std::filesystem::path next = std::filesystem::read_symlink(target, ec);
+    if (ec || hops >= 40) {
+      if (error) *error = path + ": cannot resolve the symbolic link (" + (ec ? ec.message() : "too many levels") + ")";
+      return false;
+    }
+    target = next.is_absolute() ? next : target.parent_path() / next;
+  }
+  return writeAndRename(target.string(), bytes, size, error);
+}
+
+namespace {
 
 std::string channelName(const std::string& layer, char c) {
   return layer.empty() ? std::string(1, c) : layer + "." + c;
@@ -58,8 +162,7 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
       if (error) *error = path + ": layer '" + l.name + "' has a different size";
       return false;
     }
-  std::string tmp = temporaryPath(path);
-  bool ok = true;
+  MemoryOStream stream;
   try {
     Imf::Header header(w, h);
     header.compression() = Imf::ZIP_COMPRESSION;
@@ -72,27 +175,41 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
         fb.insert(name, Imf::Slice(Imf::FLOAT, (char*)(l.image.rgb.data() + c), sizeof(float) * 3,
                                    sizeof(float) * 3 * size_t(w)));
       }
-    Imf::OutputFile file(tmp.c_str(), header);
+    Imf::OutputFile file(stream, header);
     file.setFrameBuffer(fb);
     file.writePixels(h);
+  } catch (const std::bad_alloc&) {
+    if (error) *error = path + ": out of memory while encoding the EXR";
+    return false;
   } catch (const std::exception& e) {
-    if (error) *error = path + ": cannot write EXR (" + e.what() + ")";
-    ok = false;
+    if (error) *error = path + ": cannot encode EXR (" + e.what() + ")";
+    return false;
   }
-  return commit(tmp, path, ok, error);
+  // OutputFile's destructor finishes the file (the line offset table).
+  return writeFileAtomically(path, stream.data().data(), stream.data().size(), error);
 }
 
 bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error) {
   layers.clear();
+  // Only regular files: a FIFO would block and /dev/zero never ends.
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    if (error)
+      *error = path + (S_ISDIR(st.st_mode) ? ": is a directory" : ": not a regular file (a FIFO, device or socket)");
+    return false;
+  }
   try {
     Imf::InputFile file(path.c_str());
     const Imf::Header& header = file.header();
     Imath::Box2i dw = header.dataWindow();
-    int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
-    if (w <= 0 || h <= 0 || size_t(w) * h > (size_t(1) << 30)) {
-      if (error) *error = path + ": absurd data window";
+    int64_t w64 = int64_t(dw.max.x) - dw.min.x + 1, h64 = int64_t(dw.max.y) - dw.min.y + 1;
+    if (w64 <= 0 || h64 <= 0 || w64 > kMaxExrSide || h64 > kMaxExrSide) {
+      if (error)
+        *error = path + ": data window " + std::to_string(w64) + "x" + std::to_string(h64) + " is outside [1," +
+                 std::to_string(kMaxExrSide) + "] per side";
       return false;
     }
+    int w = int(w64), h = int(h64);
     // Layers: the prefixes of channels ending in .R (or R alone).
     std::vector<std::string> names;
     for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
@@ -104,6 +221,19 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     }
     if (names.empty()) {
       if (error) *error = path + ": no RGB layer (no channel named R or *.R)";
+      return false;
+    }
+    // Estimate memory before allocating: a patched header must not exhaust it.
+    std::error_code ec;
+    uint64_t fileBytes = std::filesystem::file_size(path, ec);
+    if (ec) fileBytes = 0;
+    uint64_t need = uint64_t(w) * uint64_t(h) * 12 * names.size();
+    uint64_t plausible = std::max<uint64_t>(uint64_t(16) << 20, fileBytes * 4096);
+    if (need > plausible) {
+      if (error)
+        *error = path + ": data window " + std::to_string(w) + "x" + std::to_string(h) + " with " +
+                 std::to_string(names.size()) + " layer(s) would need " + std::to_string(need >> 20) +
+                 " MiB, implausible for a file of " + std::to_string(fileBytes) + " bytes (corrupt header?)";
       return false;
     }
     Imf::FrameBuffer fb;
@@ -118,6 +248,10 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     }
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
+  } catch (const std::bad_alloc&) {
+    if (error) *error = path + ": out of memory while reading the EXR";
+    layers.clear();
+    return false;
   } catch (const std::exception& e) {
     if (error) *error = path + ": cannot read EXR (" + e.what() + ")";
     layers.clear();
@@ -134,10 +268,23 @@ uint8_t toSrgb8(float v) {
 }
 
 bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error) {
-  std::string tmp = temporaryPath(path);
-  bool ok = stbi_write_png(tmp.c_str(), width, height, 3, rgb.data(), width * 3) != 0;
-  if (!ok && error) *error = path + ": cannot write PNG";
-  return commit(tmp, path, ok, error);
+  if (width <= 0 || height <= 0 || rgb.size() != size_t(width) * size_t(height) * 3) {
+    if (error)
+      *error = path + ": cannot write PNG (no pixels, or pixel count does not match " + std::to_string(width) + "x" +
+               std::to_string(height) + ")";
+    return false;
+  }
+  // Encode in memory: stbi_write_png() ignores fwrite/fclose errors.
+  std::vector<char> png;
+  auto append = [](void* context, void* data, int size) {
+    auto* out = static_cast<std::vector<char>*>(context);
+    out->insert(out->end(), static_cast<char*>(data), static_cast<char*>(data) + size);
+  };
+  if (stbi_write_png_to_func(append, &png, width, height, 3, rgb.data(), width * 3) == 0 || png.empty()) {
+    if (error) *error = path + ": cannot encode PNG (" + std::to_string(width) + "x" + std::to_string(height) + ")";
+    return false;
+  }
+  return writeFileAtomically(path, png.data(), png.size(), error);
 }
 
 bool writePng(const std::string& path, const Image& image, float exposure, std::string* error) {
@@ -148,16 +295,7 @@ bool writePng(const std::string& path, const Image& image, float exposure, std::
 }
 
 bool writeTextFile(const std::string& path, const std::string& text, std::string* error) {
-  std::string tmp = temporaryPath(path);
-  bool ok;
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    f << text;
-    f.flush();
-    ok = bool(f);
-  }
-  if (!ok && error) *error = path + ": cannot write";
-  return commit(tmp, path, ok, error);
+  return writeFileAtomically(path, text.data(), text.size(), error);
 }
 
 }  // namespace vsl

@@ -1,6 +1,14 @@
 // Image files: multi-layer OpenEXR (float RGB per layer), tone-mapped sRGB PNG,
-// and atomic text files. Every writer writes a temporary file beside the
-// target and renames it, so a failed write never destroys an existing file.
+// and atomic text files.
+//
+// Writing: every writer encodes the whole file in memory and hands it to
+// writeFileAtomically(), which checks every write, fsyncs, closes and checks,
+// and only then renames the temporary file over the target. A full disk or
+// any other I/O error leaves an existing target untouched and reports the
+// reason. Targets that are not regular files are never replaced: a symlink is
+// followed (the file it names is replaced atomically and the link stays), a
+// device, FIFO or socket (/dev/null, /dev/stdout) is written through, and a
+// directory is refused.
 // All functions return false and set *error ("path: reason") on failure.
 #pragma once
 
@@ -17,9 +25,16 @@ struct Layer {
   Image image;
 };
 
+// Writes size bytes to path as described above. Thread-safe.
+bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error);
+
 bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
               const std::map<std::string, std::string>& attributes = {});
 // Reads every RGB layer (channels NAME.R/G/B, or R/G/B for the default layer).
+// The data window is checked before any allocation: at most 65536 pixels a
+// side, and no more decoded bytes than the file could plausibly hold (4096
+// times its size, with a 16 MiB floor), so a patched header cannot exhaust
+// memory.
 bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error);
 
 // Tone mapping for display and PNG: linear * 2^exposure, clamped, sRGB-encoded.

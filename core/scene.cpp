@@ -6,12 +6,19 @@
 //   [5] loadScene()
 #include "core/scene.h"
 
+#include <fcntl.h>
+#include <stb_image.h>
+#include <sys/stat.h>
 #include <tiny_gltf.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstring>
-#include <fstream>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 namespace vsl {
 
@@ -227,8 +234,11 @@ int componentSize(int ct) {
 
 // Reads an accessor as doubles, count x components, with every offset checked
 // against its buffer view and buffer.
+// zeroBudget bounds accessors without a bufferView (all zeros): a file must
+// hold at least one byte per element it declares, so a 220-byte file cannot
+// make us zero-fill 100 GB.
 std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, int wantComponents,
-                                 size_t* countOut) {
+                                 size_t* countOut, uint64_t zeroBudget) {
   if (index < 0 || size_t(index) >= model.accessors.size())
     throw LoadError{what + ": accessor " + std::to_string(index) + " does not exist"};
   const tinygltf::Accessor& acc = model.accessors[index];
@@ -243,6 +253,10 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
   std::vector<double> out;
   if (count == 0) return out;
   if (acc.bufferView < 0) {  // all zeros, per the specification
+    if (count > zeroBudget)
+      throw LoadError{where + ": count " + std::to_string(count) +
+                      " without a bufferView (all zeros) is more than this file of " + std::to_string(zeroBudget) +
+                      " bytes can describe"};
     out.assign(count * nc, 0.0);
     return out;
   }
@@ -351,12 +365,60 @@ void checkRange(double v, double lo, double hi, const std::string& where, const 
   }
 }
 
+// Coordinates the ray tracer can take: Embree asserts on ray origins beyond
+// about 1.8e18, and squared distances must stay finite in float. 1e9 m keeps
+// every product of two coordinates far inside float range.
+constexpr double kMaxWorldCoordinate = 1e9;
+// Entries of an accumulated node transform (translation or scale).
+constexpr double kMaxTransformEntry = 1e12;
+// Hierarchy limits: real files nest a few dozen levels.
+constexpr size_t kMaxNodeDepth = 1024;
+constexpr size_t kMaxNodeVisits = 1'000'000;
+
+std::string formatPoint(double x, double y, double z) {
+  std::ostringstream s;
+  s << "(" << x << " " << y << " " << z << ")";
+  return s.str();
+}
+
+// Whether the ray tracer can take a world-space point.
+bool worldPointOk(const double p[3]) {
+  return std::abs(p[0]) <= kMaxWorldCoordinate && std::abs(p[1]) <= kMaxWorldCoordinate &&
+         std::abs(p[2]) <= kMaxWorldCoordinate;
+}
+
+// Throws unless a world-space point is one the ray tracer can take (the
+// message is built only on failure: this runs for every vertex).
+void checkWorldPoint(const double p[3], const std::string& what) {
+  if (worldPointOk(p)) return;
+  std::ostringstream s;
+  s << what << " lies at " << formatPoint(p[0], p[1], p[2]) << " in world space, outside +-" << kMaxWorldCoordinate
+    << " (the ray tracer cannot represent it)";
+  throw LoadError{s.str()};
+}
+
+// xf applied to a point, in double (no float overflow before the range check).
+void transformPoint(const Mat4& xf, double x, double y, double z, double out[3]) {
+  for (int r = 0; r < 3; ++r) out[r] = xf.at(r, 0) * x + xf.at(r, 1) * y + xf.at(r, 2) * z + xf.at(r, 3);
+}
+
+// A direction from the file made unit length in double; zero when it has none.
+Vec3 unitOrZero(double x, double y, double z) {
+  double len = std::sqrt(x * x + y * y + z * z);
+  if (!(len > 0) || !std::isfinite(len)) return Vec3(0.0f);
+  return Vec3(float(x / len), float(y / len), float(z / len));
+}
+
 struct Loader {
   const tinygltf::Model& model;
   Scene& scene;
   std::string file;
   std::vector<int> textureSlot;  // glTF texture index -> Scene::textures index
   std::set<std::string> warned;
+  uint64_t inputBytes = 0;  // the file and its buffers: bounds zero-filled accessors
+  uint64_t texels = 0;      // texels of all textures so far
+  uint64_t maxTexels = LoadOptions{}.maxTexels;
+  size_t maxTriangles = LoadOptions{}.maxTriangles;
 
   void warn(const std::string& m) {
     if (warned.insert(m).second) scene.warnings.push_back(m);
@@ -378,6 +440,12 @@ struct Loader {
     if (!t.extensions.empty())
       for (auto& [k, v] : t.extensions)
         warn(quoted("texture", gltfIndex, t.name) + ": extension " + k + " is not supported (ignored)");
+    // Every texture is expanded to float RGBA (16 bytes a texel), also when
+    // many textures share one image: bound the total before allocating.
+    texels += uint64_t(img.width) * uint64_t(img.height);
+    if (texels > maxTexels)
+      throw LoadError{where + ": textures would hold more than " + std::to_string(maxTexels) +
+                      " texels in total (16 bytes each as float RGBA)"};
     Texture tex;
     tex.name = img.name.empty() ? img.uri : img.name;
     tex.width = img.width;
@@ -538,17 +606,16 @@ struct Loader {
     auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end()) throw LoadError{where + ": has no POSITION attribute"};
     size_t nv = 0;
-    std::vector<double> pos = readAccessor(model, it->second, where + " POSITION", 3, &nv);
+    std::vector<double> pos = readAccessor(model, it->second, where + " POSITION", 3, &nv, inputBytes);
     if (nv == 0) return;
     for (size_t i = 0; i < pos.size(); ++i)
-      if (!std::isfinite(pos[i]) || std::abs(pos[i]) > 1e18)
-        throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
+      if (!std::isfinite(pos[i])) throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
 
     auto optional = [&](const char* name, int comps, std::vector<double>& out) {
       auto a = prim.attributes.find(name);
       if (a == prim.attributes.end()) return false;
       size_t n = 0;
-      out = readAccessor(model, a->second, where + " " + name, comps, &n);
+      out = readAccessor(model, a->second, where + " " + name, comps, &n, inputBytes);
       if (n != nv)
         throw LoadError{where + ": " + name + " has " + std::to_string(n) + " entries but POSITION has " +
                         std::to_string(nv)};
@@ -563,7 +630,7 @@ struct Loader {
     std::vector<uint32_t> idx;
     if (prim.indices >= 0) {
       size_t ni = 0;
-      std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni);
+      std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni, inputBytes);
       const auto& acc = model.accessors[prim.indices];
       if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
           acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
@@ -580,6 +647,12 @@ struct Loader {
       idx.resize(nv);
       for (size_t i = 0; i < nv; ++i) idx[i] = uint32_t(i);
     }
+    // Bound the whole scene, not only this file's bytes: shared meshes under
+    // a DAG of nodes multiply (20 levels of 882 triangles are billions).
+    size_t newTris = mode == TINYGLTF_MODE_TRIANGLES ? idx.size() / 3 : idx.size() >= 3 ? idx.size() - 2 : 0;
+    if (scene.triangleCount() + newTris > maxTriangles || scene.positions.size() + nv > 3 * maxTriangles)
+      throw LoadError{where + ": the scene expands to more than " + std::to_string(maxTriangles) +
+                      " triangles (meshes instanced through the node hierarchy multiply); refusing to load it"};
     std::vector<uint32_t> tris;
     if (mode == TINYGLTF_MODE_TRIANGLES) {
       if (idx.size() % 3 != 0) warn(where + ": index count is not a multiple of 3 (trailing indices ignored)");
@@ -615,20 +688,23 @@ struct Loader {
     bool flip = xf.det3() < 0;  // mirrored transforms reverse the winding
     uint32_t base = uint32_t(scene.positions.size());
     for (size_t i = 0; i < nv; ++i) {
-      Vec3 p = xf.point(Vec3(float(pos[3 * i]), float(pos[3 * i + 1]), float(pos[3 * i + 2])));
+      double world[3];
+      transformPoint(xf, pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], world);
+      if (!worldPointOk(world)) checkWorldPoint(world, where + ": POSITION[" + std::to_string(i) + "]");
+      Vec3 p{float(world[0]), float(world[1]), float(world[2])};
       scene.positions.push_back(p);
       scene.boundsMin = min(scene.boundsMin, p);
       scene.boundsMax = max(scene.boundsMax, p);
       Vec3 n(0.0f);
       if (hasN) {
-        n = xf.normal(Vec3(float(nrm[3 * i]), float(nrm[3 * i + 1]), float(nrm[3 * i + 2])));
+        n = xf.normal(unitOrZero(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]));
         if (!isFinite(n)) n = Vec3(0.0f);
       }
       scene.normals.push_back(n);
       Vec3 t(0.0f);
       float s = 1;
       if (hasT) {
-        t = normalize(xf.vector(Vec3(float(tan[4 * i]), float(tan[4 * i + 1]), float(tan[4 * i + 2]))));
+        t = normalize(xf.vector(unitOrZero(tan[4 * i], tan[4 * i + 1], tan[4 * i + 2])));
         if (!isFinite(t)) t = Vec3(0.0f);
         s = tan[4 * i + 3] < 0 ? -1.0f : 1.0f;
         if (flip) s = -s;
@@ -684,7 +760,10 @@ struct Loader {
     }
     checkRange(gl.intensity, 0, 1e12, lw, "intensity");
     L.intensity = color * float(gl.intensity);
-    L.position = xf.point(Vec3(0.0f));
+    double world[3];
+    transformPoint(xf, 0, 0, 0, world);
+    checkWorldPoint(world, lw + ": position");
+    L.position = Vec3(float(world[0]), float(world[1]), float(world[2]));
     L.direction = normalize(xf.vector(Vec3(0, 0, -1)));
     if (gl.range > 0) warn(lw + ": range is not modelled (inverse-square falloff without cut-off)");
     if (gl.type == "point") {
@@ -719,9 +798,15 @@ struct Loader {
       return;
     }
     checkRange(gc.perspective.yfov, 1e-4, kPi - 1e-4, cw, "yfov");
+    // aspectRatio sets the default image height (512 / aspect): keep both
+    // sides of the default image within [16, 16384] (0 = not given).
+    if (gc.perspective.aspectRatio != 0) checkRange(gc.perspective.aspectRatio, 1.0 / 32, 32, cw, "aspectRatio");
     Camera c;
     c.name = gc.name.empty() ? "camera " + std::to_string(camIndex) : gc.name;
-    c.position = xf.point(Vec3(0.0f));
+    double world[3];
+    transformPoint(xf, 0, 0, 0, world);
+    checkWorldPoint(world, cw + ": position");
+    c.position = Vec3(float(world[0]), float(world[1]), float(world[2]));
     c.forward = normalize(xf.vector(Vec3(0, 0, -1)));
     c.up = xf.vector(Vec3(0, 1, 0));
     c.right = normalize(cross(c.forward, c.up));
@@ -734,15 +819,9 @@ struct Loader {
     scene.cameraFromFile = true;
   }
 
-  void node(int index, const Mat4& parent, std::vector<char>& onPath, size_t& visits, const LoadOptions& opts) {
-    if (index < 0 || size_t(index) >= model.nodes.size())
-      throw LoadError{file + ": node " + std::to_string(index) + " does not exist"};
+  // One node's own content: its meshes, camera and lights under world transform xf.
+  void nodeContent(int index, const Mat4& xf, const std::string& where, const LoadOptions& opts) {
     const tinygltf::Node& n = model.nodes[index];
-    std::string where = file + ": " + quoted("node", index, n.name);
-    if (onPath[index]) throw LoadError{where + ": the node hierarchy is recursive (a node is its own ancestor)"};
-    if (++visits > 10'000'000) throw LoadError{file + ": node hierarchy is too large (shared subtrees explode)"};
-    onPath[index] = 1;
-    Mat4 xf = parent * localTransform(n, where);
     if (n.skin >= 0) warn(where + ": skins are not modelled (rendered in bind pose)");
     if (n.mesh >= 0) {
       if (size_t(n.mesh) >= model.meshes.size())
@@ -760,16 +839,379 @@ struct Loader {
         warn(where + ": extension " + name + " is not supported (ignored)");
       }
     }
-    for (int c : n.children) node(c, xf, onPath, visits, opts);
-    onPath[index] = 0;
+  }
+
+  // Depth-first walk of the hierarchy below root, with an explicit stack (a
+  // deep hierarchy must not overflow the call stack), a depth limit, cycle
+  // detection and a bound on node visits (shared subtrees multiply).
+  void walk(int root, std::vector<char>& onPath, size_t& visits, const LoadOptions& opts) {
+    struct Frame {
+      int node;
+      Mat4 xf;
+      size_t nextChild = 0;
+    };
+    std::vector<Frame> stack;
+    auto enter = [&](int index, const Mat4& parent) {
+      if (index < 0 || size_t(index) >= model.nodes.size())
+        throw LoadError{file + ": node " + std::to_string(index) + " does not exist"};
+      const tinygltf::Node& n = model.nodes[index];
+      std::string where = file + ": " + quoted("node", index, n.name);
+      if (onPath[index]) throw LoadError{where + ": the node hierarchy is recursive (a node is its own ancestor)"};
+      if (stack.size() >= kMaxNodeDepth)
+        throw LoadError{where + ": the node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) + " levels"};
+      if (++visits > kMaxNodeVisits)
+        throw LoadError{file + ": the node hierarchy has more than " + std::to_string(kMaxNodeVisits) +
+                        " node instances (shared subtrees multiply)"};
+      Mat4 xf = parent * localTransform(n, where);
+      for (double v : xf.m)
+        if (!(std::abs(v) <= kMaxTransformEntry)) {
+          std::ostringstream m;
+          m << where << ": its world transform has an entry of " << v << ", outside +-" << kMaxTransformEntry
+            << " (content there cannot be ray traced)";
+          throw LoadError{m.str()};
+        }
+      onPath[index] = 1;
+      nodeContent(index, xf, where, opts);
+      stack.push_back({index, xf});
+    };
+    enter(root, Mat4());
+    while (!stack.empty()) {
+      Frame& top = stack.back();
+      const std::vector<int>& children = model.nodes[top.node].children;
+      if (top.nextChild < children.size()) {
+        int child = children[top.nextChild++];
+        Mat4 xf = top.xf;  // enter() may reallocate the stack
+        enter(child, xf);
+      } else {
+        onPath[top.node] = 0;
+        stack.pop_back();
+      }
+    }
   }
 };
 
-bool readFile(const std::string& path, std::vector<unsigned char>& out) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return false;
-  out.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-  return !f.bad();
+// ---- [4b] Files: the scene file, and URIs only inside the scene's folder --------
+
+constexpr uint64_t kMaxFileBytes = uint64_t(2) << 30;  // tinygltf takes sizes as unsigned int
+constexpr uint64_t kMaxTexturePixels = uint64_t(1) << 26;
+
+// Reads a regular file of at most kMaxFileBytes. A FIFO, device, socket or
+// directory is refused before any read (a FIFO would block, /dev/zero never
+// ends). Returns "" or the reason.
+std::string readRegularFile(const std::string& path, std::vector<unsigned char>& out) {
+  int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) return errno == ENOENT ? "no such file" : std::strerror(errno);
+  struct FdCloser {
+    int fd;
+    ~FdCloser() { ::close(fd); }
+  } closer{fd};
+  struct stat st;
+  if (::fstat(fd, &st) != 0) return std::strerror(errno);
+  if (S_ISDIR(st.st_mode)) return "it is a directory";
+  if (!S_ISREG(st.st_mode)) return "not a regular file (a FIFO, device or socket)";
+  if (uint64_t(st.st_size) > kMaxFileBytes) return "larger than 2 GiB";
+  out.resize(size_t(st.st_size));
+  size_t got = 0;
+  while (got < out.size()) {
+    ssize_t k = ::read(fd, out.data() + got, out.size() - got);
+    if (k < 0 && errno == EINTR) continue;
+    if (k < 0) return std::strerror(errno);
+    if (k == 0) break;  // the file shrank
+    got += size_t(k);
+  }
+  out.resize(got);
+  return "";
+}
+
+// tinygltf's file callbacks. tinygltf tries basedir/uri and then ./uri; we
+// accept only the first candidate, so nothing falls back to the current
+// directory, and resolve it lexically and through symlinks inside the
+// scene's folder. Errors about refused URIs say nothing about the file they
+// name (whether it exists, its size).
+struct UriPolicy {
+  std::filesystem::path root;  // the scene's folder, canonical
+  std::string rootPrefix;      // root + "/"
+};
+
+std::string uriExpandPath(const std::string& path, void*) { return path; }  // no ~ or $VAR expansion
+
+bool uriFileExists(const std::string& path, void* user) {
+  const auto* policy = static_cast<const UriPolicy*>(user);
+  return path.rfind(policy->rootPrefix, 0) == 0;
+}
+
+bool insideRoot(const std::filesystem::path& p, const std::filesystem::path& root) {
+  std::filesystem::path rel = p.lexically_relative(root);
+  return !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
+}
+
+bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  const auto* policy = static_cast<const UriPolicy*>(user);
+  std::string uri = path.rfind(policy->rootPrefix, 0) == 0 ? path.substr(policy->rootPrefix.size()) : path;
+  auto fail = [&](const std::string& why) {
+    if (err) *err += "URI '" + uri + "': " + why + "\n";
+    return false;
+  };
+  if (uri.empty()) return fail("empty");
+  if (uri[0] == '/' || uri[0] == '\\')
+    return fail("absolute paths are refused; URIs are resolved inside the scene's folder only");
+  std::filesystem::path candidate = (policy->root / uri).lexically_normal();
+  if (!insideRoot(candidate, policy->root)) return fail("points outside the scene's folder (refused)");
+  std::error_code ec;
+  std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
+  if (ec || !insideRoot(resolved, policy->root)) return fail("points outside the scene's folder (refused)");
+  std::string why = readRegularFile(resolved.string(), *out);
+  if (!why.empty()) return fail("cannot be read (" + why + ")");
+  return true;
+}
+
+bool uriWriteFile(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "the loader never writes files\n";
+  return false;
+}
+
+// Checks the decoded size of an image before tinygltf decodes it.
+bool loadImageBounded(tinygltf::Image* image, const int index, std::string* err, std::string* warn, int reqWidth,
+                      int reqHeight, const unsigned char* bytes, int size, void*) {
+  int w = 0, h = 0, comp = 0;
+  if (stbi_info_from_memory(bytes, size, &w, &h, &comp) && uint64_t(w) * uint64_t(h) > kMaxTexturePixels) {
+    if (err)
+      *err += "image " + std::to_string(index) + ": " + std::to_string(w) + "x" + std::to_string(h) +
+              " pixels is more than the texture limit of " + std::to_string(kMaxTexturePixels) + " pixels\n";
+    return false;
+  }
+  return tinygltf::LoadImageData(image, index, err, warn, reqWidth, reqHeight, bytes, size, nullptr);
+}
+
+// ---- [4c] JSON checks before tinygltf: nesting depth, value types ----------------
+
+constexpr size_t kMaxJsonDepth = 64;
+
+// The JSON text of a .gltf, or the JSON chunk of a .glb (empty if malformed:
+// tinygltf then reports the problem).
+std::string_view jsonText(const std::vector<unsigned char>& bytes, bool isBinary) {
+  const char* p = reinterpret_cast<const char*>(bytes.data());
+  if (!isBinary) return {p, bytes.size()};
+  if (bytes.size() < 20) return {};
+  uint32_t len;
+  std::memcpy(&len, p + 12, 4);
+  if (uint64_t(len) + 20 > bytes.size()) return {};
+  return {p + 20, len};
+}
+
+// tinygltf converts JSON to its Value type recursively, one stack frame per
+// level of extras/extensions: refuse absurd nesting first. Counts brackets
+// outside strings; returns the byte offset where the limit is passed, or npos.
+size_t jsonDepthExceeded(std::string_view text, size_t limit) {
+  size_t depth = 0;
+  bool inString = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    char c = text[i];
+    if (inString) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > limit) return i;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return std::string_view::npos;
+}
+
+// tinygltf silently keeps the default when a known property has the wrong
+// type ("roughnessFactor": "0.5"). Name such values instead.
+struct TypeChecker {
+  using json = nlohmann::json;
+  std::string file;
+
+  static std::string got(const json& v) {
+    std::string d = v.dump();
+    if (d.size() > 40) d = d.substr(0, 37) + "...";
+    return d;
+  }
+  std::string element(const char* kind, size_t i, const json& obj) const {
+    std::string name = obj.is_object() && obj.contains("name") && obj["name"].is_string() ? obj["name"] : "";
+    return file + ": " + quoted(kind, int(i), name);
+  }
+  void number(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_number())
+      throw LoadError{where + ": '" + key + "' must be a number (got " + got(obj[key]) + ")"};
+  }
+  void integer(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_number_integer())
+      throw LoadError{where + ": '" + key + "' must be an integer (got " + got(obj[key]) + ")"};
+  }
+  void boolean(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_boolean())
+      throw LoadError{where + ": '" + key + "' must be true or false (got " + got(obj[key]) + ")"};
+  }
+  void numbers(const json& obj, const char* key, size_t n, const std::string& where) const {
+    if (!obj.contains(key)) return;
+    const json& a = obj[key];
+    bool ok = a.is_array() && a.size() == n;
+    for (size_t i = 0; ok && i < n; ++i) ok = a[i].is_number();
+    if (!ok)
+      throw LoadError{where + ": '" + key + "' must be an array of " + std::to_string(n) + " numbers (got " + got(a) +
+                      ")"};
+  }
+  const json& object(const json& obj, const char* key, const std::string& where) const {
+    static const json empty = json::object();
+    if (!obj.contains(key)) return empty;
+    if (!obj[key].is_object()) throw LoadError{where + ": '" + key + "' must be an object (got " + got(obj[key]) + ")"};
+    return obj[key];
+  }
+  // Calls f(element, where) for each object in the array doc[key].
+  template <typename F>
+  void each(const json& doc, const char* key, const char* kind, F f) const {
+    if (!doc.contains(key)) return;
+    if (!doc[key].is_array()) throw LoadError{file + ": '" + key + "' must be an array (got " + got(doc[key]) + ")"};
+    for (size_t i = 0; i < doc[key].size(); ++i) {
+      const json& e = doc[key][i];
+      std::string where = element(kind, i, e);
+      if (!e.is_object()) throw LoadError{where + ": must be an object (got " + got(e) + ")"};
+      f(e, where);
+    }
+  }
+
+  void check(const json& doc) const {
+    if (!doc.is_object()) return;  // tinygltf reports it
+    each(doc, "materials", "material", [&](const json& m, const std::string& w) {
+      const json& pbr = object(m, "pbrMetallicRoughness", w);
+      numbers(pbr, "baseColorFactor", 4, w);
+      number(pbr, "metallicFactor", w);
+      number(pbr, "roughnessFactor", w);
+      numbers(m, "emissiveFactor", 3, w);
+      number(m, "alphaCutoff", w);
+      boolean(m, "doubleSided", w);
+    });
+    each(doc, "nodes", "node", [&](const json& n, const std::string& w) {
+      numbers(n, "translation", 3, w);
+      numbers(n, "rotation", 4, w);
+      numbers(n, "scale", 3, w);
+      numbers(n, "matrix", 16, w);
+      integer(n, "mesh", w);
+      integer(n, "camera", w);
+    });
+    each(doc, "cameras", "camera", [&](const json& c, const std::string& w) {
+      const json& p = object(c, "perspective", w);
+      for (const char* k : {"yfov", "aspectRatio", "znear", "zfar"}) number(p, k, w);
+    });
+    each(doc, "accessors", "accessor", [&](const json& a, const std::string& w) {
+      for (const char* k : {"bufferView", "byteOffset", "componentType", "count"}) integer(a, k, w);
+      boolean(a, "normalized", w);
+    });
+    each(doc, "bufferViews", "bufferView", [&](const json& v, const std::string& w) {
+      for (const char* k : {"buffer", "byteOffset", "byteLength", "byteStride"}) integer(v, k, w);
+    });
+    each(doc, "meshes", "mesh", [&](const json& mesh, const std::string& w) {
+      each(mesh, "primitives", "primitive", [&](const json& prim, const std::string& pw) {
+        for (const char* k : {"indices", "material", "mode"}) integer(prim, k, w + " " + pw.substr(file.size() + 2));
+      });
+    });
+    const json& ext = object(doc, "extensions", file);
+    const json& punctual = object(ext, "KHR_lights_punctual", file + ": KHR_lights_punctual");
+    each(punctual, "lights", "light", [&](const json& l, const std::string& w) {
+      number(l, "intensity", w);
+      number(l, "range", w);
+      numbers(l, "color", 3, w);
+      const json& spot = object(l, "spot", w);
+      number(spot, "innerConeAngle", w);
+      number(spot, "outerConeAngle", w);
+    });
+  }
+};
+
+// Triangles a mesh declares, from accessor counts alone (0 where invalid:
+// the walk reports those).
+uint64_t declaredTriangles(const tinygltf::Model& model, int meshIndex) {
+  if (meshIndex < 0 || size_t(meshIndex) >= model.meshes.size()) return 0;
+  uint64_t n = 0;
+  for (const auto& prim : model.meshes[meshIndex].primitives) {
+    int acc = prim.indices;
+    if (acc < 0) {
+      auto it = prim.attributes.find("POSITION");
+      acc = it == prim.attributes.end() ? -1 : it->second;
+    }
+    if (acc < 0 || size_t(acc) >= model.accessors.size()) continue;
+    uint64_t count = model.accessors[acc].count;
+    int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_TRIANGLES)
+      n += count / 3;
+    else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN)
+      n += count >= 3 ? count - 2 : 0;
+  }
+  return n;
+}
+
+// Before walking: node instances and triangles of the whole hierarchy,
+// counted per node once (post-order over the DAG, saturating), so that a
+// small file whose shared subtrees multiply into billions of triangles is
+// refused at once instead of after millions of instances. A cycle stops the
+// count; the walk then reports it with the node's name.
+void checkInstancedSize(const tinygltf::Model& model, const std::vector<int>& roots, const std::string& file,
+                        size_t maxTriangles) {
+  static constexpr uint64_t kSaturated = uint64_t(1) << 62;
+  auto add = [](uint64_t a, uint64_t b) { return std::min(a + b, kSaturated); };
+  size_t n = model.nodes.size();
+  std::vector<uint64_t> visits(n, 0), tris(n, 0);
+  std::vector<char> state(n, 0);  // 0 new, 1 on the stack, 2 done
+  std::vector<std::pair<int, size_t>> stack;
+  uint64_t totalVisits = 0, totalTris = 0;
+  for (int root : roots) {
+    if (root < 0 || size_t(root) >= n) return;
+    if (state[root] != 2) {
+      stack.push_back({root, 0});
+      state[root] = 1;
+      while (!stack.empty()) {
+        auto& [node, next] = stack.back();
+        const std::vector<int>& children = model.nodes[node].children;
+        if (next < children.size()) {
+          int c = children[next++];
+          if (c < 0 || size_t(c) >= n || state[c] == 1) return;  // invalid or a cycle: the walk reports it
+          if (state[c] == 0) {
+            state[c] = 1;
+            stack.push_back({c, 0});
+          }
+          continue;
+        }
+        uint64_t v = 1, t = declaredTriangles(model, model.nodes[node].mesh);
+        for (int c : children) v = add(v, visits[c]), t = add(t, tris[c]);
+        visits[node] = v;
+        tris[node] = t;
+        state[node] = 2;
+        stack.pop_back();
+      }
+    }
+    totalVisits = add(totalVisits, visits[root]);
+    totalTris = add(totalTris, tris[root]);
+  }
+  auto count = [&](uint64_t v) { return v >= kSaturated ? std::string("more than 4e18") : std::to_string(v); };
+  if (totalVisits > kMaxNodeVisits)
+    throw LoadError{file + ": the node hierarchy has " + count(totalVisits) + " node instances, more than " +
+                    std::to_string(kMaxNodeVisits) + " (shared subtrees multiply)"};
+  if (totalTris > maxTriangles)
+    throw LoadError{file + ": the scene expands to " + count(totalTris) + " triangles, more than " +
+                    std::to_string(maxTriangles) + " (meshes instanced through the node hierarchy multiply)"};
+}
+
+// An emitter whose power overflows would be dropped by the light sampler and
+// the render would come out black: name it instead.
+void checkEmittedPower(const Scene& scene, const std::string& file) {
+  for (uint32_t t = 0; t < scene.triangleCount(); ++t) {
+    const Material& m = scene.materials[scene.triMaterial[t]];
+    if (!m.isEmissive()) continue;
+    double power = double(luminance(m.emission)) * scene.triangleArea(t) * kPi * (m.doubleSided ? 2 : 1);
+    if (!std::isfinite(power) || !std::isfinite(float(power)))
+      throw LoadError{file + ": material '" + m.name +
+                      "': emission times triangle area gives infinite power (triangle " + std::to_string(t) + ")"};
+  }
+  for (const PunctualLight& L : scene.punctualLights)
+    if (!std::isfinite(L.power())) throw LoadError{file + ": light '" + L.name + "': power is not finite"};
 }
 
 }  // namespace
@@ -780,19 +1222,43 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
   LoadResult result;
   try {
     std::vector<unsigned char> bytes;
-    if (!readFile(path, bytes)) {
-      result.error = path + ": cannot be read (missing file or no permission)";
+    if (std::string why = readRegularFile(path, bytes); !why.empty()) {
+      result.error = path + ": cannot be read (" + why + ")";
       return result;
     }
     if (bytes.empty()) {
       result.error = path + ": file is empty";
       return result;
     }
+    bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+
+    // JSON checks that tinygltf does not make (or makes with unbounded recursion).
+    std::string_view text = jsonText(bytes, isBinary);
+    if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos) {
+      result.error = path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
+                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it";
+      return result;
+    }
+    nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+    if (!doc.is_discarded()) TypeChecker{path}.check(doc);
+    doc = nullptr;
+
+    // URIs resolve inside the scene's folder only.
+    UriPolicy policy;
+    {
+      std::error_code ec;
+      std::filesystem::path parent = std::filesystem::absolute(path, ec).parent_path();
+      policy.root = std::filesystem::weakly_canonical(parent, ec);
+      if (ec) policy.root = parent.lexically_normal();
+      policy.rootPrefix = policy.root.string();
+      if (policy.rootPrefix.empty() || policy.rootPrefix.back() != '/') policy.rootPrefix += '/';
+    }
     tinygltf::TinyGLTF gltf;
+    gltf.SetFsCallbacks({&uriFileExists, &uriExpandPath, &uriReadFile, &uriWriteFile, &policy});
+    gltf.SetImageLoader(&loadImageBounded, nullptr);
     tinygltf::Model model;
     std::string err, warn;
-    std::string dir = path.substr(0, path.find_last_of("/\\") == std::string::npos ? 0 : path.find_last_of("/\\"));
-    bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    std::string dir = policy.root.string();
     bool ok = isBinary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), dir)
                        : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
                                                   unsigned(bytes.size()), dir);
@@ -805,6 +1271,11 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
     auto scene = std::make_shared<Scene>();
     scene->path = path;
     Loader L{model, *scene, path, std::vector<int>(model.textures.size(), -1), {}};
+    L.inputBytes = bytes.size();
+    for (const auto& b : model.buffers) L.inputBytes += b.data.size();
+    L.maxTriangles = options.maxTriangles;
+    L.maxTexels = options.maxTexels;
+    bytes = {};
     if (!warn.empty()) {
       std::istringstream ws(warn);
       for (std::string line; std::getline(ws, line);)
@@ -841,11 +1312,13 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
       for (size_t i = 0; i < model.nodes.size(); ++i)
         if (!isChild[i]) roots.push_back(int(i));
     }
+    checkInstancedSize(model, roots, path, options.maxTriangles);
     std::vector<char> onPath(model.nodes.size(), 0);
     size_t visits = 0;
-    for (int r : roots) L.node(r, Mat4(), onPath, visits, options);
+    for (int r : roots) L.walk(r, onPath, visits, options);
 
     if (scene->triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
+    checkEmittedPower(*scene, path);
     bool anyEmitter = !scene->punctualLights.empty();
     for (uint32_t t = 0; t < scene->triangleCount() && !anyEmitter; ++t)
       anyEmitter = scene->materials[scene->triMaterial[t]].isEmissive();

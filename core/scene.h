@@ -101,6 +101,11 @@ struct Scene {
 
 struct LoadOptions {
   std::string cameraName;  // empty = the first perspective camera
+  // The flattened scene may hold at most this many triangles (instancing
+  // through the node hierarchy multiplies a small file's meshes).
+  size_t maxTriangles = 20'000'000;
+  // Texels of all textures together (each is expanded to float RGBA).
+  size_t maxTexels = size_t(1) << 27;
 };
 
 struct LoadResult {
@@ -109,6 +114,13 @@ struct LoadResult {
 };
 
 // Loads a .gltf or .glb file. Never throws; never crashes on hostile input.
+// Limits: the file and every buffer or image it references must be regular
+// files of at most 2 GiB; URIs resolve inside the scene's folder only (no
+// absolute paths, no "..", no symlinks leading out, no fallback to the current
+// directory); JSON nesting at most 64 levels; node hierarchy at most 1024
+// levels and 1,000,000 node instances; options.maxTriangles triangles;
+// textures at most 2^26 pixels each and options.maxTexels together; world-space coordinates of geometry, camera
+// and lights within +-1e9; camera aspectRatio in [1/32, 32].
 LoadResult loadScene(const std::string& path, const LoadOptions& options = {});
 
 // A camera that frames the bounding box from the +z side.

@@ -13,6 +13,8 @@ PACKAGES=(
   libglfw3-dev libimgui-dev libegl-dev libegl1-mesa-dev libgl-dev libosmesa6-dev
   libgtest-dev libbenchmark-dev xvfb xauth gnuplot-nox
 )
+# scripts/fuzz.sh: clang and its libFuzzer runtime (only with --fuzz).
+if [ "${1:-}" = "--fuzz" ]; then PACKAGES+=(clang-14 libclang-rt-14-dev); fi
 command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)
 command -v npm >/dev/null 2>&1 || PACKAGES+=(npm)
 

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -278,4 +279,149 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
                 " -o " + file("s3"))
                 .code,
             2);
+}
+
+// ---- Hardening (issue 12) -------------------------------------------------------
+
+namespace {
+
+// A noisy EXR: its PNG does not compress below a few kilobytes.
+void writeNoiseExr(const std::string& path, int w, int h, uint32_t seed = 12345) {
+  vsl::Image img(w, h);
+  uint32_t x = seed;
+  for (float& v : img.rgb) {
+    x = x * 1664525u + 1013904223u;
+    v = float(x >> 8) * 0x1p-24f;
+  }
+  std::string err;
+  ASSERT_TRUE(vsl::writeExr(path, {{"", img}}, &err)) << err;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+// Defect 1: on a full disk (injected: an 8 KiB file-size limit, SIGXFSZ
+// ignored, so writes fail with EFBIG as they would with ENOSPC) tonemap and
+// compare exit 1 with the reason and leave the good PNG as it was.
+TEST_F(Cli, FullDiskKeepsTheGoodPngAndExitsOne) {
+  writeNoiseExr(file("a.exr"), 96, 96);
+  writeNoiseExr(file("b.exr"), 96, 96, 777);
+  std::ofstream(file("good.png")) << "good";
+  std::string limit = "bash -c 'ulimit -f 8; trap \"\" XFSZ; exec " + std::string(VSL_BINARY_DIR) + "/bin/vsl ";
+  Proc r = shell(limit + "tonemap " + file("a.exr") + " -o " + file("good.png") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(file("good.png")), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("File too large"), std::string::npos) << r.out;
+  EXPECT_EQ(slurp(file("good.png")), "good");
+  r = shell(limit + "compare " + file("a.exr") + " " + file("b.exr") + " --png " + file("good.png") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(slurp(file("good.png")), "good");
+  r = shell(limit + "compare " + file("a.exr") + " " + file("b.exr") + " -o " + file("good.png") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(slurp(file("good.png")), "good");
+  size_t n = 0;
+  for ([[maybe_unused]] auto& e : fs::directory_iterator(dir)) ++n;
+  EXPECT_EQ(n, 3u) << "temporary files left behind";
+  // /dev/full fails every write with ENOSPC.
+  r = run("tonemap " + file("a.exr") + " -o /dev/full");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("No space left on device"), std::string::npos) << r.out;
+}
+
+// Defect 8: -o /dev/null writes through and leaves the device in place.
+TEST_F(Cli, DeviceOutputsAreWrittenThrough) {
+  writeNoiseExr(file("a.exr"), 8, 8);
+  Proc r = run("tonemap " + file("a.exr") + " -o /dev/null");
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = run("render " + scene("furnace") + " --spp 1 --width 8 --height 8 -o /dev/null --json /dev/null");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  EXPECT_TRUE(fs::exists("/dev/null"));
+  // /dev/stdout into a pipe (/proc/self/fd/1 names "pipe:[N]", not a path).
+  r = shell("bash -c 'set -o pipefail; " + std::string(VSL_BINARY_DIR) + "/bin/vsl tonemap " + file("a.exr") +
+            " -o /dev/stdout 2>/dev/null | od -c | sed -n 1p'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("P   N   G"), std::string::npos) << r.out;
+}
+
+namespace {
+
+// The furnace scene with its JSON changed by edit, written into dir.
+std::string editedFurnace(const fs::path& dir, const std::string& name,
+                          const std::function<void(nlohmann::json&)>& edit) {
+  auto j = nlohmann::json::parse(std::ifstream(scene("furnace")));
+  edit(j);
+  std::string path = (dir / name).string();
+  std::ofstream(path) << j.dump();
+  return path;
+}
+
+}  // namespace
+
+// Defect 3: aspectRatio is range-checked (exit 1), and a size derived from it
+// must stay within the resolution cap (exit 2, a bad argument).
+TEST_F(Cli, AspectRatioCannotBypassTheResolutionCap) {
+  std::string tiny =
+      editedFurnace(dir, "tiny.gltf", [](auto& j) { j["cameras"][0]["perspective"]["aspectRatio"] = 1e-5; });
+  Proc r = run("render " + tiny + " --spp 1 -o " + file("x.exr"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("aspectRatio must be in [0.03125,32] (got 1e-05)"), std::string::npos) << r.out;
+  std::string tall =
+      editedFurnace(dir, "tall.gltf", [](auto& j) { j["cameras"][0]["perspective"]["aspectRatio"] = 1.0 / 32; });
+  r = run("render " + tall + " --width 16384 --spp 1 -o " + file("x.exr"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("16384x524288, over the limit of 16384"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(file("x.exr")));
+}
+
+// Defect 4: a camera far outside what Embree takes exits 1, no abort.
+TEST_F(Cli, FarCameraExitsOne) {
+  std::string far = editedFurnace(dir, "far.gltf", [](auto& j) {
+    for (auto& n : j["nodes"])
+      if (n.contains("camera")) n["translation"] = {0, 0, 2e18};
+  });
+  Proc r = run("render " + far + " --spp 1 --width 8 --height 8 -o " + file("x.exr"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("far.gltf: node"), std::string::npos) << r.out;
+}
+
+// Defect 5: running out of memory is reported (exit 1), never an abort.
+TEST_F(Cli, OutOfMemoryIsReported) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "sanitizers reserve more address space than the limit allows";
+#else
+  Proc r = shell("bash -c 'ulimit -v 2000000; exec " + std::string(VSL_BINARY_DIR) + "/bin/vsl render " +
+                 scene("furnace") + " --width 16384 --height 16384 --spp 1 -o " + file("x.exr") + "'");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("out of memory"), std::string::npos) << r.out;
+#endif
+}
+
+// Defect 6: no reads outside the scene's folder, and nothing told about them.
+TEST_F(Cli, UrisOutsideTheScenesFolderAreRefused) {
+  std::string shadow =
+      editedFurnace(dir, "shadow.gltf", [](auto& j) { j["buffers"][0]["uri"] = "../../../etc/shadow"; });
+  Proc r = run("info " + shadow);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("points outside the scene's folder (refused)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("requestedBytes"), std::string::npos) << r.out;
+  Proc zero = run("info /dev/zero");
+  EXPECT_EQ(zero.code, 1) << zero.out;
+  EXPECT_NE(zero.out.find("not a regular file"), std::string::npos) << zero.out;
+}
+
+// Defect 9: --time shorter than one pass still renders one sample per pixel.
+TEST_F(Cli, TinyTimeBudgetStillRendersOnePass) {
+  Proc r = run("render " + scene("furnace") + " --time 1e-9 --width 8 --height 8 -o " + file("t.exr") + " --json " +
+               file("t.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto j = nlohmann::json::parse(std::ifstream(file("t.json")));
+  EXPECT_EQ(j["spp"], 1);
+  EXPECT_GT(j["mean"]["full"][0].get<double>(), 0.5);
 }

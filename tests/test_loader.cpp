@@ -2,7 +2,9 @@
 // Every bad file must give an error naming the file and the element, and
 // never crash; every unmodelled feature must give a warning.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -515,4 +517,307 @@ TEST_F(LoaderTest, CorruptedFilesNeverCrash) {
   }
   EXPECT_GT(errors, 0);
   std::printf("corrupted files: %d loaded, %d rejected with an error\n", scenes, errors);
+}
+
+// ---- Hostile files (issue 12) ---------------------------------------------------
+
+namespace {
+
+// A chain of `levels` nodes, the last one holding the quad.
+Doc chainDoc(int levels) {
+  Doc d = quadDoc();
+  json nodes = json::array();
+  for (int i = 0; i < levels; ++i) {
+    json n = {{"translation", {0, 0, 0.0}}};
+    if (i + 1 < levels)
+      n["children"] = {i + 1};
+    else
+      n["mesh"] = 0;
+    nodes.push_back(n);
+  }
+  d.j["nodes"] = nodes;
+  return d;
+}
+
+// A DAG: each of `levels` nodes has two children, both the next node.
+Doc dagDoc(int levels, bool withMesh) {
+  Doc d = quadDoc();
+  json nodes = json::array();
+  for (int i = 0; i < levels; ++i)
+    nodes.push_back(i + 1 < levels ? json{{"children", {i + 1, i + 1}}} : json::object());
+  if (withMesh) nodes[levels - 1]["mesh"] = 0;
+  d.j["nodes"] = nodes;
+  return d;
+}
+
+std::string nested(size_t depth, const std::string& open, const std::string& close) {
+  std::string s;
+  for (size_t i = 0; i < depth; ++i) s += open;
+  s += "1";
+  for (size_t i = 0; i < depth; ++i) s += close;
+  return s;
+}
+
+}  // namespace
+
+// Defect 2: a hierarchy 100,000 levels deep overflowed the stack.
+TEST_F(LoaderTest, DeepNodeHierarchiesFailWithoutRecursion) {
+  LoadResult ok = load(writeDoc(chainDoc(1000), "ok.gltf"));
+  ASSERT_TRUE(ok.scene) << ok.error;
+  EXPECT_EQ(ok.scene->triangleCount(), 2u);
+  LoadResult r = load(writeDoc(chainDoc(100000), "deep.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("deep.gltf"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("deeper than 1024 levels"), std::string::npos) << r.error;
+}
+
+// Defect 2: tinygltf converts extras recursively; 100,000 levels crashed.
+TEST_F(LoaderTest, AbsurdJsonNestingIsRefusedBeforeParsing) {
+  Doc d = quadDoc();
+  std::string text = d.j.dump();
+  // Splice nested arrays (and objects) into the material's extras.
+  for (auto [open, close] : {std::pair<std::string, std::string>{"[", "]"}, {"{\"a\":", "}"}}) {
+    std::string hostile = text;
+    hostile.insert(hostile.find("\"name\":\"glow\""), "\"extras\":" + nested(100000, open, close) + ",");
+    Doc e = d;
+    LoadResult r =
+        load(write("nested.gltf", hostile.substr(0, hostile.size() - 1) +
+                                      ",\"buffers\":[{\"byteLength\":" + std::to_string(d.bin.size()) +
+                                      ",\"uri\":\"data:application/octet-stream;base64," + base64(d.bin) + "\"}]}"));
+    ASSERT_FALSE(r.scene);
+    EXPECT_NE(r.error.find("nested.gltf"), std::string::npos) << r.error.substr(0, 300);
+    EXPECT_NE(r.error.find("JSON nests deeper than 64 levels"), std::string::npos) << r.error.substr(0, 300);
+  }
+  // Brackets inside strings do not count; moderate nesting in extras loads.
+  d.j["materials"][0]["extras"] = {{"note", std::string(1000, '[')}, {"deep", json::parse(nested(40, "[", "]"))}};
+  LoadResult ok = load(writeDoc(d, "fine.gltf"));
+  EXPECT_TRUE(ok.scene) << ok.error;
+  // The same check runs on a .glb's JSON chunk.
+  Doc g = quadDoc();
+  g.j["asset"]["extras"] = json::parse(nested(200, "[", "]"));
+  LoadResult glb = load(writeGlb(g, "nested.glb"));
+  ASSERT_FALSE(glb.scene);
+  EXPECT_NE(glb.error.find("JSON nests deeper"), std::string::npos) << glb.error;
+}
+
+// Defect 3: aspectRatio 1e-5 aborted (bad_alloc), 0.004 was OOM-killed and
+// 1e30 rendered 512x1.
+TEST_F(LoaderTest, CameraAspectRatioIsRangeChecked) {
+  Doc d = quadDoc();
+  d.j["nodes"] = {{{"mesh", 0}}, {{"name", "eye"}, {"camera", 0}, {"translation", {0.5, 0.5, 3}}}};
+  d.j["scenes"][0]["nodes"] = {0, 1};
+  int i = 0;
+  for (double aspect : {1e-5, 0.004, 1e30, -1.0, 33.0}) {
+    d.j["cameras"] = {{{"name", "cam"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
+    d.j["cameras"][0]["perspective"]["aspectRatio"] = aspect;
+    LoadResult r = load(writeDoc(d, "a" + std::to_string(i++) + ".gltf"));
+    ASSERT_FALSE(r.scene) << aspect;
+    EXPECT_NE(r.error.find("camera 0 'cam': aspectRatio must be in [0.03125,32]"), std::string::npos) << r.error;
+  }
+  d.j["cameras"][0]["perspective"]["aspectRatio"] = 1.5;
+  LoadResult ok = load(writeDoc(d, "ok.gltf"));
+  ASSERT_TRUE(ok.scene) << ok.error;
+  EXPECT_FLOAT_EQ(ok.scene->camera.aspect, 1.5f);
+}
+
+// Defect 4: Embree aborted for a camera at z = 2e18 or a light at 1e30; only
+// local POSITION values were checked.
+TEST_F(LoaderTest, WorldSpacePositionsAreRangeChecked) {
+  Doc d = quadDoc();
+  d.j["cameras"] = {{{"name", "far"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
+  d.j["nodes"] = {{{"mesh", 0}}, {{"camera", 0}, {"translation", {0, 0, 2e18}}}};
+  d.j["scenes"][0]["nodes"] = {0, 1};
+  LoadResult r = load(writeDoc(d, "camera.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("node 1: its world transform has an entry of 2e+18, outside +-1e+12"), std::string::npos)
+      << r.error;
+  d.j["nodes"][1]["translation"] = {0, 0, 2e10};
+  r = load(writeDoc(d, "camera2.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("camera 0 'far': position lies at (0 0 2e+10) in world space"), std::string::npos) << r.error;
+
+  Doc e = quadDoc();
+  e.j["extensions"] = {{"KHR_lights_punctual", {{"lights", {{{"name", "sun"}, {"type", "point"}, {"intensity", 1}}}}}}};
+  e.j["nodes"] = {{{"mesh", 0}},
+                  {{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}, {"translation", {1e30, 0, 0}}}};
+  e.j["scenes"][0]["nodes"] = {0, 1};
+  r = load(writeDoc(e, "light.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("node 1: its world transform has an entry of 1e+30"), std::string::npos) << r.error;
+  e.j["nodes"][1]["translation"] = {-3e9, 0, 0};
+  r = load(writeDoc(e, "light2.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("light 0 'sun': position lies at (-3e+09 0 0) in world space, outside +-1e+09"),
+            std::string::npos)
+      << r.error;
+
+  // Local positions are small, the node's scale makes them huge; an emitter
+  // scaled like this used to be dropped (infinite power) and render black.
+  Doc f = quadDoc();
+  f.j["nodes"][0]["scale"] = {1e10, 1e10, 1};
+  r = load(writeDoc(f, "scaled.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("POSITION[1] lies at (1e+10 0 0) in world space"), std::string::npos) << r.error;
+  f.j["nodes"][0]["scale"] = {1e20, 1e20, 1};
+  r = load(writeDoc(f, "scaled2.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("its world transform has an entry of 1e+20"), std::string::npos) << r.error;
+}
+
+// Defect 5: a 220-byte file declared 3e8 zero elements; a DAG of shared
+// subtrees multiplied 882 triangles into billions.
+TEST_F(LoaderTest, TinyFilesCannotDeclareHugeScenes) {
+  Doc d = quadDoc();
+  d.j["accessors"][0].erase("bufferView");
+  d.j["accessors"][0]["count"] = 300000000;
+  LoadResult r = load(writeDoc(d, "zeros.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("count 300000000 without a bufferView"), std::string::npos) << r.error;
+
+  LoadOptions small;
+  small.maxTriangles = 100000;
+  r = load(writeDoc(dagDoc(17, true), "dag.gltf"), small);  // 2^16 instances of 2 triangles
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("expands to 131072 triangles, more than 100000"), std::string::npos) << r.error;
+  // Counted before walking: the default limit with 2^29 instances fails at once.
+  auto t0 = std::chrono::steady_clock::now();
+  r = load(writeDoc(dagDoc(30, true), "bigdag.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("node instances"), std::string::npos) << r.error;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  r = load(writeDoc(dagDoc(12, true), "smalldag.gltf"), small);  // 2^11 instances: fine
+  ASSERT_TRUE(r.scene) << r.error;
+  EXPECT_EQ(r.scene->triangleCount(), 4096u);
+
+  // No meshes at all, only node instances: bounded too, within seconds.
+  r = load(writeDoc(dagDoc(40, false), "empty-dag.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("node instances"), std::string::npos) << r.error;
+}
+
+// Defect 6: URIs read outside the scene's folder, errors disclosed the size
+// of files like /etc/shadow, a FIFO hung the loader, /dev/zero as the scene
+// read until memory ran out.
+TEST_F(LoaderTest, UrisResolveInsideTheScenesFolderOnly) {
+  Doc d = quadDoc();
+  fs::create_directories(dir / "scene" / "data");
+  {
+    std::ofstream f(dir / "scene" / "data" / "quad.bin", std::ios::binary);
+    f.write(reinterpret_cast<const char*>(d.bin.data()), std::streamsize(d.bin.size()));
+  }
+  fs::copy_file(dir / "scene" / "data" / "quad.bin", dir / "outside.bin");
+  auto withUri = [&](const std::string& uri, const std::string& name) {
+    Doc e = d;
+    e.j["buffers"] = {{{"byteLength", d.bin.size() + 1}, {"uri", uri}}};  // wrong size: would say "got N"
+    return write("scene/" + name, e.j.dump());
+  };
+  // Inside the folder (and a subfolder) is fine.
+  {
+    Doc e = d;
+    e.j["buffers"] = {{{"byteLength", d.bin.size()}, {"uri", "data/quad.bin"}}};
+    LoadResult ok = load(write("scene/ok.gltf", e.j.dump()));
+    ASSERT_TRUE(ok.scene) << ok.error;
+  }
+  const std::string size = std::to_string(d.bin.size());
+  const std::vector<std::string> hostile = {
+      "../outside.bin", "data/../../outside.bin",       "/etc/passwd",
+      "/etc/shadow",    "../../../../../../etc/passwd", (dir / "outside.bin").string()};
+  for (const std::string& uri : hostile) {
+    LoadResult r = load(withUri(uri, "bad.gltf"));
+    ASSERT_FALSE(r.scene) << uri;
+    EXPECT_NE(r.error.find("bad.gltf"), std::string::npos) << r.error;
+    EXPECT_TRUE(r.error.find("outside the scene's folder") != std::string::npos ||
+                r.error.find("absolute paths are refused") != std::string::npos)
+        << r.error;
+    EXPECT_EQ(r.error.find("got " + size), std::string::npos) << "discloses the size: " << r.error;
+    EXPECT_EQ(r.error.find("requestedBytes"), std::string::npos) << r.error;
+  }
+  // A symlink inside the folder that leads out is refused too.
+  fs::create_symlink(dir / "outside.bin", dir / "scene" / "link.bin");
+  LoadResult r = load(withUri("link.bin", "link.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("outside the scene's folder"), std::string::npos) << r.error;
+  // No fallback to the current directory.
+  auto cwd = fs::current_path();
+  fs::current_path(dir);
+  r = load(withUri("outside.bin", "cwd.gltf"));
+  fs::current_path(cwd);
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("URI 'outside.bin': cannot be read (no such file)"), std::string::npos) << r.error;
+  // Special files: a FIFO must not hang, a directory is not "out of memory".
+  ASSERT_EQ(mkfifo((dir / "scene" / "fifo.bin").c_str(), 0600), 0);
+  r = load(withUri("fifo.bin", "fifo.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("not a regular file"), std::string::npos) << r.error;
+  r = load(withUri("data", "dir.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("it is a directory"), std::string::npos) << r.error;
+  EXPECT_EQ(r.error.find("memory"), std::string::npos) << r.error;
+  // The scene file itself.
+  r = load((dir / "scene" / "fifo.bin").string());
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("not a regular file"), std::string::npos) << r.error;
+  r = load("/dev/zero");
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("/dev/zero: cannot be read (not a regular file"), std::string::npos) << r.error;
+  r = load((dir / "scene").string());
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("it is a directory"), std::string::npos) << r.error;
+}
+
+// Defect 9: wrong JSON types were silently replaced by defaults.
+TEST_F(LoaderTest, WrongTypesOfKnownPropertiesAreNamed) {
+  Doc d = quadDoc();
+  d.j["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = "0.5";
+  LoadResult r = load(writeDoc(d, "a.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("a.gltf: material 0 'glow': 'roughnessFactor' must be a number (got \"0.5\")"),
+            std::string::npos)
+      << r.error;
+  Doc e = quadDoc();
+  e.j["nodes"][0]["translation"] = {"1", 0, 0};
+  r = load(writeDoc(e, "b.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("node 0 'quad-node': 'translation' must be an array of 3 numbers"), std::string::npos)
+      << r.error;
+  Doc f = quadDoc();
+  f.j["materials"][0]["doubleSided"] = "yes";
+  r = load(writeDoc(f, "c.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("'doubleSided' must be true or false"), std::string::npos) << r.error;
+}
+
+// Defect 5: textures are expanded to float RGBA per texture, also when many
+// share one image; an image header may claim any size.
+TEST_F(LoaderTest, TextureMemoryIsBounded) {
+  std::string err;
+  std::vector<uint8_t> px(512 * 512 * 3, 128);
+  ASSERT_TRUE(writePngRgb8((dir / "big.png").string(), 512, 512, px, &err)) << err;
+  Doc d = quadDoc();
+  d.j["images"] = {{{"uri", "big.png"}}};
+  d.j["textures"] = {{{"source", 0}}, {{"source", 0}}, {{"source", 0}}};
+  auto& m = d.j["materials"][0];
+  m["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {{"index", 1}};
+  m["emissiveTexture"] = {{"index", 2}};
+  LoadOptions o;
+  o.maxTexels = 3 * 512 * 512;
+  LoadResult ok = load(writeDoc(d, "ok.gltf"), o);
+  ASSERT_TRUE(ok.scene) << ok.error;
+  o.maxTexels = 3 * 512 * 512 - 1;
+  LoadResult r = load(writeDoc(d, "many.gltf"), o);
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("texels in total"), std::string::npos) << r.error;
+  // A PNG whose header claims 10000x10000 is refused before decoding (stb
+  // itself refuses more than 2^30 bytes).
+  std::ifstream in(dir / "big.png", std::ios::binary);
+  std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const uint8_t side[4] = {0, 0, 0x27, 0x10};  // 10000, big-endian, in IHDR
+  std::memcpy(&png[16], side, 4);
+  std::memcpy(&png[20], side, 4);
+  write("huge.png", png);
+  d.j["images"] = {{{"uri", "huge.png"}}};
+  r = load(writeDoc(d, "huge.gltf"));
+  ASSERT_FALSE(r.scene);
+  EXPECT_NE(r.error.find("10000x10000 pixels is more than the texture limit"), std::string::npos) << r.error;
 }
