@@ -453,6 +453,22 @@ void Studio::controlsPanel() {
   if (!vslAuto_)
     track("vsl-samples", ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("vsl-samples");
+  track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Spread each light's flux over the part of its disk on the receiver's side of the receiver's "
+        "tangent plane (less darkening near corners).");
+  track("lobe-radius", ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
+  errorField("lobe-radius");
+  sectionTitle("Gather (VSL and VPL)");
+  track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Eye paths continue through pure metals with GGX alpha below this instead of gathering "
+        "there (near-mirrors reflect the gather at the next surface).");
+  errorField("continue-alpha");
   sectionTitle("VPL");
   track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
   if (!clampOff_) {
