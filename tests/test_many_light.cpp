@@ -11,28 +11,12 @@
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "core/vsl_integral.h"
+#include "support.h"
 
 using namespace vsl;
+using namespace vsl::test;
 
 namespace {
-
-struct Loaded {
-  std::shared_ptr<const Scene> scene;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
-};
-
-Loaded loadAsset(const std::string& name) {
-  Loaded l;
-  LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-  EXPECT_TRUE(r.scene) << r.error;
-  l.scene = r.scene;
-  std::string err;
-  l.accel = Accel::build(*l.scene, &err);
-  EXPECT_TRUE(l.accel) << err;
-  l.lights = std::make_unique<LightSampler>(*l.scene);
-  return l;
-}
 
 ManyLightImages renderMany(const Loaded& l, const ManyLightSettings& s, ManyLightRun* runOut = nullptr) {
   ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
@@ -44,58 +28,10 @@ ManyLightImages renderMany(const Loaded& l, const ManyLightSettings& s, ManyLigh
   return im;
 }
 
-double channelMean(const Image& img) {
-  double s = 0;
-  for (float v : img.rgb) s += v;
-  return s / double(img.rgb.size());
-}
-
 bool allFinite(const Image& img) {
   for (float v : img.rgb)
     if (!std::isfinite(v)) return false;
   return true;
-}
-
-// Reference indirect image statistics from the path tracer: per-pixel means
-// and the standard error of the image mean.
-struct Reference {
-  Image indirect;
-  double mean = 0, se = 0;
-};
-
-Reference ptIndirect(const Loaded& l, int w, int h, int spp, uint64_t seed) {
-  RenderSettings rs;
-  rs.width = w;
-  rs.height = h;
-  rs.seed = seed;
-  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
-  Reference ref;
-  ref.indirect = Image(w, h);
-  const size_t n = size_t(w) * h;
-  std::vector<double> pixelMean(n), pixelVar(n);  // of the grey value's pixel mean
-  parallelFor(size_t(h), [&](size_t y) {
-    uint64_t rays = 0, nf = 0;
-    for (int x = 0; x < w; ++x) {
-      double s = 0, s2 = 0;
-      Vec3 acc(0.0f);
-      for (int k = 0; k < spp; ++k) {
-        Vec3 Ld, Li;
-        pt.samplePixel(x, int(y), k, Ld, Li, rays, nf);
-        double v = (double(Li.x) + Li.y + Li.z) / 3;
-        s += v;
-        s2 += v * v;
-        acc += Li;
-      }
-      size_t i = y * w + x;
-      ref.indirect.set(x, int(y), acc / float(spp));
-      pixelMean[i] = s / spp;
-      pixelVar[i] = std::max(s2 / spp - pixelMean[i] * pixelMean[i], 0.0) / spp;
-    }
-  });
-  double varSum = 0;
-  for (size_t i = 0; i < n; ++i) ref.mean += pixelMean[i] / n, varSum += pixelVar[i];
-  ref.se = std::sqrt(varSum) / n;
-  return ref;
 }
 
 double greyMean(const Image& img) { return channelMean(img); }
@@ -725,21 +661,6 @@ TEST(ManyLight, ProgressiveRadiiShrinkTowardZero) {
 // ---- Thin surfaces ------------------------------------------------------------------
 
 namespace {
-
-void addQuad(Scene& s, Vec3 o, Vec3 eu, Vec3 ev, uint32_t material) {  // faces cross(eu, ev)
-  uint32_t b = uint32_t(s.positions.size());
-  for (Vec3 p : {o, o + eu, o + eu + ev, o + ev}) {
-    s.positions.push_back(p);
-    s.normals.push_back(Vec3(0.0f));
-    s.tangents.push_back(Vec3(0.0f));
-    s.tangentSigns.push_back(1);
-    s.uvs.push_back({0, 0});
-    s.boundsMin = min(s.boundsMin, p);
-    s.boundsMax = max(s.boundsMax, p);
-  }
-  s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
-  s.triMaterial.insert(s.triMaterial.end(), {material, material});
-}
 
 // A large zero-thickness sheet, tilted so that its points' coordinates are not
 // exact, lit from behind by a small emitter that faces its back. The camera

@@ -5,8 +5,10 @@
 #include "core/image_io.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
+#include "support.h"
 
 using namespace vsl;
+using vsl::test::addQuad;
 
 namespace {
 
@@ -71,21 +73,6 @@ double signedCorner(double x, double z, double c) {
 }
 double rectFormFactor(double x0, double x1, double z0, double z1, double c) {
   return signedCorner(x1, z1, c) - signedCorner(x0, z1, c) - signedCorner(x1, z0, c) + signedCorner(x0, z0, c);
-}
-
-void addQuad(Scene& s, Vec3 o, Vec3 eu, Vec3 ev, uint32_t material) {
-  uint32_t b = uint32_t(s.positions.size());
-  for (Vec3 p : {o, o + eu, o + eu + ev, o + ev}) {
-    s.positions.push_back(p);
-    s.normals.push_back(Vec3(0.0f));
-    s.tangents.push_back(Vec3(0.0f));
-    s.tangentSigns.push_back(1);
-    s.uvs.push_back({0, 0});
-    s.boundsMin = min(s.boundsMin, p);
-    s.boundsMax = max(s.boundsMax, p);
-  }
-  s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
-  s.triMaterial.insert(s.triMaterial.end(), {material, material});
 }
 
 }  // namespace

@@ -30,73 +30,18 @@
 
 #include "core/many_light.h"
 #include "core/parallel.h"
+#include "support.h"
 
 using namespace vsl;
+using namespace vsl::test;
 
 namespace {
 
-struct Loaded {
-  std::shared_ptr<const Scene> scene;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
-  int width = 48, height = 0;  // height from the camera's aspect ratio
-};
+double greyMean(const Image& img) { return channelMean(img); }
 
-Loaded loadAsset(const std::string& name) {
-  Loaded l;
-  LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-  EXPECT_TRUE(r.scene) << r.error;
-  if (!r.scene) return l;
-  l.scene = r.scene;
-  std::string err;
-  l.accel = Accel::build(*l.scene, &err);
-  EXPECT_TRUE(l.accel) << err;
-  l.lights = std::make_unique<LightSampler>(*l.scene);
-  resolveResolution(*l.scene, l.width, l.height);
-  return l;
-}
-
-double greyMean(const Image& img) {
-  double s = 0;
-  for (float v : img.rgb) s += v;
-  return s / double(img.rgb.size());
-}
-
-// The path tracer's indirect image mean (grey) and its standard error, from
-// the per-pixel sample variances.
-struct Reference {
-  double mean = 0, se = 0;
-};
-
+// The path tracer's indirect mean at the scene's test resolution.
 Reference ptIndirect(const Loaded& l, int spp, uint64_t seed) {
-  RenderSettings rs;
-  rs.width = l.width;
-  rs.height = l.height;
-  rs.seed = seed;
-  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
-  const size_t n = size_t(l.width) * l.height;
-  std::vector<double> pixelMean(n), pixelVar(n);  // of each pixel's mean
-  parallelFor(size_t(l.height), [&](size_t y) {
-    uint64_t rays = 0, nonFinite = 0;
-    for (int x = 0; x < l.width; ++x) {
-      double s = 0, s2 = 0;
-      for (int k = 0; k < spp; ++k) {
-        Vec3 Ld, Li;
-        pt.samplePixel(x, int(y), k, Ld, Li, rays, nonFinite);
-        double v = (double(Li.x) + Li.y + Li.z) / 3;
-        s += v;
-        s2 += v * v;
-      }
-      size_t i = y * l.width + x;
-      pixelMean[i] = s / spp;
-      pixelVar[i] = std::max(s2 / spp - pixelMean[i] * pixelMean[i], 0.0) / spp;
-    }
-  });
-  Reference ref;
-  double varSum = 0;
-  for (size_t i = 0; i < n; ++i) ref.mean += pixelMean[i] / double(n), varSum += pixelVar[i];
-  ref.se = std::sqrt(varSum) / double(n);
-  return ref;
+  return test::ptIndirect(l, l.width, l.height, spp, seed);
 }
 
 // Indirect image means of the VPL variants, averaged over light sets.

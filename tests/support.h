@@ -1,0 +1,107 @@
+// Helpers shared by the rendering test suites: bundled scenes with their
+// acceleration structure and light sampler, hand-built geometry, and the
+// path-traced indirect reference with its standard error.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/accel.h"
+#include "core/lights.h"
+#include "core/parallel.h"
+#include "core/pathtracer.h"
+
+namespace vsl::test {
+
+struct Loaded {
+  std::shared_ptr<const Scene> scene;
+  std::unique_ptr<Accel> accel;
+  std::unique_ptr<LightSampler> lights;
+  int width = 0, height = 0;  // the asked width, height from the camera's aspect ratio
+};
+
+// assets/scenes/NAME.gltf; failures are reported as test failures.
+inline Loaded loadAsset(const std::string& name, int width = 48) {
+  Loaded l;
+  LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+  EXPECT_TRUE(r.scene) << r.error;
+  if (!r.scene) return l;
+  l.scene = r.scene;
+  std::string err;
+  l.accel = Accel::build(*l.scene, &err);
+  EXPECT_TRUE(l.accel) << err;
+  l.lights = std::make_unique<LightSampler>(*l.scene);
+  l.width = width;
+  resolveResolution(*l.scene, l.width, l.height);
+  return l;
+}
+
+// A quad o, o+eu, o+eu+ev, o+ev (two triangles) facing cross(eu, ev).
+inline void addQuad(Scene& s, Vec3 o, Vec3 eu, Vec3 ev, uint32_t material) {
+  uint32_t b = uint32_t(s.positions.size());
+  for (Vec3 p : {o, o + eu, o + eu + ev, o + ev}) {
+    s.positions.push_back(p);
+    s.normals.push_back(Vec3(0.0f));
+    s.tangents.push_back(Vec3(0.0f));
+    s.tangentSigns.push_back(1);
+    s.uvs.push_back({0, 0});
+    s.boundsMin = min(s.boundsMin, p);
+    s.boundsMax = max(s.boundsMax, p);
+  }
+  s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+  s.triMaterial.insert(s.triMaterial.end(), {material, material});
+}
+
+inline double channelMean(const Image& img) {
+  double s = 0;
+  for (float v : img.rgb) s += v;
+  return s / double(img.rgb.size());
+}
+
+// The path tracer's indirect image, its grey mean and the standard error of
+// that mean (from the per-pixel sample variances).
+struct Reference {
+  Image indirect;
+  double mean = 0, se = 0;
+};
+
+inline Reference ptIndirect(const Loaded& l, int w, int h, int spp, uint64_t seed) {
+  RenderSettings rs;
+  rs.width = w;
+  rs.height = h;
+  rs.seed = seed;
+  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
+  Reference ref;
+  ref.indirect = Image(w, h);
+  const size_t n = size_t(w) * h;
+  std::vector<double> pixelMean(n), pixelVar(n);  // of the grey value's pixel mean
+  parallelFor(size_t(h), [&](size_t y) {
+    uint64_t rays = 0, nf = 0;
+    for (int x = 0; x < w; ++x) {
+      double s = 0, s2 = 0;
+      Vec3 acc(0.0f);
+      for (int k = 0; k < spp; ++k) {
+        Vec3 Ld, Li;
+        pt.samplePixel(x, int(y), k, Ld, Li, rays, nf);
+        double v = (double(Li.x) + Li.y + Li.z) / 3;
+        s += v;
+        s2 += v * v;
+        acc += Li;
+      }
+      size_t i = y * w + x;
+      ref.indirect.set(x, int(y), acc / float(spp));
+      pixelMean[i] = s / spp;
+      pixelVar[i] = std::max(s2 / spp - pixelMean[i] * pixelMean[i], 0.0) / spp;
+    }
+  });
+  double varSum = 0;
+  for (size_t i = 0; i < n; ++i) ref.mean += pixelMean[i] / double(n), varSum += pixelVar[i];
+  ref.se = std::sqrt(varSum) / double(n);
+  return ref;
+}
+
+}  // namespace vsl::test
