@@ -234,34 +234,36 @@ const Image* Studio::referenceImage(Component c, Image& scratch) const {
   return nullptr;
 }
 
-const Image* Studio::componentImage(Source src, Component c, Image& scratch) const {
+Studio::SourceParts Studio::sourceParts(Source src) const {
   const Snapshot& s = *snap_;
-  const Image* indirect = nullptr;
   switch (src) {
     case Source::Reference:
-      return referenceImage(c, scratch);
+      return {nullptr, &s.ptDirect, &s.ptIndirect};
     case Source::LostClamping:
-      return &s.many.lostToClamping;
+      return {&s.many.lostToClamping, nullptr, nullptr};
     case Source::LostDiffuse:
-      return &s.many.lostToDiffuse;
+      return {&s.many.lostToDiffuse, nullptr, nullptr};
     case Source::Vsl:
-      indirect = &s.many.vsl;
-      break;
+      return {nullptr, &s.many.direct, &s.many.vsl};
     case Source::Vpl:
-      indirect = &s.many.vpl;
-      break;
+      return {nullptr, &s.many.direct, &s.many.vpl};
     case Source::VplUnclamped:
-      indirect = &s.many.vplUnclamped;
-      break;
+      return {nullptr, &s.many.direct, &s.many.vplUnclamped};
     case Source::VplDiffuse:
-      indirect = &s.many.vplDiffuse;
-      break;
+      return {nullptr, &s.many.direct, &s.many.vplDiffuse};
     case Source::Count:
-      return nullptr;
+      break;
   }
-  if (c == Component::Direct) return &s.many.direct;
-  if (c == Component::Indirect) return indirect;
-  scratch = add(s.many.direct, *indirect);
+  return {};
+}
+
+const Image* Studio::componentImage(Source src, Component c, Image& scratch) const {
+  if (src == Source::Reference) return referenceImage(c, scratch);
+  SourceParts p = sourceParts(src);
+  if (p.whole || !p.indirect) return p.whole;
+  if (c == Component::Direct) return p.direct;
+  if (c == Component::Indirect) return p.indirect;
+  scratch = add(*p.direct, *p.indirect);
   return &scratch;
 }
 
@@ -796,39 +798,16 @@ void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float pa
 }
 
 bool Studio::pixelValue(Source src, Component c, int x, int y, Vec3* out) const {
-  const Snapshot& s = *snap_;
-  auto at = [&](const Image& im) { return x < im.width && y < im.height ? im.at(x, y) : Vec3(0.0f); };
-  const Image* indirect = nullptr;
-  switch (src) {
-    case Source::Reference:
-      *out = c == Component::Direct     ? at(s.ptDirect)
-             : c == Component::Indirect ? at(s.ptIndirect)
-                                        : at(s.ptDirect) + at(s.ptIndirect);
-      return true;
-    case Source::LostClamping:
-      *out = at(s.many.lostToClamping);
-      return true;
-    case Source::LostDiffuse:
-      *out = at(s.many.lostToDiffuse);
-      return true;
-    case Source::Vsl:
-      indirect = &s.many.vsl;
-      break;
-    case Source::Vpl:
-      indirect = &s.many.vpl;
-      break;
-    case Source::VplUnclamped:
-      indirect = &s.many.vplUnclamped;
-      break;
-    case Source::VplDiffuse:
-      indirect = &s.many.vplDiffuse;
-      break;
-    case Source::Count:
-      return false;
+  auto at = [&](const Image* im) { return im && x < im->width && y < im->height ? im->at(x, y) : Vec3(0.0f); };
+  SourceParts p = sourceParts(src);
+  if (p.whole) {
+    *out = at(p.whole);
+    return true;
   }
-  *out = c == Component::Direct     ? at(s.many.direct)
-         : c == Component::Indirect ? at(*indirect)
-                                    : at(s.many.direct) + at(*indirect);
+  if (!p.indirect) return false;
+  *out = c == Component::Direct     ? at(p.direct)
+         : c == Component::Indirect ? at(p.indirect)
+                                    : at(p.direct) + at(p.indirect);
   return true;
 }
 

@@ -121,6 +121,13 @@ class Studio {
   std::string exportStem() const;  // <scene>-<UTC timestamp>
   static std::string uniquePath(const std::string& dir, const std::string& stem, const std::string& ext);
   void updateTextures();
+  // The images a source is made of: `whole` for one without components (the
+  // missing-energy images), else its direct and indirect parts; all null for
+  // Source::Count.
+  struct SourceParts {
+    const Image *whole = nullptr, *direct = nullptr, *indirect = nullptr;
+  };
+  SourceParts sourceParts(Source s) const;
   const Image* componentImage(Source s, Component c, Image& scratch) const;
   const Image* referenceImage(Component c, Image& scratch) const;
   void legend(float vmax);
