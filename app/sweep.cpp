@@ -1,7 +1,10 @@
 // `vsl sweep`: runs a grid of methods, light counts and radius scales against
 // a reference EXR and charts what each gives up for speed. Every progressive
 // step is a point (compute seconds, relMSE of the indirect image); the last
-// point of each configuration is its final result.
+// point of each run is its final result. Each configuration runs with
+// --sets independent light sets (or path-tracer seeds), and its finals are
+// summarised by the median, the quartiles and the worst 1% of pixels' share of
+// the squared error (summary.csv).
 // Output: sweep.csv, sweep.json, error_vs_time.png and pareto.png (gnuplot,
 // from Debian's gnuplot-nox, when installed; the .gp scripts are written
 // either way).
