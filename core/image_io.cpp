@@ -189,8 +189,10 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
   return writeFileAtomically(path, stream.data().data(), stream.data().size(), error);
 }
 
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error) {
+bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
+             std::map<std::string, std::string>* attributes) {
   layers.clear();
+  if (attributes) attributes->clear();
   // Only regular files: a FIFO would block and /dev/zero never ends.
   struct stat st;
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
@@ -210,6 +212,10 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
       return false;
     }
     int w = int(w64), h = int(h64);
+    if (attributes)
+      for (auto it = header.begin(); it != header.end(); ++it)
+        if (const auto* a = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+          (*attributes)[it.name()] = a->value();
     // Layers: the prefixes of channels ending in .R (or R alone).
     std::vector<std::string> names;
     for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {

@@ -34,8 +34,9 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
 // The data window is checked before any allocation: at most 65536 pixels a
 // side, and no more decoded bytes than the file could plausibly hold (4096
 // times its size, with a 16 MiB floor), so a patched header cannot exhaust
-// memory.
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error);
+// memory. attributes (optional) receives the header's string attributes.
+bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
+             std::map<std::string, std::string>* attributes = nullptr);
 
 // Tone mapping for display and PNG: linear * 2^exposure, clamped, sRGB-encoded.
 uint8_t toSrgb8(float linear);
