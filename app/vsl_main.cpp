@@ -803,6 +803,7 @@ int main(int argc, char** argv) {
 
   ReferenceArgs rfa;
   rfa.settings.spp = 1024;
+  rfa.settings.seed = 1;
   auto* reference = app.add_subcommand(
       "reference", "Render a converged path-traced reference in two independent halves, to a file and the cache");
   reference->add_option("scene", rfa.scene, "Scene file (.gltf or .glb)")->required();
@@ -813,7 +814,10 @@ int main(int argc, char** argv) {
                         "Stop once the reference's own indirect relMSE, estimated from its halves, is at most this");
   reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)");
   reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)");
-  reference->add_option("--seed", rfa.settings.seed, "Random seed")->default_str("0");
+  reference
+      ->add_option("--seed", rfa.settings.seed,
+                   "Random seed (1: independent of the studio's live path tracer, which uses 0)")
+      ->default_str("1");
   reference->add_option("--max-depth", rfa.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
   reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");
