@@ -1534,16 +1534,27 @@ void Studio::cropsPanel() {
   }
   ImGui::BeginChild("cropstrip", ImVec2(0, 0), false, ImGuiWindowFlags_HorizontalScrollbar);
   const float line = ImGui::GetTextLineHeightWithSpacing();
+  // As tall as the tab allows, narrow enough that every tile fits across
+  // (a scroll bar only when that would make them smaller than 64 px).
+  const float gap = 10, n = float(std::min(crops_.size(), std::size(cropTextures_)));
+  const float aspect = float(r.w) / float(r.h);
   float th = std::max(48.0f, ImGui::GetContentRegionAvail().y - 2 * line - 14);
-  float tw = th * float(r.w) / float(r.h);
-  if (tw > 260) tw = 260, th = tw * float(r.h) / float(r.w);
+  float tw = std::min({th * aspect, 260.0f, (ImGui::GetContentRegionAvail().x - gap * (n - 1)) / n});
+  tw = std::max(tw, std::min(64.0f, th * aspect));
+  th = tw / aspect;
   for (size_t i = 0; i < crops_.size() && i < std::size(cropTextures_); ++i) {
     const CropItem& c = crops_[i];
-    if (i > 0) ImGui::SameLine(0, 10);
+    if (i > 0) ImGui::SameLine(0, gap);
     ImGui::BeginGroup();
+    // The title is clipped to the tile (the full name in a tooltip).
     std::string title = c.error ? std::string("error ") + sourceName(c.source) : sourceName(c.source);
-    ImGui::TextUnformatted(title.c_str());
     ImVec2 p = ImGui::GetCursorScreenPos();
+    const ImVec4 clip(p.x, p.y, p.x + tw, p.y + line);
+    ImGui::GetWindowDrawList()->AddText(ImGui::GetFont(), ImGui::GetFontSize(), p, ImGui::GetColorU32(ImGuiCol_Text),
+                                        title.c_str(), nullptr, 0.0f, &clip);
+    ImGui::Dummy(ImVec2(tw, ImGui::GetTextLineHeight()));
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", title.c_str());
+    p = ImGui::GetCursorScreenPos();
     DisplayParams dp;
     if (c.error)
       dp.mode = DisplayMode::FalseColour, dp.scale = 1.0f / std::max(cropErrorMax_, 1e-12f);
@@ -1551,8 +1562,13 @@ void Studio::cropsPanel() {
       dp.scale = std::exp2(view_.exposure);
     drawImage(ImGui::GetWindowDrawList(), cropTextures_[i], p, ImVec2(p.x + tw, p.y + th), ImVec2(0, 0), ImVec2(1, 1),
               dp);
-    ImGui::Dummy(ImVec2(std::max(tw, ImGui::CalcTextSize(title.c_str()).x), th));
-    if (c.hasMetrics) {
+    ImGui::Dummy(ImVec2(tw, th));
+    if (c.error) {
+      ImGui::TextDisabled("0 .. %.3g", cropErrorMax_);
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("%s per pixel; the colour map's range (shared by every error map)",
+                          kMetricNames[int(view_.metric)]);
+    } else if (c.hasMetrics) {
       ImGui::Text("relMSE %.4g", c.metrics.average.relMse);
       if (ImGui::IsItemHovered())
         ImGui::SetTooltip(
@@ -1640,7 +1656,8 @@ void outline(Rgb8& img, const CropRect& r, int t) {
 // by an integer factor, nearest neighbour) and crop-figure-<component>.png
 // (the reference with the rectangle outlined, then the crops side by side:
 // top row the reference and the methods, bottom row the methods' error
-// maps), and describes them, the rectangle and the crops' metrics in *out.
+// maps; all of it magnified to at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
+// *out.
 bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
                          std::vector<std::string>* files, std::string* error) const {
   const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
@@ -1682,6 +1699,9 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
     const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
     blit(figure, magnified(tiles[i], fig), full.width + gap + col * (cw + gap), row * (ch + gap));
   }
+  // The whole figure magnified so that it is at least 512 pixels tall (at most 8x).
+  const int scale = std::clamp((512 + figure.h - 1) / figure.h, 1, 8);
+  if (scale > 1) figure = magnified(figure, scale);
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
   if (!writePngRgb8(figPath, figure.w, figure.h, figure.px, error)) return false;
@@ -1711,6 +1731,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
           {"files", names},
           {"figure", figName},
           {"figureMagnification", fig},
+          {"figureScale", scale},
           {"figureLayout",
            "left: the reference with the crop outlined; right, top row: the reference, VSL, VPL (clamped), VPL "
            "unclamped, VPL diffuse-only; bottom row: their error maps"},
