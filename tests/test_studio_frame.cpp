@@ -402,11 +402,11 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
     EXPECT_EQ(h, 8 * f) << file;
   }
   EXPECT_EQ(crops, 9) << "the reference, four methods and their four error maps";
-  // The figure: the 64x32 image, then five columns of 1x crops (24 px with
-  // the gap), all of it magnified 8x (512 / 32 = 16, at most 8).
+  // The figure: the 64x32 image magnified 8x (512 / 32 = 16, at most 8),
+  // then five columns of crops magnified (256 - 8) / (2 x 8) = 15x, 8 px apart.
   int w = 0, h = 0, n = 0;
   ASSERT_TRUE(stbi_info((folder + "/crop-figure-indirect.png").c_str(), &w, &h, &n));
-  EXPECT_EQ(w, 8 * (64 + 5 * (16 + 8)));
+  EXPECT_EQ(w, 8 * 64 + 8 + 5 * (16 * 15 + 8));
   EXPECT_EQ(h, 8 * 32);
   // A crop of the magnified VSL file is the VSL crop, pixel for pixel (nearest neighbour).
   int cw = 0, chh = 0;

@@ -1656,7 +1656,7 @@ void outline(Rgb8& img, const CropRect& r, int t) {
 // by an integer factor, nearest neighbour) and crop-figure-<component>.png
 // (the reference with the rectangle outlined, then the crops side by side:
 // top row the reference and the methods, bottom row the methods' error
-// maps; all of it magnified to at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
+// maps; at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
 // *out.
 bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
                          std::vector<std::string>* files, std::string* error) const {
@@ -1687,21 +1687,21 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
     files->push_back(path);
     names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
   }
-  // The figure: crops at the largest factor that fits two rows beside the
-  // full image (at least 1x, at most the files' factor).
-  const int gap = 8, fig = std::clamp((full.height - gap) / (2 * r.h), 1, f);
+  // The figure: the reference magnified `scale` times (at least 512 pixels
+  // tall, at most 8x), and beside it the crops at the largest integer factor
+  // that fits two rows in that height (at least 1x).
+  const int gap = 8, scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
+  const int fullW = full.width * scale, fullH = full.height * scale;
+  const int fig = std::max(1, (fullH - gap) / (2 * r.h));
   const int cw = r.w * fig, ch = r.h * fig, columns = 1 + int(std::size(kMetricSources));
-  Rgb8 figure(full.width + columns * (cw + gap), std::max(full.height, 2 * ch + gap));
+  Rgb8 figure(fullW + gap + columns * (cw + gap), std::max(fullH, 2 * ch + gap));
   Rgb8 whole = toneMapped(full, view_.exposure);
-  outline(whole, r, 2);
-  blit(figure, whole, 0, 0);
+  outline(whole, r, scale > 1 ? 1 : 2);
+  blit(figure, magnified(whole, scale), 0, 0);
   for (size_t i = 0; i < tiles.size(); ++i) {
     const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
-    blit(figure, magnified(tiles[i], fig), full.width + gap + col * (cw + gap), row * (ch + gap));
+    blit(figure, magnified(tiles[i], fig), fullW + gap + col * (cw + gap), row * (ch + gap));
   }
-  // The whole figure magnified so that it is at least 512 pixels tall (at most 8x).
-  const int scale = std::clamp((512 + figure.h - 1) / figure.h, 1, 8);
-  if (scale > 1) figure = magnified(figure, scale);
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
   if (!writePngRgb8(figPath, figure.w, figure.h, figure.px, error)) return false;
@@ -1733,8 +1733,9 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
           {"figureMagnification", fig},
           {"figureScale", scale},
           {"figureLayout",
-           "left: the reference with the crop outlined; right, top row: the reference, VSL, VPL (clamped), VPL "
-           "unclamped, VPL diffuse-only; bottom row: their error maps"},
+           "left: the reference (magnified figureScale times) with the crop outlined; right, magnified "
+           "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
+           "bottom row: the methods' error maps"},
           {"metricsAgainstReferenceCrop", metrics}};
   return true;
 }
