@@ -33,6 +33,10 @@ expect_exit1 no-emitters "no emitters" "$out/dark.gltf" --export "$out/x"
 expect_exit1 after-zero "nothing to export" --export "$out/x" --after 0
 touch "$out/a-file"
 expect_exit1 export-unwritable "cannot create" --export "$out/a-file/sub"
+expect_exit1 crop-outside "lies outside the 16x" --export "$out/x" --crop 100,100,4,4
+timeout 60 "$studio" --headless --crop 1,2,3 >"$out/crop-syntax.log" 2>&1
+rc=$?
+if [ $rc -ne 2 ] || ! grep -q "X,Y,W,H" "$out/crop-syntax.log"; then echo "crop-syntax: exit $rc, want 2"; fail=1; fi
 
 # Runs that succeed: exit status 0, the export's metrics.json in $out/<name>/*/.
 expect_ok() {  # name, expected text on stderr, arguments...
