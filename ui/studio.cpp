@@ -1569,7 +1569,7 @@ void Studio::cropsPanel() {
         ImGui::SetTooltip("%s per pixel; the colour map's range (shared by every error map)",
                           kMetricNames[int(view_.metric)]);
     } else if (c.hasMetrics) {
-      ImGui::Text("relMSE %.4g", c.metrics.average.relMse);
+      ImGui::Text("relMSE %.3g", c.metrics.average.relMse);
       if (ImGui::IsItemHovered())
         ImGui::SetTooltip(
             "This crop against the reference's crop (%s, eps %.2g):\nmean %.5g (reference %.5g)\nRMSE "
@@ -1577,7 +1577,7 @@ void Studio::cropsPanel() {
             componentName(view_.component), c.metrics.epsilon, c.metrics.average.meanTest, c.metrics.average.meanRef,
             c.metrics.average.rmse, c.metrics.average.mae, c.metrics.average.bias);
     } else {
-      ImGui::Text("mean %.4g", crops_[1].metrics.average.meanRef);
+      ImGui::Text("mean %.3g", crops_[1].metrics.average.meanRef);
     }
     ImGui::EndGroup();
   }
