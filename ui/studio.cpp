@@ -32,7 +32,7 @@ const char* sourceName(Source s) {
     case Source::Vpl:
       return "VPL (clamped)";
     case Source::Reference:
-      return "Reference (PT)";
+      return "Reference";
     case Source::VplUnclamped:
       return "VPL unclamped";
     case Source::VplDiffuse:
@@ -250,11 +250,11 @@ const Image* Studio::referenceImage(Component c, Image& scratch) const {
   const Snapshot& s = *snap_;
   switch (c) {
     case Component::Direct:
-      return &s.ptDirect;
+      return &s.refDirect;
     case Component::Indirect:
-      return &s.ptIndirect;
+      return &s.refIndirect;
     case Component::Full:
-      scratch = add(s.ptDirect, s.ptIndirect);
+      scratch = add(s.refDirect, s.refIndirect);
       return &scratch;
   }
   return nullptr;
@@ -264,7 +264,7 @@ Studio::SourceParts Studio::sourceParts(Source src) const {
   const Snapshot& s = *snap_;
   switch (src) {
     case Source::Reference:
-      return {nullptr, &s.ptDirect, &s.ptIndirect};
+      return {nullptr, &s.refDirect, &s.refIndirect};
     case Source::LostClamping:
       return {&s.many.lostToClamping, nullptr, nullptr};
     case Source::LostDiffuse:
@@ -539,6 +539,39 @@ void Studio::controlsPanel() {
   track("reference spp",
         ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("reference spp");
+
+  sectionTitle("Reference");
+  ImGui::SetNextItemWidth(-110);
+  bool refEnter = ImGui::InputText("##reference", &referencePathInput_, ImGuiInputTextFlags_EnterReturnsTrue);
+  ImGui::SameLine();
+  if (ImGui::Button("Load reference") || refEnter) {
+    settings_.referencePath = referencePathInput_;
+    track("reference", true);
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "An EXR of the render's size with an 'indirect' layer (vsl reference writes one); empty: a "
+        "matching cached reference, else the live path tracer");
+  if (!settings_.referencePath.empty() && ImGui::Button("Use cache / live path tracer")) {
+    settings_.referencePath.clear();
+    referencePathInput_.clear();
+    track("reference", true);
+  }
+  bool background = settings_.backgroundReferenceSpp > 0;
+  if (ImGui::Checkbox("render reference in background", &background)) {
+    settings_.backgroundReferenceSpp = background ? backgroundSpp_ : 0;
+    track("reference", true);
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Once the methods are done, render a converged reference into the cache (kept for the next "
+        "session), then measure every error against it");
+  if (ImGui::SliderInt("background spp", &backgroundSpp_, 64, 65536, "%d", ImGuiSliderFlags_Logarithmic) &&
+      background) {
+    settings_.backgroundReferenceSpp = backgroundSpp_;
+    track("reference", true);
+  }
+  errorField("reference");
   // Restarts wait until the controls rest for a moment (a drag pauses, or
   // typed text is entered): each restart throws away the light set.
   if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
@@ -995,12 +1028,43 @@ void Studio::metricsPanel() {
                      restartToPictureMs_, launchToPictureMs_);
   ImGui::PopTextWrapPos();
   // A fixed outer width: the table's row lines end at the table, not under the plot.
-  if (ImGui::BeginTable("metrics", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(430, 0))) {
+  // relMSE as compare.h computes it, less the reference's own noise where
+  // it is known (the indirect component: relMSE(A, B) / 4 from the
+  // reference's halves, session.h); the equal-time column interpolates each
+  // method's history at the same amount of its own time.
+  const bool indirect = view_.component == Component::Indirect;
+  const double noise = indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
+  const double budget = equalTimeBudget(s.history);
+  auto atEqualTime = [&](int i) {
+    if (!indirect || i > 1) return double(NAN);
+    return errorAtOwnTime(s.history, i == 0 ? StudioMethod::Vsl : StudioMethod::Vpl, budget);
+  };
+  double best[3] = {INFINITY, INFINITY, INFINITY};  // RMSE, relMSE, equal time
+  for (int i = 0; i < 4; ++i) {
+    best[0] = std::min(best[0], metrics_[i].average.rmse);
+    best[1] = std::min(best[1], metrics_[i].average.relMse - noise);
+    if (double e = atEqualTime(i); std::isfinite(e)) best[2] = std::min(best[2], e);
+  }
+  const double ptEqual = indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, budget) : NAN;
+  if (std::isfinite(ptEqual)) best[2] = std::min(best[2], ptEqual);
+  const ImVec4 green(0.45f, 0.95f, 0.45f, 1);
+  auto cell = [&](double v, double bestV, const char* fmt) {
+    if (!std::isfinite(v))
+      ImGui::TextDisabled("-");
+    else if (v == bestV)
+      ImGui::TextColored(green, fmt, v);
+    else
+      ImGui::Text(fmt, v);
+  };
+  if (ImGui::BeginTable("metrics", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(470, 0))) {
     ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
                             ImGuiTableColumnFlags_WidthStretch);
     ImGui::TableSetupColumn("mean");
     ImGui::TableSetupColumn("RMSE");
-    ImGui::TableSetupColumn("relMSE");
+    ImGui::TableSetupColumn(noise > 0 ? "relMSE-noise" : "relMSE");
+    char eqTitle[32];
+    std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", budget);
+    ImGui::TableSetupColumn(indirect ? eqTitle : "@equal t");
     ImGui::TableHeadersRow();
     for (int i = 0; i < 4; ++i) {
       const CompareResult& c = metrics_[i];
@@ -1010,31 +1074,50 @@ void Studio::metricsPanel() {
       ImGui::TableNextColumn();
       ImGui::Text("%.5g", c.average.meanTest);
       ImGui::TableNextColumn();
-      ImGui::Text("%.4g", c.average.rmse);
+      cell(c.average.rmse, best[0], "%.4g");
       ImGui::TableNextColumn();
-      ImGui::Text("%.4g", c.average.relMse);
+      cell(c.average.relMse - noise, best[1], "%.4g");
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
+                          noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
+      ImGui::TableNextColumn();
+      cell(atEqualTime(i), best[2], "%.4g");
     }
     ImGui::TableNextRow();
     ImGui::TableNextColumn();
-    ImGui::TextUnformatted("Reference (PT)");
+    ImGui::TextUnformatted(s.convergedReference ? "Path tracer (live)" : "Reference (live PT)");
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("%s", s.convergedReference ? "The live path tracer, measured against the converged reference"
+                                                   : "The live path tracer is the reference: its value is its own "
+                                                     "noise, relMSE(A, B)/4 from two independent halves");
     ImGui::TableNextColumn();
-    ImGui::Text("%.5g", referenceMean_);
+    ImGui::Text("%.5g", s.convergedReference ? 0.0 : referenceMean_);
     ImGui::TableNextColumn();
     ImGui::TextUnformatted("-");
     ImGui::TableNextColumn();
-    // The reference's own error is tracked for the indirect component (where
+    // The path tracer's error is tracked for the indirect component (where
     // the methods differ); it is not shown under another component's title.
-    if (view_.component == Component::Indirect) {
-      ImGui::Text("~%.3g", s.history.empty() ? 0.0 : s.history.back().pt);
-      if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("The reference's own expected relMSE (indirect), from its sample variance");
+    if (indirect) {
+      const double pt = s.history.empty() ? 0.0 : s.history.back().pt;
+      ImGui::Text(s.convergedReference ? "%.4g" : "~%.3g", pt);
     } else {
       ImGui::TextDisabled("n/a");
       if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("The reference's own error is estimated for the indirect component only");
+        ImGui::SetTooltip("The path tracer's error is tracked for the indirect component only");
     }
+    ImGui::TableNextColumn();
+    cell(ptEqual, best[2], "%.4g");
     ImGui::EndTable();
   }
+  // Which reference, and how noisy it is.
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 470);
+  char noiseText[48] = "unknown (no halves)";
+  if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
+  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
+                     s.referenceSpp, noiseText);
+  if (s.backgroundSpp > 0 && !s.convergedReference)
+    ImGui::TextWrapped("background reference: %d / %d spp", s.backgroundSpp, s.settings.backgroundReferenceSpp);
+  ImGui::PopTextWrapPos();
   ImGui::EndGroup();
   ImGui::SameLine(0, 12);
   plotErrors(
@@ -1063,7 +1146,8 @@ void Studio::plotErrors(const ImVec2& size) {
   ImVec2 p0 = ImGui::GetCursorScreenPos(), p1(p0.x + size.x, p0.y + size.y);
   ImGui::Dummy(size);
   // The title sits above the plot area, never over the curves.
-  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255), "relMSE (indirect) vs compute time on each image");
+  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255),
+              "relMSE (indirect, less the reference's noise) vs each method's own time");
   const float titleH = ImGui::GetTextLineHeight() + 4, padL = 56, padB = 18, padR = 56;
   ImVec2 a(p0.x + padL, p0.y + titleH + 4), b(p1.x - padR, p1.y - padB);
   dl->AddRect(ImVec2(a.x, a.y), ImVec2(b.x, b.y), IM_COL32(120, 120, 120, 255));
@@ -1071,7 +1155,7 @@ void Studio::plotErrors(const ImVec2& size) {
   // Log-log axes over every series' range.
   double tMin = 1e30, tMax = 1e-30, eMin = 1e30, eMax = 1e-30;
   for (const ErrorSample& e : h) {
-    for (double t : {e.manySeconds, e.ptSeconds})
+    for (double t : {e.vslSeconds, e.vplSeconds, e.ptSeconds})
       if (t > 0) tMin = std::min(tMin, t), tMax = std::max(tMax, t);
     for (double v : {e.vsl, e.vpl, e.pt})
       if (v > 0) eMin = std::min(eMin, v), eMax = std::max(eMax, v);
@@ -1106,6 +1190,11 @@ void Studio::plotErrors(const ImVec2& size) {
     dl->AddText(ImVec2(x - tw / 2, b.y + 2), IM_COL32_WHITE, buf);
     lastLabelEnd = x + tw / 2;
   }
+  // Equal time: the budget every method has reached.
+  if (double tb = equalTimeBudget(h); tb > tMin && tb < tMax) {
+    float x = X(tb);
+    for (float y = a.y; y < b.y; y += 8) dl->AddLine(ImVec2(x, y), ImVec2(x, std::min(y + 4, b.y)), IM_COL32_WHITE);
+  }
   struct Series {
     const char* name;
     ImU32 colour;
@@ -1113,9 +1202,9 @@ void Studio::plotErrors(const ImVec2& size) {
     double (*v)(const ErrorSample&);
   };
   const Series series[] = {
-      {"VSL", IM_COL32(255, 120, 80, 255), [](const ErrorSample& e) { return e.manySeconds; },
+      {"VSL", IM_COL32(255, 120, 80, 255), [](const ErrorSample& e) { return e.vslSeconds; },
        [](const ErrorSample& e) { return e.vsl; }},
-      {"VPL", IM_COL32(90, 160, 255, 255), [](const ErrorSample& e) { return e.manySeconds; },
+      {"VPL", IM_COL32(90, 160, 255, 255), [](const ErrorSample& e) { return e.vplSeconds; },
        [](const ErrorSample& e) { return e.vpl; }},
       {"PT", IM_COL32(120, 220, 120, 255), [](const ErrorSample& e) { return e.ptSeconds; },
        [](const ErrorSample& e) { return e.pt; }},
@@ -1283,7 +1372,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   // Every layer, linear, in one EXR.
   Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl),
         vplFull = add(s.many.direct, s.many.vpl);
-  ErrorImages ev = errorImages(s.many.vsl, s.ptIndirect), ep = errorImages(s.many.vpl, s.ptIndirect);
+  ErrorImages ev = errorImages(s.many.vsl, s.refIndirect), ep = errorImages(s.many.vpl, s.refIndirect);
   std::vector<Layer> layers = {{"", vslFull},
                                {"vsl-full", vslFull},
                                {"vsl-indirect", s.many.vsl},
@@ -1293,6 +1382,8 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                                {"pt-full", ptFull},
                                {"pt-direct", s.ptDirect},
                                {"pt-indirect", s.ptIndirect},
+                               {"reference-full", add(s.refDirect, s.refIndirect)},
+                               {"reference-indirect", s.refIndirect},
                                {"vpl-unclamped-indirect", s.many.vplUnclamped},
                                {"vpl-diffuse-indirect", s.many.vplDiffuse},
                                {"lost-to-clamping", s.many.lostToClamping},
@@ -1357,8 +1448,28 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   }
   nlohmann::json hist = nlohmann::json::array();
   for (const ErrorSample& e : s.history)
-    hist.push_back(
-        {{"manySeconds", e.manySeconds}, {"vsl", e.vsl}, {"vpl", e.vpl}, {"ptSeconds", e.ptSeconds}, {"pt", e.pt}});
+    hist.push_back({{"manySeconds", e.manySeconds},
+                    {"vslSeconds", e.vslSeconds},
+                    {"vplSeconds", e.vplSeconds},
+                    {"vsl", e.vsl},
+                    {"vpl", e.vpl},
+                    {"ptSeconds", e.ptSeconds},
+                    {"pt", e.pt},
+                    {"referenceNoiseSubtracted", e.referenceNoise}});
+  // The reference every number is measured against, and its own noise.
+  const double budget = equalTimeBudget(s.history);
+  auto finiteOrNull = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  nlohmann::json reference = {
+      {"source", s.referenceSource},
+      {"converged", s.convergedReference},
+      {"spp", s.referenceSpp},
+      {"indirectNoiseRelMSE", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
+      {"noiseEstimate", "relMSE(A, B) / 4 from two independent halves; subtracted from errorHistory"},
+      {"livePathTracerSpp", s.ptSpp}};
+  nlohmann::json equalTime = {{"budgetSeconds", budget},
+                              {"vsl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vsl, budget))},
+                              {"vpl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vpl, budget))},
+                              {"pt", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Pt, budget))}};
   const ManyLightSettings& m = s.settings.many;
   // The clamp as resolved: its mode and the bound actually used.
   nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
@@ -1403,6 +1514,8 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                         {"lightTracingSeconds", s.lightTracingSeconds},
                         {"knnSeconds", s.knnSeconds},
                         {"gatherSeconds", s.gatherSeconds},
+                        {"vslOwnSeconds", s.vslSeconds},
+                        {"vplOwnSeconds", s.vplSeconds},
                         {"referenceSeconds", s.referenceSeconds},
                         {"pairsPerSecond", s.pairsPerSecond}}},
                       {"machine", machineJson()},
@@ -1416,6 +1529,8 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                       {"metricsAgainstReference", metrics},
                       {"relMseEpsilon", kEps},
                       {"crop", cropJson},
+                      {"reference", reference},
+                      {"equalTimeIndirect", equalTime},
                       {"errorHistory", hist}};
   if (!writeTextFile(path("metrics.json"), j.dump(2) + "\n", &err)) return fail(err);
   files.push_back(path("metrics.json"));

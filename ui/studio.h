@@ -226,6 +226,8 @@ class Studio {
   ImVec2 viewMin_, viewMax_;
   // Controls that are not settings values.
   std::string scenePath_, exportDir_;
+  std::string referencePathInput_;  // the reference control's text
+  int backgroundSpp_ = 4096;        // samples for "render reference in background"
   bool clampOff_ = false, clampAuto_ = true, vslAuto_ = true, globalRadius_ = false;
   float clampValue_ = 1;
   std::string message_, errorDialog_;
