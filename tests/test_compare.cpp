@@ -1,0 +1,138 @@
+// Error metrics (core/compare.h): relMSE's eps relative to the reference, and
+// bias against noise over independent renders.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/compare.h"
+#include "core/image_io.h"
+#include "core/many_light.h"
+#include "support.h"
+
+using namespace vsl;
+using namespace vsl::test;
+
+// The relative eps is 0.01 x (mean luminance)^2 of the reference; a bare
+// number stays an absolute eps.
+TEST(Compare, RelativeEpsilonScalesWithTheReference) {
+  Image ref(4, 4), test(4, 4);
+  for (int i = 0; i < 16; ++i) ref.set(i % 4, i / 4, Vec3(0.5f, 1.0f, 2.0f)), test.set(i % 4, i / 4, Vec3(1.0f));
+  const double lum = 0.2126 * 0.5 + 0.7152 * 1.0 + 0.0722 * 2.0;
+  CompareResult r = compareImages(test, ref);
+  EXPECT_EQ(r.epsilonSpec.mode, RelMseEpsilon::Mode::Relative);
+  EXPECT_NEAR(r.epsilon, 0.01 * lum * lum, 1e-9);
+  EXPECT_NEAR(r.channel[0].relMse, 0.25 / (0.25 + r.epsilon), 1e-9);
+  CompareResult a = compareImages(test, ref, 0.01);
+  EXPECT_EQ(a.epsilonSpec.mode, RelMseEpsilon::Mode::Absolute);
+  EXPECT_EQ(a.epsilon, 0.01);
+  // Scaling both images leaves the relative relMSE unchanged.
+  for (float& v : ref.rgb) v *= 1e-3f;
+  for (float& v : test.rgb) v *= 1e-3f;
+  EXPECT_NEAR(compareImages(test, ref).average.relMse, r.average.relMse, 1e-6);
+}
+
+// An all-black image must not rank above a noisy image with the right mean.
+// Dim reference (mean luminance 1e-3): half its pixels 1.8e-3, half 0.2e-3.
+// The noisy image is right on average in every pixel pair: in the bright
+// pixels it is 0 (60%) or 2.5 x the reference (40%), relative variance 1.5,
+// like fireflies; in the dim pixels it is 0.8 or 1.2 x the reference.
+// With an absolute eps = 0.01 every pixel's weight is ~1/eps, relMSE is the
+// MSE / eps, and the bright pixels' noise (1.5 x 3.2e-6) outweighs black's
+// error (mean of ref^2 = 1.6e-6): black ranks first. With the relative eps
+// (1e-8 here) black scores ~0.9 (about 1 in every pixel) and the noisy image
+// ~0.76.
+TEST(Compare, AllBlackNeverRanksAboveTheRightMeanOnADimReference) {
+  const int W = 40, H = 20;
+  Image ref(W, H), noisy(W, H), black(W, H);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool bright = x < W / 2;
+      const float r = bright ? 1.8e-3f : 0.2e-3f;
+      ref.set(x, y, Vec3(r));
+      const int k = (x * 7 + y * 3) % 10;  // 0..9, evenly over each half
+      float v = bright ? (k < 6 ? 0.0f : 2.5f * r) : (k < 5 ? 0.8f * r : 1.2f * r);
+      noisy.set(x, y, Vec3(v));
+    }
+  CompareResult n = compareImages(noisy, ref), b = compareImages(black, ref);
+  EXPECT_NEAR(n.average.meanTest, n.average.meanRef, 0.05 * n.average.meanRef);  // the right mean
+  EXPECT_NEAR(n.epsilon, 1e-8, 1e-10);
+  EXPECT_NEAR(b.average.relMse, 0.9, 0.01);
+  EXPECT_LT(n.average.relMse, b.average.relMse);
+  // The absolute eps gets this wrong, which is why it is no longer the default.
+  EXPECT_GT(compareImages(noisy, ref, 0.01).average.relMse, compareImages(black, ref, 0.01).average.relMse);
+}
+
+TEST(Compare, BiasVarianceOfKnownImages) {
+  // Renders ref + 0.1 and ref + 0.3 (alternating sign is not needed): mean
+  // ref + 0.2, sample variance 0.02; ref = 1 everywhere, eps absolute 0 -> 1e-30.
+  Image ref(3, 2), a(3, 2), b(3, 2);
+  for (float& v : ref.rgb) v = 1;
+  for (float& v : a.rgb) v = 1.1f;
+  for (float& v : b.rgb) v = 1.3f;
+  BiasVarianceResult r = biasVariance({&a, &b}, ref, 1e-30);
+  EXPECT_EQ(r.renders, 2);
+  EXPECT_EQ(r.pixels, 6u);
+  EXPECT_NEAR(r.average.variance, 0.02, 1e-6);
+  EXPECT_NEAR(r.average.bias2, 0.04 - 0.01, 1e-6);
+  EXPECT_NEAR(r.average.relMse, 0.04, 1e-6);
+  EXPECT_NEAR(r.average.relMse, r.average.bias2 + r.average.variance / 2, 1e-9);
+  EXPECT_NEAR(r.bias.rgb[0], 0.2f, 1e-6f);
+  EXPECT_NEAR(r.noise.rgb[0], std::sqrt(0.02f), 1e-6f);
+}
+
+// Four clamped-VPL renders (independent light sets) of the glossy Cornell box
+// are smooth but darker than the path-traced reference: bias dominates. Four
+// 4-spp path-traced renders are unbiased and noisy: variance dominates.
+// Measured at 24 pixels wide, where one eye ray per pixel makes edge pixels
+// noisy (anti-aliasing noise that more lights do not remove), so each VPL
+// render averages 4 light sets of 2,000 lights (as the sweep's pass-based
+// methods do; 4 eye rays per pixel), and the clamp is 0.01 x the auto bound
+// (the auto bound loses almost nothing here: bias2 0.03 against variance 0.37
+// with one set); this clamp loses about 30% of the indirect light, like the
+// X
+// (relative eps). The 1024-spp reference's own noise, relMSE(B, A)/2 = 0.02
+// here, counts as bias2: it is small against both margins.
+TEST(Compare, ClampedVplIsBiasedAndFewSamplePathTracingIsNoisy) {
+  Loaded l = loadAsset("cornell-glossy", 24);
+  const int W = l.width, H = l.height, K = 4, setsPerRender = 4;
+  Reference ref = ptIndirect(l, W, H, 1024, 77);
+  std::vector<Image> vpl, pt;
+  for (int k = 0; k < K; ++k) {
+    Image sum(W, H);
+    for (int j = 0; j < setsPerRender; ++j) {
+      ManyLightSettings s;
+      s.lights = 2000;
+      s.width = W;
+      s.height = H;
+      s.batches = 1;
+      s.directSamples = 1;
+      s.seed = 500 + 10 * k + j;
+      s.computeVsl = false;
+      ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+      s.clamp = 0.01f * ManyLightRenderer(*l.scene, *l.accel, *l.lights, run.set, run.radii, s).clampBound();
+      ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+      ASSERT_TRUE(r.renderBatch(0));
+      const Image& v = r.images().vpl;
+      for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i] / setsPerRender;
+    }
+    vpl.push_back(sum);
+    pt.push_back(ptIndirect(l, W, H, 4, 900 + k).indirect);
+  }
+  std::vector<const Image*> pv, pp;
+  for (int k = 0; k < K; ++k) pv.push_back(&vpl[size_t(k)]), pp.push_back(&pt[size_t(k)]);
+  BiasVarianceResult v = biasVariance(pv, ref.indirect), p = biasVariance(pp, ref.indirect);
+  std::printf("clamped VPL: bias2 %.4g variance %.4g relMSE(mean) %.4g, mean %.4g (reference %.4g)\n", v.average.bias2,
+              v.average.variance, v.average.relMse, v.average.meanTest, v.average.meanRef);
+  std::printf("PT 4 spp:    bias2 %.4g variance %.4g relMSE(mean) %.4g\n", p.average.bias2, p.average.variance,
+              p.average.relMse);
+  EXPECT_LT(v.average.meanTest, 0.85 * v.average.meanRef);  // clamping darkens
+  EXPECT_GT(v.average.bias2, v.average.variance);
+  EXPECT_GT(p.average.variance, p.average.bias2);
+  EXPECT_NEAR(p.average.relMse, p.average.bias2 + p.average.variance / K, 1e-9 * p.average.relMse);
+}
