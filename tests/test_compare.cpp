@@ -136,3 +136,122 @@ TEST(Compare, ClampedVplIsBiasedAndFewSamplePathTracingIsNoisy) {
   EXPECT_GT(p.average.variance, p.average.bias2);
   EXPECT_NEAR(p.average.relMse, p.average.bias2 + p.average.variance / K, 1e-9 * p.average.relMse);
 }
+
+// ---- `vsl compare` and `vsl sweep` from the command line ---------------------------
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Proc {
+  int code;
+  std::string out;
+};
+
+// Runs `vsl ARGS`; stderr is dropped unless asked for (stdout is the JSON).
+Proc runVsl(const std::string& args, bool withStderr = false) {
+  std::string cmd = std::string(VSL_BINARY_DIR) + "/bin/vsl " + args + (withStderr ? " 2>&1" : " 2>/dev/null");
+  Proc r{-1, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path scratch(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("vsl_compare_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A CSV without the given columns (timing differs between runs).
+std::string withoutColumns(const std::string& csv, std::vector<size_t> drop) {
+  std::istringstream in(csv);
+  std::ostringstream out;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream ls(line);
+    size_t i = 0;
+    for (std::string f; std::getline(ls, f, ','); ++i)
+      if (std::find(drop.begin(), drop.end(), i) == drop.end()) out << f << ",";
+    out << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace
+
+// The number quoted for FLIP: black against white is about 0.967. FLIP is one
+// value per RGB image ("flip" and "average"), next to the eps relMSE used.
+TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
+  fs::path d = scratch("flip");
+  Image black(32, 24), white(32, 24);
+  for (float& v : white.rgb) v = 1;
+  std::string err;
+  ASSERT_TRUE(writeExr((d / "black.exr").string(), {{"", black}}, &err)) << err;
+  ASSERT_TRUE(writeExr((d / "white.exr").string(), {{"", white}}, &err)) << err;
+  Proc p = runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() + " --json --flip-exr " +
+                  (d / "flip.exr").string() + " --flip-png " + (d / "flip.png").string());
+  ASSERT_EQ(p.code, 0) << p.out;
+  auto j = nlohmann::json::parse(p.out);
+  EXPECT_NEAR(double(j["average"]["flip"]["ldr"]), 0.967, 0.001);
+  EXPECT_NEAR(double(j["flip"]["ldr"]), 0.967, 0.001);
+  EXPECT_GT(double(j["flip"]["hdr"]), 0.9);
+  EXPECT_EQ(j["epsilon_mode"], "relative");
+  EXPECT_NEAR(double(j["epsilon"]), 0.01, 1e-6);  // 0.01 x (mean luminance 1)^2
+  EXPECT_FALSE(j["R"].contains("flip"));
+  std::vector<Layer> layers;
+  ASSERT_TRUE(readExr((d / "flip.exr").string(), layers, &err)) << err;
+  EXPECT_EQ(layers.size(), 3u);
+  EXPECT_TRUE(fs::exists(d / "flip.png"));
+  EXPECT_TRUE(fs::exists(d / "flip-hdr.png"));
+  // The absolute eps on request.
+  auto a = nlohmann::json::parse(runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() +
+                                        " --json --no-flip --epsilon-mode absolute --epsilon 0.5")
+                                     .out);
+  EXPECT_EQ(a["epsilon_mode"], "absolute");
+  EXPECT_EQ(double(a["epsilon"]), 0.5);
+  EXPECT_NEAR(double(a["average"]["relMSE"]), 1 / 1.5, 1e-6);
+  fs::remove_all(d);
+}
+
+// Several test images: bias2, variance and the relMSE of their mean, with maps.
+TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
+  fs::path d = scratch("bv");
+  Image ref(8, 8), a(8, 8), b(8, 8), c(8, 8);
+  for (size_t i = 0; i < ref.rgb.size(); ++i) ref.rgb[i] = 1, a.rgb[i] = 1.1f, b.rgb[i] = 1.2f, c.rgb[i] = 1.3f;
+  std::string err;
+  for (auto [name, img] : {std::pair{"ref", &ref}, {"a", &a}, {"b", &b}, {"c", &c}})
+    ASSERT_TRUE(writeExr((d / (std::string(name) + ".exr")).string(), {{"", *img}}, &err)) << err;
+  auto f = [&](const char* n) { return (d / (std::string(n) + ".exr")).string() + " "; };
+  Proc p = runVsl("compare " + f("a") + f("b") + f("c") + f("ref") + "--json -o " + (d / "bv.exr").string());
+  ASSERT_EQ(p.code, 0) << p.out;
+  auto j = nlohmann::json::parse(p.out);
+  EXPECT_EQ(j["renders"], 3);
+  const double eps = 0.01;  // relative: 0.01 x 1^2
+  // mean 1.2, sample variance 0.01; bias2 = 0.04 - 0.01/3.
+  EXPECT_NEAR(double(j["average"]["variance"]), 0.01 / (1 + eps), 1e-5);
+  EXPECT_NEAR(double(j["average"]["bias2"]), (0.04 - 0.01 / 3) / (1 + eps), 1e-5);
+  EXPECT_NEAR(double(j["average"]["relMSE"]), 0.04 / (1 + eps), 1e-5);
+  EXPECT_TRUE(j["average"].contains("flip"));
+  std::vector<Layer> layers;
+  ASSERT_TRUE(readExr((d / "bv.exr").string(), layers, &err)) << err;
+  ASSERT_EQ(layers.size(), 4u);  // default (bias), bias, noise, mean
+  std::map<std::string, const Image*> byName;
+  for (const Layer& l : layers) byName[l.name] = &l.image;
+  ASSERT_TRUE(byName.count("bias") && byName.count("noise") && byName.count("mean"));
+  EXPECT_NEAR(byName["bias"]->rgb[0], 0.2f, 1e-5f);
+  EXPECT_NEAR(byName["noise"]->rgb[0], 0.1f, 1e-5f);
+  EXPECT_NEAR(byName["mean"]->rgb[0], 1.2f, 1e-5f);
+  fs::remove_all(d);
+}
