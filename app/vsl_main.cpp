@@ -878,7 +878,7 @@ int main(int argc, char** argv) {
 
   SweepArgs sw;
   auto* sweep = app.add_subcommand("sweep", "Error against time for a grid of methods, light counts and radii");
-  sweep->add_option("scene", sw.scene, "Scene file")->required();
+  sweep->add_option("scene", sw.scene, "Scene file (not with --merge)");
   sweep
       ->add_option("--methods", sw.methods,
                    "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
@@ -909,8 +909,9 @@ int main(int argc, char** argv) {
   bool sweepSpread = false;
   sweep->add_flag("--mrcs-spread", sweepSpread, "-mrcs methods: VSL representatives get radius r sqrt(weight)");
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
-  sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)")
-      ->required();
+  sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)");
+  sweep->add_option("--shard", sw.shard, "I/N: run only the configurations whose grid index is I mod N");
+  sweep->add_option("--merge", sw.merge, "Join these shard output directories into -o (no scene needed)");
   sweep->add_option("--reference-b", sw.referenceB,
                     "A second reference with another seed: relMSE(B, A)/2 estimates the reference's own noise, "
                     "reported and subtracted in the column relmse_minus_ref_noise");

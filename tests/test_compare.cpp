@@ -255,3 +255,46 @@ TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
   EXPECT_NEAR(byName["mean"]->rgb[0], 1.2f, 1e-5f);
   fs::remove_all(d);
 }
+
+// Shards 0/2 and 1/2 merged give the unsharded sweep's CSVs (timing columns
+// aside) and the same JSON summary. The many-light runs are not time-limited
+// here, so their results do not depend on the clock.
+TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
+  fs::path d = scratch("shard");
+  std::string sceneFile = std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf";
+  ASSERT_EQ(runVsl("render " + sceneFile + " --spp 8 --width 16 --height 16 -o " + (d / "ref.exr").string()).code, 0);
+  const std::string grid = "sweep " + sceneFile + " --methods vpl,vsl --lights 40,80 --radius-scale 0.5,1 " +
+                           "--batches 2 --sets 2 --time 1000 --reference " + (d / "ref.exr").string() + " -o ";
+  Proc all = runVsl(grid + (d / "all").string(), true);
+  ASSERT_EQ(all.code, 0) << all.out;
+  ASSERT_EQ(runVsl(grid + (d / "s0").string() + " --shard 0/2").code, 0);
+  ASSERT_EQ(runVsl(grid + (d / "s1").string() + " --shard 1/2").code, 0);
+  Proc m = runVsl("sweep --merge " + (d / "s1").string() + " " + (d / "s0").string() + " -o " + (d / "merged").string(),
+                  true);
+  ASSERT_EQ(m.code, 0) << m.out;
+  // The shards split the six configurations.
+  std::string s0 = slurp(d / "s0/sweep.csv"), s1 = slurp(d / "s1/sweep.csv");
+  EXPECT_GT(std::count(s0.begin(), s0.end(), '\n'), 1);
+  EXPECT_GT(std::count(s1.begin(), s1.end(), '\n'), 1);
+  EXPECT_EQ(withoutColumns(slurp(d / "merged/sweep.csv"), {5}), withoutColumns(slurp(d / "all/sweep.csv"), {5}));
+  EXPECT_EQ(withoutColumns(slurp(d / "merged/summary.csv"), {4}), withoutColumns(slurp(d / "all/summary.csv"), {4}));
+  auto ja = nlohmann::json::parse(slurp(d / "all/sweep.json")),
+       jm = nlohmann::json::parse(slurp(d / "merged/sweep.json"));
+  EXPECT_EQ(ja["summary"].size(), 6u);
+  EXPECT_EQ(jm["summary"].size(), 6u);
+  EXPECT_FALSE(jm.contains("shard"));
+  EXPECT_EQ(jm["relMseEpsilon"], ja["relMseEpsilon"]);
+  // bias2 and variance over the two sets, and FLIP, on every configuration.
+  for (const auto& row : ja["summary"]) {
+    EXPECT_TRUE(row["bias2"].is_number()) << row;
+    EXPECT_GT(double(row["variance"]), 0) << row;
+    EXPECT_GT(double(row["flipLdrMedian"]), 0) << row;
+  }
+  for (const char* png : {"merged/pareto.png", "merged/flip_vs_time.png"}) EXPECT_TRUE(fs::exists(d / png)) << png;
+  // A shard given twice, or one missing, is refused; so is a malformed --shard.
+  EXPECT_EQ(
+      runVsl("sweep --merge " + (d / "s0").string() + " " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
+  EXPECT_EQ(runVsl("sweep --merge " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
+  EXPECT_EQ(runVsl(grid + (d / "x").string() + " --shard 2/2").code, 2);
+  fs::remove_all(d);
+}
