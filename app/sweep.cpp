@@ -105,7 +105,7 @@ struct SweepMeta {
 // ---- CSV of the points: written by every run, read back by --merge --------
 
 std::string csvNumber(double v) {
-  if (std::isnan(v)) return "";
+  if (std::isnan(v)) return "nan";  // not empty: a trailing empty field is easy to lose
   std::ostringstream s;
   s << v;
   return s.str();
@@ -135,7 +135,7 @@ bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* 
     *error = "not a sweep.csv of this version (header '" + line + "')";
     return false;
   }
-  auto num = [](const std::string& f) { return f.empty() ? NAN : std::stod(f); };
+  auto num = [](const std::string& f) { return f == "nan" ? NAN : std::stod(f); };
   while (std::getline(in, line)) {
     std::vector<std::string> f;
     std::istringstream ls(line);
