@@ -105,23 +105,28 @@ double remapColourError(double e) {
 // ---- [SECTION] Filters -----------------------------------------------------------------
 
 // Correlates a w x h plane with kx along x, then ky along y (odd lengths,
-// centred), replicating the border.
+// centred), replicating the border. Rows are padded once so the inner loops
+// run without bounds checks; the vertical pass adds whole rows (contiguous).
 Plane separable(const Plane& in, int w, int h, const std::vector<double>& kx, const std::vector<double>& ky) {
   Plane tmp(in.size()), out(in.size());
   const int rx = int(kx.size() / 2), ry = int(ky.size() / 2);
   parallelFor(size_t(h), [&](size_t y) {
-    const double* row = &in[y * w];
+    std::vector<double> row(size_t(w + 2 * rx));
+    for (int x = -rx; x < w + rx; ++x) row[size_t(x + rx)] = in[y * w + size_t(std::clamp(x, 0, w - 1))];
+    double* t = &tmp[y * w];
     for (int x = 0; x < w; ++x) {
-      double s = 0;
-      for (int i = -rx; i <= rx; ++i) s += kx[size_t(i + rx)] * row[std::clamp(x + i, 0, w - 1)];
-      tmp[y * w + x] = s;
+      double acc = 0;
+      const double* r = &row[size_t(x)];
+      for (size_t i = 0; i < kx.size(); ++i) acc += kx[i] * r[i];
+      t[x] = acc;
     }
   });
   parallelFor(size_t(h), [&](size_t y) {
-    for (int x = 0; x < w; ++x) {
-      double s = 0;
-      for (int i = -ry; i <= ry; ++i) s += ky[size_t(i + ry)] * tmp[size_t(std::clamp(int(y) + i, 0, h - 1)) * w + x];
-      out[y * w + x] = s;
+    double* o = &out[y * w];
+    for (int i = -ry; i <= ry; ++i) {
+      const double k = ky[size_t(i + ry)];
+      const double* t = &tmp[size_t(std::clamp(int(y) + i, 0, h - 1)) * w];
+      for (int x = 0; x < w; ++x) o[x] += k * t[x];
     }
   });
   return out;
@@ -214,15 +219,18 @@ std::array<Plane, 3> toYCxCzPlanes(const Image& img) {
   const size_t n = size_t(img.width) * img.height;
   std::array<Plane, 3> p;
   for (Plane& c : p) c.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    Rgb rgb;
-    for (int c = 0; c < 3; ++c) {
-      float v = img.rgb[3 * i + c];
-      rgb[size_t(c)] = std::isfinite(v) ? std::clamp(double(v), 0.0, 1.0) : 0.0;
+  const size_t w = size_t(img.width);
+  parallelFor(size_t(img.height), [&](size_t y) {
+    for (size_t i = y * w; i < (y + 1) * w; ++i) {
+      Rgb rgb;
+      for (int c = 0; c < 3; ++c) {
+        float v = img.rgb[3 * i + c];
+        rgb[size_t(c)] = std::isfinite(v) ? std::clamp(double(v), 0.0, 1.0) : 0.0;
+      }
+      Rgb o = linearToYCxCz(rgb);
+      for (int c = 0; c < 3; ++c) p[size_t(c)][i] = o[size_t(c)];
     }
-    Rgb o = linearToYCxCz(rgb);
-    for (int c = 0; c < 3; ++c) p[size_t(c)][i] = o[size_t(c)];
-  }
+  });
   return p;
 }
 
@@ -242,13 +250,15 @@ std::vector<double> flipLinear(const Image& test, const Image& ref, double ppd) 
     tf[size_t(c)] = applyCsf(tp[size_t(c)], w, h, csf[c]);
   }
   std::vector<double> colour(n);
-  parallelFor(n, [&](size_t i) {
-    auto lab = [&](const std::array<Plane, 3>& f) {
-      Rgb rgb = yCxCzToLinear({f[0][i], f[1][i], f[2][i]});
-      for (double& v : rgb) v = std::clamp(v, 0.0, 1.0);
-      return huntLab(rgb);
-    };
-    colour[i] = remapColourError(std::pow(hyab(lab(rf), lab(tf)), kQc));
+  parallelFor(size_t(h), [&](size_t y) {
+    for (size_t i = y * w; i < (y + 1) * w; ++i) {
+      auto lab = [&](const std::array<Plane, 3>& f) {
+        Rgb rgb = yCxCzToLinear({f[0][i], f[1][i], f[2][i]});
+        for (double& v : rgb) v = std::clamp(v, 0.0, 1.0);
+        return huntLab(rgb);
+      };
+      colour[i] = remapColourError(std::pow(hyab(lab(rf), lab(tf)), kQc));
+    }
   });
 
   // Features on the achromatic channel, normalised by 116: (Y* + 16) / 116 = Y / Yw.
@@ -260,11 +270,13 @@ std::vector<double> flipLinear(const Image& test, const Image& ref, double ppd) 
 
   // Combine: features raise the colour error towards 1.
   std::vector<double> out(n);
-  for (size_t i = 0; i < n; ++i) {
-    double df = std::max(std::abs(re[i] - te[i]), std::abs(rpnt[i] - tpnt[i]));
-    double ef = std::pow(df / std::sqrt(2.0), kQf);
-    out[i] = std::pow(colour[i], 1 - ef);
-  }
+  parallelFor(size_t(h), [&](size_t y) {
+    for (size_t i = y * w; i < (y + 1) * w; ++i) {
+      double df = std::max(std::abs(re[i] - te[i]), std::abs(rpnt[i] - tpnt[i]));
+      double ef = std::pow(df / std::sqrt(2.0), kQf);
+      out[i] = std::pow(colour[i], 1 - ef);
+    }
+  });
   return out;
 }
 
