@@ -338,30 +338,37 @@ bool writeFlipMaps(const CompareArgs& a, const CompareFlip& f, std::string& err)
 
 int compareMany(const CompareArgs& a, const std::vector<const Image*>& tests, const Image& r, const RelMseEpsilon& eps);
 
-int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
+// The test images and the reference, read and checked (layers, sizes).
+struct CompareInputs {
+  std::vector<std::vector<Layer>> testLayers;
+  std::vector<Layer> refLayers;
+  std::vector<const Image*> tests;
+  const Image* ref = nullptr;
+};
+
+// Returns 0, or 1 after reporting what is wrong.
+int loadCompareInputs(const CompareArgs& a, bool layerGiven, bool refLayerGiven, CompareInputs& in) {
   const std::string& refPath = a.images.back();
   const size_t K = a.images.size() - 1;
-  std::vector<std::vector<Layer>> tl(K);
-  std::vector<Layer> rl;
+  in.testLayers.resize(K);
   std::string err;
   for (size_t k = 0; k < K; ++k)
-    if (!readExr(a.images[k], tl[k], &err)) {
+    if (!readExr(a.images[k], in.testLayers[k], &err)) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
-  if (!readExr(refPath, rl, &err)) {
+  if (!readExr(refPath, in.refLayers, &err)) {
     std::fprintf(stderr, "error: %s\n", err.c_str());
     return 1;
   }
   const std::string& refName = refLayerGiven ? a.refLayer : a.layer;
-  const Image* r = findLayer(rl, refName, refLayerGiven || layerGiven);
+  const Image* r = in.ref = findLayer(in.refLayers, refName, refLayerGiven || layerGiven);
   if (!r) {
     std::fprintf(stderr, "error: %s: no layer '%s'\n", refPath.c_str(), refName.c_str());
     return 1;
   }
-  std::vector<const Image*> tests;
   for (size_t k = 0; k < K; ++k) {
-    const Image* t = findLayer(tl[k], a.layer, layerGiven);
+    const Image* t = findLayer(in.testLayers[k], a.layer, layerGiven);
     if (!t) {
       std::fprintf(stderr, "error: %s: no layer '%s'\n", a.images[k].c_str(), a.layer.c_str());
       return 1;
@@ -371,11 +378,20 @@ int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
                    refPath.c_str(), r->width, r->height);
       return 1;
     }
-    tests.push_back(t);
+    in.tests.push_back(t);
   }
+  return 0;
+}
+
+int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
+  CompareInputs in;
+  if (int rc = loadCompareInputs(a, layerGiven, refLayerGiven, in); rc != 0) return rc;
+  const std::string& refPath = a.images.back();
+  const Image* r = in.ref;
+  std::string err;
   const RelMseEpsilon eps = a.epsilonMode == "absolute" ? RelMseEpsilon(a.epsilon) : RelMseEpsilon::relative(a.epsilon);
-  if (K > 1) return compareMany(a, tests, *r, eps);
-  const Image* t = tests[0];
+  if (in.tests.size() > 1) return compareMany(a, in.tests, *r, eps);
+  const Image* t = in.tests[0];
   const std::string& testPath = a.images[0];
   CompareResult c = compareImages(*t, *r, eps);
   CompareFlip flip;
