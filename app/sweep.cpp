@@ -456,6 +456,89 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   return 0;
 }
 
+// Plots (gnuplot scripts with inline data, rendered when gnuplot is
+// installed): the first run of each configuration against time, the medians
+// with their quartiles and Pareto fronts, and the median FLIP against time.
+int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::vector<Summary>& summary,
+               const std::map<std::string, std::vector<size_t>>& finals,
+               const std::map<std::string, std::vector<size_t>>& fronts, const std::filesystem::path& dir) {
+  std::string err;
+  const double refNoise = meta.refNoise;
+  std::map<std::string, std::vector<size_t>> series;
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (pts[i].set == 0) series[pts[i].series()].push_back(i);
+  std::ostringstream gp1, gp2, gp3;
+  const std::string sceneName = std::filesystem::path(meta.scene).stem().string();
+  gp1 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "error_vs_time.png").string() << "'\n"
+      << "set logscale xy\nset xlabel 'compute time (s)'\nset ylabel 'relMSE of the indirect image (eps = "
+      << meta.epsilonSpec.describe() << ")'\n"
+      << "set title 'Error against time (first of " << meta.sets << " runs each): " << sceneName
+      << "'\nset key outside\n"
+      << "plot ";
+  bool first = true;
+  for (auto& [name, idx] : series) {
+    gp1 << (first ? "" : ", ") << "'-' using 1:2 with linespoints title '" << name << "'";
+    first = false;
+  }
+  if (refNoise > 0) gp1 << ", " << refNoise << " with lines dashtype 2 lc rgb 'gray40' title 'reference noise'";
+  gp1 << "\n";
+  for (auto& [name, idx] : series) {
+    for (size_t i : idx) gp1 << pts[i].seconds << " " << std::max(pts[i].relMse, 1e-12) << "\n";
+    gp1 << "e\n";
+  }
+  gp2 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "pareto.png").string() << "'\n"
+      << "set logscale xy\nset xlabel 'compute time (s, median)'\n"
+      << "set ylabel 'relMSE of the indirect image (median, bars: quartiles)'\n"
+      << "set title 'Pareto fronts (lower left is better): " << sceneName << "'\nset key outside\nplot ";
+  first = true;
+  for (auto& [m, idx] : finals) {
+    gp2 << (first ? "" : ", ") << "'-' using 1:2:3:4 with yerrorbars pt 7 title '" << m
+        << " configurations', '-' using 1:2 with lines lw 2 title '" << m << " front'";
+    first = false;
+  }
+  gp2 << "\n";
+  for (auto& [m, idx] : finals) {
+    for (size_t i : idx)
+      gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << " " << std::max(summary[i].q1, 1e-12)
+          << " " << std::max(summary[i].q3, 1e-12) << "\n";
+    gp2 << "e\n";
+    for (size_t i : fronts.at(m)) gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << "\n";
+    gp2 << "e\n";
+  }
+  // LDR-FLIP of the final images (median over the runs) against time.
+  gp3 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "flip_vs_time.png").string() << "'\n"
+      << "set logscale x\nset xlabel 'compute time (s, median)'\n"
+      << "set ylabel 'LDR-FLIP of the indirect image (median, " << kFlipPixelsPerDegree << " pixels/degree)'\n"
+      << "set title 'FLIP against time (lower is better): " << sceneName << "'\nset key outside\nplot ";
+  first = true;
+  for (auto& [m, idx] : finals) {
+    gp3 << (first ? "" : ", ") << "'-' using 1:2 with points pt 7 title '" << m << "'";
+    first = false;
+  }
+  gp3 << "\n";
+  for (auto& [m, idx] : finals) {
+    for (size_t i : idx) gp3 << summary[i].seconds << " " << summary[i].flip << "\n";
+    gp3 << "e\n";
+  }
+  for (auto [name, text] : {std::pair<std::string, std::string>{"error_vs_time.gp", gp1.str()},
+                            {"pareto.gp", gp2.str()},
+                            {"flip_vs_time.gp", gp3.str()}}) {
+    std::string path = (dir / name).string();
+    if (!writeTextFile(path, text, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
+      std::string cmd = "gnuplot '" + path + "'";
+      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "warning: gnuplot failed on %s\n", path.c_str());
+    } else {
+      std::fprintf(stderr, "warning: gnuplot is not installed (scripts/setup.sh installs gnuplot-nox); wrote %s only\n",
+                   path.c_str());
+    }
+  }
+  return 0;
+}
+
 // sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
 int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
   std::string err;
@@ -550,80 +633,7 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
       return 1;
     }
 
-  // ---- Plots (gnuplot scripts with inline data): the first run of each
-  // configuration against time, and the medians with their quartiles.
-  std::map<std::string, std::vector<size_t>> series;
-  for (size_t i = 0; i < pts.size(); ++i)
-    if (pts[i].set == 0) series[pts[i].series()].push_back(i);
-  std::ostringstream gp1, gp2, gp3;
-  const std::string sceneName = std::filesystem::path(meta.scene).stem().string();
-  gp1 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "error_vs_time.png").string() << "'\n"
-      << "set logscale xy\nset xlabel 'compute time (s)'\nset ylabel 'relMSE of the indirect image (eps = "
-      << meta.epsilonSpec.describe() << ")'\n"
-      << "set title 'Error against time (first of " << meta.sets << " runs each): " << sceneName
-      << "'\nset key outside\n"
-      << "plot ";
-  bool first = true;
-  for (auto& [name, idx] : series) {
-    gp1 << (first ? "" : ", ") << "'-' using 1:2 with linespoints title '" << name << "'";
-    first = false;
-  }
-  if (refNoise > 0) gp1 << ", " << refNoise << " with lines dashtype 2 lc rgb 'gray40' title 'reference noise'";
-  gp1 << "\n";
-  for (auto& [name, idx] : series) {
-    for (size_t i : idx) gp1 << pts[i].seconds << " " << std::max(pts[i].relMse, 1e-12) << "\n";
-    gp1 << "e\n";
-  }
-  gp2 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "pareto.png").string() << "'\n"
-      << "set logscale xy\nset xlabel 'compute time (s, median)'\n"
-      << "set ylabel 'relMSE of the indirect image (median, bars: quartiles)'\n"
-      << "set title 'Pareto fronts (lower left is better): " << sceneName << "'\nset key outside\nplot ";
-  first = true;
-  for (auto& [m, idx] : finals) {
-    gp2 << (first ? "" : ", ") << "'-' using 1:2:3:4 with yerrorbars pt 7 title '" << m
-        << " configurations', '-' using 1:2 with lines lw 2 title '" << m << " front'";
-    first = false;
-  }
-  gp2 << "\n";
-  for (auto& [m, idx] : finals) {
-    for (size_t i : idx)
-      gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << " " << std::max(summary[i].q1, 1e-12)
-          << " " << std::max(summary[i].q3, 1e-12) << "\n";
-    gp2 << "e\n";
-    for (size_t i : fronts[m]) gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << "\n";
-    gp2 << "e\n";
-  }
-  // LDR-FLIP of the final images (median over the runs) against time.
-  gp3 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "flip_vs_time.png").string() << "'\n"
-      << "set logscale x\nset xlabel 'compute time (s, median)'\n"
-      << "set ylabel 'LDR-FLIP of the indirect image (median, " << kFlipPixelsPerDegree << " pixels/degree)'\n"
-      << "set title 'FLIP against time (lower is better): " << sceneName << "'\nset key outside\nplot ";
-  first = true;
-  for (auto& [m, idx] : finals) {
-    gp3 << (first ? "" : ", ") << "'-' using 1:2 with points pt 7 title '" << m << "'";
-    first = false;
-  }
-  gp3 << "\n";
-  for (auto& [m, idx] : finals) {
-    for (size_t i : idx) gp3 << summary[i].seconds << " " << summary[i].flip << "\n";
-    gp3 << "e\n";
-  }
-  for (auto [name, text] : {std::pair<std::string, std::string>{"error_vs_time.gp", gp1.str()},
-                            {"pareto.gp", gp2.str()},
-                            {"flip_vs_time.gp", gp3.str()}}) {
-    std::string path = (dir / name).string();
-    if (!writeTextFile(path, text, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
-    if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
-      std::string cmd = "gnuplot '" + path + "'";
-      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "warning: gnuplot failed on %s\n", path.c_str());
-    } else {
-      std::fprintf(stderr, "warning: gnuplot is not installed (scripts/setup.sh installs gnuplot-nox); wrote %s only\n",
-                   path.c_str());
-    }
-  }
+  if (int rc = writePlots(meta, pts, summary, finals, fronts, dir); rc != 0) return rc;
   std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %s = %.3g\n", meta.sets,
               refMean, meta.epsilonSpec.describe().c_str(), meta.epsilon);
   std::printf("%-30s %9s %10s %21s %10s %9s %7s %7s %10s %10s\n", "configuration", "seconds", "relMSE", "quartiles",
