@@ -4,14 +4,19 @@
 // point of each run is its final result. Each configuration runs with
 // --sets independent light sets (or path-tracer seeds), and its finals are
 // summarised by the median, the quartiles and the worst 1% of pixels' share of
-// the squared error (summary.csv).
-// Output: sweep.csv, sweep.json, error_vs_time.png and pareto.png (gnuplot,
-// from Debian's gnuplot-nox, when installed; the .gp scripts are written
-// either way).
+// the squared error (summary.csv), the LDR-FLIP of the final images, and the
+// split of their error into bias2 and variance over the independent runs.
+// relMSE uses the reference-relative eps (core/compare.h), stated in the JSON.
+// Output: sweep.csv, sweep.json, error_vs_time.png, pareto.png and
+// flip_vs_time.png (gnuplot, from Debian's gnuplot-nox, when installed; the
+// .gp scripts are written either way).
+// Fan-out: --shard I/N runs the configurations whose index in the grid is I
+// mod N; --merge joins shard directories into the outputs of one run.
 #include "app/sweep.h"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +25,7 @@
 #include <sstream>
 
 #include "core/compare.h"
+#include "core/flip.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
 #include "core/mrcs.h"
@@ -40,6 +46,10 @@ struct Point {
   double seconds = 0;
   double relMse = 0, rmse = 0, mean = 0, worst1 = 0;
   bool final = false;
+  // Final points only (NaN elsewhere): LDR-FLIP of the image; bias2 and
+  // variance of the configuration's finals over its independent runs (the
+  // same on each of them; NaN with one run).
+  double flip = NAN, bias2 = NAN, variance = NAN;
   std::string series() const {
     std::ostringstream s;
     s << method;
@@ -56,7 +66,109 @@ struct Summary {
   float radiusScale = 0;
   int sets = 0;
   double seconds = 0, relMse = 0, q1 = 0, q3 = 0, mean = 0, worst1 = 0;  // medians and quartiles
+  double flip = 0, bias2 = NAN, variance = NAN;                          // FLIP: median
 };
+
+// One configuration of the grid, in the order an unsharded run visits them.
+struct Config {
+  std::string method;
+  uint32_t lights = 0;
+  float radiusScale = 0;
+};
+
+std::vector<Config> gridOf(const std::vector<std::string>& methods, const std::vector<uint32_t>& lights,
+                           const std::vector<float>& scales) {
+  std::vector<Config> g;
+  for (const std::string& m : methods) {
+    if (m == "pt") {
+      g.push_back({m, 0, 0});
+      continue;
+    }
+    for (uint32_t n : lights)
+      for (float sc : m.rfind("vsl", 0) == 0 ? scales : std::vector<float>{0.0f}) g.push_back({m, n, sc});
+  }
+  return g;
+}
+
+// What the outputs need besides the points; --merge reads it back from sweep.json.
+struct SweepMeta {
+  std::string scene, reference, referenceB, settings;
+  int width = 0, height = 0, sets = 0;
+  double epsilon = 0, refMean = 0, refNoise = 0;
+  RelMseEpsilon epsilonSpec;
+  std::vector<std::string> methods;
+  std::vector<uint32_t> lights;
+  std::vector<float> radiusScales;
+  int shardIndex = 0, shardCount = 1;
+};
+
+// ---- CSV of the points: written by every run, read back by --merge --------
+
+std::string csvNumber(double v) {
+  if (std::isnan(v)) return "nan";  // not empty: a trailing empty field is easy to lose
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+const char* kPointsHeader =
+    "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise,flip_ldr,"
+    "bias2,variance\n";
+
+std::string pointsCsv(const std::vector<Point>& pts, double refNoise) {
+  std::ostringstream csv;
+  csv << kPointsHeader;
+  for (const Point& p : pts)
+    csv << p.method << "," << p.lights << "," << p.radiusScale << "," << p.set << "," << p.step << "," << p.seconds
+        << "," << p.relMse << "," << p.rmse << "," << p.mean << "," << p.worst1 << "," << (p.final ? 1 : 0) << ","
+        << p.relMse - refNoise << "," << csvNumber(p.flip) << "," << csvNumber(p.bias2) << "," << csvNumber(p.variance)
+        << "\n";
+  return csv.str();
+}
+
+// Parses pointsCsv()'s text; false on a malformed line (named in *error).
+bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* error) {
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  if (line + "\n" != kPointsHeader) {
+    *error = "not a sweep.csv of this version (header '" + line + "')";
+    return false;
+  }
+  auto num = [](const std::string& f) { return f == "nan" ? NAN : std::stod(f); };
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::istringstream ls(line);
+    for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+    if (!line.empty() && line.back() == ',') f.push_back("");
+    if (f.size() != 15) {
+      *error = "malformed line '" + line + "'";
+      return false;
+    }
+    try {
+      Point p;
+      p.method = f[0];
+      p.lights = uint32_t(std::stoul(f[1]));
+      p.radiusScale = std::stof(f[2]);
+      p.set = std::stoi(f[3]);
+      p.step = std::stoi(f[4]);
+      p.seconds = std::stod(f[5]);
+      p.relMse = std::stod(f[6]);
+      p.rmse = std::stod(f[7]);
+      p.mean = std::stod(f[8]);
+      p.worst1 = std::stod(f[9]);
+      p.final = f[10] == "1";
+      p.flip = num(f[12]);
+      p.bias2 = num(f[13]);
+      p.variance = num(f[14]);
+      pts.push_back(p);
+    } catch (const std::exception&) {
+      *error = "malformed number in '" + line + "'";
+      return false;
+    }
+  }
+  return true;
+}
 
 // Linear-interpolated quantile of unsorted values.
 double quantile(std::vector<double> v, double q) {
@@ -88,8 +200,13 @@ struct SweepContext {
   const Image& ref;
   int W, H;
   std::vector<Point>& pts;
+  Image refSrgb;                     // the reference as LDR-FLIP sees it
+  Image lastImage;                   // the latest recorded image
+  std::vector<Image> finals;         // this configuration's final images, one per run
+  std::vector<size_t> finalIndices;  // and their points
 
   void record(const std::string& method, uint32_t n, float sc, int set, int step, double seconds, const Image& img) {
+    lastImage = img;
     CompareResult c = compareImages(img, ref);
     pts.push_back({method, n, sc, set, step, seconds, c.average.relMse, c.average.rmse, c.average.meanTest,
                    worstPixelShare(img, ref), false});
@@ -97,8 +214,24 @@ struct SweepContext {
     std::fprintf(stderr, "sweep: %-34s set %d step %3d  %8.2f s  relMSE %.5f\n", p.series().c_str(), set, step, seconds,
                  p.relMse);
   }
+  // Marks the run's last point final, with the LDR-FLIP of its image.
   void finish() {
-    if (!pts.empty()) pts.back().final = true;
+    if (pts.empty()) return;
+    pts.back().final = true;
+    pts.back().flip = flipLdr(toSrgbImage(lastImage), refSrgb).mean;
+    finals.push_back(lastImage);
+    finalIndices.push_back(pts.size() - 1);
+  }
+  // After a configuration's independent runs: bias2 and variance of their finals.
+  void endConfiguration() {
+    if (finals.size() >= 2) {
+      std::vector<const Image*> imgs;
+      for (const Image& f : finals) imgs.push_back(&f);
+      BiasVarianceResult bv = biasVariance(imgs, ref);
+      for (size_t i : finalIndices) pts[i].bias2 = bv.average.bias2, pts[i].variance = bv.average.variance;
+    }
+    finals.clear();
+    finalIndices.clear();
   }
   // Independent runs differ in every seed.
   uint64_t seedOf(int set, int pass = 0) const {
@@ -209,23 +342,24 @@ std::vector<Summary> summarise(const std::vector<Point>& pts) {
   std::vector<Summary> out;
   for (const std::string& key : order) {
     const std::vector<size_t>& idx = groups[key];
-    std::vector<double> sec, rel, mean, worst;
+    std::vector<double> sec, rel, mean, worst, flip;
     for (size_t i : idx) {
       sec.push_back(pts[i].seconds);
       rel.push_back(pts[i].relMse);
       mean.push_back(pts[i].mean);
       worst.push_back(pts[i].worst1);
+      flip.push_back(pts[i].flip);
     }
     const Point& p = pts[idx.front()];
     out.push_back({p.method, key, p.lights, p.radiusScale, int(idx.size()), quantile(sec, 0.5), quantile(rel, 0.5),
-                   quantile(rel, 0.25), quantile(rel, 0.75), quantile(mean, 0.5), quantile(worst, 0.5)});
+                   quantile(rel, 0.25), quantile(rel, 0.75), quantile(mean, 0.5), quantile(worst, 0.5),
+                   quantile(flip, 0.5), p.bias2, p.variance});
   }
   return out;
 }
 
-}  // namespace
-
-int runSweep(const SweepArgs& a) {
+// Runs this shard's part of the grid; fills the points and what the outputs need.
+int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
   std::string err;
   LoadResult lr = loadScene(a.scene);
   if (!lr.scene) {
@@ -278,105 +412,68 @@ int runSweep(const SweepArgs& a) {
     return 1;
   }
   const int W = ref->width, H = ref->height;
-  const double refMean = compareImages(*ref, *ref).average.meanRef;
-  std::vector<Point> pts;
-  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts};
-  for (const std::string& method : a.methods) {
-    if (method == "pt") {
-      for (int set = 0; set < a.sets; ++set) ctx.runPt(set);
-      continue;
+  const CompareResult self = compareImages(*ref, *ref);
+  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  const std::vector<Config> grid = gridOf(a.methods, a.lights, a.radiusScales);
+  for (size_t i = 0; i < grid.size(); ++i) {
+    if (int(i % size_t(shardCount)) != shardIndex) continue;
+    const Config& g = grid[i];
+    const bool passes =
+        g.method.find("-mrcs") != std::string::npos || g.method.find("progressive") != std::string::npos;
+    for (int set = 0; set < a.sets; ++set) {
+      if (g.method == "pt")
+        ctx.runPt(set);
+      else
+        passes ? ctx.runPasses(g.method, g.lights, g.radiusScale, set)
+               : ctx.runBatches(g.method, g.lights, g.radiusScale, set);
     }
-    const bool passes = method.find("-mrcs") != std::string::npos || method.find("progressive") != std::string::npos;
-    const bool vsl = method.rfind("vsl", 0) == 0;
-    for (uint32_t n : a.lights)
-      for (float sc : vsl ? a.radiusScales : std::vector<float>{0.0f})
-        for (int set = 0; set < a.sets; ++set)
-          passes ? ctx.runPasses(method, n, sc, set) : ctx.runBatches(method, n, sc, set);
+    ctx.endConfiguration();
   }
-  const std::vector<Summary> summary = summarise(pts);
+  meta = {a.scene,
+          a.reference,
+          a.referenceB,
+          a.many.describe(),
+          W,
+          H,
+          a.sets,
+          self.epsilon,
+          self.average.meanRef,
+          refNoise,
+          self.epsilonSpec,
+          a.methods,
+          a.lights,
+          a.radiusScales,
+          shardIndex,
+          shardCount};
+  // Summaries are taken from the points as the CSV holds them, so a merged
+  // run reproduces them exactly.
+  std::vector<Point> exact;
+  if (!parsePoints(pointsCsv(pts, refNoise), exact, &err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  pts = std::move(exact);
+  return 0;
+}
 
-  // ---- CSV and JSON: every point, and the summary of the finals per configuration.
-  std::ostringstream csv, sumCsv;
-  csv << "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise\n";
-  nlohmann::json js = {{"scene", a.scene},
-                       {"reference", a.reference},
-                       {"width", W},
-                       {"height", H},
-                       {"sets", a.sets},
-                       {"relMseEpsilon", kRelMseEpsilon},
-                       {"referenceIndirectMean", refMean},
-                       {"settings", a.many.describe()},
-                       {"points", nlohmann::json::array()},
-                       {"summary", nlohmann::json::array()}};
-  js["referenceNoiseRelMSE"] = refNoise;  // 0 without --reference-b
-  if (!a.referenceB.empty()) js["referenceB"] = a.referenceB;
-  for (const Point& p : pts) {
-    csv << p.method << "," << p.lights << "," << p.radiusScale << "," << p.set << "," << p.step << "," << p.seconds
-        << "," << p.relMse << "," << p.rmse << "," << p.mean << "," << p.worst1 << "," << (p.final ? 1 : 0) << ","
-        << p.relMse - refNoise << "\n";
-    js["points"].push_back({{"method", p.method},
-                            {"lights", p.lights},
-                            {"radiusScale", p.radiusScale},
-                            {"set", p.set},
-                            {"step", p.step},
-                            {"seconds", p.seconds},
-                            {"relMSE", p.relMse},
-                            {"rmse", p.rmse},
-                            {"mean", p.mean},
-                            {"worst1Share", p.worst1},
-                            {"final", p.final}});
-  }
-  sumCsv << "method,lights,radius_scale,sets,seconds_median,relmse_median,relmse_q1,relmse_q3,"
-            "relmse_median_minus_ref_noise,mean_median,mean_vs_reference,worst1_share_median\n";
-  for (const Summary& m : summary) {
-    double meanRatio = refMean > 0 ? m.mean / refMean - 1 : 0;
-    sumCsv << m.method << "," << m.lights << "," << m.radiusScale << "," << m.sets << "," << m.seconds << ","
-           << m.relMse << "," << m.q1 << "," << m.q3 << "," << m.relMse - refNoise << "," << m.mean << "," << meanRatio
-           << "," << m.worst1 << "\n";
-    js["summary"].push_back({{"method", m.method},
-                             {"lights", m.lights},
-                             {"radiusScale", m.radiusScale},
-                             {"sets", m.sets},
-                             {"secondsMedian", m.seconds},
-                             {"relMSEMedian", m.relMse},
-                             {"relMSEQ1", m.q1},
-                             {"relMSEQ3", m.q3},
-                             {"relMSEMedianMinusReferenceNoise", m.relMse - refNoise},
-                             {"meanMedian", m.mean},
-                             {"meanVsReference", meanRatio},
-                             {"worst1ShareMedian", m.worst1}});
-  }
-  // Pareto fronts of the configurations' medians, per method.
-  std::map<std::string, std::vector<size_t>> finals;
-  for (size_t i = 0; i < summary.size(); ++i) finals[summary[i].method].push_back(i);
-  std::map<std::string, std::vector<size_t>> fronts;
-  for (auto& [m, idx] : finals) {
-    fronts[m] = paretoFront(summary, idx);
-    for (size_t i : fronts[m])
-      js["pareto"][m].push_back({{"lights", summary[i].lights},
-                                 {"radiusScale", summary[i].radiusScale},
-                                 {"seconds", summary[i].seconds},
-                                 {"relMSE", summary[i].relMse}});
-  }
-  std::filesystem::path dir(a.outDir);
-  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", csv.str()},
-                            {"summary.csv", sumCsv.str()},
-                            {"sweep.json", js.dump(2) + "\n"}})
-    if (!writeTextFile((dir / name).string(), text, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
-      return 1;
-    }
-
-  // ---- Plots (gnuplot scripts with inline data): the first run of each
-  // configuration against time, and the medians with their quartiles.
+// Plots (gnuplot scripts with inline data, rendered when gnuplot is
+// installed): the first run of each configuration against time, the medians
+// with their quartiles and Pareto fronts, and the median FLIP against time.
+int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::vector<Summary>& summary,
+               const std::map<std::string, std::vector<size_t>>& finals,
+               const std::map<std::string, std::vector<size_t>>& fronts, const std::filesystem::path& dir) {
+  std::string err;
+  const double refNoise = meta.refNoise;
   std::map<std::string, std::vector<size_t>> series;
   for (size_t i = 0; i < pts.size(); ++i)
     if (pts[i].set == 0) series[pts[i].series()].push_back(i);
-  std::ostringstream gp1, gp2;
+  std::ostringstream gp1, gp2, gp3;
+  const std::string sceneName = std::filesystem::path(meta.scene).stem().string();
   gp1 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "error_vs_time.png").string() << "'\n"
-      << "set logscale xy\nset xlabel 'compute time (s)'\nset ylabel 'relMSE of the indirect image (eps = 0.01)'\n"
-      << "set title 'Error against time (first of " << a.sets
-      << " runs each): " << std::filesystem::path(a.scene).stem().string() << "'\nset key outside\n"
+      << "set logscale xy\nset xlabel 'compute time (s)'\nset ylabel 'relMSE of the indirect image (eps = "
+      << meta.epsilonSpec.describe() << ")'\n"
+      << "set title 'Error against time (first of " << meta.sets << " runs each): " << sceneName
+      << "'\nset key outside\n"
       << "plot ";
   bool first = true;
   for (auto& [name, idx] : series) {
@@ -392,8 +489,7 @@ int runSweep(const SweepArgs& a) {
   gp2 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "pareto.png").string() << "'\n"
       << "set logscale xy\nset xlabel 'compute time (s, median)'\n"
       << "set ylabel 'relMSE of the indirect image (median, bars: quartiles)'\n"
-      << "set title 'Pareto fronts (lower left is better): " << std::filesystem::path(a.scene).stem().string()
-      << "'\nset key outside\nplot ";
+      << "set title 'Pareto fronts (lower left is better): " << sceneName << "'\nset key outside\nplot ";
   first = true;
   for (auto& [m, idx] : finals) {
     gp2 << (first ? "" : ", ") << "'-' using 1:2:3:4 with yerrorbars pt 7 title '" << m
@@ -406,11 +502,27 @@ int runSweep(const SweepArgs& a) {
       gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << " " << std::max(summary[i].q1, 1e-12)
           << " " << std::max(summary[i].q3, 1e-12) << "\n";
     gp2 << "e\n";
-    for (size_t i : fronts[m]) gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << "\n";
+    for (size_t i : fronts.at(m)) gp2 << summary[i].seconds << " " << std::max(summary[i].relMse, 1e-12) << "\n";
     gp2 << "e\n";
   }
-  for (auto [name, text] :
-       {std::pair<std::string, std::string>{"error_vs_time.gp", gp1.str()}, {"pareto.gp", gp2.str()}}) {
+  // LDR-FLIP of the final images (median over the runs) against time.
+  gp3 << "set terminal pngcairo size 1000,700\nset output '" << (dir / "flip_vs_time.png").string() << "'\n"
+      << "set logscale x\nset xlabel 'compute time (s, median)'\n"
+      << "set ylabel 'LDR-FLIP of the indirect image (median, " << kFlipPixelsPerDegree << " pixels/degree)'\n"
+      << "set title 'FLIP against time (lower is better): " << sceneName << "'\nset key outside\nplot ";
+  first = true;
+  for (auto& [m, idx] : finals) {
+    gp3 << (first ? "" : ", ") << "'-' using 1:2 with points pt 7 title '" << m << "'";
+    first = false;
+  }
+  gp3 << "\n";
+  for (auto& [m, idx] : finals) {
+    for (size_t i : idx) gp3 << summary[i].seconds << " " << summary[i].flip << "\n";
+    gp3 << "e\n";
+  }
+  for (auto [name, text] : {std::pair<std::string, std::string>{"error_vs_time.gp", gp1.str()},
+                            {"pareto.gp", gp2.str()},
+                            {"flip_vs_time.gp", gp3.str()}}) {
     std::string path = (dir / name).string();
     if (!writeTextFile(path, text, &err)) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
@@ -424,16 +536,247 @@ int runSweep(const SweepArgs& a) {
                    path.c_str());
     }
   }
-  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %.3g\n", a.sets, refMean,
-              kRelMseEpsilon);
-  std::printf("%-30s %9s %10s %21s %10s %9s %7s\n", "configuration", "seconds", "relMSE", "quartiles", "-ref noise",
-              "mean", "worst1%");
-  for (const Summary& m : summary)
-    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f\n", m.series.c_str(), m.seconds, m.relMse,
-                m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0, m.worst1);
-  std::fprintf(stderr, "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png}\n",
-               a.outDir.c_str());
   return 0;
+}
+
+// sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
+int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
+  std::string err;
+  std::error_code ec;
+  std::filesystem::create_directories(outDir, ec);
+  if (ec) {
+    std::fprintf(stderr, "error: %s: cannot create the directory (%s)\n", outDir.c_str(), ec.message().c_str());
+    return 1;
+  }
+  const double refNoise = meta.refNoise, refMean = meta.refMean;
+  const std::vector<Summary> summary = summarise(pts);
+
+  // ---- CSV and JSON: every point, and the summary of the finals per configuration.
+  std::ostringstream sumCsv;
+  auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
+  nlohmann::json js = {
+      {"scene", meta.scene},
+      {"reference", meta.reference},
+      {"width", meta.width},
+      {"height", meta.height},
+      {"sets", meta.sets},
+      {"relMseEpsilon", meta.epsilon},
+      {"relMseEpsilonMode", meta.epsilonSpec.modeName()},
+      {"relMseEpsilonFactor", meta.epsilonSpec.value},
+      {"flipPixelsPerDegree", kFlipPixelsPerDegree},
+      {"referenceIndirectMean", refMean},
+      {"settings", meta.settings},
+      {"grid", {{"methods", meta.methods}, {"lights", meta.lights}, {"radiusScales", meta.radiusScales}}},
+      {"points", nlohmann::json::array()},
+      {"summary", nlohmann::json::array()}};
+  js["referenceNoiseRelMSE"] = refNoise;  // 0 without --reference-b
+  if (!meta.referenceB.empty()) js["referenceB"] = meta.referenceB;
+  if (meta.shardCount > 1) js["shard"] = {{"index", meta.shardIndex}, {"count", meta.shardCount}};
+  for (const Point& p : pts) {
+    js["points"].push_back({{"method", p.method},
+                            {"lights", p.lights},
+                            {"radiusScale", p.radiusScale},
+                            {"set", p.set},
+                            {"step", p.step},
+                            {"seconds", p.seconds},
+                            {"relMSE", p.relMse},
+                            {"rmse", p.rmse},
+                            {"mean", p.mean},
+                            {"worst1Share", p.worst1},
+                            {"final", p.final},
+                            {"flipLdr", num(p.flip)},
+                            {"bias2", num(p.bias2)},
+                            {"variance", num(p.variance)}});
+  }
+  sumCsv << "method,lights,radius_scale,sets,seconds_median,relmse_median,relmse_q1,relmse_q3,"
+            "relmse_median_minus_ref_noise,mean_median,mean_vs_reference,worst1_share_median,flip_ldr_median,bias2,"
+            "variance\n";
+  for (const Summary& m : summary) {
+    double meanRatio = refMean > 0 ? m.mean / refMean - 1 : 0;
+    sumCsv << m.method << "," << m.lights << "," << m.radiusScale << "," << m.sets << "," << m.seconds << ","
+           << m.relMse << "," << m.q1 << "," << m.q3 << "," << m.relMse - refNoise << "," << m.mean << "," << meanRatio
+           << "," << m.worst1 << "," << m.flip << "," << csvNumber(m.bias2) << "," << csvNumber(m.variance) << "\n";
+    js["summary"].push_back({{"method", m.method},
+                             {"lights", m.lights},
+                             {"radiusScale", m.radiusScale},
+                             {"sets", m.sets},
+                             {"secondsMedian", m.seconds},
+                             {"relMSEMedian", m.relMse},
+                             {"relMSEQ1", m.q1},
+                             {"relMSEQ3", m.q3},
+                             {"relMSEMedianMinusReferenceNoise", m.relMse - refNoise},
+                             {"meanMedian", m.mean},
+                             {"meanVsReference", meanRatio},
+                             {"worst1ShareMedian", m.worst1},
+                             {"flipLdrMedian", m.flip},
+                             {"bias2", num(m.bias2)},
+                             {"variance", num(m.variance)}});
+  }
+  // Pareto fronts of the configurations' medians, per method.
+  std::map<std::string, std::vector<size_t>> finals;
+  for (size_t i = 0; i < summary.size(); ++i) finals[summary[i].method].push_back(i);
+  std::map<std::string, std::vector<size_t>> fronts;
+  for (auto& [m, idx] : finals) {
+    fronts[m] = paretoFront(summary, idx);
+    for (size_t i : fronts[m])
+      js["pareto"][m].push_back({{"lights", summary[i].lights},
+                                 {"radiusScale", summary[i].radiusScale},
+                                 {"seconds", summary[i].seconds},
+                                 {"relMSE", summary[i].relMse}});
+  }
+  std::filesystem::path dir(outDir);
+  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, refNoise)},
+                            {"summary.csv", sumCsv.str()},
+                            {"sweep.json", js.dump(2) + "\n"}})
+    if (!writeTextFile((dir / name).string(), text, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+
+  if (int rc = writePlots(meta, pts, summary, finals, fronts, dir); rc != 0) return rc;
+  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %s = %.3g\n", meta.sets,
+              refMean, meta.epsilonSpec.describe().c_str(), meta.epsilon);
+  std::printf("%-30s %9s %10s %21s %10s %9s %7s %7s %10s %10s\n", "configuration", "seconds", "relMSE", "quartiles",
+              "-ref noise", "mean", "worst1%", "FLIP", "bias2", "variance");
+  for (const Summary& m : summary)
+    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f %7.4f %10.5f %10.5f\n", m.series.c_str(),
+                m.seconds, m.relMse, m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0,
+                m.worst1, m.flip, m.bias2, m.variance);
+  std::fprintf(stderr,
+               "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png, flip_vs_time.png}\n",
+               outDir.c_str());
+  return 0;
+}
+
+// Reads one shard's sweep.json and sweep.csv.
+bool readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts, std::string* error) {
+  const std::filesystem::path d(dir);
+  auto slurp = [&](const std::string& name, std::string& out) {
+    std::ifstream in(d / name, std::ios::binary);
+    if (!in) {
+      *error = (d / name).string() + ": cannot read (is it a sweep output directory?)";
+      return false;
+    }
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    out = ss.str();
+    return true;
+  };
+  std::string js, csv;
+  if (!slurp("sweep.json", js) || !slurp("sweep.csv", csv)) return false;
+  try {
+    nlohmann::json j = nlohmann::json::parse(js);
+    meta.scene = j.at("scene");
+    meta.reference = j.at("reference");
+    meta.referenceB = j.value("referenceB", std::string());
+    meta.settings = j.at("settings");
+    meta.width = j.at("width");
+    meta.height = j.at("height");
+    meta.sets = j.at("sets");
+    meta.epsilon = j.at("relMseEpsilon");
+    meta.epsilonSpec = j.at("relMseEpsilonMode") == "absolute" ? RelMseEpsilon(double(j.at("relMseEpsilonFactor")))
+                                                               : RelMseEpsilon::relative(j.at("relMseEpsilonFactor"));
+    meta.refMean = j.at("referenceIndirectMean");
+    meta.refNoise = j.at("referenceNoiseRelMSE");
+    meta.methods = j.at("grid").at("methods").get<std::vector<std::string>>();
+    meta.lights = j.at("grid").at("lights").get<std::vector<uint32_t>>();
+    meta.radiusScales = j.at("grid").at("radiusScales").get<std::vector<float>>();
+    meta.shardIndex = j.contains("shard") ? int(j["shard"].at("index")) : 0;
+    meta.shardCount = j.contains("shard") ? int(j["shard"].at("count")) : 1;
+  } catch (const std::exception& e) {
+    *error = (d / "sweep.json").string() + ": " + e.what();
+    return false;
+  }
+  if (!parsePoints(csv, pts, error)) {
+    *error = (d / "sweep.csv").string() + ": " + *error;
+    return false;
+  }
+  return true;
+}
+
+// Joins shard directories: every shard of one grid exactly once; the points
+// are put back in the order of an unsharded run.
+int mergeShards(const SweepArgs& a) {
+  std::string err;
+  SweepMeta meta;
+  std::vector<std::vector<Point>> shardPts;
+  std::vector<int> seen;
+  for (const std::string& dir : a.merge) {
+    SweepMeta m;
+    std::vector<Point> pts;
+    if (!readShard(dir, m, pts, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    if (seen.empty()) {
+      meta = m;
+      seen.assign(size_t(m.shardCount), 0);
+    } else if (m.scene != meta.scene || m.reference != meta.reference || m.width != meta.width ||
+               m.height != meta.height || m.sets != meta.sets || m.settings != meta.settings ||
+               m.methods != meta.methods || m.lights != meta.lights || m.radiusScales != meta.radiusScales ||
+               m.shardCount != meta.shardCount || m.epsilon != meta.epsilon) {
+      std::fprintf(stderr,
+                   "error: %s: another sweep (scene, reference, grid, settings or shard count differ from %s)\n",
+                   dir.c_str(), a.merge[0].c_str());
+      return 1;
+    }
+    if (m.shardIndex < 0 || m.shardIndex >= int(seen.size()) || seen[size_t(m.shardIndex)]++) {
+      std::fprintf(stderr, "error: %s: shard %d/%d given twice or out of range\n", dir.c_str(), m.shardIndex,
+                   m.shardCount);
+      return 1;
+    }
+    shardPts.push_back(std::move(pts));
+  }
+  for (size_t i = 0; i < seen.size(); ++i)
+    if (!seen[i]) {
+      std::fprintf(stderr, "error: shard %zu/%d is missing\n", i, meta.shardCount);
+      return 1;
+    }
+  // Configuration by configuration, in grid order (a configuration lives in one shard).
+  auto key = [](const std::string& m, uint32_t n, float sc) {
+    std::ostringstream s;
+    s << m << "," << n << "," << sc;
+    return s.str();
+  };
+  std::map<std::string, std::vector<Point>> byConfig;
+  for (const std::vector<Point>& pts : shardPts)
+    for (const Point& p : pts) byConfig[key(p.method, p.lights, p.radiusScale)].push_back(p);
+  std::vector<Point> all;
+  for (const Config& g : gridOf(meta.methods, meta.lights, meta.radiusScales)) {
+    auto it = byConfig.find(key(g.method, g.lights, g.radiusScale));
+    if (it == byConfig.end()) continue;
+    all.insert(all.end(), it->second.begin(), it->second.end());
+    byConfig.erase(it);
+  }
+  meta.shardIndex = 0;
+  meta.shardCount = 1;
+  std::fprintf(stderr, "sweep: merged %zu shards, %zu points\n", a.merge.size(), all.size());
+  return writeOutputs(meta, all, a.outDir);
+}
+
+}  // namespace
+
+int runSweep(const SweepArgs& a) {
+  if (!a.merge.empty()) return mergeShards(a);
+  if (a.scene.empty() || a.reference.empty()) {
+    std::fprintf(stderr,
+                 "error: sweep needs a scene and --reference (or --merge DIR...)\n\nUsage: vsl sweep SCENE --reference "
+                 "REF.exr -o DIR [--shard I/N] ...\n       vsl sweep --merge DIR... -o DIR\n");
+    return 2;
+  }
+  int shardIndex = 0, shardCount = 1;
+  if (!a.shard.empty()) {
+    char tail = 0;
+    if (std::sscanf(a.shard.c_str(), "%d/%d%c", &shardIndex, &shardCount, &tail) != 2 || shardCount < 1 ||
+        shardIndex < 0 || shardIndex >= shardCount) {
+      std::fprintf(stderr, "error: --shard must be I/N with 0 <= I < N (got '%s')\n", a.shard.c_str());
+      return 2;
+    }
+  }
+  SweepMeta meta;
+  std::vector<Point> pts;
+  if (int rc = runGrid(a, shardIndex, shardCount, meta, pts); rc != 0) return rc;
+  return writeOutputs(meta, pts, a.outDir);
 }
 
 }  // namespace vsl

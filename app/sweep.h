@@ -1,6 +1,7 @@
 // `vsl sweep`: a grid of methods x light counts x radius scales against a
 // reference, each configuration run with several independent light sets (or
-// seeds), with CSV, JSON and error-vs-time / Pareto plots.
+// seeds), with CSV, JSON and error-vs-time / Pareto / FLIP plots; shards of
+// the grid run separately and merge into the same outputs.
 #pragma once
 
 #include <cstdint>
@@ -30,6 +31,11 @@ struct SweepArgs {
   // Template for the many-light runs: k, VSL samples, clipped disk, where eye
   // paths continue (lights, seed, radius scale, batches are set per run).
   ManyLightSettings many;
+  // Fan-out: "I/N" runs the configurations whose grid index is I mod N (the
+  // same rows an unsharded run writes for them); merge joins such shard
+  // output directories into outDir (scene and reference are not needed then).
+  std::string shard;
+  std::vector<std::string> merge;
 };
 
 int runSweep(const SweepArgs& args);

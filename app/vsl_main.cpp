@@ -11,6 +11,7 @@
 #include "app/bench.h"
 #include "app/sweep.h"
 #include "core/compare.h"
+#include "core/flip.h"
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/many_light.h"
@@ -381,9 +382,12 @@ int cmdReference(ReferenceArgs& a) {
 // ---- compare ------------------------------------------------------------------
 
 struct CompareArgs {
-  std::string test, ref, layer, refLayer, out, png;
-  bool json = false;
+  std::vector<std::string> images;  // TEST [TEST2 ...] REFERENCE
+  std::string layer, refLayer, out, png, flipExr, flipPng;
+  bool json = false, noFlip = false;
   double epsilon = kRelMseEpsilon;
+  std::string epsilonMode = "relative";
+  float exposure = 0;  // of the tone map before LDR-FLIP
 };
 
 const Image* findLayer(const std::vector<Layer>& layers, const std::string& name, bool explicitName) {
@@ -395,44 +399,142 @@ const Image* findLayer(const std::vector<Layer>& layers, const std::string& name
   return nullptr;
 }
 
-int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
-  std::vector<Layer> tl, rl;
+// LDR-FLIP (after the PNG tone map at --exposure) and HDR-FLIP of a test image.
+struct CompareFlip {
+  FlipResult ldr, hdr;
+};
+
+CompareFlip compareFlip(const Image& t, const Image& r, float exposure) {
+  return {flipLdr(toSrgbImage(t, exposure), toSrgbImage(r, exposure)), flipHdr(t, r)};
+}
+
+// FLIP is a colour metric: one value for the RGB image, in "flip" and in "average".
+void addFlipJson(json& j, const CompareFlip& f, float exposure) {
+  j["flip"] = {{"ldr", f.ldr.mean},
+               {"hdr", f.hdr.mean},
+               {"pixelsPerDegree", kFlipPixelsPerDegree},
+               {"ldrToneMap", "linear x 2^exposure, clamped, sRGB"},
+               {"ldrExposure", exposure},
+               {"hdrStartExposure", f.hdr.startExposure},
+               {"hdrStopExposure", f.hdr.stopExposure},
+               {"hdrExposures", f.hdr.exposures}};
+  j["average"]["flip"] = {{"ldr", f.ldr.mean}, {"hdr", f.hdr.mean}};
+}
+
+void addEpsilonJson(json& j, double resolved, const RelMseEpsilon& spec) {
+  j["epsilon"] = resolved;
+  j["epsilon_mode"] = spec.modeName();
+  j["epsilon_factor"] = spec.value;
+}
+
+void printFlip(const CompareFlip& f, float exposure) {
+  std::printf(
+      "FLIP (mean over pixels, the RGB image as a whole, %.1f pixels/degree): LDR %.6g (tone map: exposure %g, "
+      "clamped, sRGB), HDR %.6g (exposures %.2f to %.2f, %d steps)\n",
+      kFlipPixelsPerDegree, f.ldr.mean, exposure, f.hdr.mean, f.hdr.startExposure, f.hdr.stopExposure, f.hdr.exposures);
+}
+
+// --flip-exr: layers default=ldr, ldr, hdr; --flip-png: magma with a colour
+// bar, LDR to PATH and HDR to PATH's stem + "-hdr.png".
+bool writeFlipMaps(const CompareArgs& a, const CompareFlip& f, std::string& err) {
+  if (!a.flipExr.empty()) {
+    if (!writeExr(a.flipExr, {{"", f.ldr.map}, {"ldr", f.ldr.map}, {"hdr", f.hdr.map}}, &err)) return false;
+    std::fprintf(stderr, "wrote %s (FLIP maps, layers: default=ldr, ldr, hdr)\n", a.flipExr.c_str());
+  }
+  if (!a.flipPng.empty()) {
+    std::string stem = a.flipPng.size() > 4 && a.flipPng.substr(a.flipPng.size() - 4) == ".png"
+                           ? a.flipPng.substr(0, a.flipPng.size() - 4)
+                           : a.flipPng;
+    for (auto [path, map] : {std::pair{a.flipPng, &f.ldr.map}, std::pair{stem + "-hdr.png", &f.hdr.map}}) {
+      int rows = 0;
+      std::vector<uint8_t> px = magmaWithBar(*map, &rows);
+      if (!writePngRgb8(path, map->width, rows, px, &err)) return false;
+      std::fprintf(stderr, "wrote %s (FLIP, magma: black 0 ... light yellow 1, colour bar below)\n", path.c_str());
+    }
+  }
+  return true;
+}
+
+int compareMany(const CompareArgs& a, const std::vector<const Image*>& tests, const Image& r, const RelMseEpsilon& eps);
+
+// The test images and the reference, read and checked (layers, sizes).
+struct CompareInputs {
+  std::vector<std::vector<Layer>> testLayers;
+  std::vector<Layer> refLayers;
+  std::vector<const Image*> tests;
+  const Image* ref = nullptr;
+};
+
+// Returns 0, or 1 after reporting what is wrong.
+int loadCompareInputs(const CompareArgs& a, bool layerGiven, bool refLayerGiven, CompareInputs& in) {
+  const std::string& refPath = a.images.back();
+  const size_t K = a.images.size() - 1;
+  in.testLayers.resize(K);
   std::string err;
-  if (!readExr(a.test, tl, &err) || !readExr(a.ref, rl, &err)) {
+  for (size_t k = 0; k < K; ++k)
+    if (!readExr(a.images[k], in.testLayers[k], &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+  if (!readExr(refPath, in.refLayers, &err)) {
     std::fprintf(stderr, "error: %s\n", err.c_str());
     return 1;
   }
-  const Image* t = findLayer(tl, a.layer, layerGiven);
   const std::string& refName = refLayerGiven ? a.refLayer : a.layer;
-  const Image* r = findLayer(rl, refName, refLayerGiven || layerGiven);
-  if (!t || !r) {
-    std::fprintf(stderr, "error: %s: no layer '%s'\n", (!t ? a.test : a.ref).c_str(), (!t ? a.layer : refName).c_str());
+  const Image* r = in.ref = findLayer(in.refLayers, refName, refLayerGiven || layerGiven);
+  if (!r) {
+    std::fprintf(stderr, "error: %s: no layer '%s'\n", refPath.c_str(), refName.c_str());
     return 1;
   }
-  if (t->width != r->width || t->height != r->height) {
-    std::fprintf(stderr, "error: sizes differ: %s is %dx%d, %s is %dx%d\n", a.test.c_str(), t->width, t->height,
-                 a.ref.c_str(), r->width, r->height);
-    return 1;
+  for (size_t k = 0; k < K; ++k) {
+    const Image* t = findLayer(in.testLayers[k], a.layer, layerGiven);
+    if (!t) {
+      std::fprintf(stderr, "error: %s: no layer '%s'\n", a.images[k].c_str(), a.layer.c_str());
+      return 1;
+    }
+    if (t->width != r->width || t->height != r->height) {
+      std::fprintf(stderr, "error: sizes differ: %s is %dx%d, %s is %dx%d\n", a.images[k].c_str(), t->width, t->height,
+                   refPath.c_str(), r->width, r->height);
+      return 1;
+    }
+    in.tests.push_back(t);
   }
-  CompareResult c = compareImages(*t, *r, a.epsilon);
+  return 0;
+}
+
+int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
+  CompareInputs in;
+  if (int rc = loadCompareInputs(a, layerGiven, refLayerGiven, in); rc != 0) return rc;
+  const std::string& refPath = a.images.back();
+  const Image* r = in.ref;
+  std::string err;
+  const RelMseEpsilon eps = a.epsilonMode == "absolute" ? RelMseEpsilon(a.epsilon) : RelMseEpsilon::relative(a.epsilon);
+  if (in.tests.size() > 1) return compareMany(a, in.tests, *r, eps);
+  const Image* t = in.tests[0];
+  const std::string& testPath = a.images[0];
+  CompareResult c = compareImages(*t, *r, eps);
+  CompareFlip flip;
+  if (!a.noFlip) flip = compareFlip(*t, *r, a.exposure);
   if (a.json) {
-    json j = {{"test", a.test},
-              {"reference", a.ref},
+    json j = {{"test", testPath},
+              {"reference", refPath},
               {"layer", a.layer},
               {"pixels", c.pixels},
-              {"epsilon", c.epsilon},
               {"nonFiniteTest", c.nonFiniteTest},
               {"nonFiniteReference", c.nonFiniteRef},
               {"R", metricsJson(c.channel[0])},
               {"G", metricsJson(c.channel[1])},
               {"B", metricsJson(c.channel[2])},
               {"average", metricsJson(c.average)}};
+    addEpsilonJson(j, c.epsilon, eps);
+    if (!a.noFlip) addFlipJson(j, flip, a.exposure);
     std::cout << j.dump(2) << "\n";
   } else {
-    std::printf("comparing %s against %s (layer '%s', %zu pixels)\n", a.test.c_str(), a.ref.c_str(), a.layer.c_str(),
-                c.pixels);
-    std::printf("relMSE = mean((t-r)^2 / (r^2 + eps)), eps = %g; non-finite pixels: test %zu, reference %zu\n",
-                c.epsilon, c.nonFiniteTest, c.nonFiniteRef);
+    std::printf("comparing %s against %s (layer '%s', %zu pixels)\n", testPath.c_str(), refPath.c_str(),
+                a.layer.c_str(), c.pixels);
+    std::printf(
+        "relMSE = mean((t-r)^2 / (r^2 + eps)), eps = %s = %g (%s); non-finite pixels: test %zu, reference %zu\n",
+        eps.describe().c_str(), c.epsilon, eps.modeName(), c.nonFiniteTest, c.nonFiniteRef);
     std::printf("%-8s %12s %12s %12s %12s %12s %12s\n", "channel", "mean", "mean(ref)", "bias", "MAE", "RMSE",
                 "relMSE");
     const char* names[4] = {"R", "G", "B", "average"};
@@ -441,9 +543,14 @@ int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
       std::printf("%-8s %12.6g %12.6g %12.6g %12.6g %12.6g %12.6g\n", names[i], m.meanTest, m.meanRef, m.bias, m.mae,
                   m.rmse, m.relMse);
     }
+    if (!a.noFlip) printFlip(flip, a.exposure);
+  }
+  if (!a.noFlip && !writeFlipMaps(a, flip, err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
   }
   if (!a.out.empty() || !a.png.empty()) {
-    ErrorImages e = errorImages(*t, *r, a.epsilon);
+    ErrorImages e = errorImages(*t, *r, eps);
     if (!a.out.empty()) {
       if (!writeExr(a.out,
                     {{"", e.absolute},
@@ -482,6 +589,63 @@ int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
       std::fprintf(stderr, "wrote %s (relative squared error, white = %.3g)\n", a.png.c_str(), vmax);
     }
   }
+  return 0;
+}
+
+// K >= 2 independent renders of one method against the reference: bias2,
+// variance and the relMSE of their mean (core/compare.h), FLIP of the mean.
+int compareMany(const CompareArgs& a, const std::vector<const Image*>& tests, const Image& r,
+                const RelMseEpsilon& eps) {
+  BiasVarianceResult bv = biasVariance(tests, r, eps);
+  CompareFlip flip;
+  if (!a.noFlip) flip = compareFlip(bv.mean, r, a.exposure);
+  auto bvJson = [](const BiasVarianceChannel& m) {
+    return json{{"mean", m.meanTest},
+                {"meanReference", m.meanRef},
+                {"bias2", m.bias2},
+                {"variance", m.variance},
+                {"relMSE", m.relMse}};
+  };
+  const std::vector<std::string> testPaths(a.images.begin(), a.images.end() - 1);
+  if (a.json) {
+    json j = {{"tests", testPaths},         {"reference", a.images.back()}, {"layer", a.layer},
+              {"renders", bv.renders},      {"pixels", bv.pixels},          {"R", bvJson(bv.channel[0])},
+              {"G", bvJson(bv.channel[1])}, {"B", bvJson(bv.channel[2])},   {"average", bvJson(bv.average)}};
+    addEpsilonJson(j, bv.epsilon, eps);
+    if (!a.noFlip) addFlipJson(j, flip, a.exposure);
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("comparing the mean of %d renders against %s (layer '%s', %zu pixels)\n", bv.renders,
+                a.images.back().c_str(), a.layer.c_str(), bv.pixels);
+    std::printf(
+        "weights 1 / (r^2 + eps), eps = %s = %g (%s); bias2 = mean((mean_k - r)^2 - var_k / K), variance = "
+        "mean(var_k) (one render's noise), relMSE of the mean = bias2 + variance / K\n",
+        eps.describe().c_str(), bv.epsilon, eps.modeName());
+    std::printf("%-8s %12s %12s %12s %12s %12s\n", "channel", "mean", "mean(ref)", "bias2", "variance", "relMSE");
+    const char* names[4] = {"R", "G", "B", "average"};
+    for (int i = 0; i < 4; ++i) {
+      const BiasVarianceChannel& m = i < 3 ? bv.channel[i] : bv.average;
+      std::printf("%-8s %12.6g %12.6g %12.6g %12.6g %12.6g\n", names[i], m.meanTest, m.meanRef, m.bias2, m.variance,
+                  m.relMse);
+    }
+    if (!a.noFlip) printFlip(flip, a.exposure);
+  }
+  std::string err;
+  if (!a.noFlip && !writeFlipMaps(a, flip, err)) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  if (!a.out.empty()) {
+    if (!writeExr(a.out, {{"", bv.bias}, {"bias", bv.bias}, {"noise", bv.noise}, {"mean", bv.mean}}, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr,
+                 "wrote %s (layers: default=bias, bias (mean - reference), noise (one render's standard "
+                 "deviation), mean)\n",
+                 a.out.c_str());
+  }
+  if (!a.png.empty()) std::fprintf(stderr, "warning: --png is for a single test image; not written\n");
   return 0;
 }
 
@@ -825,16 +989,36 @@ int main(int argc, char** argv) {
   reference->add_flag("--no-cache", rfa.noCache, "Do not store the result in the reference cache");
 
   CompareArgs ca;
-  auto* compare = app.add_subcommand("compare", "Compare an EXR against a reference EXR");
-  compare->add_option("test", ca.test, "Test image (EXR)")->required();
-  compare->add_option("reference", ca.ref, "Reference image (EXR)")->required();
+  auto* compare = app.add_subcommand(
+      "compare",
+      "Compare an EXR against a reference EXR; with several test EXRs (independent renders of one method), "
+      "split their error into bias and noise");
+  compare
+      ->add_option("images", ca.images,
+                   "TEST.exr REFERENCE.exr, or TEST1.exr TEST2.exr ... REFERENCE.exr (the reference comes last)")
+      ->required()
+      ->expected(2, CLI::detail::expected_max_vector_size);
   auto* layerOpt = compare->add_option("--layer", ca.layer, "Layer name (default: the default layer, else 'full')");
   auto* refLayerOpt =
       compare->add_option("--ref-layer", ca.refLayer, "Layer of the reference (default: the same as --layer)");
-  compare->add_option("-o,--output", ca.out, "Write error images (EXR)");
-  compare->add_option("--png", ca.png, "Write a false-colour relative squared error PNG");
+  compare->add_option("-o,--output", ca.out,
+                      "Write error images (EXR); with several tests: bias, noise and mean images");
+  compare->add_option("--png", ca.png, "Write a false-colour relative squared error PNG (one test image)");
   compare->add_flag("--json", ca.json, "Print metrics as JSON");
-  compare->add_option("--epsilon", ca.epsilon, "relMSE epsilon")->default_str("0.01")->check(CLI::PositiveNumber);
+  compare
+      ->add_option("--epsilon", ca.epsilon,
+                   "relMSE eps: a factor of the reference's mean luminance squared (relative), or eps itself "
+                   "(absolute)")
+      ->default_str("0.01")
+      ->check(CLI::PositiveNumber);
+  compare->add_option("--epsilon-mode", ca.epsilonMode, "relative (eps = factor x mean luminance^2) or absolute")
+      ->check(CLI::IsMember({"relative", "absolute"}))
+      ->default_str("relative");
+  compare->add_option("--flip-exr", ca.flipExr, "Write the LDR- and HDR-FLIP maps (EXR)");
+  compare->add_option("--flip-png", ca.flipPng,
+                      "Write the LDR-FLIP map as a magma PNG with a colour bar (and PATH-hdr.png for HDR-FLIP)");
+  compare->add_option("--exposure", ca.exposure, "Exposure (stops) of the tone map before LDR-FLIP")->default_str("0");
+  compare->add_flag("--no-flip", ca.noFlip, "Skip FLIP (it costs about a second per megapixel and exposure)");
 
   std::string tmIn, tmLayer, tmOut;
   float tmExposure = 0;
@@ -851,7 +1035,7 @@ int main(int argc, char** argv) {
 
   SweepArgs sw;
   auto* sweep = app.add_subcommand("sweep", "Error against time for a grid of methods, light counts and radii");
-  sweep->add_option("scene", sw.scene, "Scene file")->required();
+  sweep->add_option("scene", sw.scene, "Scene file (not with --merge)");
   sweep
       ->add_option("--methods", sw.methods,
                    "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
@@ -882,8 +1066,9 @@ int main(int argc, char** argv) {
   bool sweepSpread = false;
   sweep->add_flag("--mrcs-spread", sweepSpread, "-mrcs methods: VSL representatives get radius r sqrt(weight)");
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
-  sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)")
-      ->required();
+  sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)");
+  sweep->add_option("--shard", sw.shard, "I/N: run only the configurations whose grid index is I mod N");
+  sweep->add_option("--merge", sw.merge, "Join these shard output directories into -o (no scene needed)");
   sweep->add_option("--reference-b", sw.referenceB,
                     "A second reference with another seed: relMSE(B, A)/2 estimates the reference's own noise, "
                     "reported and subtracted in the column relmse_minus_ref_noise");

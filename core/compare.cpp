@@ -3,13 +3,34 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <sstream>
 #include <vector>
 
 namespace vsl {
 
-CompareResult compareImages(const Image& test, const Image& ref, double epsilon) {
+double RelMseEpsilon::resolve(const Image& ref) const {
+  if (mode == Mode::Absolute) return value;
+  double sum = 0;
+  size_t n = 0;
+  for (size_t i = 0; i + 2 < ref.rgb.size(); i += 3) {
+    double y = 0.2126 * ref.rgb[i] + 0.7152 * ref.rgb[i + 1] + 0.0722 * ref.rgb[i + 2];
+    if (std::isfinite(y)) sum += y, ++n;
+  }
+  double mean = n ? sum / double(n) : 0.0;
+  return std::max(value * mean * mean, 1e-30);
+}
+
+std::string RelMseEpsilon::describe() const {
+  std::ostringstream s;
+  s << value;
+  if (mode == Mode::Relative) s << " x mean luminance^2";
+  return s.str();
+}
+
+CompareResult compareImages(const Image& test, const Image& ref, RelMseEpsilon spec) {
   CompareResult r;
-  r.epsilon = epsilon;
+  r.epsilonSpec = spec;
+  const double epsilon = r.epsilon = spec.resolve(ref);
   double s[3][6] = {};
   size_t n = size_t(test.width) * test.height;
   for (size_t i = 0; i < n; ++i) {
@@ -52,7 +73,8 @@ CompareResult compareImages(const Image& test, const Image& ref, double epsilon)
   return r;
 }
 
-double worstPixelShare(const Image& test, const Image& ref, double fraction, double epsilon) {
+double worstPixelShare(const Image& test, const Image& ref, double fraction, RelMseEpsilon spec) {
+  const double epsilon = spec.resolve(ref);
   const size_t n = size_t(test.width) * test.height;
   std::vector<double> e(n, 0.0);
   double total = 0;
@@ -72,7 +94,8 @@ double worstPixelShare(const Image& test, const Image& ref, double fraction, dou
   return worst / total;
 }
 
-ErrorImages errorImages(const Image& test, const Image& ref, double epsilon) {
+ErrorImages errorImages(const Image& test, const Image& ref, RelMseEpsilon spec) {
+  const double epsilon = spec.resolve(ref);
   ErrorImages e{Image(test.width, test.height), Image(test.width, test.height), Image(test.width, test.height),
                 Image(test.width, test.height)};
   for (size_t i = 0; i < test.rgb.size(); ++i) {
@@ -83,6 +106,56 @@ ErrorImages errorImages(const Image& test, const Image& ref, double epsilon) {
     e.relSquared.rgb[i] = float(d * d / (double(ref.rgb[i]) * ref.rgb[i] + epsilon));
   }
   return e;
+}
+
+BiasVarianceResult biasVariance(const std::vector<const Image*>& tests, const Image& ref, RelMseEpsilon spec) {
+  BiasVarianceResult r;
+  const int K = int(tests.size());
+  r.renders = K;
+  r.epsilonSpec = spec;
+  const double eps = r.epsilon = spec.resolve(ref);
+  r.mean = r.bias = r.noise = Image(ref.width, ref.height);
+  if (K < 2) return r;
+  double s[3][5] = {};  // sum of test means, ref, w s^2, w ((m-ref)^2 - s^2/K), w (m-ref)^2
+  const size_t n = size_t(ref.width) * ref.height;
+  for (size_t i = 0; i < n; ++i) {
+    bool finite = true;
+    for (int c = 0; c < 3; ++c) {
+      finite = finite && std::isfinite(ref.rgb[3 * i + c]);
+      for (const Image* t : tests) finite = finite && std::isfinite(t->rgb[3 * i + c]);
+    }
+    if (!finite) continue;
+    ++r.pixels;
+    for (int c = 0; c < 3; ++c) {
+      // Mean and unbiased sample variance over the renders.
+      const size_t j = 3 * i + size_t(c);
+      double m = 0, v = 0;
+      for (const Image* t : tests) m += t->rgb[j];
+      m /= K;
+      for (const Image* t : tests) v += (t->rgb[j] - m) * (t->rgb[j] - m);
+      v /= K - 1;
+      const double f = ref.rgb[j], d = m - f, w = 1 / (f * f + eps);
+      s[c][0] += m;
+      s[c][1] += f;
+      s[c][2] += w * v;
+      s[c][3] += w * (d * d - v / K);
+      s[c][4] += w * d * d;
+      r.mean.rgb[j] = float(m);
+      r.bias.rgb[j] = float(d);
+      r.noise.rgb[j] = float(std::sqrt(v));
+    }
+  }
+  const double inv = r.pixels ? 1.0 / double(r.pixels) : 0.0;
+  for (int c = 0; c < 3; ++c) {
+    BiasVarianceChannel& m = r.channel[c];
+    m = {s[c][0] * inv, s[c][1] * inv, s[c][3] * inv, s[c][2] * inv, s[c][4] * inv};
+    r.average.meanTest += m.meanTest / 3;
+    r.average.meanRef += m.meanRef / 3;
+    r.average.bias2 += m.bias2 / 3;
+    r.average.variance += m.variance / 3;
+    r.average.relMse += m.relMse / 3;
+  }
+  return r;
 }
 
 Vec3 falseColour(float t) {

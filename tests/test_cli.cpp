@@ -197,13 +197,14 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   std::string line;
   std::getline(csv, line);
   EXPECT_EQ(line,
-            "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise");
+            "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise,"
+            "flip_ldr,bias2,variance");
   std::map<std::string, int> finals;
   // Final relMSE per configuration, one per independent light set.
   std::map<std::string, std::vector<double>> finalRel;
   while (std::getline(csv, line)) {
     std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 12u) << line;
+    ASSERT_EQ(f.size(), 15u) << line;
     double worst = std::stod(f[9]);
     EXPECT_TRUE(worst >= 0.01 - 1e-9 && worst <= 1) << "the worst 1% hold at least 1% of the error: " << line;
     if (f[10] == "1") {
@@ -223,7 +224,7 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   int rows = 0;
   while (std::getline(sum, line)) {
     std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 12u) << line;
+    ASSERT_EQ(f.size(), 15u) << line;
     EXPECT_EQ(f[3], "3");
     std::vector<double> v = finalRel[f[0] + " " + f[1]];
     ASSERT_EQ(v.size(), 3u) << line;
@@ -263,7 +264,7 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   std::getline(csvB, line);
   while (std::getline(csvB, line)) {
     std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 12u);
+    ASSERT_EQ(f.size(), 15u);
     EXPECT_NEAR(std::stod(f[11]), std::stod(f[6]) - ab / 2, 1e-5 * std::stod(f[6]) + 1e-9) << line;
   }
   // A second reference of another size is refused.

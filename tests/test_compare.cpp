@@ -1,0 +1,300 @@
+// Error metrics (core/compare.h): relMSE's eps relative to the reference, and
+// bias against noise over independent renders.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/compare.h"
+#include "core/image_io.h"
+#include "core/many_light.h"
+#include "support.h"
+
+using namespace vsl;
+using namespace vsl::test;
+
+// The relative eps is 0.01 x (mean luminance)^2 of the reference; a bare
+// number stays an absolute eps.
+TEST(Compare, RelativeEpsilonScalesWithTheReference) {
+  Image ref(4, 4), test(4, 4);
+  for (int i = 0; i < 16; ++i) ref.set(i % 4, i / 4, Vec3(0.5f, 1.0f, 2.0f)), test.set(i % 4, i / 4, Vec3(1.0f));
+  const double lum = 0.2126 * 0.5 + 0.7152 * 1.0 + 0.0722 * 2.0;
+  CompareResult r = compareImages(test, ref);
+  EXPECT_EQ(r.epsilonSpec.mode, RelMseEpsilon::Mode::Relative);
+  EXPECT_NEAR(r.epsilon, 0.01 * lum * lum, 1e-9);
+  EXPECT_NEAR(r.channel[0].relMse, 0.25 / (0.25 + r.epsilon), 1e-9);
+  CompareResult a = compareImages(test, ref, 0.01);
+  EXPECT_EQ(a.epsilonSpec.mode, RelMseEpsilon::Mode::Absolute);
+  EXPECT_EQ(a.epsilon, 0.01);
+  // Scaling both images leaves the relative relMSE unchanged.
+  for (float& v : ref.rgb) v *= 1e-3f;
+  for (float& v : test.rgb) v *= 1e-3f;
+  EXPECT_NEAR(compareImages(test, ref).average.relMse, r.average.relMse, 1e-6);
+}
+
+// An all-black image must not rank above a noisy image with the right mean.
+// Dim reference (mean luminance 1e-3): half its pixels 1.8e-3, half 0.2e-3.
+// The noisy image is right on average in every pixel pair: in the bright
+// pixels it is 0 (60%) or 2.5 x the reference (40%), relative variance 1.5,
+// like fireflies; in the dim pixels it is 0.8 or 1.2 x the reference.
+// With an absolute eps = 0.01 every pixel's weight is ~1/eps, relMSE is the
+// MSE / eps, and the bright pixels' noise (1.5 x 3.2e-6) outweighs black's
+// error (mean of ref^2 = 1.6e-6): black ranks first. With the relative eps
+// (1e-8 here) black scores ~0.9 (about 1 in every pixel) and the noisy image
+// ~0.76.
+TEST(Compare, AllBlackNeverRanksAboveTheRightMeanOnADimReference) {
+  const int W = 40, H = 20;
+  Image ref(W, H), noisy(W, H), black(W, H);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool bright = x < W / 2;
+      const float r = bright ? 1.8e-3f : 0.2e-3f;
+      ref.set(x, y, Vec3(r));
+      const int k = (x * 7 + y * 3) % 10;  // 0..9, evenly over each half
+      float v = bright ? (k < 6 ? 0.0f : 2.5f * r) : (k < 5 ? 0.8f * r : 1.2f * r);
+      noisy.set(x, y, Vec3(v));
+    }
+  CompareResult n = compareImages(noisy, ref), b = compareImages(black, ref);
+  EXPECT_NEAR(n.average.meanTest, n.average.meanRef, 0.05 * n.average.meanRef);  // the right mean
+  EXPECT_NEAR(n.epsilon, 1e-8, 1e-10);
+  EXPECT_NEAR(b.average.relMse, 0.9, 0.01);
+  EXPECT_LT(n.average.relMse, b.average.relMse);
+  // The absolute eps gets this wrong, which is why it is no longer the default.
+  EXPECT_GT(compareImages(noisy, ref, 0.01).average.relMse, compareImages(black, ref, 0.01).average.relMse);
+}
+
+TEST(Compare, BiasVarianceOfKnownImages) {
+  // Renders ref + 0.1 and ref + 0.3 (alternating sign is not needed): mean
+  // ref + 0.2, sample variance 0.02; ref = 1 everywhere, eps absolute 0 -> 1e-30.
+  Image ref(3, 2), a(3, 2), b(3, 2);
+  for (float& v : ref.rgb) v = 1;
+  for (float& v : a.rgb) v = 1.1f;
+  for (float& v : b.rgb) v = 1.3f;
+  BiasVarianceResult r = biasVariance({&a, &b}, ref, 1e-30);
+  EXPECT_EQ(r.renders, 2);
+  EXPECT_EQ(r.pixels, 6u);
+  EXPECT_NEAR(r.average.variance, 0.02, 1e-6);
+  EXPECT_NEAR(r.average.bias2, 0.04 - 0.01, 1e-6);
+  EXPECT_NEAR(r.average.relMse, 0.04, 1e-6);
+  EXPECT_NEAR(r.average.relMse, r.average.bias2 + r.average.variance / 2, 1e-9);
+  EXPECT_NEAR(r.bias.rgb[0], 0.2f, 1e-6f);
+  EXPECT_NEAR(r.noise.rgb[0], std::sqrt(0.02f), 1e-6f);
+}
+
+// Four clamped-VPL renders (independent light sets) of the glossy Cornell box
+// are smooth but darker than the path-traced reference: bias dominates. Four
+// 4-spp path-traced renders are unbiased and noisy: variance dominates.
+// Measured at 24 pixels wide, where one eye ray per pixel makes edge pixels
+// noisy (anti-aliasing noise that more lights do not remove), so each VPL
+// render averages 4 light sets of 2,000 lights (as the sweep's pass-based
+// methods do; 4 eye rays per pixel), and the clamp is 0.01 x the auto bound
+// (the auto bound loses almost nothing here: bias2 0.03 against variance 0.37
+// with one set); this clamp loses about 30% of the indirect light, like the
+// X
+// (relative eps). The 1024-spp reference's own noise, relMSE(B, A)/2 = 0.02
+// here, counts as bias2: it is small against both margins.
+TEST(Compare, ClampedVplIsBiasedAndFewSamplePathTracingIsNoisy) {
+  Loaded l = loadAsset("cornell-glossy", 24);
+  const int W = l.width, H = l.height, K = 4, setsPerRender = 4;
+  Reference ref = ptIndirect(l, W, H, 1024, 77);
+  std::vector<Image> vpl, pt;
+  for (int k = 0; k < K; ++k) {
+    Image sum(W, H);
+    for (int j = 0; j < setsPerRender; ++j) {
+      ManyLightSettings s;
+      s.lights = 2000;
+      s.width = W;
+      s.height = H;
+      s.batches = 1;
+      s.directSamples = 1;
+      s.seed = 500 + 10 * k + j;
+      s.computeVsl = false;
+      ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+      s.clamp = 0.01f * ManyLightRenderer(*l.scene, *l.accel, *l.lights, run.set, run.radii, s).clampBound();
+      ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+      ASSERT_TRUE(r.renderBatch(0));
+      const Image& v = r.images().vpl;
+      for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i] / setsPerRender;
+    }
+    vpl.push_back(sum);
+    pt.push_back(ptIndirect(l, W, H, 4, 900 + k).indirect);
+  }
+  std::vector<const Image*> pv, pp;
+  for (int k = 0; k < K; ++k) pv.push_back(&vpl[size_t(k)]), pp.push_back(&pt[size_t(k)]);
+  BiasVarianceResult v = biasVariance(pv, ref.indirect), p = biasVariance(pp, ref.indirect);
+  std::printf("clamped VPL: bias2 %.4g variance %.4g relMSE(mean) %.4g, mean %.4g (reference %.4g)\n", v.average.bias2,
+              v.average.variance, v.average.relMse, v.average.meanTest, v.average.meanRef);
+  std::printf("PT 4 spp:    bias2 %.4g variance %.4g relMSE(mean) %.4g\n", p.average.bias2, p.average.variance,
+              p.average.relMse);
+  EXPECT_LT(v.average.meanTest, 0.85 * v.average.meanRef);  // clamping darkens
+  EXPECT_GT(v.average.bias2, v.average.variance);
+  EXPECT_GT(p.average.variance, p.average.bias2);
+  EXPECT_NEAR(p.average.relMse, p.average.bias2 + p.average.variance / K, 1e-9 * p.average.relMse);
+}
+
+// ---- `vsl compare` and `vsl sweep` from the command line ---------------------------
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Proc {
+  int code;
+  std::string out;
+};
+
+// Runs `vsl ARGS`; stderr is dropped unless asked for (stdout is the JSON).
+Proc runVsl(const std::string& args, bool withStderr = false) {
+  std::string cmd = std::string(VSL_BINARY_DIR) + "/bin/vsl " + args + (withStderr ? " 2>&1" : " 2>/dev/null");
+  Proc r{-1, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path scratch(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("vsl_compare_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A CSV without the given columns (timing differs between runs).
+std::string withoutColumns(const std::string& csv, std::vector<size_t> drop) {
+  std::istringstream in(csv);
+  std::ostringstream out;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream ls(line);
+    size_t i = 0;
+    for (std::string f; std::getline(ls, f, ','); ++i)
+      if (std::find(drop.begin(), drop.end(), i) == drop.end()) out << f << ",";
+    out << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace
+
+// The number quoted for FLIP: black against white is about 0.967. FLIP is one
+// value per RGB image ("flip" and "average"), next to the eps relMSE used.
+TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
+  fs::path d = scratch("flip");
+  Image black(32, 24), white(32, 24);
+  for (float& v : white.rgb) v = 1;
+  std::string err;
+  ASSERT_TRUE(writeExr((d / "black.exr").string(), {{"", black}}, &err)) << err;
+  ASSERT_TRUE(writeExr((d / "white.exr").string(), {{"", white}}, &err)) << err;
+  Proc p = runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() + " --json --flip-exr " +
+                  (d / "flip.exr").string() + " --flip-png " + (d / "flip.png").string());
+  ASSERT_EQ(p.code, 0) << p.out;
+  auto j = nlohmann::json::parse(p.out);
+  EXPECT_NEAR(double(j["average"]["flip"]["ldr"]), 0.967, 0.001);
+  EXPECT_NEAR(double(j["flip"]["ldr"]), 0.967, 0.001);
+  EXPECT_GT(double(j["flip"]["hdr"]), 0.9);
+  EXPECT_EQ(j["epsilon_mode"], "relative");
+  EXPECT_NEAR(double(j["epsilon"]), 0.01, 1e-6);  // 0.01 x (mean luminance 1)^2
+  EXPECT_FALSE(j["R"].contains("flip"));
+  std::vector<Layer> layers;
+  ASSERT_TRUE(readExr((d / "flip.exr").string(), layers, &err)) << err;
+  EXPECT_EQ(layers.size(), 3u);
+  EXPECT_TRUE(fs::exists(d / "flip.png"));
+  EXPECT_TRUE(fs::exists(d / "flip-hdr.png"));
+  // The absolute eps on request.
+  auto a = nlohmann::json::parse(runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() +
+                                        " --json --no-flip --epsilon-mode absolute --epsilon 0.5")
+                                     .out);
+  EXPECT_EQ(a["epsilon_mode"], "absolute");
+  EXPECT_EQ(double(a["epsilon"]), 0.5);
+  EXPECT_NEAR(double(a["average"]["relMSE"]), 1 / 1.5, 1e-6);
+  fs::remove_all(d);
+}
+
+// Several test images: bias2, variance and the relMSE of their mean, with maps.
+TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
+  fs::path d = scratch("bv");
+  Image ref(8, 8), a(8, 8), b(8, 8), c(8, 8);
+  for (size_t i = 0; i < ref.rgb.size(); ++i) ref.rgb[i] = 1, a.rgb[i] = 1.1f, b.rgb[i] = 1.2f, c.rgb[i] = 1.3f;
+  std::string err;
+  for (auto [name, img] : {std::pair{"ref", &ref}, {"a", &a}, {"b", &b}, {"c", &c}})
+    ASSERT_TRUE(writeExr((d / (std::string(name) + ".exr")).string(), {{"", *img}}, &err)) << err;
+  auto f = [&](const char* n) { return (d / (std::string(n) + ".exr")).string() + " "; };
+  Proc p = runVsl("compare " + f("a") + f("b") + f("c") + f("ref") + "--json -o " + (d / "bv.exr").string());
+  ASSERT_EQ(p.code, 0) << p.out;
+  auto j = nlohmann::json::parse(p.out);
+  EXPECT_EQ(j["renders"], 3);
+  const double eps = 0.01;  // relative: 0.01 x 1^2
+  // mean 1.2, sample variance 0.01; bias2 = 0.04 - 0.01/3.
+  EXPECT_NEAR(double(j["average"]["variance"]), 0.01 / (1 + eps), 1e-5);
+  EXPECT_NEAR(double(j["average"]["bias2"]), (0.04 - 0.01 / 3) / (1 + eps), 1e-5);
+  EXPECT_NEAR(double(j["average"]["relMSE"]), 0.04 / (1 + eps), 1e-5);
+  EXPECT_TRUE(j["average"].contains("flip"));
+  std::vector<Layer> layers;
+  ASSERT_TRUE(readExr((d / "bv.exr").string(), layers, &err)) << err;
+  ASSERT_EQ(layers.size(), 4u);  // default (bias), bias, noise, mean
+  std::map<std::string, const Image*> byName;
+  for (const Layer& l : layers) byName[l.name] = &l.image;
+  ASSERT_TRUE(byName.count("bias") && byName.count("noise") && byName.count("mean"));
+  EXPECT_NEAR(byName["bias"]->rgb[0], 0.2f, 1e-5f);
+  EXPECT_NEAR(byName["noise"]->rgb[0], 0.1f, 1e-5f);
+  EXPECT_NEAR(byName["mean"]->rgb[0], 1.2f, 1e-5f);
+  fs::remove_all(d);
+}
+
+// Shards 0/2 and 1/2 merged give the unsharded sweep's CSVs (timing columns
+// aside) and the same JSON summary. The many-light runs are not time-limited
+// here, so their results do not depend on the clock.
+TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
+  fs::path d = scratch("shard");
+  std::string sceneFile = std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf";
+  ASSERT_EQ(runVsl("render " + sceneFile + " --spp 8 --width 16 --height 16 -o " + (d / "ref.exr").string()).code, 0);
+  const std::string grid = "sweep " + sceneFile + " --methods vpl,vsl --lights 40,80 --radius-scale 0.5,1 " +
+                           "--batches 2 --sets 2 --time 1000 --reference " + (d / "ref.exr").string() + " -o ";
+  Proc all = runVsl(grid + (d / "all").string(), true);
+  ASSERT_EQ(all.code, 0) << all.out;
+  ASSERT_EQ(runVsl(grid + (d / "s0").string() + " --shard 0/2").code, 0);
+  ASSERT_EQ(runVsl(grid + (d / "s1").string() + " --shard 1/2").code, 0);
+  Proc m = runVsl("sweep --merge " + (d / "s1").string() + " " + (d / "s0").string() + " -o " + (d / "merged").string(),
+                  true);
+  ASSERT_EQ(m.code, 0) << m.out;
+  // The shards split the six configurations.
+  std::string s0 = slurp(d / "s0/sweep.csv"), s1 = slurp(d / "s1/sweep.csv");
+  EXPECT_GT(std::count(s0.begin(), s0.end(), '\n'), 1);
+  EXPECT_GT(std::count(s1.begin(), s1.end(), '\n'), 1);
+  EXPECT_EQ(withoutColumns(slurp(d / "merged/sweep.csv"), {5}), withoutColumns(slurp(d / "all/sweep.csv"), {5}));
+  EXPECT_EQ(withoutColumns(slurp(d / "merged/summary.csv"), {4}), withoutColumns(slurp(d / "all/summary.csv"), {4}));
+  auto ja = nlohmann::json::parse(slurp(d / "all/sweep.json")),
+       jm = nlohmann::json::parse(slurp(d / "merged/sweep.json"));
+  EXPECT_EQ(ja["summary"].size(), 6u);
+  EXPECT_EQ(jm["summary"].size(), 6u);
+  EXPECT_FALSE(jm.contains("shard"));
+  EXPECT_EQ(jm["relMseEpsilon"], ja["relMseEpsilon"]);
+  // bias2 and variance over the two sets, and FLIP, on every configuration.
+  for (const auto& row : ja["summary"]) {
+    EXPECT_TRUE(row["bias2"].is_number()) << row;
+    EXPECT_GT(double(row["variance"]), 0) << row;
+    EXPECT_GT(double(row["flipLdrMedian"]), 0) << row;
+  }
+  for (const char* png : {"merged/pareto.png", "merged/flip_vs_time.png"}) EXPECT_TRUE(fs::exists(d / png)) << png;
+  // A shard given twice, or one missing, is refused; so is a malformed --shard.
+  EXPECT_EQ(
+      runVsl("sweep --merge " + (d / "s0").string() + " " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
+  EXPECT_EQ(runVsl("sweep --merge " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
+  EXPECT_EQ(runVsl(grid + (d / "x").string() + " --shard 2/2").code, 2);
+  fs::remove_all(d);
+}
