@@ -29,6 +29,7 @@
 #include "core/image_io.h"
 #include "core/many_light.h"
 #include "core/mrcs.h"
+#include "core/reference.h"
 
 namespace vsl {
 
@@ -373,35 +374,46 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
     return 1;
   }
   LightSampler lights(scene);
-  // The reference's indirect layer; a second, independent reference measures
-  // the first one's own noise: E relMSE(B vs A) ~ 2 x A's noise, and every
-  // measured relMSE carries A's noise on top of the method's error.
-  auto readIndirect = [&](const std::string& path, Image& out) {
-    std::vector<Layer> layers;
-    if (!readExr(path, layers, &err)) {
+  // The reference (reference.h): the file given, else the cached one for
+  // this scene at --width. Its own noise comes from its halves
+  // (relMSE(A, B) / 4) or from a second, independent reference B
+  // (relMSE(B, A) / 2); every measured relMSE carries it on top of the
+  // method's error, and the "minus reference noise" columns subtract it.
+  Reference reference;
+  std::string referenceName = a.reference;
+  if (!a.reference.empty()) {
+    if (!readReference(a.reference, 0, 0, reference, &err)) {
       std::fprintf(stderr, "error: %s\n", err.c_str());
-      return false;
-    }
-    for (Layer& l : layers)
-      if (l.name == "indirect") {
-        out = std::move(l.image);
-        return true;
-      }
-    std::fprintf(stderr, "error: %s: no 'indirect' layer (render it with vsl render --method pt)\n", path.c_str());
-    return false;
-  };
-  Image refImage, refB;
-  if (!readIndirect(a.reference, refImage)) return 1;
-  const Image* ref = &refImage;
-  double refNoise = 0;
-  if (!a.referenceB.empty()) {
-    if (!readIndirect(a.referenceB, refB)) return 1;
-    if (refB.width != ref->width || refB.height != ref->height) {
-      std::fprintf(stderr, "error: %s: %dx%d, but the reference is %dx%d\n", a.referenceB.c_str(), refB.width,
-                   refB.height, ref->width, ref->height);
       return 1;
     }
-    refNoise = 0.5 * compareImages(refB, *ref).average.relMse;
+  } else {
+    int w = a.width, h = 0;
+    resolveResolution(scene, w, h);
+    const std::string key = referenceKey(scene, w, h, RenderSettings().maxDepth);
+    auto cached = findCachedReference(key, w, h);
+    if (!cached) {
+      std::fprintf(stderr,
+                   "error: %s: no --reference given and no cached reference at %dx%d (%s); render one with\n"
+                   "  vsl reference %s --width %d --spp 4096\n",
+                   a.scene.c_str(), w, h, referenceCachePath(key).c_str(), a.scene.c_str(), w);
+      return 1;
+    }
+    reference = std::move(*cached);
+    referenceName = "cache: " + referenceCachePath(key);
+  }
+  const Image* ref = &reference.indirect;
+  double refNoise = std::max(reference.indirectNoise(), 0.0);
+  std::fprintf(stderr, "sweep: reference %s (%dx%d, %d spp), own noise %s\n", referenceName.c_str(), ref->width,
+               ref->height, reference.spp,
+               reference.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(refNoise)).c_str() : "unknown");
+  Image refB;
+  if (!a.referenceB.empty()) {
+    Reference b;
+    if (!readReference(a.referenceB, ref->width, ref->height, b, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    refNoise = 0.5 * compareImages(b.indirect, *ref).average.relMse;
     std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
                  refNoise);
   }
@@ -430,7 +442,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
     ctx.endConfiguration();
   }
   meta = {a.scene,
-          a.reference,
+          referenceName,
           a.referenceB,
           a.many.describe(),
           W,
@@ -758,10 +770,10 @@ int mergeShards(const SweepArgs& a) {
 
 int runSweep(const SweepArgs& a) {
   if (!a.merge.empty()) return mergeShards(a);
-  if (a.scene.empty() || a.reference.empty()) {
+  if (a.scene.empty()) {
     std::fprintf(stderr,
-                 "error: sweep needs a scene and --reference (or --merge DIR...)\n\nUsage: vsl sweep SCENE --reference "
-                 "REF.exr -o DIR [--shard I/N] ...\n       vsl sweep --merge DIR... -o DIR\n");
+                 "error: sweep needs a scene (or --merge DIR...)\n\nUsage: vsl sweep SCENE [--reference REF.exr] -o "
+                 "DIR [--shard I/N] ...\n       vsl sweep --merge DIR... -o DIR\n");
     return 2;
   }
   int shardIndex = 0, shardCount = 1;

@@ -15,6 +15,7 @@ namespace vsl {
 struct SweepArgs {
   std::string scene, reference, outDir;
   std::string referenceB;  // optional second, independent reference: measures the first one's noise
+  int width = 256;         // without a reference: the width whose cached reference is used
   // Also vsl-progressive, vsl-mrcs, vsl-mrcs-progressive and vpl-mrcs (see sweep.cpp).
   std::vector<std::string> methods = {"pt", "vpl", "vsl"};
   float alpha = 0.7f;  // for vsl-progressive

@@ -968,7 +968,7 @@ int main(int argc, char** argv) {
 
   ReferenceArgs rfa;
   rfa.settings.spp = 1024;
-  rfa.settings.seed = 1;
+  rfa.settings.seed = kReferenceSeed;
   auto* reference = app.add_subcommand(
       "reference", "Render a converged path-traced reference in two independent halves, to a file and the cache");
   reference->add_option("scene", rfa.scene, "Scene file (.gltf or .glb)")->required();
@@ -981,8 +981,8 @@ int main(int argc, char** argv) {
   reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)");
   reference
       ->add_option("--seed", rfa.settings.seed,
-                   "Random seed (1: independent of the studio's live path tracer, which uses 0)")
-      ->default_str("1");
+                   "Random seed (default: one that neither the studio's live path tracer nor vsl sweep uses)")
+      ->default_str(std::to_string(kReferenceSeed));
   reference->add_option("--max-depth", rfa.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
   reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");
@@ -1066,7 +1066,12 @@ int main(int argc, char** argv) {
   bool sweepSpread = false;
   sweep->add_flag("--mrcs-spread", sweepSpread, "-mrcs methods: VSL representatives get radius r sqrt(weight)");
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
-  sweep->add_option("--reference", sw.reference, "Reference EXR with an 'indirect' layer (vsl render --method pt)");
+  sweep->add_option("--reference", sw.reference,
+                    "Reference EXR with an 'indirect' layer (vsl reference writes one with halves that measure its "
+                    "noise); default: the cached reference at --width");
+  sweep->add_option("--width", sw.width, "Without --reference: the width of the cached reference to use")
+      ->default_str("256")
+      ->check(CLI::Range(8, 16384));
   sweep->add_option("--shard", sw.shard, "I/N: run only the configurations whose grid index is I mod N");
   sweep->add_option("--merge", sw.merge, "Join these shard output directories into -o (no scene needed)");
   sweep->add_option("--reference-b", sw.referenceB,

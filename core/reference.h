@@ -34,6 +34,11 @@
 
 namespace vsl {
 
+// The seed of references by default (`vsl reference`, the studio's
+// background reference): the studio's live path tracer uses 0 and `vsl
+// sweep` 1 onwards, so a reference is independent of both.
+constexpr uint64_t kReferenceSeed = 7777;
+
 struct Reference {
   int width = 0, height = 0;
   Image full, direct, indirect;  // the mean of the halves

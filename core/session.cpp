@@ -25,9 +25,6 @@ Image average(const Image& a, const Image& b) {
   return m;
 }
 
-// The seed of references rendered in the background; the live path tracer
-// uses 0, so the two are independent.
-constexpr uint64_t kBackgroundReferenceSeed = 1;
 // The path depth of the live path tracer and of the references it looks up.
 constexpr int kReferenceDepth = RenderSettings().maxDepth;
 
@@ -502,7 +499,7 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
     RenderSettings rs;
     rs.width = job.ml->width();
     rs.height = job.ml->height();
-    rs.seed = kBackgroundReferenceSeed;
+    rs.seed = kReferenceSeed;
     w.background = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
     w.backgroundKey = w.cacheKey;
   }
