@@ -68,6 +68,8 @@ class StudioFrame : public ::testing::Test {
     for (Image* img : {&s->many.direct, &s->many.vplUnclamped, &s->many.vplDiffuse, &s->many.lostToClamping,
                        &s->many.lostToDiffuse, &s->ptDirect})
       fill(*img, [](int, int) { return Vec3(0.0f); });
+    s->refIndirect = s->ptIndirect;  // the live path tracer is the reference
+    s->refDirect = s->ptDirect;
     return s;
   }
 
@@ -434,9 +436,10 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
   CompareResult direct = compareImages(cutOut(s.many.vsl, 10, 4, 16, 8), cutOut(s.ptIndirect, 10, 4, 16, 8));
   EXPECT_DOUBLE_EQ(c["metricsAgainstReferenceCrop"]["VSL"]["indirect"]["relMSE"].get<double>(), direct.average.relMse);
   EXPECT_GT(direct.average.relMse, 0);
-  // VPL is 0.2 against 0.25 everywhere: relMSE = 0.05^2 / (0.25^2 + 0.01).
+  // VPL is 0.2 against 0.25 everywhere: relMSE = 0.05^2 / (0.25^2 + eps), the
+  // eps relative to the reference crop: 0.01 x its mean luminance (0.25)^2.
   EXPECT_NEAR(c["metricsAgainstReferenceCrop"]["VPL (clamped)"]["indirect"]["relMSE"].get<double>(),
-              0.0025 / (0.0625 + 0.01), 1e-6);
+              0.0025 / (0.0625 + 0.01 * 0.0625), 1e-6);
   // The crop differs from the whole image's metric (the VSL ramp varies across it).
   EXPECT_NE(c["metricsAgainstReferenceCrop"]["VSL"]["indirect"]["relMSE"].get<double>(),
             j["metricsAgainstReference"]["VSL"]["indirect"]["relMSE"].get<double>());

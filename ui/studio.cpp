@@ -80,7 +80,25 @@ const char* kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)
                               "relative squared (t-r)^2/(r^2+eps)"};
 const char* kComponentNames[] = {"full", "direct", "indirect"};
 const char* kModeNames[] = {"Single", "Side by side (2)", "Side by side (3)", "Wipe"};
-constexpr float kEps = 1e-2f;
+
+// One pixel's error under a metric. eps follows the reference as relMSE's
+// does (compare.h: 0.01 x the reference's mean luminance squared) for the
+// squared metrics, and its square root for the absolute ones.
+float metricError(float d, float r, ErrorMetric metric, float eps) {
+  switch (metric) {
+    case ErrorMetric::Absolute:
+      return std::abs(d);
+    case ErrorMetric::RelativeAbsolute:
+      return std::abs(d) / (std::abs(r) + std::sqrt(eps));
+    case ErrorMetric::Squared:
+      return d * d;
+    case ErrorMetric::RelativeSquared:
+      return d * d / (r * r + eps);
+  }
+  return d;
+}
+
+float mapEpsilon(const Image& ref) { return float(RelMseEpsilon().resolve(ref)); }
 
 void sectionTitle(const char* title) {
   ImGui::Spacing();
@@ -299,6 +317,7 @@ void Studio::updateTextures() {
   if (!snap_ || (!texturesDirty_ && !viewChanged)) return;
   Image refScratch;
   const Image* ref = referenceImage(view_.component, refScratch);
+  mapEps_ = mapEpsilon(*ref);
   for (int i = 0; i < int(Source::Count); ++i) {
     Source src = Source(i);
     Image scratch;
@@ -313,24 +332,8 @@ void Studio::updateTextures() {
     // Per-pixel error map or signed difference against the reference.
     Image map(img->width, img->height);
     for (size_t k = 0; k < map.rgb.size(); ++k) {
-      float t = img->rgb[k], r = ref->rgb[k], d = t - r;
-      float v = d;
-      if (view_.display == Display::Error) {
-        switch (view_.metric) {
-          case ErrorMetric::Absolute:
-            v = std::abs(d);
-            break;
-          case ErrorMetric::RelativeAbsolute:
-            v = std::abs(d) / (std::abs(r) + kEps);
-            break;
-          case ErrorMetric::Squared:
-            v = d * d;
-            break;
-          case ErrorMetric::RelativeSquared:
-            v = d * d / (r * r + kEps);
-            break;
-        }
-      }
+      float r = ref->rgb[k], d = img->rgb[k] - r;
+      float v = view_.display == Display::Error ? metricError(d, r, view_.metric, mapEps_) : d;
       map.rgb[k] = std::isfinite(v) ? v : 0.0f;
     }
     textures_[i].upload(map);
@@ -607,9 +610,9 @@ void Studio::controlsPanel() {
     if (ImGui::Combo("metric", &metric, kMetricNames, 4)) view_.metric = ErrorMetric(metric);
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(
-          "t = method, r = reference (same component), eps = %.2g.\nColours: black 0 -> blue -> magenta -> yellow -> "
-          "white max.",
-          kEps);
+          "t = method, r = reference (same component), eps = %.2g (0.01 x the reference's mean luminance^2; its "
+          "square root for the absolute metric).\nColours: black 0 -> blue -> magenta -> yellow -> white max.",
+          mapEps_);
   }
   if (view_.display == Display::Image) {
     ImGui::SliderFloat("exposure", &view_.exposure, -10, 10, "%.1f stops");
@@ -944,10 +947,7 @@ void Studio::probe(const ImVec2& mouse) {
       ImGui::Text("%-22s %.4g %.4g %.4g", sourceName(src), val.x, val.y, val.z);
       if (src == Source::Reference || src == Source::LostClamping || src == Source::LostDiffuse) continue;
       float t = (val.x + val.y + val.z) / 3, r = (ref.x + ref.y + ref.z) / 3, dd = t - r;
-      float e = view_.metric == ErrorMetric::Absolute           ? std::abs(dd)
-                : view_.metric == ErrorMetric::RelativeAbsolute ? std::abs(dd) / (std::abs(r) + kEps)
-                : view_.metric == ErrorMetric::Squared          ? dd * dd
-                                                                : dd * dd / (r * r + kEps);
+      float e = metricError(dd, r, view_.metric, mapEps_);
       ImGui::SameLine();
       ImGui::TextDisabled("  error %.3g (%s), signed %+.3g", e, kMetricNames[int(view_.metric)], dd);
     }
@@ -982,7 +982,7 @@ void Studio::legend(float vmax) {
   dl->AddText(ImVec2(p.x + W + 8, p.y - 2), IM_COL32_WHITE, buf);
   ImGui::Dummy(ImVec2(W, H));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("eps = %.2g; the maximum is %s", kEps,
+    ImGui::SetTooltip("eps = %.2g (squared; 0.01 x the reference's mean luminance^2); the maximum is %s", mapEps_,
                       view_.errorScale > 0 ? "set by hand" : "the 99th percentile");
 }
 
@@ -1268,14 +1268,12 @@ const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
 // channels (as the studio's maps show it), in every channel.
 Image errorMap(const Image& test, const Image& ref, ErrorMetric metric) {
   Image m(test.width, test.height);
+  const float eps = mapEpsilon(ref);
   for (size_t i = 0; i + 2 < test.rgb.size(); i += 3) {
     float e = 0;
     for (int c = 0; c < 3; ++c) {
       float r = ref.rgb[i + c], d = test.rgb[i + c] - r;
-      float v = metric == ErrorMetric::Absolute           ? std::abs(d)
-                : metric == ErrorMetric::RelativeAbsolute ? std::abs(d) / (std::abs(r) + kEps)
-                : metric == ErrorMetric::Squared          ? d * d
-                                                          : d * d / (r * r + kEps);
+      float v = metricError(d, r, metric, eps);
       e += std::isfinite(v) ? v / 3 : 0.0f;
     }
     m.rgb[i] = m.rgb[i + 1] = m.rgb[i + 2] = e;
@@ -1527,7 +1525,8 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                         {"errorMetric", kMetricNames[int(view_.metric)]},
                         {"errorMapMax", vmax}}},
                       {"metricsAgainstReference", metrics},
-                      {"relMseEpsilon", kEps},
+                      {"relMseEpsilon", mapEps_},
+                      {"relMseEpsilonMode", "relative: 0.01 x the reference's mean luminance^2"},
                       {"crop", cropJson},
                       {"reference", reference},
                       {"equalTimeIndirect", equalTime},

@@ -226,6 +226,7 @@ class Studio {
   ImVec2 viewMin_, viewMax_;
   // Controls that are not settings values.
   std::string scenePath_, exportDir_;
+  float mapEps_ = 1e-2f;            // the error maps' eps, from the reference (metricError)
   std::string referencePathInput_;  // the reference control's text
   int backgroundSpp_ = 4096;        // samples for "render reference in background"
   bool clampOff_ = false, clampAuto_ = true, vslAuto_ = true, globalRadius_ = false;
