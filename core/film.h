@@ -37,6 +37,7 @@ class Film {
 
   int width() const { return width_; }
   int height() const { return height_; }
+  // (x, y) must lie inside the film (VSL_CHECK: a bug otherwise, and it aborts).
   void add(int x, int y, const Vec3& value, double weight = 1.0);
   Vec3 pixel(int x, int y) const;  // sum / weight, zero where weight is zero
   double weight(int x, int y) const { return weight_[size_t(y) * width_ + x]; }
