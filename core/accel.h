@@ -8,6 +8,7 @@
 #include <span>
 #include <string>
 
+#include "core/result.h"
 #include "core/scene.h"
 
 namespace vsl {
@@ -20,8 +21,11 @@ struct Hit {
 
 class Accel {
  public:
-  // Builds a BVH over the scene's triangles. Returns null and sets *error on
-  // failure (Embree errors also go to the log).
+  // Builds a BVH over the scene's triangles; on failure an error names the
+  // Embree error (Embree errors also go to the log).
+  static Result<std::unique_ptr<Accel>> build(const Scene& scene);
+  // Compatibility for core/session.cpp and app/sweep.cpp until they use the
+  // above: null and *error on failure.
   static std::unique_ptr<Accel> build(const Scene& scene, std::string* error);
   ~Accel();
 

@@ -14,7 +14,7 @@ namespace vsl {
 
 // ---- [1] Settings -----------------------------------------------------------------
 
-std::string ManyLightSettings::validate() const {
+Result<void> ManyLightSettings::validate() const {
   std::ostringstream e;
   if (lights < 1 || lights > 50'000'000)
     e << "lights: must be in [1,50000000] (got " << lights << ")";
@@ -42,7 +42,8 @@ std::string ManyLightSettings::validate() const {
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
-  return e.str();
+  if (std::string m = e.str(); !m.empty()) return Error(m);
+  return {};
 }
 
 std::string ManyLightSettings::describe() const {

@@ -40,6 +40,7 @@
 
 #include "core/film.h"
 #include "core/pathtracer.h"
+#include "core/result.h"
 #include "core/virtual_lights.h"
 #include "core/vsl_integral.h"
 
@@ -79,7 +80,8 @@ struct ManyLightSettings {
   // Which estimators to evaluate (both share the visibility ray); layers of
   // a skipped estimator stay black.
   bool computeVsl = true, computeVpl = true;
-  std::string validate() const;
+  // Success, or the first invalid setting: "setting: reason (got value)".
+  Result<void> validate() const;
   std::string describe() const;
 };
 

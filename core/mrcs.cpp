@@ -10,13 +10,13 @@
 
 namespace vsl {
 
-std::string MrcsSettings::validate() const {
-  if (rows < 1 || rows > 100000) return "mrcs rows: must be in [1,100000] (got " + std::to_string(rows) + ")";
+Result<void> MrcsSettings::validate() const {
+  if (rows < 1 || rows > 100000) return Error("mrcs rows: must be in [1,100000] (got " + std::to_string(rows) + ")");
   if (clusters < 1 || clusters > 1000000)
-    return "mrcs clusters: must be in [1,1000000] (got " + std::to_string(clusters) + ")";
+    return Error("mrcs clusters: must be in [1,1000000] (got " + std::to_string(clusters) + ")");
   if (!(uniformMix >= 0 && uniformMix <= 1))
-    return "mrcs uniform mix: must be in [0,1] (got " + std::to_string(uniformMix) + ")";
-  return "";
+    return Error("mrcs uniform mix: must be in [0,1] (got " + std::to_string(uniformMix) + ")");
+  return {};
 }
 
 // ---- Clustering ----------------------------------------------------------------------

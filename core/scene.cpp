@@ -180,7 +180,7 @@ Camera frameBounds(const Vec3& bmin, const Vec3& bmax) {
 
 namespace {
 
-// Thrown inside the loader only; loadScene() turns it into LoadResult::error.
+// Thrown inside the loader only; loadScene() turns it into an Error.
 struct LoadError {
   std::string message;
 };
@@ -1218,27 +1218,19 @@ void checkEmittedPower(const Scene& scene, const std::string& file) {
 
 // ---- [5] loadScene ----------------------------------------------------------------
 
-LoadResult loadScene(const std::string& path, const LoadOptions& options) {
-  LoadResult result;
+SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
     std::vector<unsigned char> bytes;
-    if (std::string why = readRegularFile(path, bytes); !why.empty()) {
-      result.error = path + ": cannot be read (" + why + ")";
-      return result;
-    }
-    if (bytes.empty()) {
-      result.error = path + ": file is empty";
-      return result;
-    }
+    if (std::string why = readRegularFile(path, bytes); !why.empty())
+      return Error(path + ": cannot be read (" + why + ")");
+    if (bytes.empty()) return Error(path + ": file is empty");
     bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
 
     // JSON checks that tinygltf does not make (or makes with unbounded recursion).
     std::string_view text = jsonText(bytes, isBinary);
-    if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos) {
-      result.error = path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
-                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it";
-      return result;
-    }
+    if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
+      return Error(path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
+                   std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it");
     nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
     if (!doc.is_discarded()) TypeChecker{path}.check(doc);
     doc = nullptr;
@@ -1264,8 +1256,7 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
                                                   unsigned(bytes.size()), dir);
     if (!ok) {
       while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-      result.error = path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err);
-      return result;
+      return Error(path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err));
     }
 
     auto scene = std::make_shared<Scene>();
@@ -1329,15 +1320,14 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
       scene->camera = frameBounds(scene->boundsMin, scene->boundsMax);
       L.warn(path + ": no perspective camera; using a default camera that frames the scene");
     }
-    result.scene = std::move(scene);
+    return std::shared_ptr<const Scene>(std::move(scene));
   } catch (const LoadError& e) {
-    result.error = e.message;
+    return Error(e.message);
   } catch (const std::bad_alloc&) {
-    result.error = path + ": out of memory while loading (the file declares absurd sizes?)";
+    return Error(path + ": out of memory while loading (the file declares absurd sizes?)");
   } catch (const std::exception& e) {
-    result.error = path + ": " + e.what();
+    return Error(path + ": " + e.what());
   }
-  return result;
 }
 
 }  // namespace vsl

@@ -67,10 +67,10 @@ struct Session::Worker {
 
 // ---- [1] Settings and the public interface ------------------------------------------
 
-std::string StudioSettings::validate() const {
-  if (scene.empty()) return "scene: no scene path given";
+Result<void> StudioSettings::validate() const {
+  if (scene.empty()) return Error("scene: no scene path given");
   if (maxReferenceSpp < 1 || maxReferenceSpp > (1 << 20))
-    return "reference spp: must be in [1,1048576] (got " + std::to_string(maxReferenceSpp) + ")";
+    return Error("reference spp: must be in [1,1048576] (got " + std::to_string(maxReferenceSpp) + ")");
   return many.validate();
 }
 
@@ -98,8 +98,8 @@ std::string Session::checkMemory(const StudioSettings& s, int width, int height)
                          std::to_string(height) + " " + m;
 }
 
-uint64_t Session::restart(const StudioSettings& settings, std::string* error, bool fromScratch) {
-  std::string e = settings.validate();
+Result<uint64_t> Session::restart(const StudioSettings& settings, bool fromScratch) {
+  std::string e = settings.validate().error();
   if (e.empty()) {
     // The resolution as the worker will resolve it, with the scene's aspect
     // if it is the current scene (else square; the worker checks again).
@@ -110,10 +110,7 @@ uint64_t Session::restart(const StudioSettings& settings, std::string* error, bo
     if (h <= 0) h = std::max(1, int(std::lround(w / aspect)));
     e = checkMemory(settings, w, h);
   }
-  if (!e.empty()) {
-    if (error) *error = e;
-    return 0;
-  }
+  if (!e.empty()) return Error(e);
   uint64_t g;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -211,6 +208,10 @@ void Session::run() {
       w.job.reset();
       w.ref = Worker::Reference();
       reportRunError(std::string("the render failed: ") + e.what());
+    } catch (...) {
+      w.job.reset();
+      w.ref = Worker::Reference();
+      reportRunError("the render failed: unknown exception");
     }
   }
   w.job.reset();

@@ -54,9 +54,9 @@ PixelStats sampleImage(const PathTracer& pt, int spp) {
 }
 
 std::shared_ptr<const Scene> loadAsset(const std::string& name) {
-  LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-  EXPECT_TRUE(r.scene) << r.error;
-  return r.scene;
+  SceneResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+  EXPECT_TRUE(r) << r.error();
+  return r.valueOr(nullptr);
 }
 
 // Per-point irradiance form factor from a differential area to a parallel
@@ -84,9 +84,9 @@ double rectFormFactor(double x0, double x1, double z0, double z1, double c) {
 TEST(RenderPT, FurnaceMatchesAnalyticRadiance) {
   auto scene = loadAsset("furnace");
   ASSERT_TRUE(scene);
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
-  ASSERT_TRUE(accel) << err;
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  ASSERT_TRUE(built) << built.error();
+  auto accel = std::move(built).value();
   LightSampler lights(*scene);
   RenderSettings rs;
   rs.width = rs.height = 24;
@@ -156,9 +156,9 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
   s.camera.up = Vec3(0, 0, -1);
   s.camera.right = Vec3(1, 0, 0);
   s.camera.yfov = 2 * std::atan(3.0f);  // sees the floor over [-1.5, 1.5]^2
-  std::string err;
-  auto accel = Accel::build(s, &err);
-  ASSERT_TRUE(accel) << err;
+  Result<std::unique_ptr<Accel>> built = Accel::build(s);
+  ASSERT_TRUE(built) << built.error();
+  auto accel = std::move(built).value();
   LightSampler lights(s);
   RenderSettings rs;
   rs.width = rs.height = 24;
@@ -202,8 +202,8 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
 TEST(RenderPT, SameSeedSameImageRegardlessOfThreads) {
   auto scene = loadAsset("cornell-glossy");
   ASSERT_TRUE(scene);
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  auto accel = std::move(built).value();
   LightSampler lights(*scene);
   RenderSettings rs;
   rs.width = rs.height = 32;
@@ -230,8 +230,8 @@ TEST(RenderPT, SameSeedSameImageRegardlessOfThreads) {
 
 TEST(RenderPT, StopFlagAbortsAPass) {
   auto scene = loadAsset("cornell-glossy");
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  auto accel = std::move(built).value();
   LightSampler lights(*scene);
   RenderSettings rs;
   rs.width = rs.height = 64;
@@ -247,8 +247,8 @@ TEST(RenderPT, BundledScenesRenderFiniteAndNonBlack) {
   for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
     auto scene = loadAsset(name);
     ASSERT_TRUE(scene);
-    std::string err;
-    auto accel = Accel::build(*scene, &err);
+    Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+    auto accel = std::move(built).value();
     LightSampler lights(*scene);
     RenderSettings rs;
     rs.width = rs.height = 24;
