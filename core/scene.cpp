@@ -1274,8 +1274,14 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
     }
     static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
                                                      "KHR_materials_specular", "KHR_lights_punctual"};
+    // A required extension changes what the file means (Draco-compressed
+    // geometry, quantised attributes): loading without it would render
+    // something else, so it is refused.
     for (const auto& e : model.extensionsRequired)
-      if (!kSupported.count(e)) L.warn(path + ": required extension " + e + " is not supported (ignored)");
+      if (!kSupported.count(e))
+        return Error(path + ": required extension " + e +
+                     " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
+                     "KHR_materials_emissive_strength, KHR_materials_specular)");
     for (const auto& e : model.extensionsUsed)
       if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
     if (!model.animations.empty())

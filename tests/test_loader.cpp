@@ -310,7 +310,8 @@ TEST_F(LoaderTest, OutOfRangeMaterialValuesFail) {
 TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   Doc d = quadDoc();
   // A points primitive, morph targets, a skin, transmission, an unknown
-  // required extension, an orthographic camera and a directional light.
+  // extension that is used but not required, an orthographic camera and a
+  // directional light.
   json prim = d.j["meshes"][0]["primitives"][0];
   json points = prim;
   points["mode"] = 0;
@@ -319,7 +320,6 @@ TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   d.j["meshes"][0]["primitives"] = {prim, points, morph};
   d.j["materials"][0]["extensions"] = {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}};
   d.j["extensionsUsed"] = {"KHR_materials_transmission", "EXT_made_up", "KHR_lights_punctual"};
-  d.j["extensionsRequired"] = {"EXT_made_up"};
   d.j["cameras"] = {{{"name", "ortho"},
                      {"type", "orthographic"},
                      {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}}};
@@ -335,9 +335,36 @@ TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   EXPECT_TRUE(hasWarning(s, "primitive 1: points and lines are not modelled")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "primitive 2: morph targets")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "material 0 'glow': extension KHR_materials_transmission")) << allWarnings(s);
-  EXPECT_TRUE(hasWarning(s, "required extension EXT_made_up")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "extension EXT_made_up is used but not modelled")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "camera 0 'ortho': orthographic")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "light 0 'sun': directional")) << allWarnings(s);
+}
+
+// Issue 12: an unsupported *required* extension (Draco-compressed geometry)
+// is refused with the extension and the file named; required extensions the
+// loader supports still load.
+TEST_F(LoaderTest, UnsupportedRequiredExtensionsAreRefused) {
+  Doc d = quadDoc();
+  d.j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+  d.j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+  std::string path = writeDoc(d, "draco.gltf");
+  SceneResult r = load(path);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().rfind(path + ": required extension KHR_draco_mesh_compression is not supported", 0), 0u)
+      << r.error();
+  Doc g = quadDoc();
+  g.j["extensionsUsed"] = {"EXT_meshopt_compression"};
+  g.j["extensionsRequired"] = {"EXT_meshopt_compression"};
+  SceneResult glb = load(writeGlb(g, "meshopt.glb"));
+  ASSERT_FALSE(glb);
+  EXPECT_NE(glb.error().find("meshopt.glb: required extension EXT_meshopt_compression"), std::string::npos)
+      << glb.error();
+  Doc ok = quadDoc();
+  ok.j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_lights_punctual"};
+  ok.j["extensionsRequired"] = {"KHR_materials_emissive_strength", "KHR_lights_punctual"};
+  SceneResult fine = load(writeDoc(ok, "supported.gltf"));
+  ASSERT_TRUE(fine) << fine.error();
+  EXPECT_GT((*fine)->triangleCount(), 0u);
 }
 
 TEST_F(LoaderTest, ZeroAreaTrianglesAreSkippedWithAWarning) {
