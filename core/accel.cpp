@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "core/check.h"
 #include "core/log.h"
 
 namespace vsl {
@@ -109,6 +110,7 @@ bool Accel::occluded(const Ray& ray) const {
 }
 
 void Accel::occluded(std::span<const Ray> rays, std::span<uint8_t> blocked) const {
+  VSL_CHECK_EQ(blocked.size(), rays.size());
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;

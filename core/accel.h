@@ -31,7 +31,8 @@ class Accel {
 
   std::optional<Hit> intersect(const Ray& ray) const;
   bool occluded(const Ray& ray) const;
-  // Batched occlusion for the gather loops: blocked[i] = 1 if rays[i] hits
+  // Batched occlusion for the gather loops (spans of equal size, VSL_CHECK):
+  // blocked[i] = 1 if rays[i] hits
   // anything in [tMin, tMax]. Coherent batches (many pixels toward one light,
   // or one pixel toward many lights) run fastest.
   void occluded(std::span<const Ray> rays, std::span<uint8_t> blocked) const;

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/check.h"
 #include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -101,6 +102,7 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
       radii_(radii),
       settings_(settings),
       direct_(scene, accel, lights, directSettings(settings)) {
+  VSL_CHECK_EQ(radii.size(), set.lights.size());
   width_ = direct_.width();
   height_ = direct_.height();
   clamp_ = manyLightClampBound(scene, settings);

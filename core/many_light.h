@@ -106,7 +106,7 @@ struct ManyLightStats {
 
 class ManyLightRenderer {
  public:
-  // The light set and radii must outlive the renderer.
+  // The light set and radii (one per light, VSL_CHECK) must outlive the renderer.
   ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                     const std::vector<float>& radii, const ManyLightSettings& settings);
 

@@ -4,6 +4,7 @@
 #include <numeric>
 #include <queue>
 
+#include "core/check.h"
 #include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -216,6 +217,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   int W = settings.width, H = settings.height;
   resolveResolution(scene, W, H);
   const size_t P = size_t(W) * H, N = set.lights.size();
+  VSL_CHECK_EQ(radii.size(), N);
   auto stopped = [&] { return stop && stop->load(std::memory_order_relaxed); };
   const float clampBound = manyLightClampBound(scene, settings);
   const int vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;

@@ -11,8 +11,10 @@
 
 #include "core/check.h"
 #include "core/film.h"
+#include "core/many_light.h"
 #include "core/parallel.h"
 #include "core/result.h"
+#include "support.h"
 
 using namespace vsl;
 
@@ -114,6 +116,31 @@ TEST(CheckDeathTest, FilmAddOutsideTheFilm) {
   film.add(3, 2, Vec3(1.0f));
   EXPECT_DEATH(film.add(4, 0, Vec3(1.0f)), "VSL_CHECK_LT\\(x, width_\\) failed: 4 vs 4");
   EXPECT_DEATH(film.add(0, -1, Vec3(1.0f)), "VSL_CHECK_GE\\(y, 0\\) failed: -1 vs 0");
+}
+
+// Invariants that were comments: one radius per light, films of the
+// renderer's size, equal spans for batched occlusion.
+TEST(CheckDeathTest, RendererContracts) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  test::Loaded l = test::loadAsset("furnace", 8);
+  ASSERT_TRUE(l.accel);
+  ManyLightSettings s;
+  s.width = s.height = 8;
+  VirtualLightSet set;
+  set.lights.resize(3);
+  std::vector<float> radii(2, 0.1f);
+  EXPECT_DEATH(ManyLightRenderer(*l.scene, *l.accel, *l.lights, set, radii, s),
+               "VSL_CHECK_EQ\\(radii.size\\(\\), set.lights.size\\(\\)\\) failed: 2 vs 3");
+  RenderSettings rs;
+  rs.width = rs.height = 8;
+  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
+  Film small(4, 8), right(8, 8);
+  PtCounters counters;
+  EXPECT_DEATH(pt.renderPass(0, small, right, counters), "VSL_CHECK_EQ\\(direct.width\\(\\), width_\\) failed: 4 vs 8");
+  std::vector<Ray> rays(2);
+  std::vector<uint8_t> blocked(1);
+  EXPECT_DEATH(l.accel->occluded(rays, blocked),
+               "VSL_CHECK_EQ\\(blocked.size\\(\\), rays.size\\(\\)\\) failed: 1 vs 2");
 }
 
 // ---- Exceptions from parallel workers -------------------------------------------------
