@@ -897,30 +897,30 @@ constexpr uint64_t kMaxTexturePixels = uint64_t(1) << 26;
 
 // Reads a regular file of at most kMaxFileBytes. A FIFO, device, socket or
 // directory is refused before any read (a FIFO would block, /dev/zero never
-// ends). Returns "" or the reason.
-std::string readRegularFile(const std::string& path, std::vector<unsigned char>& out) {
+// ends). The error is the bare reason, without the path.
+Result<std::vector<unsigned char>> readRegularFile(const std::string& path) {
   int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-  if (fd < 0) return errno == ENOENT ? "no such file" : std::strerror(errno);
+  if (fd < 0) return Error(errno == ENOENT ? "no such file" : std::strerror(errno));
   struct FdCloser {
     int fd;
     ~FdCloser() { ::close(fd); }
   } closer{fd};
   struct stat st;
-  if (::fstat(fd, &st) != 0) return std::strerror(errno);
-  if (S_ISDIR(st.st_mode)) return "it is a directory";
-  if (!S_ISREG(st.st_mode)) return "not a regular file (a FIFO, device or socket)";
-  if (uint64_t(st.st_size) > kMaxFileBytes) return "larger than 2 GiB";
-  out.resize(size_t(st.st_size));
+  if (::fstat(fd, &st) != 0) return Error(std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) return Error("it is a directory");
+  if (!S_ISREG(st.st_mode)) return Error("not a regular file (a FIFO, device or socket)");
+  if (uint64_t(st.st_size) > kMaxFileBytes) return Error("larger than 2 GiB");
+  std::vector<unsigned char> out(size_t(st.st_size));
   size_t got = 0;
   while (got < out.size()) {
     ssize_t k = ::read(fd, out.data() + got, out.size() - got);
     if (k < 0 && errno == EINTR) continue;
-    if (k < 0) return std::strerror(errno);
+    if (k < 0) return Error(std::strerror(errno));
     if (k == 0) break;  // the file shrank
     got += size_t(k);
   }
   out.resize(got);
-  return "";
+  return out;
 }
 
 // tinygltf's file callbacks. tinygltf tries basedir/uri and then ./uri; we
@@ -960,8 +960,9 @@ bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::s
   std::error_code ec;
   std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
   if (ec || !insideRoot(resolved, policy->root)) return fail("points outside the scene's folder (refused)");
-  std::string why = readRegularFile(resolved.string(), *out);
-  if (!why.empty()) return fail("cannot be read (" + why + ")");
+  Result<std::vector<unsigned char>> bytes = readRegularFile(resolved.string());
+  if (!bytes) return fail("cannot be read (" + bytes.error() + ")");
+  *out = std::move(bytes).value();
   return true;
 }
 
@@ -1220,9 +1221,9 @@ void checkEmittedPower(const Scene& scene, const std::string& file) {
 
 SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
-    std::vector<unsigned char> bytes;
-    if (std::string why = readRegularFile(path, bytes); !why.empty())
-      return Error(path + ": cannot be read (" + why + ")");
+    Result<std::vector<unsigned char>> read = readRegularFile(path);
+    if (!read) return Error(path + ": cannot be read (" + read.error() + ")");
+    std::vector<unsigned char> bytes = std::move(read).value();
     if (bytes.empty()) return Error(path + ": file is empty");
     bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
 
