@@ -466,8 +466,8 @@ TEST_F(LoaderTest, EmissionStrengthAndAnisotropyParse) {
 
 TEST_F(LoaderTest, TexturesAreLoadedAndSampled) {
   // A 2x1 PNG: left texel red, right texel blue, referenced as an external file.
-  std::string err;
-  ASSERT_TRUE(writePngRgb8((dir / "tex.png").string(), 2, 1, {255, 0, 0, 0, 0, 255}, &err)) << err;
+  Result<void> png = writePngRgb8((dir / "tex.png").string(), 2, 1, {255, 0, 0, 0, 0, 255});
+  ASSERT_TRUE(png) << png.error();
   std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
   std::vector<float> uv = {0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f};  // all on the red texel
   Doc d = quadDoc(pos);
@@ -818,9 +818,9 @@ TEST_F(LoaderTest, WrongTypesOfKnownPropertiesAreNamed) {
 // Defect 5: textures are expanded to float RGBA per texture, also when many
 // share one image; an image header may claim any size.
 TEST_F(LoaderTest, TextureMemoryIsBounded) {
-  std::string err;
   std::vector<uint8_t> px(512 * 512 * 3, 128);
-  ASSERT_TRUE(writePngRgb8((dir / "big.png").string(), 512, 512, px, &err)) << err;
+  Result<void> written = writePngRgb8((dir / "big.png").string(), 512, 512, px);
+  ASSERT_TRUE(written) << written.error();
   Doc d = quadDoc();
   d.j["images"] = {{{"uri", "big.png"}}};
   d.j["textures"] = {{{"source", 0}}, {{"source", 0}}, {{"source", 0}}};

@@ -283,19 +283,21 @@ TEST(ImageIO, ExrRoundTripAndAtomicFailure) {
   Image a(3, 2), b(3, 2);
   for (size_t i = 0; i < a.rgb.size(); ++i) a.rgb[i] = float(i) * 0.5f, b.rgb[i] = -float(i);
   std::string path = testing::TempDir() + "vsl_io_test.exr";
-  std::string err;
-  ASSERT_TRUE(writeExr(path, {{"", a}, {"second", b}}, &err)) << err;
-  std::vector<Layer> layers;
-  ASSERT_TRUE(readExr(path, layers, &err)) << err;
-  ASSERT_EQ(layers.size(), 2u);
-  for (const Layer& l : layers) EXPECT_EQ(l.image.rgb, l.name.empty() ? a.rgb : b.rgb) << l.name;
+  Result<void> w = writeExr(path, {{"", a}, {"second", b}});
+  ASSERT_TRUE(w) << w.error();
+  Result<std::vector<Layer>> layers = readExr(path);
+  ASSERT_TRUE(layers) << layers.error();
+  ASSERT_EQ(layers->size(), 2u);
+  for (const Layer& l : *layers) EXPECT_EQ(l.image.rgb, l.name.empty() ? a.rgb : b.rgb) << l.name;
   // A failed write (mismatched layer sizes) leaves the existing file intact.
   Image bad(5, 5);
-  EXPECT_FALSE(writeExr(path, {{"", a}, {"x", bad}}, &err));
-  ASSERT_TRUE(readExr(path, layers, &err)) << err;
-  EXPECT_EQ(layers.size(), 2u);
+  EXPECT_FALSE(writeExr(path, {{"", a}, {"x", bad}}));
+  layers = readExr(path);
+  ASSERT_TRUE(layers) << layers.error();
+  EXPECT_EQ(layers->size(), 2u);
   // Writing into a directory that does not exist fails cleanly.
-  EXPECT_FALSE(writeExr("/nonexistent-dir/x.exr", {{"", a}}, &err));
-  EXPECT_NE(err.find("/nonexistent-dir/x.exr"), std::string::npos) << err;
-  EXPECT_FALSE(readExr(testing::TempDir() + "does-not-exist.exr", layers, &err));
+  w = writeExr("/nonexistent-dir/x.exr", {{"", a}});
+  EXPECT_FALSE(w);
+  EXPECT_NE(w.error().find("/nonexistent-dir/x.exr"), std::string::npos) << w.error();
+  EXPECT_FALSE(readExr(testing::TempDir() + "does-not-exist.exr"));
 }
