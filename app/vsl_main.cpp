@@ -16,6 +16,7 @@
 #include "core/many_light.h"
 #include "core/mrcs.h"
 #include "core/pathtracer.h"
+#include "core/reference.h"
 
 using namespace vsl;
 using json = nlohmann::json;
@@ -257,6 +258,123 @@ int cmdRender(RenderArgs& a) {
       return 1;
     }
     std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
+  }
+  return 0;
+}
+
+// ---- reference ----------------------------------------------------------------
+
+struct ReferenceArgs {
+  std::string scene, out, camera;
+  RenderSettings settings;  // width, height, spp, timeLimit, seed, maxDepth
+  double target = 0;        // stop once the indirect noise estimate is at most this
+  bool sppGiven = false, noCache = false;
+};
+
+std::string formatSeconds(double s) {
+  char b[32];
+  if (s < 90)
+    std::snprintf(b, sizeof b, "%.0f s", s);
+  else if (s < 5400)
+    std::snprintf(b, sizeof b, "%.1f min", s / 60);
+  else
+    std::snprintf(b, sizeof b, "%.1f h", s / 3600);
+  return b;
+}
+
+// Renders a converged reference as two independent halves (reference.h),
+// writes it to -o and to the cache, and reports its own noise.
+int cmdReference(ReferenceArgs& a) {
+  RenderSettings& s = a.settings;
+  if (Result<void> v = s.validate(); !v) {
+    std::fprintf(stderr, "error: %s\n", v.error().c_str());
+    return 2;
+  }
+  if (!(a.target >= 0) || a.target >= 1e3) {
+    std::fprintf(stderr, "error: --target-relmse must be in (0, 1000) (got %g)\n", a.target);
+    return 2;
+  }
+  // Without a time or noise target, --spp (default 1024) decides; with one,
+  // --spp is an upper bound only when given.
+  const bool bySpp = s.timeLimit <= 0 && a.target <= 0;
+  const int maxSpp = bySpp || a.sppGiven ? std::max(2, s.spp + (s.spp & 1)) : (1 << 20);
+  auto scene = loadOrReport(a.scene, a.camera);
+  if (!scene) return 1;
+  int w = s.width, h = s.height;
+  resolveResolution(*scene, w, h);
+  if (w > RenderSettings::kMaxResolution || h > RenderSettings::kMaxResolution) {
+    std::fprintf(stderr,
+                 "error: %s: the camera's aspect ratio turns the requested size into %dx%d; give both --width "
+                 "and --height\n",
+                 a.scene.c_str(), w, h);
+    return 2;
+  }
+  s.width = w, s.height = h;
+  std::string err;
+  auto accel = Accel::build(*scene, &err);
+  if (!accel) {
+    std::fprintf(stderr, "error: %s\n", err.c_str());
+    return 1;
+  }
+  const std::string key = referenceKey(*scene, w, h, s.maxDepth);
+  LightSampler lights(*scene);
+  ReferenceRenderer rr(*scene, *accel, lights, s);
+  std::fprintf(stderr, "reference: %s, %dx%d, max depth %d, cache key %s\n", a.scene.c_str(), w, h, s.maxDepth,
+               key.c_str());
+  Progress progress("reference");
+  auto t0 = Clock::now();
+  double noise = -1;
+  while (true) {
+    rr.step();
+    double el = secondsSince(t0);
+    const int spp = rr.spp();
+    // The noise estimate costs one image comparison: check it every pass
+    // pair when it decides, else every 16th.
+    if (a.target > 0 || spp % 32 == 0) noise = rr.indirectNoise();
+    const double perSpp = el / spp;
+    double frac = double(spp) / maxSpp, remaining = (maxSpp - spp) * perSpp;
+    if (s.timeLimit > 0) {
+      frac = std::max(frac, el / s.timeLimit);
+      remaining = std::min(remaining, s.timeLimit - el);
+    }
+    // The noise falls as 1/spp: the samples still needed follow from it.
+    if (a.target > 0 && noise > 0 && spp >= 16) {
+      double need = spp * noise / a.target;
+      frac = std::max(frac, spp / std::max(need, double(spp)));
+      remaining = std::min(remaining, std::max(need - spp, 0.0) * perSpp);
+    }
+    bool done = spp >= maxSpp || (s.timeLimit > 0 && el >= s.timeLimit) ||
+                (a.target > 0 && spp >= 16 && noise >= 0 && noise <= a.target);
+    char detail[160];
+    std::snprintf(detail, sizeof detail, "%d spp, noise %.2e, %s, about %s left", spp, noise, formatSeconds(el).c_str(),
+                  formatSeconds(std::max(remaining, 0.0)).c_str());
+    progress.update(done ? 1.0 : std::min(frac, 0.999), detail);
+    if (done) break;
+  }
+  progress.finish();
+  Reference ref = rr.result();
+  ref.key = key;
+  noise = ref.indirectNoise();
+  std::fprintf(stderr, "reference: %d spp in %s; own noise: indirect relMSE %.3g, full %.3g (relMSE(A, B) / 4)\n",
+               ref.spp, formatSeconds(ref.seconds).c_str(), noise, ref.fullNoise());
+  if (rr.rejected() > 0) log::warning("rejected " + std::to_string(rr.rejected()) + " non-finite contributions");
+  if (!a.out.empty()) {
+    if (!writeReference(a.out, ref, a.scene, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "wrote %s (layers: full, direct, indirect and halves A.*, B.*)\n", a.out.c_str());
+  }
+  if (!a.noCache) {
+    std::string written;
+    if (!storeCachedReference(ref, a.scene, &written, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
+      return 1;
+    }
+    if (written.empty())
+      std::fprintf(stderr, "cache: kept %s (it has at least as many samples)\n", referenceCachePath(key).c_str());
+    else
+      std::fprintf(stderr, "cache: stored %s\n", written.c_str());
   }
   return 0;
 }
@@ -683,6 +801,28 @@ int main(int argc, char** argv) {
   render->add_option("--exposure", ra.exposure, "PNG exposure in stops")->default_str("0");
   render->add_option("--json", ra.jsonPath, "Write statistics as JSON");
 
+  ReferenceArgs rfa;
+  rfa.settings.spp = 1024;
+  rfa.settings.seed = 1;
+  auto* reference = app.add_subcommand(
+      "reference", "Render a converged path-traced reference in two independent halves, to a file and the cache");
+  reference->add_option("scene", rfa.scene, "Scene file (.gltf or .glb)")->required();
+  auto* refSpp =
+      reference->add_option("--spp", rfa.settings.spp, "Samples per pixel (rounded up to even)")->default_str("1024");
+  reference->add_option("--time", rfa.settings.timeLimit, "Stop after this many seconds");
+  reference->add_option("--target-relmse", rfa.target,
+                        "Stop once the reference's own indirect relMSE, estimated from its halves, is at most this");
+  reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)");
+  reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)");
+  reference
+      ->add_option("--seed", rfa.settings.seed,
+                   "Random seed (1: independent of the studio's live path tracer, which uses 0)")
+      ->default_str("1");
+  reference->add_option("--max-depth", rfa.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
+  reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
+  reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");
+  reference->add_flag("--no-cache", rfa.noCache, "Do not store the result in the reference cache");
+
   CompareArgs ca;
   auto* compare = app.add_subcommand("compare", "Compare an EXR against a reference EXR");
   compare->add_option("test", ca.test, "Test image (EXR)")->required();
@@ -786,6 +926,10 @@ int main(int argc, char** argv) {
   // other exception a library throws) is reported and exits 1, never aborts.
   try {
     if (*render) return cmdRender(ra);
+    if (*reference) {
+      rfa.sppGiven = refSpp->count() > 0;
+      return cmdReference(rfa);
+    }
     if (*compare) return cmdCompare(ca, layerOpt->count() > 0, refLayerOpt->count() > 0);
     if (*tonemap) return cmdTonemap(tmIn, tmLayer, tmOut, tmExposure);
     if (*info) return cmdInfo(infoScene, infoCamera);

@@ -83,59 +83,77 @@ GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gat
 
 void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
                         double acc[kGatherLayers][3], GatherCounters& c) const {
+  PairGeometry g;
+  if (!connect(gp, L, g, c)) return;
+  addVpl(gp, L, g, acc, c);
+  addVsl(gp, L, g, lightId, pixel, acc, c);
+}
+
+bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, GatherCounters& c) const {
   ++c.pairs;
-  Vec3 d = L.p - gp.p;
-  float d2 = lengthSquared(d);
-  float dist = std::sqrt(d2);
-  Vec3 l = dist > 0 ? d / dist : gp.rx.frame.n;
-  float cosX = dot(gp.rx.frame.n, l), cosXg = dot(gp.rx.ng, l);
-  float cosP = -dot(L.n, l), cosPg = -dot(L.ng, l);
+  g.d = L.p - gp.p;
+  g.d2 = lengthSquared(g.d);
+  g.dist = std::sqrt(g.d2);
+  g.l = g.dist > 0 ? g.d / g.dist : gp.rx.frame.n;
+  g.cosX = dot(gp.rx.frame.n, g.l);
+  g.cosP = -dot(L.n, g.l);
+  float cosXg = dot(gp.rx.ng, g.l), cosPg = -dot(L.ng, g.l);
   // Both sides must face each other along the direction to the light's
   // centre, by shading and geometric normals, for VPLs and VSLs alike (as in
   // the VSL authors' shader). Without this a VSL on the back of a thin wall,
   // with the receiver inside its sphere, would light the wall's front through
   // it. The BRDFs are evaluated after the visibility test, so blocked pairs
   // never pay for them.
-  if (!(d2 > 0 && cosX > 0 && cosXg > 0 && cosP > 0 && cosPg > 0)) return;
-  const bool vpl = computeVpl_, vslPossible = computeVsl_;
-  if (!vpl && !vslPossible) return;
+  if (!(g.d2 > 0 && g.cosX > 0 && cosXg > 0 && g.cosP > 0 && cosPg > 0)) return false;
+  if (!computeVpl_ && !computeVsl_) return false;
   // One visibility ray feeds every estimate.
   Ray s;
   if (segmentRay(gp.p, gp.rx.ng, L.p, L.ng, s)) {
     ++c.shadowRays;
-    if (accel_.occluded(s)) return;
+    if (accel_.occluded(s)) return false;
   }
-  Vec3 w = gp.beta * L.Phi;
-  auto add = [&](int layer, const Vec3& T) {
-    Vec3 v = w * T;
-    if (!isFinite(v)) {
-      ++c.nonFinite;
-      return;
-    }
-    for (int k = 0; k < 3; ++k) acc[layer][k] += v[k];
-  };
+  return true;
+}
+
+namespace {
+
+void addLayer(double acc[kGatherLayers][3], int layer, const Vec3& v, GatherCounters& c) {
+  if (!isFinite(v)) {
+    ++c.nonFinite;
+    return;
+  }
+  for (int k = 0; k < 3; ++k) acc[layer][k] += v[k];
+}
+
+}  // namespace
+
+void Gatherer::addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, double acc[kGatherLayers][3],
+                      GatherCounters& c) const {
+  if (!computeVpl_) return;
   auto clamped = [&](const Vec3& T) {
     float lum = luminance(T);
     return lum > clamp_ ? T * (clamp_ / lum) : T;
   };
-  if (vpl) {
-    // Transfer of the full BRDF and of diffuse-only emission.
-    Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(l)) * (cosX * cosP / d2);
-    BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-l));
-    Vec3 Tdiff = fxG * fp.diffuse;
-    Vec3 Tfull = Tdiff + fxG * fp.specular;
-    add(kVplFull, Tfull);
-    add(kVplFullClamped, clamped(Tfull));
-    add(kVplDiffuse, Tdiff);
-    add(kVplDiffuseClamped, clamped(Tdiff));
-  }
-  if (vslPossible) {
-    Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
-    float radius = lobeRadius_ > 0 ? std::max(L.radius, lobeRadius_ * dist * L.alpha) : L.radius;
-    VslResult r = vslTransfer(gp.rx, L.em, d, radius, vsl_, prng);
-    c.vslEvaluations += uint64_t(r.evaluations);
-    add(kVslLayer, r.transfer);
-  }
+  // Transfer of the full BRDF and of diffuse-only emission.
+  const Vec3 w = gp.beta * L.Phi;
+  Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(g.l)) * (g.cosX * g.cosP / g.d2);
+  BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-g.l));
+  Vec3 Tdiff = fxG * fp.diffuse;
+  Vec3 Tfull = Tdiff + fxG * fp.specular;
+  addLayer(acc, kVplFull, w * Tfull, c);
+  addLayer(acc, kVplFullClamped, w * clamped(Tfull), c);
+  addLayer(acc, kVplDiffuse, w * Tdiff, c);
+  addLayer(acc, kVplDiffuseClamped, w * clamped(Tdiff), c);
+}
+
+void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId,
+                      uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const {
+  if (!computeVsl_) return;
+  Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
+  float radius = lobeRadius_ > 0 ? std::max(L.radius, lobeRadius_ * g.dist * L.alpha) : L.radius;
+  VslResult r = vslTransfer(gp.rx, L.em, g.d, radius, vsl_, prng);
+  c.vslEvaluations += uint64_t(r.evaluations);
+  addLayer(acc, kVslLayer, gp.beta * L.Phi * r.transfer, c);
 }
 
 }  // namespace vsl

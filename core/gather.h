@@ -33,6 +33,13 @@ struct GatherCounters {
   uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
 };
 
+// A pair that passed the orientation and visibility tests: the direction
+// from the gather point to the light's centre and the cosines along it.
+struct PairGeometry {
+  Vec3 d, l;  // d = L.p - gp.p, l = d / |d|
+  float d2, dist, cosX, cosP;
+};
+
 class Gatherer {
  public:
   // clampBound: the VPL clamp on the luminance of the transfer. From the
@@ -47,6 +54,15 @@ class Gatherer {
   // seed the VSL quadrature's random stream.
   void evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
                 double acc[kGatherLayers][3], GatherCounters& c) const;
+  // evaluate() in its three parts, so that callers can time each method's own
+  // work: connect() is what every estimator shares (orientation and the one
+  // shadow ray; false: the pair contributes nothing), then each estimator's
+  // transfer. addVpl and addVsl do nothing for an estimator not computed.
+  bool connect(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, GatherCounters& c) const;
+  void addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, double acc[kGatherLayers][3],
+              GatherCounters& c) const;
+  void addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId, uint64_t pixel,
+              double acc[kGatherLayers][3], GatherCounters& c) const;
 
  private:
   const Scene& scene_;

@@ -179,8 +179,9 @@ Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
   return writeFileAtomically(path, stream.data().data(), stream.data().size());
 }
 
-Result<std::vector<Layer>> readExr(const std::string& path) {
+Result<std::vector<Layer>> readExr(const std::string& path, std::map<std::string, std::string>* attributes) {
   std::vector<Layer> layers;
+  if (attributes) attributes->clear();
   // Only regular files: a FIFO would block and /dev/zero never ends.
   struct stat st;
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
@@ -196,6 +197,10 @@ Result<std::vector<Layer>> readExr(const std::string& path) {
                    std::to_string(kMaxExrSide) + "] per side");
     }
     int w = int(w64), h = int(h64);
+    if (attributes)
+      for (auto it = header.begin(); it != header.end(); ++it)
+        if (const auto* a = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+          (*attributes)[it.name()] = a->value();
     // Layers: the prefixes of channels ending in .R (or R alone).
     std::vector<std::string> names;
     for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
@@ -290,8 +295,9 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
               const std::map<std::string, std::string>& attributes) {
   return reported(writeExr(path, layers, attributes), error);
 }
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error) {
-  Result<std::vector<Layer>> r = readExr(path);
+bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
+             std::map<std::string, std::string>* attributes) {
+  Result<std::vector<Layer>> r = readExr(path, attributes);
   layers = r ? std::move(r).value() : std::vector<Layer>();
   if (!r && error) *error = r.error();
   return r.ok();

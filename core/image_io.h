@@ -35,8 +35,8 @@ Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
 // The data window is checked before any allocation: at most 65536 pixels a
 // side, and no more decoded bytes than the file could plausibly hold (4096
 // times its size, with a 16 MiB floor), so a patched header cannot exhaust
-// memory.
-Result<std::vector<Layer>> readExr(const std::string& path);
+// memory. attributes (optional) receives the header's string attributes.
+Result<std::vector<Layer>> readExr(const std::string& path, std::map<std::string, std::string>* attributes = nullptr);
 
 // Tone mapping for display and PNG: linear * 2^exposure, clamped, sRGB-encoded.
 uint8_t toSrgb8(float linear);
@@ -51,7 +51,8 @@ Result<void> writeTextFile(const std::string& path, const std::string& text);
 bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error);
 bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
               const std::map<std::string, std::string>& attributes = {});
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error);
+bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
+             std::map<std::string, std::string>* attributes = nullptr);
 bool writePng(const std::string& path, const Image& image, float exposure, std::string* error);
 bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error);
 bool writeTextFile(const std::string& path, const std::string& text, std::string* error);

@@ -3,6 +3,7 @@
 #include "core/many_light.h"
 
 #include <chrono>
+#include <mutex>
 #include <numeric>
 #include <sstream>
 
@@ -12,6 +13,11 @@
 #include "core/rng.h"
 
 namespace vsl {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+}  // namespace
 
 // ---- [1] Settings -----------------------------------------------------------------
 
@@ -140,7 +146,7 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
 
 bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   if (b != batchesDone_ || b >= batchCount()) return false;
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   const size_t begin = b == 0 ? 0 : batchEnd_[b - 1], end = batchEnd_[b];
   const size_t nb = end - begin, N = set_.lights.size();
   const int dBegin = b == 0 ? 0 : directEnd_[b - 1], dEnd = directEnd_[b];
@@ -166,7 +172,10 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   // large batches are not streamed from memory once per pixel.
   constexpr size_t kLightBlock = 256;
   std::atomic<bool> abandoned{false};
+  std::mutex timeMutex;
+  double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
   const bool complete = parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
+    const auto tileStart = Clock::now();
     GatherCounters c;
     const int tw = x1 - x0, n = tw * (y1 - y0);
     std::vector<GatherPoint> gps(static_cast<size_t>(n));
@@ -189,6 +198,13 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
       gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
       shared[pix] = gps[size_t(i)].shared;
     }
+    // Each pixel against each block in three timed parts: the shared
+    // connection (orientation, shadow ray), then VPL's and VSL's own
+    // transfers, so that each method is charged its own time (four clock
+    // reads per pixel and block of lights).
+    PairGeometry geo[kLightBlock];
+    uint32_t visible[kLightBlock];
+    double vplOwn = 0, vslOwn = 0;
     for (size_t l0 = 0; l0 < nb; l0 += kLightBlock) {
       if (stop && stop->load(std::memory_order_relaxed)) {
         abandoned = true;
@@ -199,13 +215,33 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
         const GatherPoint& gp = gps[size_t(i)];
         if (!gp.valid) continue;
         const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
-        for (size_t l = l0; l < l1; ++l) gatherer.evaluate(gp, batch[l], order_[begin + l], pix, acc[size_t(i)].v, c);
+        size_t nv = 0;
+        for (size_t l = l0; l < l1; ++l)
+          if (gatherer.connect(gp, batch[l], geo[nv], c)) visible[nv++] = uint32_t(l);
+        auto t1 = Clock::now();
+        if (settings_.computeVpl) {
+          for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch[visible[v]], geo[v], acc[size_t(i)].v, c);
+          auto t2 = Clock::now();
+          vplOwn += seconds(t2 - t1);
+          t1 = t2;
+        }
+        if (settings_.computeVsl) {
+          for (size_t v = 0; v < nv; ++v)
+            gatherer.addVsl(gp, batch[visible[v]], geo[v], order_[begin + visible[v]], pix, acc[size_t(i)].v, c);
+          vslOwn += seconds(Clock::now() - t1);
+        }
       }
     }
     for (int i = 0; i < n; ++i) {
       const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
       const auto& a = acc[size_t(i)].v;
       for (int k = 0; k < kLayers; ++k) layers[k][pix] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
+    }
+    {
+      std::lock_guard<std::mutex> lock(timeMutex);
+      threadTime += seconds(Clock::now() - tileStart);
+      vplTime += vplOwn;
+      vslTime += vslOwn;
     }
     stats_.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
     stats_.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
@@ -229,7 +265,15 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
     }
   processed_ = end;
   ++batchesDone_;
-  stats_.gatherSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Each method's own time: the batch's wall time less the share of thread
+  // time spent in the other method's own transfer (what it would have taken
+  // alone; the shared eye paths, direct light and shadow rays go to both).
+  const double wall = seconds(Clock::now() - t0);
+  stats_.gatherSeconds += wall;
+  if (threadTime > 0) {
+    stats_.vslSeconds += wall * std::max(0.0, 1.0 - vplTime / threadTime);
+    stats_.vplSeconds += wall * std::max(0.0, 1.0 - vslTime / threadTime);
+  }
   return true;
 }
 

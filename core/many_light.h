@@ -101,7 +101,11 @@ struct ManyLightStats {
   std::atomic<uint64_t> shadowRays{0};
   std::atomic<uint64_t> vslEvaluations{0};
   std::atomic<uint64_t> nonFinite{0};  // contributions rejected where they arose
-  double gatherSeconds = 0;
+  double gatherSeconds = 0;            // wall time of the gathers (both methods together)
+  // Each method's own gather time: what it would have taken alone. Shared
+  // work (eye paths, direct light, shadow rays) is charged to both; VSL's
+  // quadrature only to VSL and VPL's transfer only to VPL.
+  double vslSeconds = 0, vplSeconds = 0;
 };
 
 class ManyLightRenderer {

@@ -18,9 +18,17 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-double grey(const Image& img, size_t i) {
-  return (double(img.rgb[3 * i]) + img.rgb[3 * i + 1] + img.rgb[3 * i + 2]) / 3;
+Image average(const Image& a, const Image& b) {
+  Image m(a.width, a.height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
+  return m;
 }
+
+// The seed of references rendered in the background; the live path tracer
+// uses 0, so the two are independent.
+constexpr uint64_t kBackgroundReferenceSeed = 1;
+// The path depth of the live path tracer and of the references it looks up.
+constexpr int kReferenceDepth = RenderSettings().maxDepth;
 
 }  // namespace
 
@@ -46,6 +54,7 @@ struct Session::Job {
   float radiusMin = 0, radiusMedian = 0, radiusMax = 0;
   Clock::time_point t0;  // wall clock at the job's start
   std::vector<ErrorSample> history;
+  int backgroundSpp = 0;
 };
 
 // Worker-owned state: the current scene survives failed loads, and the
@@ -55,13 +64,25 @@ struct Session::Worker {
   std::unique_ptr<Accel> accel;
   std::unique_ptr<LightSampler> lights;
   std::string scenePath;
+  // The live path tracer: pass p goes to half p % 2 (reference.h).
   struct Reference {
     std::string key;  // scene and resolution
-    Film direct, indirect;
-    std::vector<double> squares;
+    Film direct[2], indirect[2];
     int spp = 0;
     double seconds = 0;
+    Image meanDirect() const { return average(direct[0].image(), direct[1].image()); }
+    Image meanIndirect() const { return average(indirect[0].image(), indirect[1].image()); }
+    double noise() const {  // relMSE(A, B) / 4 of the mean's indirect layer
+      return spp >= 2 ? compareImages(indirect[0].image(), indirect[1].image()).average.relMse / 4 : -1;
+    }
   } ref;
+  // The converged reference in use, what it was chosen for, and its noise.
+  std::shared_ptr<const vsl::Reference> converged;
+  std::string convergedFor;
+  double convergedNoise = -1;
+  std::string cacheKey, cacheKeyFor;  // the scene's cache key and what it was computed for
+  std::unique_ptr<ReferenceRenderer> background;
+  std::string backgroundKey;
   std::unique_ptr<Job> job;  // destroyed before the scene it points into
 };
 
@@ -71,6 +92,9 @@ Result<void> StudioSettings::validate() const {
   if (scene.empty()) return Error("scene: no scene path given");
   if (maxReferenceSpp < 1 || maxReferenceSpp > (1 << 20))
     return Error("reference spp: must be in [1,1048576] (got " + std::to_string(maxReferenceSpp) + ")");
+  if (backgroundReferenceSpp < 0 || backgroundReferenceSpp > (1 << 20))
+    return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
+                 ")");
   return many.validate();
 }
 
@@ -236,6 +260,10 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s))) w.job.reset();
   if (!w.job) w.job = prepare(w, s);
   if (!w.job) return;  // stopped while preparing
+  // Settings that change no image (the reference) apply to a resumed job.
+  w.job->settings.referencePath = s.referencePath;
+  w.job->settings.backgroundReferenceSpp = s.backgroundReferenceSpp;
+  chooseReference(w, *w.job);
   render(w, *w.job, gen);
 }
 
@@ -341,9 +369,10 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
   if (w.ref.key != refKey) {
     w.ref = Worker::Reference();
     w.ref.key = refKey;
-    w.ref.direct = Film(rs.width, rs.height);
-    w.ref.indirect = Film(rs.width, rs.height);
-    w.ref.squares.assign(size_t(rs.width) * rs.height, 0.0);
+    for (int h = 0; h < 2; ++h) {
+      w.ref.direct[h] = Film(rs.width, rs.height);
+      w.ref.indirect[h] = Film(rs.width, rs.height);
+    }
   }
   job->pt = std::make_unique<PathTracer>(*w.scene, *w.accel, *w.lights, rs);
   job->mlSeconds = job->prep.set.seconds + job->prep.knnSeconds;
@@ -370,13 +399,20 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
       ++job.batch;
       progressed = true;
     }
+    // Once the many-light methods are done, a requested background reference
+    // goes first (the live path tracer waits), then the live path tracer.
+    if (!progressed && renderBackgroundReference(w, job, gen)) {
+      if (stopped()) break;
+      setStage("rendering");
+    }
     // The reference catches up to the many-light methods' compute time (at
     // least one pass per step), so the error-vs-time plot compares equal time.
     bool ptStep = false;
     while (ref.spp < job.settings.maxReferenceSpp && !stopped() &&
            (!ptStep || ref.seconds - job.ptStart < job.mlSeconds)) {
       auto tp = Clock::now();
-      if (!job.pt->renderPass(ref.spp, ref.direct, ref.indirect, job.ptCounters, &stop_, &ref.squares)) {
+      const int half = ref.spp % 2;
+      if (!job.pt->renderPass(ref.spp, ref.direct[half], ref.indirect[half], job.ptCounters, &stop_)) {
         ++ref.spp;  // some pixels have this sample: never reuse its index
         break;
       }
@@ -389,6 +425,94 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
   }
 }
 
+// ---- [5b] References ------------------------------------------------------------------
+
+// The converged reference for this job: the settings' file, else a matching
+// cache entry, else none (the live path tracer). A file that cannot be used
+// is reported and the render goes on against the live path tracer.
+void Session::chooseReference(Worker& w, Job& job) {
+  const int width = job.ml->width(), height = job.ml->height();
+  const std::string size = std::to_string(width) + "x" + std::to_string(height);
+  if (w.cacheKeyFor != w.scenePath + "|" + size) {
+    w.cacheKey = referenceKey(*w.scene, width, height, kReferenceDepth);
+    w.cacheKeyFor = w.scenePath + "|" + size;
+  }
+  const std::string& file = job.settings.referencePath;
+  std::string want = file.empty() ? "cache:" + w.cacheKey : "file:" + file + "|" + size;
+  if (file.empty() && w.converged && w.convergedFor == want) return;
+  if (!file.empty() && w.convergedFor == want) return;
+  std::shared_ptr<const vsl::Reference> chosen;
+  if (!file.empty()) {
+    auto r = std::make_shared<vsl::Reference>();
+    std::string err;
+    if (readReference(file, width, height, *r, &err))
+      chosen = std::move(r);
+    else
+      reportRunError("reference not used: " + err + "; errors are measured against the live path tracer");
+  } else {
+    chosen = findCachedReference(w.cacheKey, width, height);
+  }
+  if (chosen && !file.empty()) log::info("reference: " + file);
+  if (chosen && file.empty()) log::info("reference: the cached " + referenceCachePath(w.cacheKey));
+  w.convergedFor = want;
+  if (!chosen && !w.converged) return;
+  w.converged = std::move(chosen);
+  w.convergedNoise = w.converged ? w.converged->indirectNoise() : -1;
+  job.history.clear();  // earlier errors were measured against another reference
+}
+
+// After the live render: a converged reference into the cache, saved each
+// time its sample count doubles (so a quit loses little), then used.
+// Returns false when there is nothing to do.
+bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
+  const int target = job.settings.backgroundReferenceSpp;
+  if (target <= 0 || (w.converged && w.converged->spp >= target && w.convergedFor == "cache:" + w.cacheKey))
+    return false;
+  if (!job.settings.referencePath.empty()) return false;  // the user chose a reference
+  if (!w.background || w.backgroundKey != w.cacheKey) {
+    RenderSettings rs;
+    rs.width = job.ml->width();
+    rs.height = job.ml->height();
+    rs.seed = kBackgroundReferenceSeed;
+    w.background = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
+    w.backgroundKey = w.cacheKey;
+  }
+  setStage("reference");
+  ReferenceRenderer& bg = *w.background;
+  auto save = [&] {
+    vsl::Reference r = bg.result();
+    r.key = w.cacheKey;
+    std::string written, err;
+    if (!storeCachedReference(r, w.scenePath, &written, &err)) reportRunError("reference cache: " + err);
+    return r;
+  };
+  auto lastPublish = Clock::now();
+  int saveAt = 64;
+  while (!stopped() && bg.spp() < target) {
+    if (!bg.step(&stop_)) break;
+    if (bg.spp() >= saveAt && bg.spp() < target) {
+      save();
+      saveAt *= 2;
+    }
+    if (since(lastPublish) > 1.0) {
+      lastPublish = Clock::now();
+      job.backgroundSpp = bg.spp();
+      publish(makeSnapshot(w, job, gen));
+    }
+  }
+  job.backgroundSpp = bg.spp();
+  if (bg.spp() < target) return true;  // stopped: resumes with the next restart
+  vsl::Reference r = save();
+  w.converged = std::make_shared<vsl::Reference>(std::move(r));
+  w.convergedFor = "cache:" + w.cacheKey;
+  w.convergedNoise = w.converged->indirectNoise();
+  w.background.reset();
+  job.history.clear();
+  log::info("reference: rendered " + std::to_string(target) + " spp into " + referenceCachePath(w.cacheKey));
+  publish(makeSnapshot(w, job, gen));
+  return true;
+}
+
 std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen) const {
   const ManyLightRenderer& ml = *job.ml;
   const Worker::Reference& ref = w.ref;
@@ -398,8 +522,8 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->width = ml.width();
   snap->height = ml.height();
   snap->many = ml.images();
-  snap->ptDirect = ref.direct.image();
-  snap->ptIndirect = ref.indirect.image();
+  snap->ptDirect = ref.meanDirect();
+  snap->ptIndirect = ref.meanIndirect();
   snap->ptSpp = ref.spp;
   snap->lightsProcessed = ml.lightsProcessed();
   snap->lightsTotal = job.prep.set.lights.size();
@@ -429,25 +553,38 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     snap->referenceSppPerSecond = (ref.spp - job.sppStart) / t;
     snap->referenceRemainingSeconds = std::max(job.settings.maxReferenceSpp - ref.spp, 0) / snap->referenceSppPerSecond;
   }
-  // Errors against the reference's indirect image (the same relMSE as `vsl
-  // compare` and the studio's table); the reference's own expected relMSE
-  // comes from its per-pixel sample variance.
+  snap->vslSeconds = job.prep.set.seconds + job.prep.knnSeconds + ml.stats().vslSeconds;
+  snap->vplSeconds = job.prep.set.seconds + ml.stats().vplSeconds;
+  snap->backgroundSpp = job.backgroundSpp;
+  // The reference in use and its own noise (session.h, ErrorSample).
+  const double liveNoise = ref.noise();
+  if (w.converged) {
+    snap->convergedReference = true;
+    snap->refIndirect = w.converged->indirect;
+    snap->refDirect = w.converged->direct.rgb.empty() ? snap->ptDirect : w.converged->direct;
+    const bool cached = w.convergedFor.rfind("cache:", 0) == 0;
+    const std::string& src = w.converged->source.empty() ? referenceCachePath(w.converged->key) : w.converged->source;
+    snap->referenceSource = cached ? "cache: " + src : src;
+    snap->referenceSpp = w.converged->spp;
+    snap->referenceNoise = w.convergedNoise;
+  } else {
+    snap->refIndirect = snap->ptIndirect;
+    snap->refDirect = snap->ptDirect;
+    snap->referenceSource = "live path tracer";
+    snap->referenceSpp = ref.spp;
+    snap->referenceNoise = liveNoise;
+  }
+  const double noise = std::max(snap->referenceNoise, 0.0);
   ErrorSample e;
   e.manySeconds = job.mlSeconds;
+  e.vslSeconds = snap->vslSeconds;
+  e.vplSeconds = snap->vplSeconds;
   e.ptSeconds = ref.seconds;
-  e.vsl = compareImages(snap->many.vsl, snap->ptIndirect).average.relMse;
-  e.vpl = compareImages(snap->many.vpl, snap->ptIndirect).average.relMse;
-  double ptErr = 0;
-  const size_t np = ref.squares.size();
-  const int width = ref.indirect.width();
-  for (size_t i = 0; i < np && ref.spp > 0; ++i) {
-    // Per-pixel sample counts can differ by one after a cancelled pass.
-    double n = std::max(ref.indirect.weight(int(i % width), int(i / width)), 1.0);
-    double m = grey(snap->ptIndirect, i);
-    double var = std::max(ref.squares[i] / n - m * m, 0.0) / n;
-    ptErr += var / (m * m + 1e-2);
-  }
-  e.pt = np ? ptErr / double(np) : 0;
+  e.referenceNoise = noise;
+  e.vsl = compareImages(snap->many.vsl, snap->refIndirect).average.relMse - noise;
+  e.vpl = compareImages(snap->many.vpl, snap->refIndirect).average.relMse - noise;
+  e.pt = w.converged ? compareImages(snap->ptIndirect, snap->refIndirect).average.relMse - noise
+                     : std::max(liveNoise, 0.0);
   // The history is the job's; a resumed job republishes without a new point.
   std::vector<ErrorSample>& history = job.history;
   if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)

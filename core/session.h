@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "core/many_light.h"
+#include "core/reference.h"
 
 namespace vsl {
 
@@ -41,6 +42,14 @@ struct StudioSettings {
   std::string scene;       // path of a .gltf or .glb
   ManyLightSettings many;  // lights, radii, clamp, seed, resolution, batches
   int maxReferenceSpp = 4096;
+  // A converged reference (reference.h): an EXR of the render's size with an
+  // `indirect` layer. Empty: a matching entry of the reference cache, if any.
+  // Without either, errors are measured against the live path tracer.
+  std::string referencePath;
+  // > 0: once the live render is done, render a converged reference of this
+  // many samples per pixel into the cache (saved as it doubles), then measure
+  // every error against it.
+  int backgroundReferenceSpp = 0;
   Result<void> validate() const;
 };
 
@@ -48,12 +57,21 @@ struct StudioSettings {
 // setting that changes a pixel).
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b);
 
-// Error of each method's indirect image against the reference at one moment.
+// Error of each method's indirect image at one moment, as relMSE (compare.h)
+// against the reference in use with that reference's own noise subtracted:
+// for a test image T independent of the reference R,
+// E[relMSE(T, R)] = relMSE(T, truth) + relMSE(R, truth), and relMSE(R, truth)
+// is estimated from R's two independent halves as relMSE(A, B) / 4
+// (reference.h). The values can dip below zero where the noise estimate
+// exceeds the difference.
 struct ErrorSample {
-  double manySeconds;  // compute time spent on the many-light methods so far
-  double vsl, vpl;     // relMSE (eps = 1e-2) of their indirect images against the reference's
-  double ptSeconds;    // compute time spent on the reference so far
-  double pt;           // the reference's own expected relMSE, from its per-pixel sample variance
+  double manySeconds;  // wall time of the many-light work so far (both methods)
+  double vslSeconds;   // VSL's own time: light tracing, k-NN radii, its gather share
+  double vplSeconds;   // VPL's own time: light tracing, its gather share
+  double vsl, vpl;
+  double ptSeconds;       // compute time of the live path tracer so far
+  double pt;              // its error: against a converged reference, else its own noise estimate
+  double referenceNoise;  // what was subtracted (0 if unknown)
 };
 
 struct Snapshot {
@@ -62,8 +80,17 @@ struct Snapshot {
   StudioSettings settings;
   int width = 0, height = 0;
   ManyLightImages many;
-  Image ptDirect, ptIndirect;  // the progressive path-traced reference
+  Image ptDirect, ptIndirect;  // the live path tracer (mean of its two halves)
   int ptSpp = 0;
+  // The reference every error is measured against: a converged one (file or
+  // cache) when there is one, else the live path tracer.
+  Image refDirect, refIndirect;
+  bool convergedReference = false;
+  std::string referenceSource;            // "live path tracer", a file path, or "cache: KEY"
+  int referenceSpp = 0;                   // its samples per pixel (0: unknown)
+  double referenceNoise = -1;             // its estimated relMSE against the truth; < 0: unknown
+  int backgroundSpp = 0;                  // the background reference's progress (0: none)
+  double vslSeconds = 0, vplSeconds = 0;  // each method's own time (ErrorSample)
   size_t lightsProcessed = 0, lightsTotal = 0;
   int batchesDone = 0, batchCount = 0;
   double seconds = 0;  // wall time since the job started (a resumed job keeps its clock)
@@ -150,6 +177,8 @@ class Session {
   std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s);
   void render(Worker& w, Job& job, uint64_t gen);
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;
+  void chooseReference(Worker& w, Job& job);
+  bool renderBackgroundReference(Worker& w, Job& job, uint64_t gen);
   bool publish(std::shared_ptr<Snapshot> s);
   void setStage(const std::string& stage, uint32_t lightsTarget = 0);
   void reportRunError(const std::string& message);

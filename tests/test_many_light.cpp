@@ -738,3 +738,27 @@ TEST(ManyLight, NoLightThroughThinSheets) {
     }
   }
 }
+
+// Each method's own clock (ManyLightStats): the gather's wall time less the
+// other method's own transfer, so each is at most the wall time, together
+// they cover it, and a method that is not computed costs the other nothing
+// of its own. Invariants of the accounting, not timings.
+TEST(ManyLight, EachMethodIsChargedItsOwnTime) {
+  Loaded l = loadAsset("cornell-glossy");
+  ManyLightSettings s;
+  s.lights = 400;
+  s.width = s.height = 16;
+  s.batches = 2;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  ManyLightRenderer both(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+  for (int b = 0; b < both.batchCount(); ++b) ASSERT_TRUE(both.renderBatch(b));
+  const ManyLightStats& st = both.stats();
+  ASSERT_GT(st.gatherSeconds, 0);
+  EXPECT_LE(st.vslSeconds, st.gatherSeconds);
+  EXPECT_LE(st.vplSeconds, st.gatherSeconds);
+  EXPECT_GE(st.vslSeconds + st.vplSeconds, st.gatherSeconds * (1 - 1e-9));
+  s.computeVsl = false;
+  ManyLightRenderer vplOnly(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+  for (int b = 0; b < vplOnly.batchCount(); ++b) ASSERT_TRUE(vplOnly.renderBatch(b));
+  EXPECT_DOUBLE_EQ(vplOnly.stats().vplSeconds, vplOnly.stats().gatherSeconds);
+}

@@ -7,6 +7,12 @@
 #include <map>
 #include <thread>
 
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "core/compare.h"
+#include "core/image_io.h"
 #include "core/memory_budget.h"
 #include "core/parallel.h"
 #include "core/session.h"
@@ -296,4 +302,120 @@ TEST(Session, ProgressCountsLightsAndTime) {
   EXPECT_LE(snap->radiusMin, snap->radiusMedian);
   EXPECT_LE(snap->radiusMedian, snap->radiusMax);
   EXPECT_GT(snap->sceneRadius, 0);
+}
+
+// ---- References (reference.h): the live path tracer's halves, a converged
+// reference from the cache or a file, and one rendered in the background.
+
+namespace {
+
+// Points the reference cache at a fresh folder for one test.
+struct TempCache {
+  std::string dir;
+  TempCache() {
+    dir = (std::filesystem::temp_directory_path() / ("vsl-session-cache-" + std::to_string(getpid()))).string();
+    std::filesystem::remove_all(dir);
+    setenv("VSL_REFERENCE_CACHE", dir.c_str(), 1);
+  }
+  ~TempCache() {
+    unsetenv("VSL_REFERENCE_CACHE");
+    std::filesystem::remove_all(dir);
+  }
+};
+
+}  // namespace
+
+// Without a converged reference every error is measured against the live
+// path tracer with its own noise, relMSE(A, B) / 4, subtracted; the path
+// tracer's own point is that noise estimate.
+TEST(Session, LiveReferenceNoiseIsEstimatedAndSubtracted) {
+  TempCache cache;
+  Session session;
+  uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
+  auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_FALSE(snap->convergedReference);
+  EXPECT_EQ(snap->referenceSource, "live path tracer");
+  ASSERT_GT(snap->referenceNoise, 0);
+  const ErrorSample& e = snap->history.back();
+  EXPECT_DOUBLE_EQ(e.referenceNoise, snap->referenceNoise);
+  EXPECT_DOUBLE_EQ(e.pt, snap->referenceNoise);
+  EXPECT_NEAR(e.vsl, compareImages(snap->many.vsl, snap->ptIndirect).average.relMse - snap->referenceNoise, 1e-12);
+  // Each method has its own clock, and both include light tracing.
+  EXPECT_GE(e.vslSeconds, snap->lightTracingSeconds);
+  EXPECT_GE(e.vplSeconds, snap->lightTracingSeconds);
+}
+
+// A cached reference of the right key is found and used; errors are
+// measured against it with its noise subtracted.
+TEST(Session, UsesAMatchingCachedReference) {
+  TempCache cache;
+  LoadResult lr = loadScene(asset("cornell-glossy"));
+  ASSERT_TRUE(lr.scene);
+  std::string err;
+  auto accel = Accel::build(*lr.scene, &err);
+  ASSERT_TRUE(accel) << err;
+  LightSampler lights(*lr.scene);
+  RenderSettings rs;
+  rs.width = rs.height = 16;
+  rs.seed = 5;
+  ReferenceRenderer rr(*lr.scene, *accel, lights, rs);
+  while (rr.spp() < 32) ASSERT_TRUE(rr.step());
+  vsl::Reference ref = rr.result();
+  ref.key = referenceKey(*lr.scene, 16, 16, RenderSettings().maxDepth);
+  ASSERT_TRUE(storeCachedReference(ref, lr.scene->path, nullptr, &err)) << err;
+
+  Session session;
+  uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
+  auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_TRUE(snap->convergedReference);
+  EXPECT_EQ(snap->referenceSource, "cache: " + referenceCachePath(ref.key));
+  EXPECT_EQ(snap->referenceSpp, 32);
+  EXPECT_EQ(snap->refIndirect.rgb, ref.indirect.rgb);
+  EXPECT_NEAR(snap->referenceNoise, ref.indirectNoise(), 1e-12);
+  const ErrorSample& e = snap->history.back();
+  EXPECT_NEAR(e.vpl, compareImages(snap->many.vpl, ref.indirect).average.relMse - ref.indirectNoise(), 1e-12);
+  EXPECT_NEAR(e.pt, compareImages(snap->ptIndirect, ref.indirect).average.relMse - ref.indirectNoise(), 1e-12);
+}
+
+// A reference file of another size is refused with its reason; the render
+// goes on against the live path tracer.
+TEST(Session, AReferenceOfAnotherSizeIsRefused) {
+  TempCache cache;
+  std::string path = cache.dir + "-ref.exr", err;
+  ASSERT_TRUE(writeExr(path, {{"indirect", Image(20, 16)}}, &err)) << err;
+  Session session;
+  StudioSettings s = small("cornell-glossy", 200, 16);
+  s.referencePath = path;
+  uint64_t g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone && x.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_FALSE(snap->convergedReference);
+  Session::Status st = session.status();
+  EXPECT_NE(st.runError.find("20x16"), std::string::npos) << st.runError;
+  EXPECT_NE(st.runError.find(path), std::string::npos) << st.runError;
+  std::filesystem::remove(path);
+}
+
+// "Render reference in background": once the live render is done, a
+// reference of the asked samples goes into the cache and is then used.
+TEST(Session, BackgroundReferenceFillsTheCacheAndIsUsed) {
+  TempCache cache;
+  Session session;
+  StudioSettings s = small("cornell-glossy", 200, 16);
+  s.backgroundReferenceSpp = 16;
+  uint64_t g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.convergedReference && x.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(snap->referenceSpp, 16);
+  EXPECT_EQ(snap->referenceSource.rfind("cache: ", 0), 0u) << snap->referenceSource;
+  LoadResult lr = loadScene(asset("cornell-glossy"));
+  ASSERT_TRUE(lr.scene);
+  auto cached = findCachedReference(referenceKey(*lr.scene, 16, 16, RenderSettings().maxDepth), 16, 16);
+  ASSERT_TRUE(cached);
+  EXPECT_EQ(cached->spp, 16);
+  EXPECT_EQ(cached->indirect.rgb, snap->refIndirect.rgb);
+  // Independent of the live path tracer (another seed): they differ.
+  EXPECT_NE(snap->refIndirect.rgb, snap->ptIndirect.rgb);
 }

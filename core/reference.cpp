@@ -1,0 +1,271 @@
+#include "core/reference.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include "core/compare.h"
+#include "core/image_io.h"
+
+namespace vsl {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double noiseOf(const Image& a, const Image& b) {
+  if (a.rgb.empty() || b.rgb.empty() || a.width != b.width || a.height != b.height) return -1;
+  return compareImages(a, b).average.relMse / 4;
+}
+
+Image average(const Image& a, const Image& b) {
+  Image m(a.width, a.height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
+  return m;
+}
+
+Image sum(const Image& a, const Image& b) {
+  Image m(a.width, a.height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = a.rgb[i] + b.rgb[i];
+  return m;
+}
+
+// 64-bit FNV-1a.
+struct Fnv {
+  uint64_t h = 0xcbf29ce484222325ull;
+  void bytes(const void* data, size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
+  }
+  template <typename T>
+  void vec(const std::vector<T>& v) {
+    uint64_t n = v.size();
+    bytes(&n, sizeof n);
+    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
+  }
+  void str(const std::string& s) { vec(std::vector<char>(s.begin(), s.end())); }
+  void f(float x) { bytes(&x, sizeof x); }
+  void v3(const Vec3& v) { f(v.x), f(v.y), f(v.z); }
+};
+
+// A file name made safe for a cache key: letters, digits, '-', '_' and '.'.
+std::string safeName(const std::string& path) {
+  std::string base = std::filesystem::path(path).stem().string(), out;
+  for (char c : base) out += (std::isalnum((unsigned char)c) || c == '-' || c == '_') ? c : '_';
+  return out.empty() ? "scene" : out.substr(0, 48);
+}
+
+const Layer* layerNamed(const std::vector<Layer>& layers, const std::string& name) {
+  for (const Layer& l : layers)
+    if (l.name == name) return &l;
+  return nullptr;
+}
+
+}  // namespace
+
+double Reference::indirectNoise() const { return hasHalves() ? noiseOf(indirectA, indirectB) : -1; }
+double Reference::fullNoise() const { return noiseOf(fullA, fullB); }
+
+// ---- Rendering ------------------------------------------------------------------------
+
+ReferenceRenderer::ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                     const RenderSettings& settings)
+    : pt_(scene, accel, lights, settings) {
+  for (int h = 0; h < 2; ++h) {
+    direct_[h] = Film(pt_.width(), pt_.height());
+    indirect_[h] = Film(pt_.width(), pt_.height());
+  }
+}
+
+bool ReferenceRenderer::step(const std::atomic<bool>* stop) {
+  auto t0 = Clock::now();
+  // Render into copies so that an interrupted pair changes nothing.
+  Film d[2] = {direct_[0], direct_[1]}, ind[2] = {indirect_[0], indirect_[1]};
+  for (int h = 0; h < 2; ++h) {
+    if (!pt_.renderPass(nextPass_ + h, d[h], ind[h], counters_, stop)) {
+      nextPass_ += 2;  // some pixels used these indices: never reuse them
+      return false;
+    }
+  }
+  nextPass_ += 2;
+  for (int h = 0; h < 2; ++h) direct_[h] = std::move(d[h]), indirect_[h] = std::move(ind[h]);
+  ++pairs_;
+  seconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  return true;
+}
+
+double ReferenceRenderer::indirectNoise() const {
+  if (pairs_ == 0) return -1;
+  return noiseOf(indirect_[0].image(), indirect_[1].image());
+}
+
+uint64_t ReferenceRenderer::rejected() const {
+  return counters_.nonFinite + direct_[0].rejected() + direct_[1].rejected() + indirect_[0].rejected() +
+         indirect_[1].rejected();
+}
+
+Reference ReferenceRenderer::result() const {
+  Reference r;
+  r.width = width();
+  r.height = height();
+  r.directA = direct_[0].image();
+  r.directB = direct_[1].image();
+  r.indirectA = indirect_[0].image();
+  r.indirectB = indirect_[1].image();
+  r.fullA = sum(r.directA, r.indirectA);
+  r.fullB = sum(r.directB, r.indirectB);
+  r.direct = average(r.directA, r.directB);
+  r.indirect = average(r.indirectA, r.indirectB);
+  r.full = average(r.fullA, r.fullB);
+  r.spp = spp();
+  r.seconds = seconds_;
+  return r;
+}
+
+// ---- Keys and the cache ---------------------------------------------------------------
+
+std::string referenceKey(const Scene& scene, int width, int height, int maxDepth) {
+  Fnv h;
+  // The scene file's bytes (materials, lights and cameras live there) ...
+  if (std::ifstream in(scene.path, std::ios::binary); in) {
+    std::vector<char> buf(1 << 16);
+    while (in.read(buf.data(), std::streamsize(buf.size())) || in.gcount() > 0)
+      h.bytes(buf.data(), size_t(in.gcount()));
+  }
+  // ... and what it loaded from other files (buffers, images).
+  h.vec(scene.positions);
+  h.vec(scene.normals);
+  h.vec(scene.uvs);
+  h.vec(scene.indices);
+  h.vec(scene.triMaterial);
+  for (const Texture& t : scene.textures) h.vec(t.rgba);
+  const Camera& c = scene.camera;
+  h.str(c.name);
+  h.v3(c.position), h.v3(c.forward), h.v3(c.up), h.f(c.yfov);
+  char key[160];
+  std::snprintf(key, sizeof key, "%s-%016llx-%dx%d-d%d", safeName(scene.path).c_str(), (unsigned long long)h.h, width,
+                height, maxDepth);
+  return key;
+}
+
+std::string referenceCacheDir() {
+  if (const char* d = std::getenv("VSL_REFERENCE_CACHE"); d && *d) return d;
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/vsl-studio/references";
+  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/vsl-studio/references";
+  return ".vsl-cache/references";
+}
+
+std::string referenceCachePath(const std::string& key) { return referenceCacheDir() + "/" + key + ".exr"; }
+
+// ---- Files ----------------------------------------------------------------------------
+
+bool writeReference(const std::string& path, const Reference& ref, const std::string& scenePath, std::string* error) {
+  std::vector<Layer> layers = {{"", ref.full}, {"full", ref.full}, {"direct", ref.direct}, {"indirect", ref.indirect}};
+  if (ref.hasHalves()) {
+    layers.insert(layers.end(), {{"A.full", ref.fullA},
+                                 {"A.direct", ref.directA},
+                                 {"A.indirect", ref.indirectA},
+                                 {"B.full", ref.fullB},
+                                 {"B.direct", ref.directB},
+                                 {"B.indirect", ref.indirectB}});
+  }
+  char noise[64];
+  std::snprintf(noise, sizeof noise, "%.6g", ref.indirectNoise());
+  std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
+                                              {"vsl.scene", scenePath},
+                                              {"vsl.method", "pt"},
+                                              {"vsl.reference.spp", std::to_string(ref.spp)},
+                                              {"vsl.reference.seconds", std::to_string(ref.seconds)},
+                                              {"vsl.reference.key", ref.key},
+                                              {"vsl.reference.indirectNoise", noise}};
+  return writeExr(path, layers, error, attrs);
+}
+
+bool readReference(const std::string& path, int width, int height, Reference& out, std::string* error,
+                   const std::string& indirectLayer) {
+  std::vector<Layer> layers;
+  std::map<std::string, std::string> attrs;
+  if (!readExr(path, layers, error, &attrs)) return false;
+  const Layer* ind = layerNamed(layers, indirectLayer);
+  if (!ind) {
+    std::string have;
+    for (const Layer& l : layers) have += (have.empty() ? "" : ", ") + (l.name.empty() ? "(default)" : l.name);
+    if (error)
+      *error = path + ": no '" + indirectLayer + "' layer (it has: " + have +
+               "); the methods are compared on indirect light: render one with `vsl reference`, or name the layer "
+               "that holds the indirect component";
+    return false;
+  }
+  const Image& I = ind->image;
+  if ((width > 0 && I.width != width) || (height > 0 && I.height != height)) {
+    if (error)
+      *error = path + ": " + std::to_string(I.width) + "x" + std::to_string(I.height) + ", but the render is " +
+               std::to_string(width) + "x" + std::to_string(height);
+    return false;
+  }
+  Reference r;
+  r.width = I.width;
+  r.height = I.height;
+  r.indirect = I;
+  r.source = path;
+  auto sameSize = [&](const Layer* l) { return l && l->image.width == I.width && l->image.height == I.height; };
+  const Layer* d = layerNamed(layers, "direct");
+  const Layer* f = layerNamed(layers, "full");
+  if (sameSize(d)) r.direct = d->image;
+  if (sameSize(f))
+    r.full = f->image;
+  else if (!r.direct.rgb.empty())
+    r.full = sum(r.direct, r.indirect);
+  const Layer* halves[6] = {layerNamed(layers, "A.full"),     layerNamed(layers, "A.direct"),
+                            layerNamed(layers, "A.indirect"), layerNamed(layers, "B.full"),
+                            layerNamed(layers, "B.direct"),   layerNamed(layers, "B.indirect")};
+  bool all = true;
+  for (const Layer* l : halves) all = all && sameSize(l);
+  if (all && indirectLayer == "indirect") {
+    r.fullA = halves[0]->image, r.directA = halves[1]->image, r.indirectA = halves[2]->image;
+    r.fullB = halves[3]->image, r.directB = halves[4]->image, r.indirectB = halves[5]->image;
+  }
+  if (auto it = attrs.find("vsl.reference.spp"); it != attrs.end()) r.spp = std::atoi(it->second.c_str());
+  if (auto it = attrs.find("vsl.reference.seconds"); it != attrs.end()) r.seconds = std::atof(it->second.c_str());
+  if (auto it = attrs.find("vsl.reference.key"); it != attrs.end()) r.key = it->second;
+  out = std::move(r);
+  return true;
+}
+
+std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height) {
+  std::string path = referenceCachePath(key);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return nullptr;
+  auto r = std::make_unique<Reference>();
+  std::string err;
+  if (!readReference(path, width, height, *r, &err)) return nullptr;
+  r->key = key;
+  return r;
+}
+
+bool storeCachedReference(const Reference& ref, const std::string& scenePath, std::string* writtenPath,
+                          std::string* error) {
+  if (writtenPath) writtenPath->clear();
+  if (ref.key.empty()) {
+    if (error) *error = "reference cache: the reference has no key";
+    return false;
+  }
+  if (auto existing = findCachedReference(ref.key, ref.width, ref.height); existing && existing->spp >= ref.spp)
+    return true;
+  std::string dir = referenceCacheDir();
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    if (error) *error = dir + ": cannot create the reference cache (" + ec.message() + ")";
+    return false;
+  }
+  std::string path = referenceCachePath(ref.key);
+  if (!writeReference(path, ref, scenePath, error)) return false;
+  if (writtenPath) *writtenPath = path;
+  return true;
+}
+
+}  // namespace vsl

@@ -1,0 +1,103 @@
+// Converged references and their own noise.
+//
+// A reference is a path-traced image (full, direct and indirect layers) kept
+// as two independent halves: half A holds the even sample indices, half B the
+// odd ones, so A and B are independent estimates with the same expected
+// error, and the reference is their mean.
+//
+// Its own noise: for independent unbiased halves, E[(A - B)^2] = 2 Var(half)
+// and Var(mean) = Var(half) / 2, so the reference's expected relMSE against
+// the truth is relMSE(A, B) / 4 (the same relMSE as compare.h, its
+// denominator from B). A test image T independent of the reference R has
+// E[relMSE(T, R)] = relMSE(T, truth) + relMSE(R, truth) to first order, so the
+// studio and `vsl sweep` subtract this estimate from every error they show.
+//
+// Files: one multi-layer EXR with layers full, direct, indirect (the mean),
+// A.full, A.direct, A.indirect, B.full, B.direct, B.indirect and attributes
+// vsl.reference.spp, vsl.reference.seconds, vsl.reference.key. Another
+// renderer's EXR is accepted if it has an `indirect` layer (or names one)
+// and the right size; its noise is then unknown.
+//
+// Cache: references are stored as CACHE/<key>.exr, the key naming the scene
+// file's content, the camera, the resolution and the path depth (see
+// referenceKey). CACHE is $VSL_REFERENCE_CACHE, else
+// $XDG_CACHE_HOME/vsl-studio/references, else ~/.cache/vsl-studio/references.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "core/film.h"
+#include "core/pathtracer.h"
+
+namespace vsl {
+
+struct Reference {
+  int width = 0, height = 0;
+  Image full, direct, indirect;  // the mean of the halves
+  // Independent halves (empty for another renderer's image).
+  Image fullA, directA, indirectA, fullB, directB, indirectB;
+  int spp = 0;         // samples per pixel in both halves together (0: unknown)
+  double seconds = 0;  // compute time (0: unknown)
+  std::string source;  // the file it came from ("" for one rendered in memory)
+  std::string key;     // its cache key, when it has one
+  bool hasHalves() const { return !indirectA.rgb.empty() && !indirectB.rgb.empty(); }
+  // Expected relMSE of the indirect (full) layer against the truth:
+  // relMSE(A, B) / 4; negative when unknown (no halves).
+  double indirectNoise() const;
+  double fullNoise() const;
+};
+
+// Renders a reference progressively: each step adds one sample per pixel to
+// each half (pass indices 2i and 2i + 1 of the path tracer).
+class ReferenceRenderer {
+ public:
+  ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const RenderSettings& settings);
+  int width() const { return pt_.width(); }
+  int height() const { return pt_.height(); }
+  // Adds two samples per pixel (one per half). Returns false, changing
+  // nothing visible, if *stop became true; the pass's indices are then
+  // skipped so that no sample is ever reused.
+  bool step(const std::atomic<bool>* stop = nullptr);
+  int spp() const { return 2 * pairs_; }
+  double seconds() const { return seconds_; }
+  // Cheap: the indirect noise estimate alone.
+  double indirectNoise() const;
+  Reference result() const;
+  const PtCounters& counters() const { return counters_; }
+  uint64_t rejected() const;
+
+ private:
+  PathTracer pt_;
+  Film direct_[2], indirect_[2];
+  PtCounters counters_;
+  int pairs_ = 0, nextPass_ = 0;
+  double seconds_ = 0;
+};
+
+// The cache key: scene file name, a 64-bit FNV-1a hash over the scene file's
+// bytes and the loaded geometry and textures (which covers external buffers
+// and images), the camera's name and pose, the resolution and the path depth.
+std::string referenceKey(const Scene& scene, int width, int height, int maxDepth);
+std::string referenceCacheDir();
+std::string referenceCachePath(const std::string& key);
+
+// Writes a reference with its halves and attributes (atomically).
+bool writeReference(const std::string& path, const Reference& ref, const std::string& scenePath, std::string* error);
+// Reads any EXR as a reference of width x height (0: any size): the
+// `indirect` layer is required (or the layer named indirectLayer), full and
+// direct are optional (a missing full is direct + indirect when both exist).
+// Errors name the file and the problem (another size, no indirect layer).
+bool readReference(const std::string& path, int width, int height, Reference& out, std::string* error,
+                   const std::string& indirectLayer = "indirect");
+// The cached reference for this key, if one exists and reads; null otherwise.
+std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height);
+// Stores ref in the cache unless an entry with at least as many samples is
+// already there. Returns the path written ("" if kept the existing one);
+// false on I/O failure.
+bool storeCachedReference(const Reference& ref, const std::string& scenePath, std::string* writtenPath,
+                          std::string* error);
+
+}  // namespace vsl
