@@ -5,6 +5,11 @@
 //
 //   vsl-studio [SCENE] [--headless] [--frames N] [--screenshot PATH]
 //              [--export DIR] [--after SECONDS] [--window WxH] [--lights N] [--width W]
+//              [--crop X,Y,W,H] [--fresh]
+//
+// Without a SCENE, the last session's scene, settings and view come back
+// (ui::lastSessionPath(); --fresh ignores it); every run that did not fail
+// saves them on quit.
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 #include <imgui_impl_glfw.h>
@@ -38,6 +43,15 @@ struct Args {
   std::string window = "1280x800";
   uint32_t lights = 5000;
   int width = 256;
+  bool lightsGiven = false, widthGiven = false;  // on the command line: they win over the last session
+  bool fresh = false;                            // ignore the last session
+  std::string crop;                              // X,Y,W,H in image pixels
+};
+
+// What the studio starts with: options and the initial view.
+struct Launch {
+  ui::StudioOptions options;
+  ui::ViewState view;
 };
 
 std::vector<std::string> bundledScenes() {
@@ -124,6 +138,7 @@ struct Script {
 ui::StudioOptions studioOptions(const Args& a) {
   ui::StudioOptions o;
   o.scene = a.scene;
+  o.settings.scene = a.scene;
   o.bundled = bundledScenes();
   if (!a.exportDir.empty()) o.exportDir = a.exportDir;
   o.settings.many.lights = a.lights;
@@ -134,7 +149,47 @@ ui::StudioOptions studioOptions(const Args& a) {
   return o;
 }
 
-int runHeadless(const Args& a, int w, int h) {
+// Saves the scene, settings and view for the next start without a scene
+// argument. Not after a run that failed (its scene may not even load).
+void rememberSession(const ui::Studio& studio) {
+  if (!studio.fatalError().empty()) return;
+  const std::string path = ui::lastSessionPath();
+  std::string err;
+  if (path.empty())
+    log::warning("the last session is not saved: neither XDG_CONFIG_HOME nor HOME is set");
+  else if (!ui::saveLastSession(path, studio.acceptedSettings(), studio.view(), &err))
+    log::warning("the last session is not saved: " + err);
+}
+
+// Without a scene argument: the last session's scene, settings and view
+// (lights and width given on the command line win). A scene that no longer
+// exists gives the default scene; a corrupt file gives a warning and the
+// defaults.
+void restoreLastSession(const Args& a, Launch* launch) {
+  const std::string path = ui::lastSessionPath();
+  StudioSettings s = launch->options.settings;
+  ui::ViewState v = launch->view;
+  std::string warning;
+  if (!ui::loadLastSession(path, &s, &v, &warning)) {
+    if (!warning.empty()) log::warning(warning);
+    return;
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(s.scene, ec)) {
+    log::warning("the last session's scene " + s.scene + " no longer exists; opening the default scene " + a.scene);
+    s.scene = a.scene;
+  }
+  if (a.lightsGiven) s.many.lights = a.lights;
+  if (a.widthGiven) s.many.width = a.width, s.many.height = 0;
+  v.crop = launch->view.crop;  // --crop applies to this run only
+  launch->options.settings = s;
+  launch->options.scene = s.scene;
+  launch->view = v;
+  std::fprintf(stderr, "vsl-studio: restored the last session (%s, %u lights, width %d) from %s; --fresh ignores it\n",
+               std::filesystem::path(s.scene).filename().c_str(), s.many.lights, s.many.width, path.c_str());
+}
+
+int runHeadless(const Args& a, const Launch& launch, int w, int h) {
   ui::HeadlessGL gl;
   std::string err;
   if (!gl.init(w, h, &err)) {
@@ -150,7 +205,8 @@ int runHeadless(const Args& a, int w, int h) {
   ImGui_ImplOpenGL3_Init("#version 330 core");
   int result = 0;
   {
-    ui::Studio studio(studioOptions(a));
+    ui::Studio studio(launch.options);
+    studio.view() = launch.view;
     Script script{a};
     for (int frame = 0;; ++frame) {
       io.DeltaTime = 1.0f / 30;
@@ -167,6 +223,7 @@ int runHeadless(const Args& a, int w, int h) {
       std::this_thread::sleep_for(std::chrono::milliseconds(33));  // the renderer gets the cores
     }
     result = script.failed ? 1 : 0;
+    if (!script.failed) rememberSession(studio);
     if (!script.exportFolder.empty())
       std::fprintf(stderr, "vsl-studio: exported to %s/\n", script.exportFolder.c_str());
   }
@@ -232,7 +289,7 @@ void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
 }
 void onGlfwError(int code, const char* msg) { log::warning("GLFW error " + std::to_string(code) + ": " + msg); }
 
-int runWindowed(const Args& a, int w, int h, bool* fellBack) {
+int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
   glfwSetErrorCallback(onGlfwError);
   if (!glfwInit()) {
     *fellBack = true;
@@ -265,7 +322,8 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
   ImGui_ImplOpenGL3_Init("#version 330 core");
   int rc = 0;
   {
-    ui::Studio studio(studioOptions(a));
+    ui::Studio studio(launch.options);
+    studio.view() = launch.view;
     gStudio = &studio;
     glfwSetDropCallback(win, onDrop);
     Script script{a};
@@ -315,6 +373,7 @@ int runWindowed(const Args& a, int w, int h, bool* fellBack) {
       // Cap the UI at ~60 frames per second so the renderer keeps the cores.
       std::this_thread::sleep_until(t0 + std::chrono::milliseconds(16));
     }
+    if (!script.failed) rememberSession(studio);
     quitPromptly(win, studio);
     rc = script.failed ? 1 : 0;
     gStudio = nullptr;
@@ -346,6 +405,10 @@ int main(int argc, char** argv) {
   app.add_option("--window", a.window, "Window or off-screen size, WxH")->default_str("1280x800");
   app.add_option("--lights", a.lights, "Initial light count")->default_str("5000")->check(CLI::Range(1, 50000000));
   app.add_option("--width", a.width, "Initial render width")->default_str("256")->check(CLI::Range(8, 16384));
+  app.add_option("--crop", a.crop,
+                 "Crop inset X,Y,W,H in image pixels: exports include magnified crops of every image, their "
+                 "metrics and a crop figure");
+  app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -359,15 +422,32 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: --window must be WxH between 320x240 and 8192x8192 (got '%s')\n", a.window.c_str());
     return 2;
   }
-  if (a.scene.empty()) a.scene = std::string(VSL_ASSETS_DIR) + "/cornell-glossy.gltf";
+  a.lightsGiven = app.count("--lights") > 0;
+  a.widthGiven = app.count("--width") > 0;
+  Launch launch;
+  if (!a.crop.empty()) {
+    ui::CropRect& c = launch.view.crop;
+    char end = 0;
+    if (std::sscanf(a.crop.c_str(), "%d,%d,%d,%d%c", &c.x, &c.y, &c.w, &c.h, &end) != 4 || c.x < 0 || c.y < 0 ||
+        c.w < 1 || c.h < 1 || c.x > 16384 || c.y > 16384 || c.w > 16384 || c.h > 16384) {
+      std::fprintf(stderr, "error: --crop must be X,Y,W,H in image pixels, W and H at least 1 (got '%s')\n",
+                   a.crop.c_str());
+      return 2;
+    }
+  }
   log::setEchoLevel(LogLevel::Warning);
+  const bool sceneGiven = !a.scene.empty();
+  if (!sceneGiven) a.scene = std::string(VSL_ASSETS_DIR) + "/cornell-glossy.gltf";
+  launch.options = studioOptions(a);
+  launch.options.defaults = launch.options.settings;
+  if (!sceneGiven && !a.fresh) restoreLastSession(a, &launch);
 
   const char* display = std::getenv("DISPLAY");
   const char* wayland = std::getenv("WAYLAND_DISPLAY");
   bool noDisplay = (!display || !*display) && (!wayland || !*wayland);
   bool fallback = false;
   if (!a.headless && !noDisplay) {
-    int rc = runWindowed(a, w, h, &fallback);
+    int rc = runWindowed(a, launch, w, h, &fallback);
     if (!fallback) return rc;
   }
   if (!a.headless) {
@@ -380,5 +460,5 @@ int main(int argc, char** argv) {
     std::error_code ec;
     std::filesystem::create_directories(a.exportDir, ec);
   }
-  return runHeadless(a, w, h);
+  return runHeadless(a, launch, w, h);
 }

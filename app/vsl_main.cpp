@@ -345,9 +345,10 @@ int cmdReference(ReferenceArgs& a) {
     }
     bool done = spp >= maxSpp || (s.timeLimit > 0 && el >= s.timeLimit) ||
                 (a.target > 0 && spp >= 16 && noise >= 0 && noise <= a.target);
-    char detail[160];
-    std::snprintf(detail, sizeof detail, "%d spp, noise %.2e, %s, about %s left", spp, noise, formatSeconds(el).c_str(),
-                  formatSeconds(std::max(remaining, 0.0)).c_str());
+    char detail[160], noiseText[32] = "n/a";
+    if (noise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.2e", noise);
+    std::snprintf(detail, sizeof detail, "%d spp, noise %s, %s, about %s left", spp, noiseText,
+                  formatSeconds(el).c_str(), formatSeconds(std::max(remaining, 0.0)).c_str());
     progress.update(done ? 1.0 : std::min(frac, 0.999), detail);
     if (done) break;
   }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <new>
 #include <sstream>
 
@@ -85,6 +86,36 @@ struct Session::Worker {
   std::string backgroundKey;
   std::unique_ptr<Job> job;  // destroyed before the scene it points into
 };
+
+// ---- [0] Equal time -------------------------------------------------------------------
+
+double ownSeconds(const ErrorSample& e, StudioMethod m) {
+  return m == StudioMethod::Vsl ? e.vslSeconds : m == StudioMethod::Vpl ? e.vplSeconds : e.ptSeconds;
+}
+
+double ownError(const ErrorSample& e, StudioMethod m) {
+  return m == StudioMethod::Vsl ? e.vsl : m == StudioMethod::Vpl ? e.vpl : e.pt;
+}
+
+double equalTimeBudget(const std::vector<ErrorSample>& history) {
+  if (history.empty()) return 0;
+  double t = INFINITY;
+  for (StudioMethod m : {StudioMethod::Vsl, StudioMethod::Vpl, StudioMethod::Pt})
+    t = std::min(t, ownSeconds(history.back(), m));
+  return t;
+}
+
+double errorAtOwnTime(const std::vector<ErrorSample>& history, StudioMethod m, double t) {
+  for (size_t i = 0; i < history.size(); ++i) {
+    const double ti = ownSeconds(history[i], m);
+    if (ti < t) continue;
+    if (ti == t) return ownError(history[i], m);
+    if (i == 0) return NAN;  // before its first point
+    const double t0 = ownSeconds(history[i - 1], m), f = ti > t0 ? (t - t0) / (ti - t0) : 1.0;
+    return ownError(history[i - 1], m) + f * (ownError(history[i], m) - ownError(history[i - 1], m));
+  }
+  return NAN;
+}
 
 // ---- [1] Settings and the public interface ------------------------------------------
 

@@ -74,6 +74,18 @@ struct ErrorSample {
   double referenceNoise;  // what was subtracted (0 if unknown)
 };
 
+// Equal time: each method's error at the same amount of its own time.
+enum class StudioMethod { Vsl, Vpl, Pt };
+// The method's own time and error in one history entry.
+double ownSeconds(const ErrorSample& e, StudioMethod m);
+double ownError(const ErrorSample& e, StudioMethod m);
+// The largest budget every method has reached: the smallest of their latest
+// own times (0 for an empty history).
+double equalTimeBudget(const std::vector<ErrorSample>& history);
+// The method's error after t seconds of its own time, interpolated linearly
+// between the history's points; NaN outside the times it has reached.
+double errorAtOwnTime(const std::vector<ErrorSample>& history, StudioMethod m, double t);
+
 struct Snapshot {
   uint64_t generation = 0;
   uint64_t serial = 0;  // increases with every publish

@@ -419,3 +419,20 @@ TEST(Session, BackgroundReferenceFillsTheCacheAndIsUsed) {
   // Independent of the live path tracer (another seed): they differ.
   EXPECT_NE(snap->refIndirect.rgb, snap->ptIndirect.rgb);
 }
+
+// Equal time: errors interpolated at the same own time for every method.
+TEST(Session, ErrorsAtEqualOwnTime) {
+  auto sample = [](double tv, double ev, double tp, double ep, double tt, double et) {
+    ErrorSample e{};
+    e.vslSeconds = tv, e.vsl = ev, e.vplSeconds = tp, e.vpl = ep, e.ptSeconds = tt, e.pt = et;
+    return e;
+  };
+  std::vector<ErrorSample> h = {sample(1, 0.4, 0.5, 0.3, 1, 0.8), sample(3, 0.2, 1.5, 0.1, 2, 0.4)};
+  EXPECT_DOUBLE_EQ(equalTimeBudget(h), 1.5);  // VPL has had the least time
+  EXPECT_DOUBLE_EQ(errorAtOwnTime(h, StudioMethod::Vsl, 1.5), 0.35);
+  EXPECT_DOUBLE_EQ(errorAtOwnTime(h, StudioMethod::Vpl, 1.5), 0.1);
+  EXPECT_DOUBLE_EQ(errorAtOwnTime(h, StudioMethod::Pt, 1.5), 0.6);
+  EXPECT_TRUE(std::isnan(errorAtOwnTime(h, StudioMethod::Vsl, 0.5)));  // before its first point
+  EXPECT_TRUE(std::isnan(errorAtOwnTime(h, StudioMethod::Pt, 2.5)));   // beyond its last
+  EXPECT_EQ(equalTimeBudget({}), 0.0);
+}

@@ -207,6 +207,7 @@ struct Input {
   bool down = false;
   float wheel = 0;
   int key = -1;
+  bool shift = false;
 };
 }  // namespace
 
@@ -217,6 +218,7 @@ class StudioInput : public StudioFrame {
     io.MousePos = in.mouse;
     io.MouseDown[0] = in.down;
     io.MouseWheel = in.wheel;
+    io.KeyShift = in.shift;
     if (in.key >= 0) io.KeysDown[in.key] = true;
     renderFrames(1);
     if (in.key >= 0) io.KeysDown[in.key] = false;
@@ -362,4 +364,188 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
   EXPECT_TRUE(j["settings"]["clamp"].contains("bound"));
   EXPECT_TRUE(j["machine"].contains("renderThreads"));
   EXPECT_TRUE(j["settings"]["vslSamples"].contains("meanPerPair"));
+}
+
+namespace {
+// The crop of img at (x0, y0), w x h, cut here independently of the studio.
+Image cutOut(const Image& img, int x0, int y0, int w, int h) {
+  Image out(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) out.set(x, y, img.at(x0 + x, y0 + y));
+  return out;
+}
+}  // namespace
+
+// A crop inset in the export: a PNG of every image and error map at native
+// pixels magnified by an integer factor, the crop figure, and per-crop
+// metrics equal to compareImages on the crops cut out directly.
+TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
+  renderFrames(1);
+  ui::ViewState& v = studio->view();
+  v.component = Component::Indirect;
+  v.crop = ui::CropRect{10, 4, 16, 8};
+  std::string dir = std::string(VSL_BINARY_DIR) + "/studio-crop-test";
+  std::filesystem::remove_all(dir);
+  std::string err, folder;
+  std::vector<std::string> written;
+  ASSERT_TRUE(studio->exportAll(dir, &err, &written, &folder)) << err;
+  const int f = ui::cropMagnification(v.crop);
+  EXPECT_EQ(f, 16);  // 256 / 16
+  int crops = 0;
+  for (const std::string& file : written) {
+    const std::string name = std::filesystem::path(file).filename().string();
+    if (name.rfind("crop-", 0) != 0 || name.rfind("crop-figure", 0) == 0) continue;
+    ++crops;
+    int w = 0, h = 0, n = 0;
+    ASSERT_TRUE(stbi_info(file.c_str(), &w, &h, &n)) << file;
+    EXPECT_EQ(w, 16 * f) << file;
+    EXPECT_EQ(h, 8 * f) << file;
+  }
+  EXPECT_EQ(crops, 9) << "the reference, four methods and their four error maps";
+  // The figure: the 64x32 image magnified 8x (512 / 32 = 16, at most 8),
+  // then five columns of crops magnified (256 - 8) / (2 x 8) = 15x, 8 px apart.
+  int w = 0, h = 0, n = 0;
+  ASSERT_TRUE(stbi_info((folder + "/crop-figure-indirect.png").c_str(), &w, &h, &n));
+  EXPECT_EQ(w, 8 * 64 + 8 + 5 * (16 * 15 + 8));
+  EXPECT_EQ(h, 8 * 32);
+  // A crop of the magnified VSL file is the VSL crop, pixel for pixel (nearest neighbour).
+  int cw = 0, chh = 0;
+  unsigned char* png = stbi_load((folder + "/crop-vsl-indirect.png").c_str(), &cw, &chh, &n, 3);
+  ASSERT_NE(png, nullptr);
+  const Image& vsl = studio->snapshot()->many.vsl;
+  for (int y : {0, 3, 7})
+    for (int x : {0, 5, 15}) {
+      Vec3 want = srgb8(vsl.at(10 + x, 4 + y));
+      const unsigned char* p = &png[(size_t(y * f + f / 2) * cw + x * f + f / 2) * 3];
+      EXPECT_NEAR(p[0], want.x, 1);
+      EXPECT_NEAR(p[2], want.z, 1);
+    }
+  stbi_image_free(png);
+
+  std::ifstream js(folder + "/metrics.json");
+  nlohmann::json j = nlohmann::json::parse(js);
+  const nlohmann::json& c = j["crop"];
+  EXPECT_EQ(c["x"], 10);
+  EXPECT_EQ(c["y"], 4);
+  EXPECT_EQ(c["width"], 16);
+  EXPECT_EQ(c["height"], 8);
+  EXPECT_EQ(c["magnification"], f);
+  const Snapshot& s = *studio->snapshot();
+  CompareResult direct = compareImages(cutOut(s.many.vsl, 10, 4, 16, 8), cutOut(s.ptIndirect, 10, 4, 16, 8));
+  EXPECT_DOUBLE_EQ(c["metricsAgainstReferenceCrop"]["VSL"]["indirect"]["relMSE"].get<double>(), direct.average.relMse);
+  EXPECT_GT(direct.average.relMse, 0);
+  // VPL is 0.2 against 0.25 everywhere: relMSE = 0.05^2 / (0.25^2 + 0.01).
+  EXPECT_NEAR(c["metricsAgainstReferenceCrop"]["VPL (clamped)"]["indirect"]["relMSE"].get<double>(),
+              0.0025 / (0.0625 + 0.01), 1e-6);
+  // The crop differs from the whole image's metric (the VSL ramp varies across it).
+  EXPECT_NE(c["metricsAgainstReferenceCrop"]["VSL"]["indirect"]["relMSE"].get<double>(),
+            j["metricsAgainstReference"]["VSL"]["indirect"]["relMSE"].get<double>());
+
+  // A crop outside the image fails the export with the reason.
+  v.crop = ui::CropRect{100, 50, 8, 8};
+  EXPECT_FALSE(studio->exportAll(dir, &err, &written, &folder));
+  EXPECT_NE(err.find("lies outside"), std::string::npos) << err;
+}
+
+// Shift+drag on an image draws the crop rectangle over the pixels it
+// touches; the Crops tab shows it; Shift+click clears it.
+TEST_F(StudioInput, ShiftDragMakesACrop) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Single;
+  renderFrames(2);
+  const auto d = studio->drawnImages()[0];
+  auto at = [&](float fx, float fy) {
+    return ImVec2(d.p0.x + fx * (d.p1.x - d.p0.x), d.p0.y + fy * (d.p1.y - d.p0.y));
+  };
+  Input in;
+  in.shift = true;
+  in.mouse = at(0.26f, 0.26f);
+  frameWith(in);
+  in.down = true;
+  frameWith(in);
+  for (float t = 0.3f; t <= 0.76f; t += 0.1f) {
+    in.mouse = at(0.26f + 0.25f * (t - 0.26f) / 0.5f, t);
+    frameWith(in);
+  }
+  in.mouse = at(0.51f, 0.76f);
+  frameWith(in);
+  in.down = false;
+  frameWith(in);
+  // 0.26..0.51 of 64 columns = 16.6..32.6 -> x 16, w 17; 0.26..0.76 of 32 rows = 8.3..24.3 -> y 8, h 17.
+  EXPECT_EQ(v.crop.x, 16);
+  EXPECT_EQ(v.crop.w, 17);
+  EXPECT_EQ(v.crop.y, 8);
+  EXPECT_EQ(v.crop.h, 17);
+  EXPECT_NEAR(v.center.x, 0.5f, 1e-6f) << "no pan";
+  // The Crops tab comes up with the crops (rendered without failing).
+  in.shift = false;
+  frameWith(in);
+  frameWith(in);
+  auto crops = studio->buildCrops(v.crop, Component::Indirect, nullptr);
+  ASSERT_EQ(crops.size(), 9u);
+  EXPECT_EQ(crops[1].image.width, 17);
+  // Shift+click clears it.
+  in.shift = true;
+  in.mouse = at(0.5f, 0.5f);
+  frameWith(in);
+  in.down = true;
+  frameWith(in);
+  in.down = false;
+  frameWith(in);
+  EXPECT_TRUE(v.crop.empty());
+}
+
+// The last session: saved and read back field for field; a corrupt file,
+// a wrong type or an invalid value is a warning and changes nothing.
+TEST(LastSession, RoundTripAndCorruptFiles) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-test";
+  std::filesystem::remove_all(dir);
+  const std::string path = dir + "/sub/last-session.json";
+  StudioSettings s;
+  s.scene = "/some/scene.gltf";
+  s.many.lights = 1234;
+  s.many.width = 77;
+  s.many.radiusScale = 0.5f;
+  s.many.clamp = INFINITY;
+  s.maxReferenceSpp = 99;
+  ui::ViewState v;
+  v.mode = ui::ViewMode::Wipe;
+  v.panels[0] = ui::Source::VplDiffuse;
+  v.exposure = 1.5f;
+  std::string err;
+  ASSERT_TRUE(ui::saveLastSession(path, s, v, &err)) << err;
+  StudioSettings r;
+  ui::ViewState rv;
+  std::string warning;
+  ASSERT_TRUE(ui::loadLastSession(path, &r, &rv, &warning)) << warning;
+  EXPECT_EQ(r.scene, s.scene);
+  EXPECT_EQ(r.many.lights, 1234u);
+  EXPECT_EQ(r.many.width, 77);
+  EXPECT_EQ(r.many.radiusScale, 0.5f);
+  EXPECT_TRUE(std::isinf(r.many.clamp));
+  EXPECT_EQ(r.maxReferenceSpp, 99);
+  EXPECT_EQ(rv.mode, ui::ViewMode::Wipe);
+  EXPECT_EQ(rv.panels[0], ui::Source::VplDiffuse);
+  EXPECT_EQ(rv.exposure, 1.5f);
+
+  // Nothing saved: false without a warning.
+  StudioSettings d;
+  ui::ViewState dv;
+  EXPECT_FALSE(ui::loadLastSession(dir + "/none.json", &d, &dv, &warning));
+  EXPECT_TRUE(warning.empty());
+  for (const char* bad :
+       {"{\"scene\": \"x.gltf\", \"settings\": {\"lights\": ", "[1, 2]", "", "{\"scene\": 3}",
+        "{\"settings\": {\"lights\": \"many\"}}", "{\"scene\": \"x.gltf\", \"settings\": {\"lights\": 0}}",
+        "{\"scene\": \"x.gltf\", \"view\": {\"mode\": 9}}"}) {
+    std::ofstream(path, std::ios::trunc) << bad;
+    StudioSettings before;
+    before.scene = "kept.gltf";
+    StudioSettings got = before;
+    ui::ViewState gv;
+    EXPECT_FALSE(ui::loadLastSession(path, &got, &gv, &warning)) << bad;
+    EXPECT_NE(warning.find("starting with the defaults"), std::string::npos) << bad << ": " << warning;
+    EXPECT_EQ(got.scene, "kept.gltf");
+    EXPECT_EQ(got.many.lights, before.many.lights);
+    EXPECT_EQ(gv.mode, ui::ViewState().mode);
+  }
 }

@@ -1,5 +1,6 @@
 // Sections: [1] set-up  [2] snapshots and textures  [3] controls  [4] views
-//           [5] metrics and plot  [6] log  [7] export
+//           [5] metrics and plot  [6] log  [7] export  [8] crop insets
+//           [9] the last session
 #include "ui/studio.h"
 
 #include <imgui_stdlib.h>
@@ -7,10 +8,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <thread>
 
 #include "core/image_io.h"
@@ -41,6 +45,28 @@ const char* sourceName(Source s) {
       break;
   }
   return "?";
+}
+
+std::string sourceSlug(Source s) {
+  switch (s) {
+    case Source::Vsl:
+      return "vsl";
+    case Source::Vpl:
+      return "vpl-clamped";
+    case Source::Reference:
+      return "reference";
+    case Source::VplUnclamped:
+      return "vpl-unclamped";
+    case Source::VplDiffuse:
+      return "vpl-diffuse";
+    case Source::LostClamping:
+      return "lost-to-clamping";
+    case Source::LostDiffuse:
+      return "lost-to-diffuse";
+    case Source::Count:
+      break;
+  }
+  return "image";
 }
 
 std::string panelTitle(Source s, Component c) {
@@ -343,12 +369,20 @@ void Studio::frame() {
                     ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse);
   viewsPanel();
   ImGui::EndChild();
+  // A new crop (drawn, or given on the command line) brings up the Crops tab.
+  if (!cropDragging_ && !view_.crop.empty() && !(view_.crop == shownCrop_)) cropMade_ = true;
+  if (!cropDragging_) shownCrop_ = view_.crop;
   ImGui::BeginChild("bottom", ImVec2(0, 0), true);
   if (ImGui::BeginTabBar("tabs")) {
     if (ImGui::BeginTabItem("Metrics")) {
       metricsPanel();
       ImGui::EndTabItem();
     }
+    if (ImGui::BeginTabItem("Crops", nullptr, cropMade_ ? ImGuiTabItemFlags_SetSelected : 0)) {
+      cropsPanel();
+      ImGui::EndTabItem();
+    }
+    cropMade_ = false;
     if (ImGui::BeginTabItem("Log")) {
       logPanel();
       ImGui::EndTabItem();
@@ -512,7 +546,7 @@ void Studio::controlsPanel() {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
   ImGui::SameLine();
   if (ImGui::Button("Reset to defaults")) {
-    StudioSettings d = options_.settings;
+    StudioSettings d = options_.defaults ? *options_.defaults : options_.settings;
     d.scene = settings_.scene;
     applySettings(d);
   }
@@ -553,6 +587,15 @@ void Studio::controlsPanel() {
   if (ImGui::Button("Fit")) view_.zoom = 1, view_.center = ImVec2(0.5f, 0.5f);
   ImGui::SameLine();
   ImGui::TextDisabled("zoom %.2fx (wheel), pan (drag)", view_.zoom);
+  ImGui::Checkbox("crop tool", &view_.cropTool);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("On: a drag on an image draws the crop rectangle. Off: Shift+drag does; Shift+click clears it.");
+  ImGui::SameLine();
+  ImGui::TextDisabled(view_.cropTool ? "drag: crop inset" : "Shift+drag: crop inset");
+  if (!view_.crop.empty()) {
+    ImGui::SameLine();
+    if (ImGui::SmallButton("clear")) view_.crop = {};
+  }
 
   sectionTitle("Export");
   ImGui::SetNextItemWidth(-1);
@@ -734,6 +777,7 @@ void Studio::viewsPanel() {
                   (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
     }
   }
+  drawCropOutline(dl);
   if (ImGui::IsItemHovered()) probe(ImGui::GetIO().MousePos);
   if (maps) {
     ImGui::SetCursorScreenPos(ImVec2(origin.x, origin.y + labelH + h + 6));
@@ -765,15 +809,47 @@ void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float pa
     }
     view_.zoom = zoom;
   }
-  if (ImGui::IsItemActivated())
-    wipeGrabbed_ = view_.mode == ViewMode::Wipe && std::abs(io.MouseClickedPos[0].x - splitX) < 16;
-  if (ImGui::IsItemActive() && wipeGrabbed_) {
+  // The panel under a screen point (-1: none), and the image point there in pixels.
+  auto panelAt = [&](const ImVec2& m) {
+    for (int i = 0; i < n; ++i)
+      if (m.x >= imageX0(i) && m.x < imageX0(i) + w && m.y >= origin.y + labelH && m.y < origin.y + labelH + h)
+        return i;
+    return -1;
+  };
+  auto toPixel = [&](const ImVec2& m, int i) {
+    const float half = 0.5f / view_.zoom;
+    float u = view_.center.x - half + (m.x - imageX0(i)) / w * 2 * half;
+    float v = view_.center.y - half + (m.y - origin.y - labelH) / h * 2 * half;
+    return ImVec2(std::clamp(u, 0.0f, 1.0f) * float(snap_->width), std::clamp(v, 0.0f, 1.0f) * float(snap_->height));
+  };
+  if (ImGui::IsItemActivated()) {
+    cropDragging_ = (io.KeyShift || view_.cropTool) && panelAt(io.MouseClickedPos[0]) >= 0;
+    wipeGrabbed_ = !cropDragging_ && view_.mode == ViewMode::Wipe && std::abs(io.MouseClickedPos[0].x - splitX) < 16;
+  }
+  if (ImGui::IsItemActive() && cropDragging_) {
+    // The rectangle covers every pixel the drag touches, on the panel it began in.
+    const int i = panelAt(io.MouseClickedPos[0]);
+    ImVec2 a = toPixel(io.MouseClickedPos[0], i), b = toPixel(io.MousePos, i);
+    CropRect r;
+    r.x = int(std::floor(std::min(a.x, b.x))), r.y = int(std::floor(std::min(a.y, b.y)));
+    r.w = std::min(int(std::ceil(std::max(a.x, b.x))), snap_->width) - r.x;
+    r.h = std::min(int(std::ceil(std::max(a.y, b.y))), snap_->height) - r.y;
+    r.imageW = snap_->width, r.imageH = snap_->height;
+    view_.crop = r;
+  } else if (ImGui::IsItemActive() && wipeGrabbed_) {
     view_.wipe = std::clamp((io.MousePos.x - imageX0(0)) / w, 0.0f, 1.0f);
   } else if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
     view_.center.x -= io.MouseDelta.x / w / view_.zoom;
     view_.center.y -= io.MouseDelta.y / h / view_.zoom;
   }
-  if (!ImGui::IsItemActive()) wipeGrabbed_ = false;
+  if (!ImGui::IsItemActive()) {
+    if (cropDragging_) {
+      // A click without a drag (under 2 pixels a side) clears the crop.
+      if (view_.crop.w < 2 || view_.crop.h < 2) view_.crop = {};
+      cropDragging_ = false;
+    }
+    wipeGrabbed_ = false;
+  }
   if (view_.mode == ViewMode::Wipe && (wipeGrabbed_ || (hovered && std::abs(io.MousePos.x - splitX) < 16)))
     ImGui::SetMouseCursor(ImGuiMouseCursor_ResizeEW);
   const float half = 0.5f / view_.zoom;
@@ -1097,28 +1173,6 @@ void Studio::afterRender(int fbWidth, int fbHeight) {
 
 namespace {
 
-std::string slug(Source s) {
-  switch (s) {
-    case Source::Vsl:
-      return "vsl";
-    case Source::Vpl:
-      return "vpl-clamped";
-    case Source::Reference:
-      return "reference";
-    case Source::VplUnclamped:
-      return "vpl-unclamped";
-    case Source::VplDiffuse:
-      return "vpl-diffuse";
-    case Source::LostClamping:
-      return "lost-to-clamping";
-    case Source::LostDiffuse:
-      return "lost-to-diffuse";
-    case Source::Count:
-      break;
-  }
-  return "image";
-}
-
 const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
 
 // Per-pixel error of test against ref under a metric, averaged over the
@@ -1260,7 +1314,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   for (int i = 0; i < int(Source::Count); ++i) {
     Image scratch;
     const Image* img = componentImage(Source(i), view_.component, scratch);
-    std::string name = slug(Source(i)) + "-" + comp + ".png";
+    std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
     if (!writePng(path(name), *img, view_.exposure, &err)) return fail(err);
     files.push_back(path(name));
   }
@@ -1279,9 +1333,17 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   for (size_t i = 0; i < maps.size(); ++i) {
     int rows = 0;
     std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
-    std::string name = "error-" + slug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
+    std::string name =
+        "error-" + sourceSlug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
     if (!writePngRgb8(path(name), s.width, rows, px, &err)) return fail(err);
     files.push_back(path(name));
+  }
+
+  nlohmann::json cropJson = nullptr;
+  if (!view_.crop.empty()) {
+    Image full;
+    const Image* refFull = referenceImage(view_.component, full);
+    if (!exportCrops(folder.string(), *refFull, &cropJson, &files, &err)) return fail(err);
   }
 
   nlohmann::json metrics;
@@ -1353,12 +1415,472 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                         {"errorMapMax", vmax}}},
                       {"metricsAgainstReference", metrics},
                       {"relMseEpsilon", kEps},
+                      {"crop", cropJson},
                       {"errorHistory", hist}};
   if (!writeTextFile(path("metrics.json"), j.dump(2) + "\n", &err)) return fail(err);
   files.push_back(path("metrics.json"));
   if (written) *written = files;
   if (folderOut) *folderOut = folder.string();
   log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
+  return true;
+}
+
+}  // namespace vsl::ui
+
+namespace vsl::ui {
+
+// ---- [8] Crop insets -------------------------------------------------------------------
+
+CropRect CropRect::resolved(int width, int height) const {
+  CropRect r = *this;
+  if (imageW > 0 && imageH > 0 && (imageW != width || imageH != height)) {
+    // Made on an image of another size: the same part of the picture.
+    const double sx = double(width) / imageW, sy = double(height) / imageH;
+    r.x = int(std::floor(x * sx)), r.y = int(std::floor(y * sy));
+    r.w = std::max(1, int(std::lround(w * sx))), r.h = std::max(1, int(std::lround(h * sy)));
+  }
+  const int x1 = std::min(r.x + r.w, width), y1 = std::min(r.y + r.h, height);
+  r.x = std::max(r.x, 0), r.y = std::max(r.y, 0);
+  r.w = std::max(0, x1 - r.x), r.h = std::max(0, y1 - r.y);
+  r.imageW = width, r.imageH = height;
+  return r;
+}
+
+Image cropImage(const Image& img, const CropRect& r) {
+  Image out(r.w, r.h);
+  for (int y = 0; y < r.h; ++y)
+    for (int x = 0; x < r.w; ++x) out.set(x, y, img.at(r.x + x, r.y + y));
+  return out;
+}
+
+int cropMagnification(const CropRect& r) { return std::clamp(256 / std::max({r.w, r.h, 1}), 1, 32); }
+
+std::vector<Studio::CropItem> Studio::buildCrops(const CropRect& rect, Component c, float* errorMax) const {
+  std::vector<CropItem> out, maps;
+  if (!snap_ || snap_->width == 0) return out;
+  const CropRect r = rect.resolved(snap_->width, snap_->height);
+  if (r.empty()) return out;
+  Image refScratch;
+  const Image* ref = referenceImage(c, refScratch);
+  CropItem refItem{Source::Reference, false, cropImage(*ref, r), false, {}};
+  out.push_back(refItem);
+  // Each method's crop against the reference's crop; its error map is cut
+  // from the full map, whose 99th percentile sets the shared colour scale
+  // (as in the exported full-size maps).
+  float autoMax = 0;
+  for (Source m : kMetricSources) {
+    Image scratch;
+    const Image* img = componentImage(m, c, scratch);
+    CropItem item{m, false, cropImage(*img, r), true, {}};
+    item.metrics = compareImages(item.image, refItem.image);
+    Image full = errorMap(*img, *ref, view_.metric);
+    autoMax = std::max(autoMax, percentile99(full));
+    maps.push_back({m, true, cropImage(full, r), true, item.metrics});
+    out.push_back(std::move(item));
+  }
+  if (errorMax) *errorMax = view_.errorScale > 0 ? view_.errorScale : autoMax > 0 ? autoMax : 1.0f;
+  for (CropItem& m : maps) out.push_back(std::move(m));
+  return out;
+}
+
+void Studio::updateCrops() {
+  if (cropDragging_) return;  // rebuilt once the rectangle is let go
+  const bool same = cropsFor_ == snap_.get() && cropsView_.component == view_.component &&
+                    cropsView_.metric == view_.metric && cropsView_.errorScale == view_.errorScale &&
+                    cropsView_.crop == view_.crop;
+  if (same) return;
+  cropsFor_ = snap_.get();
+  cropsView_ = view_;
+  crops_ = buildCrops(view_.crop, view_.component, &cropErrorMax_);
+  for (size_t i = 0; i < crops_.size() && i < std::size(cropTextures_); ++i) cropTextures_[i].upload(crops_[i].image);
+}
+
+// The crop rectangle on every drawn image (clipped to it).
+void Studio::drawCropOutline(ImDrawList* dl) {
+  if (view_.crop.empty() || !snap_) return;
+  const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
+  if (r.empty()) return;
+  for (const DrawnImage& d : drawn_) {
+    auto screen = [&](float px, float py) {
+      float u = px / float(snap_->width), v = py / float(snap_->height);
+      return ImVec2(d.p0.x + (u - d.uv0.x) / (d.uv1.x - d.uv0.x) * (d.p1.x - d.p0.x),
+                    d.p0.y + (v - d.uv0.y) / (d.uv1.y - d.uv0.y) * (d.p1.y - d.p0.y));
+    };
+    dl->PushClipRect(d.p0, d.p1, true);
+    dl->AddRect(screen(float(r.x), float(r.y)), screen(float(r.x + r.w), float(r.y + r.h)), IM_COL32(255, 210, 0, 255),
+                0, 0, 2.0f);
+    dl->PopClipRect();
+  }
+}
+
+// Every image's crop, magnified to a common height, with its metrics: the
+// relMSE of the method's crop against the reference's crop.
+void Studio::cropsPanel() {
+  updateCrops();
+  if (view_.crop.empty() || crops_.empty()) {
+    ImGui::TextWrapped(
+        "No crop inset yet. Shift+drag a rectangle on an image (or tick \"crop tool\" under View and drag): every "
+        "image and error map is shown here magnified, with the crop's own metrics, and exports include the crops "
+        "and a crop figure. Shift+click clears it.");
+    return;
+  }
+  const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
+  ImGui::Text("crop x %d  y %d  %d x %d px of %d x %d  |  %s component  |  exports magnify %dx", r.x, r.y, r.w, r.h,
+              snap_->width, snap_->height, componentName(view_.component), cropMagnification(r));
+  ImGui::SameLine();
+  if (ImGui::SmallButton("Clear crop")) {
+    view_.crop = {};
+    return;
+  }
+  ImGui::BeginChild("cropstrip", ImVec2(0, 0), false, ImGuiWindowFlags_HorizontalScrollbar);
+  const float line = ImGui::GetTextLineHeightWithSpacing();
+  // As tall as the tab allows, narrow enough that every tile fits across
+  // (a scroll bar only when that would make them smaller than 64 px).
+  const float gap = 10, n = float(std::min(crops_.size(), std::size(cropTextures_)));
+  const float aspect = float(r.w) / float(r.h);
+  float th = std::max(48.0f, ImGui::GetContentRegionAvail().y - 2 * line - 14);
+  float tw = std::min({th * aspect, 260.0f, (ImGui::GetContentRegionAvail().x - gap * (n - 1)) / n});
+  tw = std::max(tw, std::min(64.0f, th * aspect));
+  th = tw / aspect;
+  for (size_t i = 0; i < crops_.size() && i < std::size(cropTextures_); ++i) {
+    const CropItem& c = crops_[i];
+    if (i > 0) ImGui::SameLine(0, gap);
+    ImGui::BeginGroup();
+    // The title is clipped to the tile (the full name in a tooltip).
+    std::string title = c.error ? std::string("error ") + sourceName(c.source) : sourceName(c.source);
+    ImVec2 p = ImGui::GetCursorScreenPos();
+    const ImVec4 clip(p.x, p.y, p.x + tw, p.y + line);
+    ImGui::GetWindowDrawList()->AddText(ImGui::GetFont(), ImGui::GetFontSize(), p, ImGui::GetColorU32(ImGuiCol_Text),
+                                        title.c_str(), nullptr, 0.0f, &clip);
+    ImGui::Dummy(ImVec2(tw, ImGui::GetTextLineHeight()));
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", title.c_str());
+    p = ImGui::GetCursorScreenPos();
+    DisplayParams dp;
+    if (c.error)
+      dp.mode = DisplayMode::FalseColour, dp.scale = 1.0f / std::max(cropErrorMax_, 1e-12f);
+    else
+      dp.scale = std::exp2(view_.exposure);
+    drawImage(ImGui::GetWindowDrawList(), cropTextures_[i], p, ImVec2(p.x + tw, p.y + th), ImVec2(0, 0), ImVec2(1, 1),
+              dp);
+    ImGui::Dummy(ImVec2(tw, th));
+    if (c.error) {
+      ImGui::TextDisabled("0 .. %.3g", cropErrorMax_);
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("%s per pixel; the colour map's range (shared by every error map)",
+                          kMetricNames[int(view_.metric)]);
+    } else if (c.hasMetrics) {
+      ImGui::Text("relMSE %.3g", c.metrics.average.relMse);
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip(
+            "This crop against the reference's crop (%s, eps %.2g):\nmean %.5g (reference %.5g)\nRMSE "
+            "%.4g\nMAE %.4g\nbias %+.4g",
+            componentName(view_.component), c.metrics.epsilon, c.metrics.average.meanTest, c.metrics.average.meanRef,
+            c.metrics.average.rmse, c.metrics.average.mae, c.metrics.average.bias);
+    } else {
+      ImGui::Text("mean %.3g", crops_[1].metrics.average.meanRef);
+    }
+    ImGui::EndGroup();
+  }
+  ImGui::EndChild();
+}
+
+namespace {
+
+// 8-bit RGB pictures for the crop files and figure.
+struct Rgb8 {
+  int w = 0, h = 0;
+  std::vector<uint8_t> px;
+  Rgb8(int width, int height, uint8_t fill = 20) : w(width), h(height), px(size_t(width) * height * 3, fill) {}
+  uint8_t* at(int x, int y) { return &px[(size_t(y) * w + x) * 3]; }
+  const uint8_t* at(int x, int y) const { return &px[(size_t(y) * w + x) * 3]; }
+};
+
+Rgb8 toneMapped(const Image& img, float exposure) {
+  Rgb8 out(img.width, img.height);
+  const float s = std::exp2(exposure);
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      Vec3 v = img.at(x, y) * s;
+      uint8_t* q = out.at(x, y);
+      q[0] = toSrgb8(v.x), q[1] = toSrgb8(v.y), q[2] = toSrgb8(v.z);
+    }
+  return out;
+}
+
+Rgb8 falseColoured(const Image& map, float vmax) {
+  Rgb8 out(map.width, map.height);
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x) {
+      Vec3 m = map.at(x, y);
+      Vec3 c = falseColour((m.x + m.y + m.z) / 3 / std::max(vmax, 1e-12f));
+      uint8_t* q = out.at(x, y);
+      q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
+      q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
+      q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
+    }
+  return out;
+}
+
+// Nearest neighbour: every pixel becomes an f x f block.
+Rgb8 magnified(const Rgb8& in, int f) {
+  Rgb8 out(in.w * f, in.h * f);
+  for (int y = 0; y < out.h; ++y)
+    for (int x = 0; x < out.w; ++x) std::copy_n(in.at(x / f, y / f), 3, out.at(x, y));
+  return out;
+}
+
+void blit(Rgb8& dst, const Rgb8& src, int x0, int y0) {
+  for (int y = 0; y < src.h; ++y)
+    for (int x = 0; x < src.w; ++x)
+      if (x0 + x < dst.w && y0 + y < dst.h) std::copy_n(src.at(x, y), 3, dst.at(x0 + x, y0 + y));
+}
+
+// A frame `t` pixels wide just outside the rectangle (inside where it meets
+// the image's border).
+void outline(Rgb8& img, const CropRect& r, int t) {
+  const int x0 = std::max(r.x - t, 0), y0 = std::max(r.y - t, 0);
+  const int x1 = std::min(r.x + r.w + t, img.w), y1 = std::min(r.y + r.h + t, img.h);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const bool inside = x >= std::max(r.x, t) && x < std::min(r.x + r.w, img.w - t) && y >= std::max(r.y, t) &&
+                          y < std::min(r.y + r.h, img.h - t);
+      if (inside) continue;
+      uint8_t* q = img.at(x, y);
+      q[0] = 255, q[1] = 210, q[2] = 0;
+    }
+}
+
+}  // namespace
+
+// Writes crop-<image>-<component>.png (each image and error map, magnified
+// by an integer factor, nearest neighbour) and crop-figure-<component>.png
+// (the reference with the rectangle outlined, then the crops side by side:
+// top row the reference and the methods, bottom row the methods' error
+// maps; at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
+// *out.
+bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
+                         std::vector<std::string>* files, std::string* error) const {
+  const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
+  if (r.empty()) {
+    *error = "crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
+             std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
+             std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image";
+    return false;
+  }
+  if (r.w != view_.crop.w || r.h != view_.crop.h)
+    log::warning("crop clipped to the image: " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
+                 std::to_string(r.w) + "," + std::to_string(r.h));
+  float vmax = 1;
+  std::vector<CropItem> items = buildCrops(r, view_.component, &vmax);
+  const int f = cropMagnification(r);
+  const char* comp = componentName(view_.component);
+  const std::string metricSlug = kMetricSlugs[int(view_.metric)];
+  std::vector<Rgb8> tiles;
+  nlohmann::json names = nlohmann::json::object();
+  for (const CropItem& c : items) {
+    tiles.push_back(c.error ? falseColoured(c.image, vmax) : toneMapped(c.image, view_.exposure));
+    std::string name = c.error ? "crop-error-" + sourceSlug(c.source) + "-" + metricSlug + "-" + comp + ".png"
+                               : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
+    Rgb8 big = magnified(tiles.back(), f);
+    const std::string path = (std::filesystem::path(folder) / name).string();
+    if (!writePngRgb8(path, big.w, big.h, big.px, error)) return false;
+    files->push_back(path);
+    names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
+  }
+  // The figure: the reference magnified `scale` times (at least 512 pixels
+  // tall, at most 8x), and beside it the crops at the largest integer factor
+  // that fits two rows in that height (at least 1x).
+  const int gap = 8, scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
+  const int fullW = full.width * scale, fullH = full.height * scale;
+  const int fig = std::max(1, (fullH - gap) / (2 * r.h));
+  const int cw = r.w * fig, ch = r.h * fig, columns = 1 + int(std::size(kMetricSources));
+  Rgb8 figure(fullW + gap + columns * (cw + gap), std::max(fullH, 2 * ch + gap));
+  Rgb8 whole = toneMapped(full, view_.exposure);
+  outline(whole, r, scale > 1 ? 1 : 2);
+  blit(figure, magnified(whole, scale), 0, 0);
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
+    blit(figure, magnified(tiles[i], fig), fullW + gap + col * (cw + gap), row * (ch + gap));
+  }
+  const std::string figName = std::string("crop-figure-") + comp + ".png";
+  const std::string figPath = (std::filesystem::path(folder) / figName).string();
+  if (!writePngRgb8(figPath, figure.w, figure.h, figure.px, error)) return false;
+  files->push_back(figPath);
+
+  // The crops' metrics for the full and indirect components (as the whole
+  // image's), each method's crop against the reference's crop.
+  nlohmann::json metrics;
+  for (Component c : {Component::Full, Component::Indirect}) {
+    for (const CropItem& item : buildCrops(r, c, nullptr)) {
+      if (!item.hasMetrics || item.error) continue;
+      const ChannelMetrics& a = item.metrics.average;
+      metrics[sourceName(item.source)][componentName(c)] = {
+          {"mean", a.meanTest}, {"meanReference", a.meanRef}, {"rmse", a.rmse}, {"relMSE", a.relMse}};
+    }
+  }
+  *out = {{"x", r.x},
+          {"y", r.y},
+          {"width", r.w},
+          {"height", r.h},
+          {"imageWidth", snap_->width},
+          {"imageHeight", snap_->height},
+          {"magnification", f},
+          {"component", comp},
+          {"errorMetric", kMetricNames[int(view_.metric)]},
+          {"errorMapMax", vmax},
+          {"files", names},
+          {"figure", figName},
+          {"figureMagnification", fig},
+          {"figureScale", scale},
+          {"figureLayout",
+           "left: the reference (magnified figureScale times) with the crop outlined; right, magnified "
+           "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
+           "bottom row: the methods' error maps"},
+          {"metricsAgainstReferenceCrop", metrics}};
+  return true;
+}
+
+}  // namespace vsl::ui
+
+namespace vsl::ui {
+
+// ---- [9] The last session ---------------------------------------------------------------
+
+std::string lastSessionPath() {
+  std::filesystem::path base;
+  // The XDG spec: a relative XDG_CONFIG_HOME is invalid and ignored.
+  const char* xdg = std::getenv("XDG_CONFIG_HOME");
+  const char* home = std::getenv("HOME");
+  if (xdg && *xdg && std::filesystem::path(xdg).is_absolute())
+    base = xdg;
+  else if (home && *home)
+    base = std::filesystem::path(home) / ".config";
+  else
+    return "";
+  return (base / "vsl-studio" / "last-session.json").string();
+}
+
+bool saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v, std::string* error) {
+  const ManyLightSettings& m = s.many;
+  nlohmann::json j = {{"version", 1},
+                      {"scene", std::filesystem::absolute(s.scene).lexically_normal().string()},
+                      {"settings",
+                       {{"lights", m.lights},
+                        {"seed", m.seed},
+                        {"width", m.width},
+                        {"height", m.height},
+                        {"batches", m.batches},
+                        {"directSamples", m.directSamples},
+                        {"lightMaxDepth", m.lightMaxDepth},
+                        {"radiusScale", m.radiusScale},
+                        {"knn", m.knn},
+                        {"globalRadius", m.globalRadius},
+                        {"vslSamples", m.vslSamples},
+                        {"clippedDisk", m.clippedDisk},
+                        {"lobeRadius", m.lobeRadius},
+                        {"continueAlpha", m.continueAlpha},
+                        // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
+                        {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
+                        {"diffuseOnly", m.diffuseOnly},
+                        {"maxReferenceSpp", s.maxReferenceSpp}}},
+                      {"view",
+                       {{"mode", int(v.mode)},
+                        {"panels", {int(v.panels[0]), int(v.panels[1]), int(v.panels[2])}},
+                        {"component", int(v.component)},
+                        {"display", int(v.display)},
+                        {"metric", int(v.metric)},
+                        {"exposure", v.exposure},
+                        {"errorScale", v.errorScale}}}};
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
+  if (ec) {
+    *error =
+        std::filesystem::path(path).parent_path().string() + ": cannot create the directory (" + ec.message() + ")";
+    return false;
+  }
+  return writeTextFile(path, j.dump(2) + "\n", error);
+}
+
+namespace {
+// Reads key into *out when present; a value of the wrong type throws.
+template <typename T>
+void readField(const nlohmann::json& j, const char* key, T* out) {
+  if (j.contains(key)) *out = j.at(key).get<T>();
+}
+template <typename E>
+void readEnum(const nlohmann::json& j, const char* key, E* out, int count) {
+  int v = int(*out);
+  readField(j, key, &v);
+  if (v < 0 || v >= count) throw std::out_of_range(std::string(key) + " out of range");
+  *out = E(v);
+}
+}  // namespace
+
+bool loadLastSession(const std::string& path, StudioSettings* settings, ViewState* view, std::string* warning) {
+  warning->clear();
+  std::error_code ec;
+  if (path.empty() || !std::filesystem::exists(path, ec)) return false;
+  auto refuse = [&](const std::string& why) {
+    *warning = path + ": " + why + "; starting with the defaults";
+    return false;
+  };
+  if (!std::filesystem::is_regular_file(path, ec)) return refuse("not a regular file");
+  if (std::filesystem::file_size(path, ec) > (1 << 20)) return refuse("larger than 1 MiB");
+  std::ifstream in(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) return refuse("cannot be read");
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return refuse("not a valid last-session file (corrupt JSON)");
+  StudioSettings s = *settings;
+  ViewState v = *view;
+  try {
+    readField(j, "scene", &s.scene);
+    const nlohmann::json& js = j.contains("settings") ? j.at("settings") : nlohmann::json::object();
+    ManyLightSettings& m = s.many;
+    readField(js, "lights", &m.lights);
+    readField(js, "seed", &m.seed);
+    readField(js, "width", &m.width);
+    readField(js, "height", &m.height);
+    readField(js, "batches", &m.batches);
+    readField(js, "directSamples", &m.directSamples);
+    readField(js, "lightMaxDepth", &m.lightMaxDepth);
+    readField(js, "radiusScale", &m.radiusScale);
+    readField(js, "knn", &m.knn);
+    readField(js, "globalRadius", &m.globalRadius);
+    readField(js, "vslSamples", &m.vslSamples);
+    readField(js, "clippedDisk", &m.clippedDisk);
+    readField(js, "lobeRadius", &m.lobeRadius);
+    readField(js, "continueAlpha", &m.continueAlpha);
+    if (js.contains("clamp"))
+      m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
+    readField(js, "diffuseOnly", &m.diffuseOnly);
+    readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
+    if (j.contains("view")) {
+      const nlohmann::json& jv = j.at("view");
+      readEnum(jv, "mode", &v.mode, 4);
+      readEnum(jv, "component", &v.component, 3);
+      readEnum(jv, "display", &v.display, 3);
+      readEnum(jv, "metric", &v.metric, 4);
+      readField(jv, "exposure", &v.exposure);
+      readField(jv, "errorScale", &v.errorScale);
+      if (jv.contains("panels")) {
+        const nlohmann::json& p = jv.at("panels");
+        if (!p.is_array() || p.size() != 3) throw std::out_of_range("panels must be three images");
+        for (int i = 0; i < 3; ++i) {
+          int k = p.at(size_t(i)).get<int>();
+          if (k < 0 || k >= int(Source::Count)) throw std::out_of_range("panels out of range");
+          v.panels[i] = Source(k);
+        }
+      }
+      if (!std::isfinite(v.exposure) || !std::isfinite(v.errorScale))
+        throw std::out_of_range("exposure and map maximum must be finite");
+    }
+  } catch (const std::exception& e) {
+    return refuse(std::string("a value of the wrong type or out of range (") + e.what() + ")");
+  }
+  if (std::string e = s.validate(); !e.empty()) return refuse("invalid settings (" + e + ")");
+  *settings = s;
+  *view = v;
   return true;
 }
 

@@ -8,8 +8,11 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "core/compare.h"
 #include "core/math.h"
@@ -25,8 +28,29 @@ enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSqua
 enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
 
 const char* sourceName(Source s);
+// "vsl", "vpl-clamped", "reference", ...: file names and JSON keys.
+std::string sourceSlug(Source s);
 // "VSL (indirect)": the source's name and the component it shows.
 std::string panelTitle(Source s, Component c);
+
+// A crop inset: a rectangle in image pixels (x, y its top-left corner, top
+// row first) of an image imageW x imageH. imageW = 0: of whatever size the
+// render has (the --crop option).
+struct CropRect {
+  int x = 0, y = 0, w = 0, h = 0;
+  int imageW = 0, imageH = 0;
+  bool empty() const { return w <= 0 || h <= 0; }
+  bool operator==(const CropRect&) const = default;
+  // The rectangle for an image of width x height: rescaled when it was made
+  // on an image of another size, then clipped to the image (empty if it
+  // lies outside).
+  CropRect resolved(int width, int height) const;
+};
+// The pixels of img inside r (r must lie inside img).
+Image cropImage(const Image& img, const CropRect& r);
+// The integer factor crops are magnified by in exports (nearest neighbour):
+// the longer side becomes about 256 pixels, between 1x and 32x.
+int cropMagnification(const CropRect& r);
 
 struct StudioOptions {
   std::string scene;                 // initial scene
@@ -34,6 +58,9 @@ struct StudioOptions {
   std::string exportDir = "vsl-export";
   bool startSession = true;  // false: tests inject snapshots
   StudioSettings settings;   // initial render settings (scene is filled in)
+  // What "Reset to defaults" applies (the scene stays); unset: `settings`.
+  // Differs from `settings` when those came back from the last session.
+  std::optional<StudioSettings> defaults;
 };
 
 struct ViewState {
@@ -47,7 +74,23 @@ struct ViewState {
   float wipe = 0.5f;          // split position in [0,1]
   float zoom = 1;             // 1 = fit
   ImVec2 center{0.5f, 0.5f};  // image point at the view centre (UV)
+  CropRect crop;              // the crop inset (empty: none)
+  bool cropTool = false;      // a plain drag makes a crop (Shift+drag always does)
 };
+
+// The last session (scene, render settings and view) is saved on quit and
+// restored on a start without a scene argument. The file is
+// $XDG_CONFIG_HOME/vsl-studio/last-session.json, or ~/.config/... when
+// XDG_CONFIG_HOME is unset; "" when neither is known.
+std::string lastSessionPath();
+// Written atomically (writeTextFile); creates the folder. False and *error on failure.
+bool saveLastSession(const std::string& path, const StudioSettings& settings, const ViewState& view,
+                     std::string* error);
+// Reads the file over *settings and *view (fields it lacks keep their
+// values). False when there is nothing to restore: *warning is "" for a
+// missing file, else the reason (unreadable, corrupt, invalid settings), and
+// *settings and *view are unchanged.
+bool loadLastSession(const std::string& path, StudioSettings* settings, ViewState* view, std::string* warning);
 
 class Studio {
  public:
@@ -87,10 +130,31 @@ class Studio {
   bool panelStale(int i) const;
   // Applies settings as if set in the controls (tests and the command line).
   void applySettings(const StudioSettings& settings);
+  // The settings the session renders now (the last accepted ones).
+  const StudioSettings& acceptedSettings() const { return accepted_; }
+
+  // One crop inset of one image, as shown in the Crops tab and exported:
+  // the image itself, or (error) the per-pixel error map of the method
+  // against the reference under the view's metric. metrics: the crop of the
+  // method against the crop of the reference (methods only).
+  struct CropItem {
+    Source source;
+    bool error = false;
+    Image image;
+    bool hasMetrics = false;
+    CompareResult metrics;
+  };
+  // Crops of the reference, each method and each method's error map, in the
+  // given component, for r resolved against the snapshot. *errorMax: the
+  // error maps' colour-map maximum (the view's, or the largest 99th
+  // percentile of the full maps, as in the exported maps). Empty without a
+  // snapshot or for an empty rectangle.
+  std::vector<CropItem> buildCrops(const CropRect& r, Component c, float* errorMax) const;
 
   std::shared_ptr<const Snapshot> snapshot() const { return snap_; }
   Session* session() { return session_.get(); }
   ViewState& view() { return view_; }
+  const ViewState& view() const { return view_; }
   void setSnapshotForTesting(std::shared_ptr<const Snapshot> s);
 
   // Screen rectangles of the images drawn in the last frame (for tests and
@@ -109,6 +173,11 @@ class Studio {
   void viewsPanel();
   void metricsPanel();
   void logPanel();
+  void cropsPanel();
+  void updateCrops();
+  void drawCropOutline(ImDrawList* dl);
+  bool exportCrops(const std::string& folder, const Image& full, nlohmann::json* out, std::vector<std::string>* files,
+                   std::string* error) const;
   void plotErrors(const ImVec2& size);
   void restart(bool fromScratch = false);
   void pullSnapshot();
@@ -141,6 +210,9 @@ class Studio {
   uint64_t seenRunErrors_ = 0;
   std::string lastControl_ = "width";                  // the control changed last (where a memory refusal is shown)
   bool wipeGrabbed_ = false;                           // the current drag moves the wipe's split line
+  bool cropDragging_ = false;                          // the current drag draws a crop rectangle
+  bool cropMade_ = false;                              // a crop was just made: show the Crops tab
+  CropRect shownCrop_;                                 // the crop the Crops tab was last brought up for
   std::chrono::steady_clock::time_point restartAt_{};  // when a pending settings change restarts
   std::unique_ptr<Session> session_;
   std::shared_ptr<const Snapshot> snap_;
@@ -167,6 +239,13 @@ class Studio {
   Component metricsComponent_ = Component::Full;
   CompareResult metrics_[4];
   double referenceMean_ = 0;
+  // Crop insets of the shown snapshot, rebuilt when it, the component, the
+  // metric or the rectangle change.
+  std::vector<CropItem> crops_;
+  float cropErrorMax_ = 1;
+  FloatTexture cropTextures_[9];
+  const Snapshot* cropsFor_ = nullptr;
+  ViewState cropsView_;
   // Responsiveness, measured on the UI thread.
   std::chrono::steady_clock::time_point created_ = std::chrono::steady_clock::now(), restartedAt_ = created_;
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
