@@ -71,18 +71,18 @@ std::vector<Ray> makeOcclusionRays(const Scene& scene, const Accel& accel, size_
 }  // namespace
 
 int runBench(const std::string& scenePath, double seconds, int size, const std::string& jsonPath) {
-  LoadResult lr = loadScene(scenePath);
-  if (!lr.scene) {
-    std::fprintf(stderr, "error: %s\n", lr.error.c_str());
+  SceneResult loaded = loadScene(scenePath);
+  if (!loaded) {
+    std::fprintf(stderr, "error: %s\n", loaded.error().c_str());
     return 1;
   }
-  const Scene& scene = *lr.scene;
-  std::string err;
-  auto accel = Accel::build(scene, &err);
-  if (!accel) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  const Scene& scene = **loaded;
+  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
+  if (!built) {
+    std::fprintf(stderr, "error: %s\n", built.error().c_str());
     return 1;
   }
+  const std::unique_ptr<Accel>& accel = *built;
   std::vector<Ray> rays = makeOcclusionRays(scene, *accel, 1 << 20);
   if (rays.empty()) {
     std::fprintf(stderr, "error: %s: the camera sees no geometry; nothing to benchmark\n", scenePath.c_str());
@@ -233,8 +233,8 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
                              {"ratioPairsToRawOccluded", g.pairsPerSecond / g.raw},
                              {"ratioShadowRaysToRawOccluded", g.raysPerSecond / g.raw},
                              {"secondsPerBatch", g.seconds}});
-    if (!writeTextFile(jsonPath, j.dump(2) + "\n", &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile(jsonPath, j.dump(2) + "\n"); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
   }

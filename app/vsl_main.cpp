@@ -64,20 +64,20 @@ class Progress {
 std::shared_ptr<const Scene> loadOrReport(const std::string& path, const std::string& camera) {
   LoadOptions opts;
   opts.cameraName = camera;
-  LoadResult r = loadScene(path, opts);
-  if (!r.scene) {
-    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+  SceneResult r = loadScene(path, opts);
+  if (!r) {
+    std::fprintf(stderr, "error: %s\n", r.error().c_str());
     return nullptr;
   }
-  for (const std::string& w : r.scene->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  return r.scene;
+  for (const std::string& w : (*r)->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  return *r;
 }
 
 // Parses --mrcs ROWS,CLUSTERS[,MIX]; reports and returns false when malformed.
 bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
   char tail = 0;
   int n = std::sscanf(spec.c_str(), "%d,%d,%lf%c", &out.rows, &out.clusters, &out.uniformMix, &tail);
-  if ((n == 2 || n == 3) && out.validate().empty()) return true;
+  if ((n == 2 || n == 3) && out.validate()) return true;
   std::fprintf(stderr,
                "error: --mrcs must be ROWS,CLUSTERS with positive integers, optionally ,MIX in [0,1] (got '%s')\n",
                spec.c_str());
@@ -115,8 +115,8 @@ int cmdRender(RenderArgs& a) {
     std::fprintf(stderr, "error: --component must be full, direct or indirect (got '%s')\n", a.component.c_str());
     return 2;
   }
-  if (std::string e = a.settings.validate(); !e.empty()) {
-    std::fprintf(stderr, "error: %s\n", e.c_str());
+  if (Result<void> v = a.settings.validate(); !v) {
+    std::fprintf(stderr, "error: %s\n", v.error().c_str());
     return 2;
   }
   const bool many = a.settings.method != "pt";
@@ -151,8 +151,8 @@ int cmdRender(RenderArgs& a) {
       }
       m.vslSamples = int(n);
     }
-    if (std::string e = m.validate(); !e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
+    if (Result<void> v = m.validate(); !v) {
+      std::fprintf(stderr, "error: %s\n", v.error().c_str());
       return 2;
     }
     if (!a.mrcsSpec.empty() && !parseMrcsSpec(a.mrcsSpec, a.mrcs)) return 2;
@@ -172,12 +172,12 @@ int cmdRender(RenderArgs& a) {
                  a.scene.c_str(), scene->camera.aspect, w0, h0, RenderSettings::kMaxResolution);
     return 2;
   }
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
-  if (!accel) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  if (!built) {
+    std::fprintf(stderr, "error: %s\n", built.error().c_str());
     return 1;
   }
+  const std::unique_ptr<Accel>& accel = *built;
   double loadSeconds = secondsSince(t0);
   if (many) return renderManyLights(a, *scene, *accel, loadSeconds);
   LightSampler lights(*scene);
@@ -213,15 +213,17 @@ int cmdRender(RenderArgs& a) {
                                               {"vsl.scene", a.scene},
                                               {"vsl.settings", s.describe()},
                                               {"vsl.component", componentName(s.component)}};
-  if (!writeExr(a.out, {{"", chosen}, {"full", fImg}, {"direct", dImg}, {"indirect", iImg}}, &err, attrs)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  if (Result<void> written =
+          writeExr(a.out, {{"", chosen}, {"full", fImg}, {"direct", dImg}, {"indirect", iImg}}, attrs);
+      !written) {
+    std::fprintf(stderr, "error: %s\n", written.error().c_str());
     return 1;
   }
   std::fprintf(stderr, "wrote %s (%dx%d, %d spp, layers: default=%s, full, direct, indirect)\n", a.out.c_str(), w, h,
                passes, componentName(s.component));
   if (!a.png.empty()) {
-    if (!writePng(a.png, chosen, a.exposure, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writePng(a.png, chosen, a.exposure); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     std::fprintf(stderr, "wrote %s\n", a.png.c_str());
@@ -252,8 +254,8 @@ int cmdRender(RenderArgs& a) {
               {"nonFiniteRejected", rejected},
               {"mean", {{"full", mean(fImg)}, {"direct", mean(dImg)}, {"indirect", mean(iImg)}}},
               {"warnings", scene->warnings}};
-    if (!writeTextFile(a.jsonPath, j.dump(2) + "\n", &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
@@ -285,8 +287,8 @@ std::string formatSeconds(double s) {
 // writes it to -o and to the cache, and reports its own noise.
 int cmdReference(ReferenceArgs& a) {
   RenderSettings& s = a.settings;
-  if (std::string e = s.validate(); !e.empty()) {
-    std::fprintf(stderr, "error: %s\n", e.c_str());
+  if (Result<void> v = s.validate(); !v) {
+    std::fprintf(stderr, "error: %s\n", v.error().c_str());
     return 2;
   }
   if (!(a.target >= 0) || a.target >= 1e3) {
@@ -652,19 +654,18 @@ int compareMany(const CompareArgs& a, const std::vector<const Image*>& tests, co
 // ---- tonemap ------------------------------------------------------------------
 
 int cmdTonemap(const std::string& in, const std::string& layer, const std::string& out, float exposure) {
-  std::vector<Layer> layers;
-  std::string err;
-  if (!readExr(in, layers, &err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  Result<std::vector<Layer>> layers = readExr(in);
+  if (!layers) {
+    std::fprintf(stderr, "error: %s\n", layers.error().c_str());
     return 1;
   }
-  const Image* img = findLayer(layers, layer, !layer.empty());
+  const Image* img = findLayer(*layers, layer, !layer.empty());
   if (!img) {
     std::fprintf(stderr, "error: %s: no layer '%s'\n", in.c_str(), layer.c_str());
     return 1;
   }
-  if (!writePng(out, *img, exposure, &err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  if (Result<void> written = writePng(out, *img, exposure); !written) {
+    std::fprintf(stderr, "error: %s\n", written.error().c_str());
     return 1;
   }
   std::fprintf(stderr, "wrote %s\n", out.c_str());
@@ -676,12 +677,12 @@ int cmdTonemap(const std::string& in, const std::string& layer, const std::strin
 int cmdInfo(const std::string& path, const std::string& camera) {
   LoadOptions opts;
   opts.cameraName = camera;
-  LoadResult r = loadScene(path, opts);
-  if (!r.scene) {
-    std::fprintf(stderr, "error: %s\n", r.error.c_str());
+  SceneResult r = loadScene(path, opts);
+  if (!r) {
+    std::fprintf(stderr, "error: %s\n", r.error().c_str());
     return 1;
   }
-  const Scene& s = *r.scene;
+  const Scene& s = **r;
   LightSampler lights(s);
   std::printf("scene      %s\n", path.c_str());
   std::printf("triangles  %zu (%zu vertices)\n", s.triangleCount(), s.positions.size());
@@ -730,7 +731,6 @@ int cmdInfo(const std::string& path, const std::string& camera) {
 int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds) {
   const RenderSettings& s = a.settings;
   ManyLightSettings& m = a.many;
-  std::string err;
   LightSampler lights(scene);
   if (lights.empty()) {
     std::fprintf(stderr, "error: %s: the scene has no lights, so there is nothing to trace virtual lights from\n",
@@ -827,8 +827,8 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
                                               {"vsl.method", s.method},
                                               {"vsl.settings", m.describe()},
                                               {"vsl.component", componentName(s.component)}};
-  if (!writeExr(a.out, layers, &err, attrs)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  if (Result<void> written = writeExr(a.out, layers, attrs); !written) {
+    std::fprintf(stderr, "error: %s\n", written.error().c_str());
     return 1;
   }
   std::string names;
@@ -836,8 +836,8 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
     names += (names.empty() ? "" : ", ") + (l.name.empty() ? std::string("default") : l.name);
   std::fprintf(stderr, "wrote %s (%dx%d, %s, layers: %s)\n", a.out.c_str(), w, h, s.method.c_str(), names.c_str());
   if (!a.png.empty()) {
-    if (!writePng(a.png, *chosen, a.exposure, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writePng(a.png, *chosen, a.exposure); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     std::fprintf(stderr, "wrote %s\n", a.png.c_str());
@@ -887,8 +887,8 @@ int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, doub
                 {"lostToDiffuse", mean(im.lostToDiffuse)}}},
               {"warnings", scene.warnings}};
     if (!mrcsJson.is_null()) j["mrcs"] = mrcsJson;
-    if (!writeTextFile(a.jsonPath, j.dump(2) + "\n", &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());

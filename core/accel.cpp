@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "core/check.h"
 #include "core/log.h"
 
 namespace vsl {
@@ -41,14 +42,12 @@ inline void toRTCRay(const Ray& r, RTCRay& out) {
 Accel::Accel() : impl_(std::make_unique<Impl>()) {}
 Accel::~Accel() = default;
 
-std::unique_ptr<Accel> Accel::build(const Scene& scene, std::string* error) {
+Result<std::unique_ptr<Accel>> Accel::build(const Scene& scene) {
   std::unique_ptr<Accel> a(new Accel());
   Impl& I = *a->impl_;
   I.device = rtcNewDevice(nullptr);
   if (!I.device) {
-    if (error)
-      *error = "Embree: cannot create a device (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")";
-    return nullptr;
+    return Error("Embree: cannot create a device (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
   }
   rtcSetDeviceErrorFunction(I.device, embreeError, nullptr);
   I.scene = rtcNewScene(I.device);
@@ -61,8 +60,7 @@ std::unique_ptr<Accel> Accel::build(const Scene& scene, std::string* error) {
       rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
   if (!verts || !idx) {
     rtcReleaseGeometry(geom);
-    if (error) *error = "Embree: cannot allocate geometry buffers (" + std::to_string(nt) + " triangles)";
-    return nullptr;
+    return Error("Embree: cannot allocate geometry buffers (" + std::to_string(nt) + " triangles)");
   }
   for (size_t i = 0; i < nv; ++i) {
     verts[3 * i] = scene.positions[i].x;
@@ -76,10 +74,18 @@ std::unique_ptr<Accel> Accel::build(const Scene& scene, std::string* error) {
   rtcCommitScene(I.scene);
   RTCError err = rtcGetDeviceError(I.device);
   if (err != RTC_ERROR_NONE) {
-    if (error) *error = "Embree: scene build failed (error " + std::to_string(int(err)) + ")";
-    return nullptr;
+    return Error("Embree: scene build failed (error " + std::to_string(int(err)) + ")");
   }
   return a;
+}
+
+std::unique_ptr<Accel> Accel::build(const Scene& scene, std::string* error) {
+  Result<std::unique_ptr<Accel>> r = build(scene);
+  if (!r) {
+    if (error) *error = r.error();
+    return nullptr;
+  }
+  return std::move(r).value();
 }
 
 std::optional<Hit> Accel::intersect(const Ray& ray) const {
@@ -104,6 +110,7 @@ bool Accel::occluded(const Ray& ray) const {
 }
 
 void Accel::occluded(std::span<const Ray> rays, std::span<uint8_t> blocked) const {
+  VSL_CHECK_EQ(blocked.size(), rays.size());
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;

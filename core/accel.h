@@ -8,6 +8,7 @@
 #include <span>
 #include <string>
 
+#include "core/result.h"
 #include "core/scene.h"
 
 namespace vsl {
@@ -20,14 +21,18 @@ struct Hit {
 
 class Accel {
  public:
-  // Builds a BVH over the scene's triangles. Returns null and sets *error on
-  // failure (Embree errors also go to the log).
+  // Builds a BVH over the scene's triangles; on failure an error names the
+  // Embree error (Embree errors also go to the log).
+  static Result<std::unique_ptr<Accel>> build(const Scene& scene);
+  // Compatibility for core/session.cpp and app/sweep.cpp until they use the
+  // above: null and *error on failure.
   static std::unique_ptr<Accel> build(const Scene& scene, std::string* error);
   ~Accel();
 
   std::optional<Hit> intersect(const Ray& ray) const;
   bool occluded(const Ray& ray) const;
-  // Batched occlusion for the gather loops: blocked[i] = 1 if rays[i] hits
+  // Batched occlusion for the gather loops (spans of equal size, VSL_CHECK):
+  // blocked[i] = 1 if rays[i] hits
   // anything in [tMin, tMax]. Coherent batches (many pixels toward one light,
   // or one pixel toward many lights) run fastest.
   void occluded(std::span<const Ray> rays, std::span<uint8_t> blocked) const;

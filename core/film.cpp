@@ -1,5 +1,7 @@
 #include "core/film.h"
 
+#include "core/check.h"
+
 namespace vsl {
 
 Film::Film(int width, int height)
@@ -18,6 +20,10 @@ Film& Film::operator=(const Film& o) {
 }
 
 void Film::add(int x, int y, const Vec3& value, double weight) {
+  VSL_CHECK_GE(x, 0);
+  VSL_CHECK_LT(x, width_);
+  VSL_CHECK_GE(y, 0);
+  VSL_CHECK_LT(y, height_);
   size_t i = size_t(y) * width_ + x;
   if (!(std::isfinite(weight) && weight >= 0)) {
     rejected_.fetch_add(1, std::memory_order_relaxed);
@@ -34,6 +40,7 @@ void Film::add(int x, int y, const Vec3& value, double weight) {
 }
 
 Vec3 Film::pixel(int x, int y) const {
+  VSL_DCHECK(x >= 0 && x < width_ && y >= 0 && y < height_);
   size_t i = size_t(y) * width_ + x;
   double w = weight_[i];
   if (!(w > 0)) return Vec3(0.0f);

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/check.h"
 #include "core/math.h"
 
 namespace vsl {
@@ -19,10 +20,12 @@ struct Image {
   Image() = default;
   Image(int w, int h) : width(w), height(h), rgb(size_t(w) * h * 3, 0.0f) {}
   Vec3 at(int x, int y) const {
+    VSL_DCHECK(x >= 0 && x < width && y >= 0 && y < height);
     const float* p = &rgb[(size_t(y) * width + x) * 3];
     return {p[0], p[1], p[2]};
   }
   void set(int x, int y, const Vec3& v) {
+    VSL_DCHECK(x >= 0 && x < width && y >= 0 && y < height);
     float* p = &rgb[(size_t(y) * width + x) * 3];
     p[0] = v.x, p[1] = v.y, p[2] = v.z;
   }
@@ -37,6 +40,7 @@ class Film {
 
   int width() const { return width_; }
   int height() const { return height_; }
+  // (x, y) must lie inside the film (VSL_CHECK: a bug otherwise, and it aborts).
   void add(int x, int y, const Vec3& value, double weight = 1.0);
   Vec3 pixel(int x, int y) const;  // sum / weight, zero where weight is zero
   double weight(int x, int y) const { return weight_[size_t(y) * width_ + x]; }

@@ -69,28 +69,25 @@ int writeAll(int fd, const char* p, size_t n) {
 }
 
 // Device, FIFO or socket: write through, as `cat > /dev/null` would.
-bool writeThrough(const std::string& path, const char* data, size_t size, std::string* error) {
+Result<void> writeThrough(const std::string& path, const char* data, size_t size) {
   int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NOCTTY);
   if (fd < 0) {
-    if (error) *error = path + ": cannot open for writing (" + errnoText(errno) + ")";
-    return false;
+    return Error(path + ": cannot open for writing (" + errnoText(errno) + ")");
   }
   int e = writeAll(fd, data, size);
   if (::close(fd) != 0 && e == 0 && errno != EINTR) e = errno;
   if (e != 0) {
-    if (error) *error = path + ": cannot write (" + errnoText(e) + ")";
-    return false;
+    return Error(path + ": cannot write (" + errnoText(e) + ")");
   }
-  return true;
+  return {};
 }
 
 // Temporary file, checked writes, fsync, checked close, rename, directory fsync.
-bool writeAndRename(const std::string& path, const char* data, size_t size, std::string* error) {
+Result<void> writeAndRename(const std::string& path, const char* data, size_t size) {
   std::string tmp = temporaryPath(path);
   int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0666);
   if (fd < 0) {
-    if (error) *error = path + ": cannot create a temporary file beside it (" + errnoText(errno) + ")";
-    return false;
+    return Error(path + ": cannot create a temporary file beside it (" + errnoText(errno) + ")");
   }
   const char* step = "cannot write";
   int e = writeAll(fd, data, size);
@@ -100,8 +97,7 @@ bool writeAndRename(const std::string& path, const char* data, size_t size, std:
     e = errno, step = "cannot rename the finished file into place";
   if (e != 0) {
     ::unlink(tmp.c_str());
-    if (error) *error = path + ": " + step + " (" + errnoText(e) + "); any existing file is unchanged";
-    return false;
+    return Error(path + ": " + step + " (" + errnoText(e) + "); any existing file is unchanged");
   }
   // Make the rename itself durable; a failure here loses nothing already there.
   std::string dir = std::filesystem::path(path).parent_path().string();
@@ -110,22 +106,21 @@ bool writeAndRename(const std::string& path, const char* data, size_t size, std:
     ::fsync(dfd);
     ::close(dfd);
   }
-  return true;
+  return {};
 }
 
 }  // namespace
 
-bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error) {
+Result<void> writeFileAtomically(const std::string& path, const void* data, size_t size) {
   const char* bytes = static_cast<const char*>(data);
   // Devices, FIFOs and sockets (also behind links such as /dev/stdout, whose
   // /proc/self/fd/1 may name a pipe) are written through; directories refused.
   struct stat st;
   if (::stat(path.c_str(), &st) == 0) {
     if (S_ISDIR(st.st_mode)) {
-      if (error) *error = path + ": is a directory";
-      return false;
+      return Error(path + ": is a directory");
     }
-    if (!S_ISREG(st.st_mode)) return writeThrough(path, bytes, size, error);
+    if (!S_ISREG(st.st_mode)) return writeThrough(path, bytes, size);
   }
   // A regular file or none: follow symbolic links (also dangling ones) to the
   // file to replace, and keep the links.
@@ -134,12 +129,11 @@ bool writeFileAtomically(const std::string& path, const void* data, size_t size,
     std::error_code ec;
     std::filesystem::path next = std::filesystem::read_symlink(target, ec);
     if (ec || hops >= 40) {
-      if (error) *error = path + ": cannot resolve the symbolic link (" + (ec ? ec.message() : "too many levels") + ")";
-      return false;
+      return Error(path + ": cannot resolve the symbolic link (" + (ec ? ec.message() : "too many levels") + ")");
     }
     target = next.is_absolute() ? next : target.parent_path() / next;
   }
-  return writeAndRename(target.string(), bytes, size, error);
+  return writeAndRename(target.string(), bytes, size);
 }
 
 namespace {
@@ -150,17 +144,15 @@ std::string channelName(const std::string& layer, char c) {
 
 }  // namespace
 
-bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
-              const std::map<std::string, std::string>& attributes) {
+Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
+                      const std::map<std::string, std::string>& attributes) {
   if (layers.empty()) {
-    if (error) *error = path + ": no layers to write";
-    return false;
+    return Error(path + ": no layers to write");
   }
   int w = layers[0].image.width, h = layers[0].image.height;
   for (const Layer& l : layers)
     if (l.image.width != w || l.image.height != h || l.image.rgb.size() != size_t(w) * h * 3) {
-      if (error) *error = path + ": layer '" + l.name + "' has a different size";
-      return false;
+      return Error(path + ": layer '" + l.name + "' has a different size");
     }
   MemoryOStream stream;
   try {
@@ -179,26 +171,21 @@ bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::st
     file.setFrameBuffer(fb);
     file.writePixels(h);
   } catch (const std::bad_alloc&) {
-    if (error) *error = path + ": out of memory while encoding the EXR";
-    return false;
+    return Error(path + ": out of memory while encoding the EXR");
   } catch (const std::exception& e) {
-    if (error) *error = path + ": cannot encode EXR (" + e.what() + ")";
-    return false;
+    return Error(path + ": cannot encode EXR (" + e.what() + ")");
   }
   // OutputFile's destructor finishes the file (the line offset table).
-  return writeFileAtomically(path, stream.data().data(), stream.data().size(), error);
+  return writeFileAtomically(path, stream.data().data(), stream.data().size());
 }
 
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
-             std::map<std::string, std::string>* attributes) {
-  layers.clear();
+Result<std::vector<Layer>> readExr(const std::string& path, std::map<std::string, std::string>* attributes) {
+  std::vector<Layer> layers;
   if (attributes) attributes->clear();
   // Only regular files: a FIFO would block and /dev/zero never ends.
   struct stat st;
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
-    if (error)
-      *error = path + (S_ISDIR(st.st_mode) ? ": is a directory" : ": not a regular file (a FIFO, device or socket)");
-    return false;
+    return Error(path + (S_ISDIR(st.st_mode) ? ": is a directory" : ": not a regular file (a FIFO, device or socket)"));
   }
   try {
     Imf::InputFile file(path.c_str());
@@ -206,10 +193,8 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     Imath::Box2i dw = header.dataWindow();
     int64_t w64 = int64_t(dw.max.x) - dw.min.x + 1, h64 = int64_t(dw.max.y) - dw.min.y + 1;
     if (w64 <= 0 || h64 <= 0 || w64 > kMaxExrSide || h64 > kMaxExrSide) {
-      if (error)
-        *error = path + ": data window " + std::to_string(w64) + "x" + std::to_string(h64) + " is outside [1," +
-                 std::to_string(kMaxExrSide) + "] per side";
-      return false;
+      return Error(path + ": data window " + std::to_string(w64) + "x" + std::to_string(h64) + " is outside [1," +
+                   std::to_string(kMaxExrSide) + "] per side");
     }
     int w = int(w64), h = int(h64);
     if (attributes)
@@ -226,8 +211,7 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
         names.push_back(n.substr(0, n.size() - 2));
     }
     if (names.empty()) {
-      if (error) *error = path + ": no RGB layer (no channel named R or *.R)";
-      return false;
+      return Error(path + ": no RGB layer (no channel named R or *.R)");
     }
     // Estimate memory before allocating: a patched header must not exhaust it.
     std::error_code ec;
@@ -236,11 +220,9 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     uint64_t need = uint64_t(w) * uint64_t(h) * 12 * names.size();
     uint64_t plausible = std::max<uint64_t>(uint64_t(16) << 20, fileBytes * 4096);
     if (need > plausible) {
-      if (error)
-        *error = path + ": data window " + std::to_string(w) + "x" + std::to_string(h) + " with " +
-                 std::to_string(names.size()) + " layer(s) would need " + std::to_string(need >> 20) +
-                 " MiB, implausible for a file of " + std::to_string(fileBytes) + " bytes (corrupt header?)";
-      return false;
+      return Error(path + ": data window " + std::to_string(w) + "x" + std::to_string(h) + " with " +
+                   std::to_string(names.size()) + " layer(s) would need " + std::to_string(need >> 20) +
+                   " MiB, implausible for a file of " + std::to_string(fileBytes) + " bytes (corrupt header?)");
     }
     Imf::FrameBuffer fb;
     layers.resize(names.size());
@@ -254,16 +236,12 @@ bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* e
     }
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
+    return layers;
   } catch (const std::bad_alloc&) {
-    if (error) *error = path + ": out of memory while reading the EXR";
-    layers.clear();
-    return false;
+    return Error(path + ": out of memory while reading the EXR");
   } catch (const std::exception& e) {
-    if (error) *error = path + ": cannot read EXR (" + e.what() + ")";
-    layers.clear();
-    return false;
+    return Error(path + ": cannot read EXR (" + e.what() + ")");
   }
-  return true;
 }
 
 uint8_t toSrgb8(float v) {
@@ -273,12 +251,10 @@ uint8_t toSrgb8(float v) {
   return uint8_t(std::lround(s * 255.0f));
 }
 
-bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error) {
+Result<void> writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb) {
   if (width <= 0 || height <= 0 || rgb.size() != size_t(width) * size_t(height) * 3) {
-    if (error)
-      *error = path + ": cannot write PNG (no pixels, or pixel count does not match " + std::to_string(width) + "x" +
-               std::to_string(height) + ")";
-    return false;
+    return Error(path + ": cannot write PNG (no pixels, or pixel count does not match " + std::to_string(width) + "x" +
+                 std::to_string(height) + ")");
   }
   // Encode in memory: stbi_write_png() ignores fwrite/fclose errors.
   std::vector<char> png;
@@ -287,21 +263,53 @@ bool writePngRgb8(const std::string& path, int width, int height, const std::vec
     out->insert(out->end(), static_cast<char*>(data), static_cast<char*>(data) + size);
   };
   if (stbi_write_png_to_func(append, &png, width, height, 3, rgb.data(), width * 3) == 0 || png.empty()) {
-    if (error) *error = path + ": cannot encode PNG (" + std::to_string(width) + "x" + std::to_string(height) + ")";
-    return false;
+    return Error(path + ": cannot encode PNG (" + std::to_string(width) + "x" + std::to_string(height) + ")");
   }
-  return writeFileAtomically(path, png.data(), png.size(), error);
+  return writeFileAtomically(path, png.data(), png.size());
 }
 
-bool writePng(const std::string& path, const Image& image, float exposure, std::string* error) {
+Result<void> writePng(const std::string& path, const Image& image, float exposure) {
   std::vector<uint8_t> px(image.rgb.size());
   float scale = std::exp2(exposure);
   for (size_t i = 0; i < px.size(); ++i) px[i] = toSrgb8(image.rgb[i] * scale);
-  return writePngRgb8(path, image.width, image.height, px, error);
+  return writePngRgb8(path, image.width, image.height, px);
 }
 
+Result<void> writeTextFile(const std::string& path, const std::string& text) {
+  return writeFileAtomically(path, text.data(), text.size());
+}
+
+// ---- Compatibility: bool and *error --------------------------------------------------
+
+namespace {
+bool reported(const Result<void>& r, std::string* error) {
+  if (!r && error) *error = r.error();
+  return r.ok();
+}
+}  // namespace
+
+bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error) {
+  return reported(writeFileAtomically(path, data, size), error);
+}
+bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
+              const std::map<std::string, std::string>& attributes) {
+  return reported(writeExr(path, layers, attributes), error);
+}
+bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
+             std::map<std::string, std::string>* attributes) {
+  Result<std::vector<Layer>> r = readExr(path, attributes);
+  layers = r ? std::move(r).value() : std::vector<Layer>();
+  if (!r && error) *error = r.error();
+  return r.ok();
+}
+bool writePng(const std::string& path, const Image& image, float exposure, std::string* error) {
+  return reported(writePng(path, image, exposure), error);
+}
+bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error) {
+  return reported(writePngRgb8(path, width, height, rgb), error);
+}
 bool writeTextFile(const std::string& path, const std::string& text, std::string* error) {
-  return writeFileAtomically(path, text.data(), text.size(), error);
+  return reported(writeTextFile(path, text), error);
 }
 
 }  // namespace vsl

@@ -9,7 +9,7 @@
 // followed (the file it names is replaced atomically and the link stays), a
 // device, FIFO or socket (/dev/null, /dev/stdout) is written through, and a
 // directory is refused.
-// All functions return false and set *error ("path: reason") on failure.
+// All functions return an error ("path: reason") on failure.
 #pragma once
 
 #include <map>
@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/film.h"
+#include "core/result.h"
 
 namespace vsl {
 
@@ -26,22 +27,33 @@ struct Layer {
 };
 
 // Writes size bytes to path as described above. Thread-safe.
-bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error);
+Result<void> writeFileAtomically(const std::string& path, const void* data, size_t size);
 
-bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
-              const std::map<std::string, std::string>& attributes = {});
+Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
+                      const std::map<std::string, std::string>& attributes = {});
 // Reads every RGB layer (channels NAME.R/G/B, or R/G/B for the default layer).
 // The data window is checked before any allocation: at most 65536 pixels a
 // side, and no more decoded bytes than the file could plausibly hold (4096
 // times its size, with a 16 MiB floor), so a patched header cannot exhaust
 // memory. attributes (optional) receives the header's string attributes.
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
-             std::map<std::string, std::string>* attributes = nullptr);
+Result<std::vector<Layer>> readExr(const std::string& path, std::map<std::string, std::string>* attributes = nullptr);
 
 // Tone mapping for display and PNG: linear * 2^exposure, clamped, sRGB-encoded.
 uint8_t toSrgb8(float linear);
-bool writePng(const std::string& path, const Image& image, float exposure, std::string* error);
+Result<void> writePng(const std::string& path, const Image& image, float exposure);
 // 8-bit RGB pixels as they are.
+Result<void> writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb);
+Result<void> writeTextFile(const std::string& path, const std::string& text);
+
+// Compatibility for ui/studio.cpp, app/studio_main.cpp, app/sweep.cpp and
+// `vsl compare` until they use the above: false and *error on failure (readExr
+// leaves `layers` empty then). Remove once nothing calls them.
+bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error);
+bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
+              const std::map<std::string, std::string>& attributes = {});
+bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
+             std::map<std::string, std::string>* attributes = nullptr);
+bool writePng(const std::string& path, const Image& image, float exposure, std::string* error);
 bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error);
 bool writeTextFile(const std::string& path, const std::string& text, std::string* error);
 

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/check.h"
 #include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -20,7 +21,7 @@ double seconds(Clock::duration d) { return std::chrono::duration<double>(d).coun
 
 // ---- [1] Settings -----------------------------------------------------------------
 
-std::string ManyLightSettings::validate() const {
+Result<void> ManyLightSettings::validate() const {
   std::ostringstream e;
   if (lights < 1 || lights > 50'000'000)
     e << "lights: must be in [1,50000000] (got " << lights << ")";
@@ -48,7 +49,8 @@ std::string ManyLightSettings::validate() const {
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
-  return e.str();
+  if (std::string m = e.str(); !m.empty()) return Error(m);
+  return {};
 }
 
 std::string ManyLightSettings::describe() const {
@@ -106,6 +108,7 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
       radii_(radii),
       settings_(settings),
       direct_(scene, accel, lights, directSettings(settings)) {
+  VSL_CHECK_EQ(radii.size(), set.lights.size());
   width_ = direct_.width();
   height_ = direct_.height();
   clamp_ = manyLightClampBound(scene, settings);

@@ -40,6 +40,7 @@
 
 #include "core/film.h"
 #include "core/pathtracer.h"
+#include "core/result.h"
 #include "core/virtual_lights.h"
 #include "core/vsl_integral.h"
 
@@ -79,7 +80,8 @@ struct ManyLightSettings {
   // Which estimators to evaluate (both share the visibility ray); layers of
   // a skipped estimator stay black.
   bool computeVsl = true, computeVpl = true;
-  std::string validate() const;
+  // Success, or the first invalid setting: "setting: reason (got value)".
+  Result<void> validate() const;
   std::string describe() const;
 };
 
@@ -108,7 +110,7 @@ struct ManyLightStats {
 
 class ManyLightRenderer {
  public:
-  // The light set and radii must outlive the renderer.
+  // The light set and radii (one per light, VSL_CHECK) must outlive the renderer.
   ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                     const std::vector<float>& radii, const ManyLightSettings& settings);
 

@@ -4,19 +4,20 @@
 #include <numeric>
 #include <queue>
 
+#include "core/check.h"
 #include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 
 namespace vsl {
 
-std::string MrcsSettings::validate() const {
-  if (rows < 1 || rows > 100000) return "mrcs rows: must be in [1,100000] (got " + std::to_string(rows) + ")";
+Result<void> MrcsSettings::validate() const {
+  if (rows < 1 || rows > 100000) return Error("mrcs rows: must be in [1,100000] (got " + std::to_string(rows) + ")");
   if (clusters < 1 || clusters > 1000000)
-    return "mrcs clusters: must be in [1,1000000] (got " + std::to_string(clusters) + ")";
+    return Error("mrcs clusters: must be in [1,1000000] (got " + std::to_string(clusters) + ")");
   if (!(uniformMix >= 0 && uniformMix <= 1))
-    return "mrcs uniform mix: must be in [0,1] (got " + std::to_string(uniformMix) + ")";
-  return "";
+    return Error("mrcs uniform mix: must be in [0,1] (got " + std::to_string(uniformMix) + ")");
+  return {};
 }
 
 // ---- Clustering ----------------------------------------------------------------------
@@ -216,6 +217,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   int W = settings.width, H = settings.height;
   resolveResolution(scene, W, H);
   const size_t P = size_t(W) * H, N = set.lights.size();
+  VSL_CHECK_EQ(radii.size(), N);
   auto stopped = [&] { return stop && stop->load(std::memory_order_relaxed); };
   const float clampBound = manyLightClampBound(scene, settings);
   const int vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;

@@ -48,7 +48,7 @@ struct MrcsSettings {
   // the darkening the VSL paper reports for large radii). Off by default: the
   // paper's estimator, unbiased against brute force for a fixed clustering.
   bool spreadVslRadius = false;
-  std::string validate() const;
+  Result<void> validate() const;  // the first invalid setting
 };
 
 struct MrcsResult {

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstddef>
 #include <functional>
+#include <string>
 
 namespace vsl {
 
@@ -18,11 +19,21 @@ void setThreadCount(int n);
 
 // Runs body(i) for every i in [0, count) and returns when all are done.
 // body must be safe to call concurrently for different i.
+// Exceptions: if body throws on any thread, the first exception is kept, no
+// further item starts (items already running finish), every thread is joined
+// and that exception is rethrown here, on the calling thread. Which items ran
+// is then unspecified.
 void parallelFor(size_t count, const std::function<void(size_t)>& body);
+
+// Tests: the next parallelFor (or parallelForTiles) call, from any thread,
+// throws std::runtime_error(message) on a worker at `item` (the last item if
+// there are fewer) instead of running body there. One-shot. Thread-safe.
+void failParallelForTesting(size_t item, const std::string& message);
 
 // Runs body(x0, y0, x1, y1) over the 16x16 tiles of a width x height image
 // in parallel. Once *stop is set no further tile starts; returns false then
-// (the tiles already run have had their effect).
+// (the tiles already run have had their effect). An exception from body is
+// carried back to the caller as parallelFor does.
 bool parallelForTiles(int width, int height, const std::atomic<bool>* stop,
                       const std::function<void(int x0, int y0, int x1, int y1)>& body);
 

@@ -1,5 +1,6 @@
 #include "core/pathtracer.h"
 
+#include "core/check.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 
@@ -112,6 +113,11 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
 
 bool PathTracer::renderPass(int pass, Film& direct, Film& indirect, PtCounters& counters, const std::atomic<bool>* stop,
                             std::vector<double>* indirectSquares) const {
+  VSL_CHECK_EQ(direct.width(), width_);
+  VSL_CHECK_EQ(direct.height(), height_);
+  VSL_CHECK_EQ(indirect.width(), width_);
+  VSL_CHECK_EQ(indirect.height(), height_);
+  if (indirectSquares) VSL_CHECK_EQ(indirectSquares->size(), size_t(width_) * height_);
   return parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
     uint64_t rays = 0, nonFinite = 0, paths = 0;
     for (int y = y0; y < y1; ++y)

@@ -37,7 +37,8 @@ class PathTracer {
   int height() const { return height_; }
   const LightSampler& lightSampler() const { return lights_; }
 
-  // Adds one sample per pixel (sample index `pass`) to the two films.
+  // Adds one sample per pixel (sample index `pass`) to the two films, which
+  // must have the renderer's width() x height() (VSL_CHECK).
   // Returns false if *stop became true (checked between 16x16 tiles); the
   // pass is then incomplete and the films should be discarded.
   // indirectSquares (optional, width*height entries) accumulates the squared

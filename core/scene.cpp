@@ -180,7 +180,7 @@ Camera frameBounds(const Vec3& bmin, const Vec3& bmax) {
 
 namespace {
 
-// Thrown inside the loader only; loadScene() turns it into LoadResult::error.
+// Thrown inside the loader only; loadScene() turns it into an Error.
 struct LoadError {
   std::string message;
 };
@@ -897,30 +897,30 @@ constexpr uint64_t kMaxTexturePixels = uint64_t(1) << 26;
 
 // Reads a regular file of at most kMaxFileBytes. A FIFO, device, socket or
 // directory is refused before any read (a FIFO would block, /dev/zero never
-// ends). Returns "" or the reason.
-std::string readRegularFile(const std::string& path, std::vector<unsigned char>& out) {
+// ends). The error is the bare reason, without the path.
+Result<std::vector<unsigned char>> readRegularFile(const std::string& path) {
   int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-  if (fd < 0) return errno == ENOENT ? "no such file" : std::strerror(errno);
+  if (fd < 0) return Error(errno == ENOENT ? "no such file" : std::strerror(errno));
   struct FdCloser {
     int fd;
     ~FdCloser() { ::close(fd); }
   } closer{fd};
   struct stat st;
-  if (::fstat(fd, &st) != 0) return std::strerror(errno);
-  if (S_ISDIR(st.st_mode)) return "it is a directory";
-  if (!S_ISREG(st.st_mode)) return "not a regular file (a FIFO, device or socket)";
-  if (uint64_t(st.st_size) > kMaxFileBytes) return "larger than 2 GiB";
-  out.resize(size_t(st.st_size));
+  if (::fstat(fd, &st) != 0) return Error(std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) return Error("it is a directory");
+  if (!S_ISREG(st.st_mode)) return Error("not a regular file (a FIFO, device or socket)");
+  if (uint64_t(st.st_size) > kMaxFileBytes) return Error("larger than 2 GiB");
+  std::vector<unsigned char> out(size_t(st.st_size));
   size_t got = 0;
   while (got < out.size()) {
     ssize_t k = ::read(fd, out.data() + got, out.size() - got);
     if (k < 0 && errno == EINTR) continue;
-    if (k < 0) return std::strerror(errno);
+    if (k < 0) return Error(std::strerror(errno));
     if (k == 0) break;  // the file shrank
     got += size_t(k);
   }
   out.resize(got);
-  return "";
+  return out;
 }
 
 // tinygltf's file callbacks. tinygltf tries basedir/uri and then ./uri; we
@@ -960,8 +960,9 @@ bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::s
   std::error_code ec;
   std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
   if (ec || !insideRoot(resolved, policy->root)) return fail("points outside the scene's folder (refused)");
-  std::string why = readRegularFile(resolved.string(), *out);
-  if (!why.empty()) return fail("cannot be read (" + why + ")");
+  Result<std::vector<unsigned char>> bytes = readRegularFile(resolved.string());
+  if (!bytes) return fail("cannot be read (" + bytes.error() + ")");
+  *out = std::move(bytes).value();
   return true;
 }
 
@@ -1218,27 +1219,19 @@ void checkEmittedPower(const Scene& scene, const std::string& file) {
 
 // ---- [5] loadScene ----------------------------------------------------------------
 
-LoadResult loadScene(const std::string& path, const LoadOptions& options) {
-  LoadResult result;
+SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
-    std::vector<unsigned char> bytes;
-    if (std::string why = readRegularFile(path, bytes); !why.empty()) {
-      result.error = path + ": cannot be read (" + why + ")";
-      return result;
-    }
-    if (bytes.empty()) {
-      result.error = path + ": file is empty";
-      return result;
-    }
+    Result<std::vector<unsigned char>> read = readRegularFile(path);
+    if (!read) return Error(path + ": cannot be read (" + read.error() + ")");
+    std::vector<unsigned char> bytes = std::move(read).value();
+    if (bytes.empty()) return Error(path + ": file is empty");
     bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
 
     // JSON checks that tinygltf does not make (or makes with unbounded recursion).
     std::string_view text = jsonText(bytes, isBinary);
-    if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos) {
-      result.error = path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
-                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it";
-      return result;
-    }
+    if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
+      return Error(path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
+                   std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it");
     nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
     if (!doc.is_discarded()) TypeChecker{path}.check(doc);
     doc = nullptr;
@@ -1264,8 +1257,7 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
                                                   unsigned(bytes.size()), dir);
     if (!ok) {
       while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-      result.error = path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err);
-      return result;
+      return Error(path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err));
     }
 
     auto scene = std::make_shared<Scene>();
@@ -1283,8 +1275,14 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
     }
     static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
                                                      "KHR_materials_specular", "KHR_lights_punctual"};
+    // A required extension changes what the file means (Draco-compressed
+    // geometry, quantised attributes): loading without it would render
+    // something else, so it is refused.
     for (const auto& e : model.extensionsRequired)
-      if (!kSupported.count(e)) L.warn(path + ": required extension " + e + " is not supported (ignored)");
+      if (!kSupported.count(e))
+        return Error(path + ": required extension " + e +
+                     " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
+                     "KHR_materials_emissive_strength, KHR_materials_specular)");
     for (const auto& e : model.extensionsUsed)
       if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
     if (!model.animations.empty())
@@ -1329,15 +1327,14 @@ LoadResult loadScene(const std::string& path, const LoadOptions& options) {
       scene->camera = frameBounds(scene->boundsMin, scene->boundsMax);
       L.warn(path + ": no perspective camera; using a default camera that frames the scene");
     }
-    result.scene = std::move(scene);
+    return std::shared_ptr<const Scene>(std::move(scene));
   } catch (const LoadError& e) {
-    result.error = e.message;
+    return Error(e.message);
   } catch (const std::bad_alloc&) {
-    result.error = path + ": out of memory while loading (the file declares absurd sizes?)";
+    return Error(path + ": out of memory while loading (the file declares absurd sizes?)");
   } catch (const std::exception& e) {
-    result.error = path + ": " + e.what();
+    return Error(path + ": " + e.what());
   }
-  return result;
 }
 
 }  // namespace vsl

@@ -16,6 +16,7 @@
 
 #include "core/material.h"
 #include "core/math.h"
+#include "core/result.h"
 
 namespace vsl {
 
@@ -108,11 +109,6 @@ struct LoadOptions {
   size_t maxTexels = size_t(1) << 27;
 };
 
-struct LoadResult {
-  std::shared_ptr<const Scene> scene;  // null on failure
-  std::string error;                   // "file: element: reason" on failure
-};
-
 // Loads a .gltf or .glb file. Never throws; never crashes on hostile input.
 // Limits: the file and every buffer or image it references must be regular
 // files of at most 2 GiB; URIs resolve inside the scene's folder only (no
@@ -121,7 +117,17 @@ struct LoadResult {
 // levels and 1,000,000 node instances; options.maxTriangles triangles;
 // textures at most 2^26 pixels each and options.maxTexels together; world-space coordinates of geometry, camera
 // and lights within +-1e9; camera aspectRatio in [1/32, 32].
-LoadResult loadScene(const std::string& path, const LoadOptions& options = {});
+// On failure the error reads "file: element: reason".
+using SceneResult = Result<std::shared_ptr<const Scene>>;
+SceneResult loadScene(const std::string& path, const LoadOptions& options = {});
+
+// Compatibility for core/session.cpp and app/sweep.cpp until they use
+// Result: `LoadResult r = loadScene(path);` keeps compiling.
+struct LoadResult {
+  std::shared_ptr<const Scene> scene;                                         // null on failure
+  std::string error;                                                          // "file: element: reason" on failure
+  LoadResult(SceneResult r) : scene(r.valueOr(nullptr)), error(r.error()) {}  // NOLINT
+};
 
 // A camera that frames the bounding box from the +z side.
 Camera frameBounds(const Vec3& bmin, const Vec3& bmax);

@@ -116,12 +116,13 @@ double errorAtOwnTime(const std::vector<ErrorSample>& history, StudioMethod m, d
 
 // ---- [1] Settings and the public interface ------------------------------------------
 
-std::string StudioSettings::validate() const {
-  if (scene.empty()) return "scene: no scene path given";
+Result<void> StudioSettings::validate() const {
+  if (scene.empty()) return Error("scene: no scene path given");
   if (maxReferenceSpp < 1 || maxReferenceSpp > (1 << 20))
-    return "reference spp: must be in [1,1048576] (got " + std::to_string(maxReferenceSpp) + ")";
+    return Error("reference spp: must be in [1,1048576] (got " + std::to_string(maxReferenceSpp) + ")");
   if (backgroundReferenceSpp < 0 || backgroundReferenceSpp > (1 << 20))
-    return "background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) + ")";
+    return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
+                 ")");
   return many.validate();
 }
 
@@ -149,8 +150,8 @@ std::string Session::checkMemory(const StudioSettings& s, int width, int height)
                          std::to_string(height) + " " + m;
 }
 
-uint64_t Session::restart(const StudioSettings& settings, std::string* error, bool fromScratch) {
-  std::string e = settings.validate();
+Result<uint64_t> Session::restart(const StudioSettings& settings, bool fromScratch) {
+  std::string e = settings.validate().error();
   if (e.empty()) {
     // The resolution as the worker will resolve it, with the scene's aspect
     // if it is the current scene (else square; the worker checks again).
@@ -161,10 +162,7 @@ uint64_t Session::restart(const StudioSettings& settings, std::string* error, bo
     if (h <= 0) h = std::max(1, int(std::lround(w / aspect)));
     e = checkMemory(settings, w, h);
   }
-  if (!e.empty()) {
-    if (error) *error = e;
-    return 0;
-  }
+  if (!e.empty()) return Error(e);
   uint64_t g;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -262,6 +260,10 @@ void Session::run() {
       w.job.reset();
       w.ref = Worker::Reference();
       reportRunError(std::string("the render failed: ") + e.what());
+    } catch (...) {
+      w.job.reset();
+      w.ref = Worker::Reference();
+      reportRunError("the render failed: unknown exception");
     }
   }
   w.job.reset();

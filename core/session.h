@@ -19,9 +19,9 @@
 // error is reported through status() and the log.
 // Bounded work: restart() refuses settings whose memory estimate
 // (memory_budget.h) does not fit, and the worker checks again once the
-// scene's resolution is known. An exception in the worker (std::bad_alloc
-// included) is reported through status() and never escapes; the last picture
-// stays with the UI.
+// scene's resolution is known. An exception in the worker or on any of its
+// parallelFor threads (std::bad_alloc included) is reported through status()
+// and never escapes; the last picture stays with the UI.
 #pragma once
 
 #include <atomic>
@@ -50,7 +50,7 @@ struct StudioSettings {
   // many samples per pixel into the cache (saved as it doubles), then measure
   // every error against it.
   int backgroundReferenceSpp = 0;
-  std::string validate() const;
+  Result<void> validate() const;
 };
 
 // True when a and b produce the same images (the same scene and every
@@ -135,11 +135,17 @@ class Session {
   Session& operator=(const Session&) = delete;
 
   // Starts (or restarts) rendering with these settings; returns the new
-  // generation. Invalid settings, and settings whose memory estimate does
-  // not fit, are rejected: returns 0 with the reason (and the estimate) in
-  // *error, and the current render goes on. fromScratch: never resume an
-  // interrupted render with the same settings.
-  uint64_t restart(const StudioSettings& settings, std::string* error = nullptr, bool fromScratch = false);
+  // generation (> 0). Invalid settings, and settings whose memory estimate
+  // does not fit, are rejected: an error with the reason (and the estimate),
+  // and the current render goes on. fromScratch: never resume an interrupted
+  // render with the same settings.
+  Result<uint64_t> restart(const StudioSettings& settings, bool fromScratch = false);
+  // Compatibility for ui/studio.cpp until it uses the above: 0 and *error.
+  uint64_t restart(const StudioSettings& settings, std::string* error, bool fromScratch = false) {
+    Result<uint64_t> r = restart(settings, fromScratch);
+    if (!r && error) *error = r.error();
+    return r.valueOr(0);
+  }
   // The newest snapshot of the current generation if its serial is greater
   // than `haveSerial`, else null.
   std::shared_ptr<const Snapshot> latest(uint64_t haveSerial) const;

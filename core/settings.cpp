@@ -29,7 +29,7 @@ bool parseComponent(const std::string& s, Component* out) {
   return true;
 }
 
-std::string RenderSettings::validate() const {
+Result<void> RenderSettings::validate() const {
   std::ostringstream e;
   if (method != "pt" && method != "vsl" && method != "vpl" && method != "all")
     e << "method: must be pt, vsl, vpl or all (got '" << method << "')";
@@ -45,7 +45,8 @@ std::string RenderSettings::validate() const {
     e << "max-depth: must be in [1,1024] (got " << maxDepth << ")";
   else if (rrDepth < 1 || rrDepth > 1024)
     e << "rr-depth: must be in [1,1024] (got " << rrDepth << ")";
-  return e.str();
+  if (std::string m = e.str(); !m.empty()) return Error(m);
+  return {};
 }
 
 std::string RenderSettings::describe() const {

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <string>
 
+#include "core/result.h"
+
 namespace vsl {
 
 enum class Component { Full, Direct, Indirect };
@@ -24,8 +26,8 @@ struct RenderSettings {
   int rrDepth = 3;    // Russian roulette starts after this many bounces
   Component component = Component::Full;
 
-  // Empty when valid; otherwise "setting: reason (got value)".
-  std::string validate() const;
+  // Success, or the first invalid setting: "setting: reason (got value)".
+  Result<void> validate() const;
   // One-line, replayable description ("--spp 64 --seed 0 ...").
   std::string describe() const;
 };

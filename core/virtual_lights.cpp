@@ -53,7 +53,7 @@ Brdf VirtualLight::brdf() const {
   return b;
 }
 
-std::string LightTracingSettings::validate() const {
+Result<void> LightTracingSettings::validate() const {
   std::ostringstream e;
   if (count < 1 || count > 50'000'000)
     e << "lights: must be in [1,50000000] (got " << count << ")";
@@ -61,7 +61,8 @@ std::string LightTracingSettings::validate() const {
     e << "light max depth: must be in [1,1024] (got " << maxDepth << ")";
   else if (rrDepth < 1)
     e << "light rr depth: must be >= 1 (got " << rrDepth << ")";
-  return e.str();
+  if (std::string m = e.str(); !m.empty()) return Error(m);
+  return {};
 }
 
 // ---- Light tracing -------------------------------------------------------------

@@ -20,6 +20,7 @@
 #include "core/accel.h"
 #include "core/lights.h"
 #include "core/material.h"
+#include "core/result.h"
 
 namespace vsl {
 
@@ -51,9 +52,9 @@ static_assert(sizeof(VirtualLight) == 56, "VirtualLight should stay 56 bytes");
 struct LightTracingSettings {
   uint32_t count = 10000;  // target number of virtual lights (whole paths are kept)
   uint64_t seed = 0;
-  int maxDepth = 16;  // maximum scattering vertices per light path
-  int rrDepth = 2;    // Russian roulette from this depth on
-  std::string validate() const;
+  int maxDepth = 16;              // maximum scattering vertices per light path
+  int rrDepth = 2;                // Russian roulette from this depth on
+  Result<void> validate() const;  // the first invalid setting
 };
 
 struct VirtualLightSet {

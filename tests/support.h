@@ -27,13 +27,13 @@ struct Loaded {
 // assets/scenes/NAME.gltf; failures are reported as test failures.
 inline Loaded loadAsset(const std::string& name, int width = 48) {
   Loaded l;
-  LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-  EXPECT_TRUE(r.scene) << r.error;
-  if (!r.scene) return l;
-  l.scene = r.scene;
-  std::string err;
-  l.accel = Accel::build(*l.scene, &err);
-  EXPECT_TRUE(l.accel) << err;
+  SceneResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+  EXPECT_TRUE(r) << r.error();
+  if (!r) return l;
+  l.scene = r.value();
+  Result<std::unique_ptr<Accel>> built = Accel::build(*l.scene);
+  EXPECT_TRUE(built) << built.error();
+  if (built) l.accel = std::move(built).value();
   l.lights = std::make_unique<LightSampler>(*l.scene);
   l.width = width;
   resolveResolution(*l.scene, l.width, l.height);

@@ -115,12 +115,11 @@ TEST_F(Cli, RenderWritesExrPngJsonThatToolsRead) {
   ASSERT_EQ(h.code, 0) << h.out;
   for (const char* ch : {"full.R", "direct.G", "indirect.B", "vsl.settings"})
     EXPECT_NE(h.out.find(ch), std::string::npos) << ch << "\n" << h.out;
-  std::vector<vsl::Layer> layers;
-  std::string err;
-  ASSERT_TRUE(vsl::readExr(file("f.exr"), layers, &err)) << err;
-  EXPECT_EQ(layers.size(), 4u);
-  EXPECT_EQ(layers[0].image.width, 16);
-  EXPECT_EQ(layers[0].image.height, 12);
+  vsl::Result<std::vector<vsl::Layer>> layers = vsl::readExr(file("f.exr"));
+  ASSERT_TRUE(layers) << layers.error();
+  EXPECT_EQ(layers->size(), 4u);
+  EXPECT_EQ((*layers)[0].image.width, 16);
+  EXPECT_EQ((*layers)[0].image.height, 12);
   // PNG signature.
   std::ifstream png(file("f.png"), std::ios::binary);
   char sig[8] = {};
@@ -152,10 +151,9 @@ TEST_F(Cli, CompareReportsMetricsAndWritesErrorImages) {
   ASSERT_EQ(diff.code, 0) << diff.out;
   for (const char* w : {"relMSE", "RMSE", "bias", "non-finite", "eps = 0.01"})
     EXPECT_NE(diff.out.find(w), std::string::npos) << w << "\n" << diff.out;
-  std::vector<vsl::Layer> layers;
-  std::string err;
-  ASSERT_TRUE(vsl::readExr(file("e.exr"), layers, &err)) << err;
-  EXPECT_EQ(layers.size(), 5u);
+  vsl::Result<std::vector<vsl::Layer>> layers = vsl::readExr(file("e.exr"));
+  ASSERT_TRUE(layers) << layers.error();
+  EXPECT_EQ(layers->size(), 5u);
   EXPECT_TRUE(fs::exists(file("e.png")));
   Proc missingLayer = run("compare " + file("a.exr") + " " + file("b.exr") + " --layer nosuch");
   EXPECT_EQ(missingLayer.code, 1);
@@ -294,8 +292,8 @@ void writeNoiseExr(const std::string& path, int w, int h, uint32_t seed = 12345)
     x = x * 1664525u + 1013904223u;
     v = float(x >> 8) * 0x1p-24f;
   }
-  std::string err;
-  ASSERT_TRUE(vsl::writeExr(path, {{"", img}}, &err)) << err;
+  vsl::Result<void> written = vsl::writeExr(path, {{"", img}});
+  ASSERT_TRUE(written) << written.error();
 }
 
 std::string slurp(const std::string& path) {

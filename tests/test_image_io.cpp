@@ -81,27 +81,27 @@ TEST_F(ImageIo, FullDiskKeepsTheExistingFileForEveryFormat) {
   std::string bigText(200000, 'x');
   struct Case {
     const char* name;
-    std::function<bool(const std::string&, std::string*)> write;
+    std::function<Result<void>(const std::string&)> write;
   };
   std::vector<Case> cases = {
-      {"good.png", [&](const std::string& p, std::string* e) { return writePng(p, img, 0, e); }},
+      {"good.png", [&](const std::string& p) { return writePng(p, img, 0); }},
       {"good.exr",
-       [&](const std::string& p, std::string* e) {
-         return writeExr(p, {{"", img}}, e);
+       [&](const std::string& p) {
+         return writeExr(p, {{"", img}});
        }},
-      {"good.json", [&](const std::string& p, std::string* e) { return writeTextFile(p, bigText, e); }},
-      {"good.csv", [&](const std::string& p, std::string* e) { return writeTextFile(p, bigText, e); }},
+      {"good.json", [&](const std::string& p) { return writeTextFile(p, bigText); }},
+      {"good.csv", [&](const std::string& p) { return writeTextFile(p, bigText); }},
   };
   for (const Case& c : cases) {
     std::string path = file(c.name);
     std::ofstream(path) << "the good file";
-    std::string err;
-    bool ok;
+    Result<void> written;
     {
       FileSizeLimit limit(4096);
-      ok = c.write(path, &err);
+      written = c.write(path);
     }
-    EXPECT_FALSE(ok) << c.name;
+    EXPECT_FALSE(written) << c.name;
+    const std::string& err = written.error();
     EXPECT_NE(err.find(path), std::string::npos) << err;
     EXPECT_NE(err.find("File too large"), std::string::npos) << err;
     EXPECT_EQ(err.find("Success"), std::string::npos) << err;
@@ -109,7 +109,8 @@ TEST_F(ImageIo, FullDiskKeepsTheExistingFileForEveryFormat) {
     EXPECT_EQ(entries(dir), 1u) << c.name << ": a temporary file was left behind";
     fs::remove(path);
     // Without the limit the same write succeeds.
-    ASSERT_TRUE(c.write(path, &err)) << err;
+    Result<void> again = c.write(path);
+    ASSERT_TRUE(again) << again.error();
     EXPECT_GT(fs::file_size(path), 4096u);
     fs::remove(path);
   }
@@ -117,13 +118,14 @@ TEST_F(ImageIo, FullDiskKeepsTheExistingFileForEveryFormat) {
 
 TEST_F(ImageIo, WrittenPngAndExrReadBack) {
   Image img = noise(16, 8);
-  std::string err;
-  ASSERT_TRUE(writeExr(file("a.exr"), {{"", img}, {"x", img}}, &err)) << err;
-  std::vector<Layer> layers;
-  ASSERT_TRUE(readExr(file("a.exr"), layers, &err)) << err;
-  ASSERT_EQ(layers.size(), 2u);
-  EXPECT_EQ(layers[0].image.rgb, img.rgb);
-  ASSERT_TRUE(writePng(file("a.png"), img, 0, &err)) << err;
+  Result<void> w = writeExr(file("a.exr"), {{"", img}, {"x", img}});
+  ASSERT_TRUE(w) << w.error();
+  Result<std::vector<Layer>> layers = readExr(file("a.exr"));
+  ASSERT_TRUE(layers) << layers.error();
+  ASSERT_EQ(layers->size(), 2u);
+  EXPECT_EQ((*layers)[0].image.rgb, img.rgb);
+  w = writePng(file("a.png"), img, 0);
+  ASSERT_TRUE(w) << w.error();
   std::string png = slurp(file("a.png"));
   ASSERT_GT(png.size(), 20u);
   EXPECT_EQ(png.substr(1, 3), "PNG");
@@ -133,14 +135,17 @@ TEST_F(ImageIo, WrittenPngAndExrReadBack) {
 // Defect 8: device nodes are written through, never replaced; /dev/full
 // reports its error.
 TEST_F(ImageIo, DevicesAreWrittenThroughNotReplaced) {
-  std::string err;
   Image img = noise(8, 8);
-  ASSERT_TRUE(writePng("/dev/null", img, 0, &err)) << err;
-  ASSERT_TRUE(writeTextFile("/dev/null", "x", &err)) << err;
+  Result<void> w = writePng("/dev/null", img, 0);
+  ASSERT_TRUE(w) << w.error();
+  w = writeTextFile("/dev/null", "x");
+  ASSERT_TRUE(w) << w.error();
   struct stat st;
   ASSERT_EQ(stat("/dev/null", &st), 0);
   EXPECT_TRUE(S_ISCHR(st.st_mode)) << "/dev/null was replaced";
-  EXPECT_FALSE(writePng("/dev/full", img, 0, &err));
+  w = writePng("/dev/full", img, 0);
+  EXPECT_FALSE(w);
+  const std::string& err = w.error();
   EXPECT_NE(err.find("/dev/full"), std::string::npos) << err;
   EXPECT_NE(err.find("No space left on device"), std::string::npos) << err;
   ASSERT_EQ(stat("/dev/full", &st), 0);
@@ -151,34 +156,40 @@ TEST_F(ImageIo, DevicesAreWrittenThroughNotReplaced) {
 TEST_F(ImageIo, SymlinksAreFollowedAndKept) {
   std::ofstream(file("real.json")) << "old";
   fs::create_symlink(file("real.json"), file("link.json"));
-  std::string err;
-  ASSERT_TRUE(writeTextFile(file("link.json"), "new", &err)) << err;
+  Result<void> w = writeTextFile(file("link.json"), "new");
+  ASSERT_TRUE(w) << w.error();
   EXPECT_TRUE(fs::is_symlink(file("link.json")));
   EXPECT_EQ(slurp(file("real.json")), "new");
   // A dangling link creates the file it names.
   fs::create_symlink(file("absent.json"), file("dangling.json"));
-  ASSERT_TRUE(writeTextFile(file("dangling.json"), "made", &err)) << err;
+  w = writeTextFile(file("dangling.json"), "made");
+  ASSERT_TRUE(w) << w.error();
   EXPECT_TRUE(fs::is_symlink(file("dangling.json")));
   EXPECT_EQ(slurp(file("absent.json")), "made");
 }
 
 TEST_F(ImageIo, DirectoriesAndMissingFoldersAreRefusedWithAReason) {
-  std::string err;
   fs::create_directories(file("sub"));
-  EXPECT_FALSE(writeTextFile(file("sub"), "x", &err));
-  EXPECT_NE(err.find("is a directory"), std::string::npos) << err;
+  Result<void> w = writeTextFile(file("sub"), "x");
+  EXPECT_FALSE(w);
+  EXPECT_NE(w.error().find("is a directory"), std::string::npos) << w.error();
   EXPECT_TRUE(fs::is_directory(file("sub")));
-  EXPECT_FALSE(writePng(file("no/such/dir/x.png"), noise(4, 4), 0, &err));
-  EXPECT_NE(err.find("No such file or directory"), std::string::npos) << err;
+  w = writePng(file("no/such/dir/x.png"), noise(4, 4), 0);
+  EXPECT_FALSE(w);
+  EXPECT_NE(w.error().find("No such file or directory"), std::string::npos) << w.error();
+  // The compatibility form (bool and *error) reports the same.
+  std::string err;
+  EXPECT_FALSE(writeTextFile(file("sub"), "x", &err));
+  EXPECT_EQ(err, file("sub") + ": is a directory");
 }
 
 // Defect 5: a data window patched to 32768x32768 in a small file is refused
 // before anything is allocated.
 TEST_F(ImageIo, PatchedExrDataWindowIsRefusedBeforeAllocation) {
-  std::string err;
   // Large enough that OpenEXR can read a line offset table for 32768 lines.
   Image img = noise(64, 64);
-  ASSERT_TRUE(writeExr(file("a.exr"), {{"", img}, {"b", img}, {"c", img}}, &err)) << err;
+  Result<void> w = writeExr(file("a.exr"), {{"", img}, {"b", img}, {"c", img}});
+  ASSERT_TRUE(w) << w.error();
   std::string bytes = slurp(file("a.exr"));
   const std::string key("dataWindow\0box2i\0", 17);
   size_t at = bytes.find(key);
@@ -186,28 +197,35 @@ TEST_F(ImageIo, PatchedExrDataWindowIsRefusedBeforeAllocation) {
   int32_t box[4] = {0, 0, 32767, 32767};
   std::memcpy(&bytes[at + key.size() + 4], box, sizeof box);
   std::ofstream(file("patched.exr"), std::ios::binary) << bytes;
-  std::vector<Layer> layers;
+  Result<std::vector<Layer>> r = readExr(file("patched.exr"));
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("patched.exr"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("data window 32768x32768"), std::string::npos) << r.error();
+  // The compatibility form leaves no layers behind.
+  std::vector<Layer> layers(1);
+  std::string err;
   EXPECT_FALSE(readExr(file("patched.exr"), layers, &err));
-  EXPECT_NE(err.find("patched.exr"), std::string::npos) << err;
-  EXPECT_NE(err.find("data window 32768x32768"), std::string::npos) << err;
+  EXPECT_EQ(err, r.error());
   EXPECT_TRUE(layers.empty());
   // Negative and overflowing windows.
   int32_t bad[4] = {INT32_MIN, 0, INT32_MAX, 15};
   std::memcpy(&bytes[at + key.size() + 4], bad, sizeof bad);
   std::ofstream(file("overflow.exr"), std::ios::binary) << bytes;
-  EXPECT_FALSE(readExr(file("overflow.exr"), layers, &err));
-  EXPECT_NE(err.find("data window"), std::string::npos) << err;
+  r = readExr(file("overflow.exr"));
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("data window"), std::string::npos) << r.error();
 }
 
 // Reading: only regular files (a FIFO would block).
 TEST_F(ImageIo, ReadingRefusesSpecialFiles) {
-  std::vector<Layer> layers;
-  std::string err;
-  EXPECT_FALSE(readExr("/dev/zero", layers, &err));
-  EXPECT_NE(err.find("/dev/zero: not a regular file"), std::string::npos) << err;
+  Result<std::vector<Layer>> r = readExr("/dev/zero");
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("/dev/zero: not a regular file"), std::string::npos) << r.error();
   ASSERT_EQ(mkfifo(file("fifo.exr").c_str(), 0600), 0);
-  EXPECT_FALSE(readExr(file("fifo.exr"), layers, &err));
-  EXPECT_NE(err.find("not a regular file"), std::string::npos) << err;
-  EXPECT_FALSE(readExr(dir.string(), layers, &err));
-  EXPECT_NE(err.find("is a directory"), std::string::npos) << err;
+  r = readExr(file("fifo.exr"));
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("not a regular file"), std::string::npos) << r.error();
+  r = readExr(dir.string());
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("is a directory"), std::string::npos) << r.error();
 }

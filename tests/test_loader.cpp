@@ -134,7 +134,7 @@ class LoaderTest : public ::testing::Test {
     if (truncateTo) out.resize(truncateTo);
     return write(name, std::string(out.begin(), out.end()));
   }
-  LoadResult load(const std::string& path, const LoadOptions& o = {}) { return loadScene(path, o); }
+  SceneResult load(const std::string& path, const LoadOptions& o = {}) { return loadScene(path, o); }
 };
 
 bool hasWarning(const Scene& s, const std::string& needle) {
@@ -154,9 +154,9 @@ std::string allWarnings(const Scene& s) {
 TEST(BundledScenes, LoadCleanlyWithLightsAndCameras) {
   for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
     std::string path = std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf";
-    LoadResult r = loadScene(path);
-    ASSERT_TRUE(r.scene) << r.error;
-    const Scene& s = *r.scene;
+    SceneResult r = loadScene(path);
+    ASSERT_TRUE(r) << r.error();
+    const Scene& s = **r;
     EXPECT_GT(s.triangleCount(), 0u) << name;
     EXPECT_TRUE(s.cameraFromFile) << name;
     EXPECT_TRUE(s.warnings.empty()) << name << ":\n" << allWarnings(s);
@@ -166,151 +166,152 @@ TEST(BundledScenes, LoadCleanlyWithLightsAndCameras) {
   }
   // The scenes that promise anisotropic metal have it, with tangents.
   for (const char* name : {"tableau", "kitchen"}) {
-    LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-    ASSERT_TRUE(r.scene);
+    SceneResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+    ASSERT_TRUE(r);
     bool aniso = false;
-    for (const Material& m : r.scene->materials) aniso |= m.anisotropyStrength > 0 && m.metallic == 1;
+    for (const Material& m : (*r)->materials) aniso |= m.anisotropyStrength > 0 && m.metallic == 1;
     EXPECT_TRUE(aniso) << name;
   }
   // The hall's walls are pure metal (no diffuse component).
-  LoadResult hall = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/hall.gltf");
-  ASSERT_TRUE(hall.scene);
+  SceneResult hall = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/hall.gltf");
+  ASSERT_TRUE(hall);
   bool found = false;
-  for (const Material& m : hall.scene->materials)
+  for (const Material& m : (*hall)->materials)
     if (m.name == "hall-metal") found = m.metallic == 1.0f;
   EXPECT_TRUE(found);
 }
 
 TEST_F(LoaderTest, MinimalQuadLoads) {
-  LoadResult r = load(writeDoc(quadDoc()));
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_EQ(r.scene->triangleCount(), 2u);
-  EXPECT_FALSE(r.scene->cameraFromFile);
-  EXPECT_TRUE(hasWarning(*r.scene, "default camera"));
-  EXPECT_NEAR(r.scene->triangleArea(0) + r.scene->triangleArea(1), 1.0f, 1e-6f);
-  EXPECT_NEAR(r.scene->triangleNormal(0).z, 1.0f, 1e-6f);  // CCW seen from +z
+  SceneResult r = load(writeDoc(quadDoc()));
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ((*r)->triangleCount(), 2u);
+  EXPECT_FALSE((*r)->cameraFromFile);
+  EXPECT_TRUE(hasWarning(**r, "default camera"));
+  EXPECT_NEAR((*r)->triangleArea(0) + (*r)->triangleArea(1), 1.0f, 1e-6f);
+  EXPECT_NEAR((*r)->triangleNormal(0).z, 1.0f, 1e-6f);  // CCW seen from +z
 }
 
 TEST_F(LoaderTest, GlbLoadsAndTruncatedGlbFails) {
   Doc d = quadDoc();
-  LoadResult ok = load(writeGlb(d, "ok.glb"));
-  ASSERT_TRUE(ok.scene) << ok.error;
-  EXPECT_EQ(ok.scene->triangleCount(), 2u);
+  SceneResult ok = load(writeGlb(d, "ok.glb"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 2u);
   for (size_t cut : {size_t(10), size_t(30), size_t(100)}) {
     std::string p = writeGlb(d, "cut" + std::to_string(cut) + ".glb", cut);
-    LoadResult r = load(p);
-    EXPECT_FALSE(r.scene) << "cut at " << cut;
-    EXPECT_NE(r.error.find(p), std::string::npos) << r.error;
+    SceneResult r = load(p);
+    EXPECT_FALSE(r) << "cut at " << cut;
+    EXPECT_NE(r.error().find(p), std::string::npos) << r.error();
   }
 }
 
 TEST_F(LoaderTest, UnreadableAndGarbageFilesFail) {
-  LoadResult missing = load((dir / "nope.gltf").string());
-  EXPECT_FALSE(missing.scene);
-  EXPECT_NE(missing.error.find("nope.gltf"), std::string::npos);
-  EXPECT_NE(missing.error.find("cannot be read"), std::string::npos);
-  EXPECT_FALSE(load(write("empty.gltf", "")).scene);
-  LoadResult garbage = load(write("garbage.gltf", "{ this is not json"));
-  EXPECT_FALSE(garbage.scene);
-  EXPECT_NE(garbage.error.find("garbage.gltf"), std::string::npos) << garbage.error;
-  EXPECT_FALSE(load(write("array.gltf", "[1,2,3]")).scene);
+  SceneResult missing = load((dir / "nope.gltf").string());
+  EXPECT_FALSE(missing);
+  EXPECT_NE(missing.error().find("nope.gltf"), std::string::npos);
+  EXPECT_NE(missing.error().find("cannot be read"), std::string::npos);
+  EXPECT_FALSE(load(write("empty.gltf", "")));
+  SceneResult garbage = load(write("garbage.gltf", "{ this is not json"));
+  EXPECT_FALSE(garbage);
+  EXPECT_NE(garbage.error().find("garbage.gltf"), std::string::npos) << garbage.error();
+  EXPECT_FALSE(load(write("array.gltf", "[1,2,3]")));
   std::string binary(4096, '\xff');
-  EXPECT_FALSE(load(write("noise.gltf", binary)).scene);
+  EXPECT_FALSE(load(write("noise.gltf", binary)));
 }
 
 TEST_F(LoaderTest, WrongJsonTypesFail) {
   Doc d = quadDoc();
   d.j["meshes"] = "not an array";
-  EXPECT_FALSE(load(writeDoc(d, "a.gltf")).scene);
+  EXPECT_FALSE(load(writeDoc(d, "a.gltf")));
   Doc e = quadDoc();
   e.j["accessors"][0]["count"] = "three";
-  EXPECT_FALSE(load(writeDoc(e, "b.gltf")).scene);
+  EXPECT_FALSE(load(writeDoc(e, "b.gltf")));
   Doc f = quadDoc();
   f.j["materials"][0]["extensions"] = {{"KHR_materials_emissive_strength", {{"emissiveStrength", "bright"}}}};
-  LoadResult r = load(writeDoc(f, "c.gltf"));
-  EXPECT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("emissiveStrength"), std::string::npos) << r.error;
+  SceneResult r = load(writeDoc(f, "c.gltf"));
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("emissiveStrength"), std::string::npos) << r.error();
 }
 
 TEST_F(LoaderTest, IndexOutOfRangeFails) {
-  LoadResult r = load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, {0, 1, 2, 0, 2, 7})));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("out of range"), std::string::npos) << r.error;
-  EXPECT_NE(r.error.find("mesh 0 'quad'"), std::string::npos) << r.error;
+  SceneResult r = load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, {0, 1, 2, 0, 2, 7})));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("out of range"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("mesh 0 'quad'"), std::string::npos) << r.error();
 }
 
 TEST_F(LoaderTest, NonFinitePositionsFail) {
   for (float bad : {std::nanf(""), INFINITY}) {
-    LoadResult r = load(writeDoc(quadDoc({0, 0, 0, 1, bad, 0, 1, 1, 0, 0, 1, 0})));
-    ASSERT_FALSE(r.scene);
-    EXPECT_NE(r.error.find("POSITION[1] is not finite"), std::string::npos) << r.error;
+    SceneResult r = load(writeDoc(quadDoc({0, 0, 0, 1, bad, 0, 1, 1, 0, 0, 1, 0})));
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().find("POSITION[1] is not finite"), std::string::npos) << r.error();
   }
 }
 
 TEST_F(LoaderTest, ShortAndMissingBuffersFail) {
   Doc d = quadDoc();
   d.j["bufferViews"][1]["byteLength"] = 4000;  // past the end of the buffer
-  LoadResult r = load(writeDoc(d, "a.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("past the end"), std::string::npos) << r.error;
+  SceneResult r = load(writeDoc(d, "a.gltf"));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("past the end"), std::string::npos) << r.error();
 
   Doc e = quadDoc();
   e.j["accessors"][0]["count"] = 400;  // more elements than the view holds
   r = load(writeDoc(e, "b.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("POSITION"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("POSITION"), std::string::npos) << r.error();
 
   Doc f = quadDoc();
   f.j["accessors"][0]["count"] = 1e12;  // hostile: absurd count
-  EXPECT_FALSE(load(writeDoc(f, "c.gltf")).scene);
+  EXPECT_FALSE(load(writeDoc(f, "c.gltf")));
 
   Doc g = quadDoc();
   g.j["buffers"] = {{{"byteLength", g.bin.size()}, {"uri", "missing.bin"}}};
   r = load(writeDoc(g, "d.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("d.gltf"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("d.gltf"), std::string::npos) << r.error();
 
   Doc h = quadDoc();
   h.j["accessors"][1]["bufferView"] = 9;
   r = load(writeDoc(h, "e.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("e.gltf"), std::string::npos) << r.error;
-  EXPECT_NE(r.error.find("bufferView"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("e.gltf"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("bufferView"), std::string::npos) << r.error();
 }
 
 TEST_F(LoaderTest, RecursiveNodesFail) {
   Doc d = quadDoc();
   d.j["nodes"] = {{{"name", "a"}, {"children", {1}}}, {{"name", "b"}, {"children", {0}}, {"mesh", 0}}};
-  LoadResult r = load(writeDoc(d, "a.gltf"));
-  EXPECT_FALSE(r.scene);
+  SceneResult r = load(writeDoc(d, "a.gltf"));
+  EXPECT_FALSE(r);
   Doc e = quadDoc();
   e.j["nodes"] = {{{"name", "self"}, {"children", {0}}, {"mesh", 0}}};
   r = load(writeDoc(e, "b.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("recursive"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("recursive"), std::string::npos) << r.error();
 }
 
 TEST_F(LoaderTest, OutOfRangeMaterialValuesFail) {
   Doc d = quadDoc();
   d.j["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 1.7;
-  LoadResult r = load(writeDoc(d));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("material 0 'glow': roughnessFactor must be in [0,1] (got 1.7)"), std::string::npos)
-      << r.error;
+  SceneResult r = load(writeDoc(d));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("material 0 'glow': roughnessFactor must be in [0,1] (got 1.7)"), std::string::npos)
+      << r.error();
   Doc e = quadDoc();
   e.j["materials"][0]["extensions"] = {{"KHR_materials_anisotropy", {{"anisotropyStrength", 2.0}}}};
-  EXPECT_FALSE(load(writeDoc(e, "b.gltf")).scene);
+  EXPECT_FALSE(load(writeDoc(e, "b.gltf")));
   Doc f = quadDoc();
   f.j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 3}};
   r = load(writeDoc(f, "c.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("texture 3 does not exist"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("texture 3 does not exist"), std::string::npos) << r.error();
 }
 
 TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   Doc d = quadDoc();
   // A points primitive, morph targets, a skin, transmission, an unknown
-  // required extension, an orthographic camera and a directional light.
+  // extension that is used but not required, an orthographic camera and a
+  // directional light.
   json prim = d.j["meshes"][0]["primitives"][0];
   json points = prim;
   points["mode"] = 0;
@@ -319,7 +320,6 @@ TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   d.j["meshes"][0]["primitives"] = {prim, points, morph};
   d.j["materials"][0]["extensions"] = {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}};
   d.j["extensionsUsed"] = {"KHR_materials_transmission", "EXT_made_up", "KHR_lights_punctual"};
-  d.j["extensionsRequired"] = {"EXT_made_up"};
   d.j["cameras"] = {{{"name", "ortho"},
                      {"type", "orthographic"},
                      {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}}};
@@ -328,49 +328,76 @@ TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
                   {{"name", "cam"}, {"camera", 0}},
                   {{"name", "sun-node"}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}}};
   d.j["scenes"][0]["nodes"] = {0, 1, 2};
-  LoadResult r = load(writeDoc(d));
-  ASSERT_TRUE(r.scene) << r.error;
-  const Scene& s = *r.scene;
+  SceneResult r = load(writeDoc(d));
+  ASSERT_TRUE(r) << r.error();
+  const Scene& s = **r;
   EXPECT_EQ(s.triangleCount(), 4u) << "the triangle primitives load; points are skipped";
   EXPECT_TRUE(hasWarning(s, "primitive 1: points and lines are not modelled")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "primitive 2: morph targets")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "material 0 'glow': extension KHR_materials_transmission")) << allWarnings(s);
-  EXPECT_TRUE(hasWarning(s, "required extension EXT_made_up")) << allWarnings(s);
+  EXPECT_TRUE(hasWarning(s, "extension EXT_made_up is used but not modelled")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "camera 0 'ortho': orthographic")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "light 0 'sun': directional")) << allWarnings(s);
 }
 
+// Issue 12: an unsupported *required* extension (Draco-compressed geometry)
+// is refused with the extension and the file named; required extensions the
+// loader supports still load.
+TEST_F(LoaderTest, UnsupportedRequiredExtensionsAreRefused) {
+  Doc d = quadDoc();
+  d.j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+  d.j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+  std::string path = writeDoc(d, "draco.gltf");
+  SceneResult r = load(path);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().rfind(path + ": required extension KHR_draco_mesh_compression is not supported", 0), 0u)
+      << r.error();
+  Doc g = quadDoc();
+  g.j["extensionsUsed"] = {"EXT_meshopt_compression"};
+  g.j["extensionsRequired"] = {"EXT_meshopt_compression"};
+  SceneResult glb = load(writeGlb(g, "meshopt.glb"));
+  ASSERT_FALSE(glb);
+  EXPECT_NE(glb.error().find("meshopt.glb: required extension EXT_meshopt_compression"), std::string::npos)
+      << glb.error();
+  Doc ok = quadDoc();
+  ok.j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_lights_punctual"};
+  ok.j["extensionsRequired"] = {"KHR_materials_emissive_strength", "KHR_lights_punctual"};
+  SceneResult fine = load(writeDoc(ok, "supported.gltf"));
+  ASSERT_TRUE(fine) << fine.error();
+  EXPECT_GT((*fine)->triangleCount(), 0u);
+}
+
 TEST_F(LoaderTest, ZeroAreaTrianglesAreSkippedWithAWarning) {
-  LoadResult r = load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0}, {0, 1, 2, 0, 1, 3})));
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_EQ(r.scene->triangleCount(), 1u);
-  EXPECT_TRUE(hasWarning(*r.scene, "1 zero-area triangle(s) skipped")) << allWarnings(*r.scene);
+  SceneResult r = load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0}, {0, 1, 2, 0, 1, 3})));
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ((*r)->triangleCount(), 1u);
+  EXPECT_TRUE(hasWarning(**r, "1 zero-area triangle(s) skipped")) << allWarnings(**r);
   // All triangles degenerate: nothing to render is an error.
-  EXPECT_FALSE(load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0}, {0, 1, 2, 1, 2, 3}), "b.gltf")).scene);
+  EXPECT_FALSE(load(writeDoc(quadDoc({0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0}, {0, 1, 2, 1, 2, 3}), "b.gltf")));
 }
 
 TEST_F(LoaderTest, TransformsStripsAndMirrors) {
   Doc d = quadDoc();
   d.j["nodes"][0]["translation"] = {0, 0, 5};
   d.j["nodes"][0]["scale"] = {2, 2, 2};
-  LoadResult r = load(writeDoc(d));
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_FLOAT_EQ(r.scene->boundsMin.z, 5.0f);
-  EXPECT_FLOAT_EQ(r.scene->boundsMax.x, 2.0f);
+  SceneResult r = load(writeDoc(d));
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_FLOAT_EQ((*r)->boundsMin.z, 5.0f);
+  EXPECT_FLOAT_EQ((*r)->boundsMax.x, 2.0f);
   // A mirroring transform keeps the front face on the mirrored normal's side.
   Doc m = quadDoc();
   m.j["nodes"][0]["scale"] = {1, 1, -1};
   r = load(writeDoc(m, "m.gltf"));
-  ASSERT_TRUE(r.scene);
-  EXPECT_NEAR(r.scene->triangleNormal(0).z, -1.0f, 1e-6f);
+  ASSERT_TRUE(r);
+  EXPECT_NEAR((*r)->triangleNormal(0).z, -1.0f, 1e-6f);
   // A triangle strip of 4 indices is 2 triangles.
   Doc s = quadDoc({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0}, {0, 1, 2, 3});
   s.j["meshes"][0]["primitives"][0]["mode"] = 5;
   r = load(writeDoc(s, "s.gltf"));
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_EQ(r.scene->triangleCount(), 2u);
-  EXPECT_GT(r.scene->triangleNormal(0).z, 0.0f);
-  EXPECT_GT(r.scene->triangleNormal(1).z, 0.0f);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ((*r)->triangleCount(), 2u);
+  EXPECT_GT((*r)->triangleNormal(0).z, 0.0f);
+  EXPECT_GT((*r)->triangleNormal(1).z, 0.0f);
 }
 
 TEST_F(LoaderTest, CamerasByNameAndLights) {
@@ -391,31 +418,31 @@ TEST_F(LoaderTest, CamerasByNameAndLights) {
                   {{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}, {"translation", {0, 0, 1}}},
                   {{"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}, {"translation", {0, 0, 2}}}};
   d.j["scenes"][0]["nodes"] = {0, 1, 2, 3, 4};
-  LoadResult r = load(writeDoc(d));
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_EQ(r.scene->camera.name, "first");
-  EXPECT_FLOAT_EQ(r.scene->camera.yfov, 0.5f);
-  ASSERT_EQ(r.scene->punctualLights.size(), 2u);
-  EXPECT_FLOAT_EQ(r.scene->punctualLights[0].intensity.y, 5.0f);
-  EXPECT_NEAR(r.scene->punctualLights[1].direction.z, -1.0f, 1e-6f);
+  SceneResult r = load(writeDoc(d));
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ((*r)->camera.name, "first");
+  EXPECT_FLOAT_EQ((*r)->camera.yfov, 0.5f);
+  ASSERT_EQ((*r)->punctualLights.size(), 2u);
+  EXPECT_FLOAT_EQ((*r)->punctualLights[0].intensity.y, 5.0f);
+  EXPECT_NEAR((*r)->punctualLights[1].direction.z, -1.0f, 1e-6f);
   LoadOptions o;
   o.cameraName = "second";
   r = load(writeDoc(d, "b.gltf"), o);
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_FLOAT_EQ(r.scene->camera.position.z, 4.0f);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_FLOAT_EQ((*r)->camera.position.z, 4.0f);
   o.cameraName = "third";
   r = load(writeDoc(d, "c.gltf"), o);
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("no perspective camera named 'third'"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("no perspective camera named 'third'"), std::string::npos) << r.error();
   // A spot whose inner angle exceeds its outer angle is invalid.
   d.j["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.6;
   r = load(writeDoc(d, "d.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("light 1 'spot'"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("light 1 'spot'"), std::string::npos) << r.error();
   // A node that names a light that does not exist.
   d.j["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = 0.2;
   d.j["nodes"][3]["extensions"]["KHR_lights_punctual"]["light"] = 7;
-  EXPECT_FALSE(load(writeDoc(d, "e.gltf")).scene);
+  EXPECT_FALSE(load(writeDoc(d, "e.gltf")));
 }
 
 TEST_F(LoaderTest, EmissionStrengthAndAnisotropyParse) {
@@ -425,22 +452,22 @@ TEST_F(LoaderTest, EmissionStrengthAndAnisotropyParse) {
       {"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}},
       {"KHR_materials_anisotropy", {{"anisotropyStrength", 0.6}, {"anisotropyRotation", 1.0}}}};
   d.j["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy"};
-  LoadResult r = load(writeDoc(d));
-  ASSERT_TRUE(r.scene) << r.error;
-  const Material& m = r.scene->materials[0];
+  SceneResult r = load(writeDoc(d));
+  ASSERT_TRUE(r) << r.error();
+  const Material& m = (*r)->materials[0];
   EXPECT_FLOAT_EQ(m.emission.x, 2.0f);
   EXPECT_FLOAT_EQ(m.emission.y, 1.0f);
   EXPECT_FLOAT_EQ(m.emission.z, 4.0f);
   EXPECT_FLOAT_EQ(m.anisotropyStrength, 0.6f);
   EXPECT_FLOAT_EQ(m.anisotropyRotation, 1.0f);
   // No TANGENT and no TEXCOORD_0: the direction is arbitrary, and we say so.
-  EXPECT_TRUE(hasWarning(*r.scene, "anisotropy direction is arbitrary")) << allWarnings(*r.scene);
+  EXPECT_TRUE(hasWarning(**r, "anisotropy direction is arbitrary")) << allWarnings(**r);
 }
 
 TEST_F(LoaderTest, TexturesAreLoadedAndSampled) {
   // A 2x1 PNG: left texel red, right texel blue, referenced as an external file.
-  std::string err;
-  ASSERT_TRUE(writePngRgb8((dir / "tex.png").string(), 2, 1, {255, 0, 0, 0, 0, 255}, &err)) << err;
+  Result<void> png = writePngRgb8((dir / "tex.png").string(), 2, 1, {255, 0, 0, 0, 0, 255});
+  ASSERT_TRUE(png) << png.error();
   std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
   std::vector<float> uv = {0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f};  // all on the red texel
   Doc d = quadDoc(pos);
@@ -454,19 +481,19 @@ TEST_F(LoaderTest, TexturesAreLoadedAndSampled) {
   d.j["textures"] = {{{"source", 0}, {"sampler", 0}}};
   d.j["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {1, 1, 1, 1};
   d.j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
-  LoadResult r = load(writeDoc(d));
-  ASSERT_TRUE(r.scene) << r.error;
-  ASSERT_EQ(r.scene->textures.size(), 1u);
-  SurfaceHit h = r.scene->surfaceHit(0, 0.3f, 0.3f, Vec3(0, 0, -1));
+  SceneResult r = load(writeDoc(d));
+  ASSERT_TRUE(r) << r.error();
+  ASSERT_EQ((*r)->textures.size(), 1u);
+  SurfaceHit h = (*r)->surfaceHit(0, 0.3f, 0.3f, Vec3(0, 0, -1));
   EXPECT_NEAR(h.uv.x, 0.25f, 1e-6f);
-  Brdf b = r.scene->brdf(h);
+  Brdf b = (*r)->brdf(h);
   EXPECT_NEAR(b.baseColor.x, 1.0f, 1e-3f);  // sRGB 255 decodes to linear 1
   EXPECT_NEAR(b.baseColor.z, 0.0f, 1e-3f);
   // A texture whose image file is missing is an error naming the file.
   fs::remove(dir / "tex.png");
-  LoadResult missing = load(writeDoc(d, "b.gltf"));
-  EXPECT_FALSE(missing.scene);
-  EXPECT_NE(missing.error.find("b.gltf"), std::string::npos) << missing.error;
+  SceneResult missing = load(writeDoc(d, "b.gltf"));
+  EXPECT_FALSE(missing);
+  EXPECT_NE(missing.error().find("b.gltf"), std::string::npos) << missing.error();
 }
 
 // Hostile input: random byte corruptions of a valid .gltf and .glb must each
@@ -506,13 +533,13 @@ TEST_F(LoaderTest, CorruptedFilesNeverCrash) {
       }
     }
     std::string path = write(i % 2 ? "m.glb" : "m.gltf", m);
-    LoadResult r = load(path);
-    if (r.scene) {
+    SceneResult r = load(path);
+    if (r) {
       ++scenes;
-      EXPECT_GT(r.scene->triangleCount(), 0u);
+      EXPECT_GT((*r)->triangleCount(), 0u);
     } else {
       ++errors;
-      EXPECT_NE(r.error.find(path), std::string::npos) << r.error;
+      EXPECT_NE(r.error().find(path), std::string::npos) << r.error();
     }
   }
   EXPECT_GT(errors, 0);
@@ -562,13 +589,13 @@ std::string nested(size_t depth, const std::string& open, const std::string& clo
 
 // Defect 2: a hierarchy 100,000 levels deep overflowed the stack.
 TEST_F(LoaderTest, DeepNodeHierarchiesFailWithoutRecursion) {
-  LoadResult ok = load(writeDoc(chainDoc(1000), "ok.gltf"));
-  ASSERT_TRUE(ok.scene) << ok.error;
-  EXPECT_EQ(ok.scene->triangleCount(), 2u);
-  LoadResult r = load(writeDoc(chainDoc(100000), "deep.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("deep.gltf"), std::string::npos) << r.error;
-  EXPECT_NE(r.error.find("deeper than 1024 levels"), std::string::npos) << r.error;
+  SceneResult ok = load(writeDoc(chainDoc(1000), "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 2u);
+  SceneResult r = load(writeDoc(chainDoc(100000), "deep.gltf"));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("deep.gltf"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("deeper than 1024 levels"), std::string::npos) << r.error();
 }
 
 // Defect 2: tinygltf converts extras recursively; 100,000 levels crashed.
@@ -580,24 +607,24 @@ TEST_F(LoaderTest, AbsurdJsonNestingIsRefusedBeforeParsing) {
     std::string hostile = text;
     hostile.insert(hostile.find("\"name\":\"glow\""), "\"extras\":" + nested(100000, open, close) + ",");
     Doc e = d;
-    LoadResult r =
+    SceneResult r =
         load(write("nested.gltf", hostile.substr(0, hostile.size() - 1) +
                                       ",\"buffers\":[{\"byteLength\":" + std::to_string(d.bin.size()) +
                                       ",\"uri\":\"data:application/octet-stream;base64," + base64(d.bin) + "\"}]}"));
-    ASSERT_FALSE(r.scene);
-    EXPECT_NE(r.error.find("nested.gltf"), std::string::npos) << r.error.substr(0, 300);
-    EXPECT_NE(r.error.find("JSON nests deeper than 64 levels"), std::string::npos) << r.error.substr(0, 300);
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().find("nested.gltf"), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_NE(r.error().find("JSON nests deeper than 64 levels"), std::string::npos) << r.error().substr(0, 300);
   }
   // Brackets inside strings do not count; moderate nesting in extras loads.
   d.j["materials"][0]["extras"] = {{"note", std::string(1000, '[')}, {"deep", json::parse(nested(40, "[", "]"))}};
-  LoadResult ok = load(writeDoc(d, "fine.gltf"));
-  EXPECT_TRUE(ok.scene) << ok.error;
+  SceneResult ok = load(writeDoc(d, "fine.gltf"));
+  EXPECT_TRUE(ok) << ok.error();
   // The same check runs on a .glb's JSON chunk.
   Doc g = quadDoc();
   g.j["asset"]["extras"] = json::parse(nested(200, "[", "]"));
-  LoadResult glb = load(writeGlb(g, "nested.glb"));
-  ASSERT_FALSE(glb.scene);
-  EXPECT_NE(glb.error.find("JSON nests deeper"), std::string::npos) << glb.error;
+  SceneResult glb = load(writeGlb(g, "nested.glb"));
+  ASSERT_FALSE(glb);
+  EXPECT_NE(glb.error().find("JSON nests deeper"), std::string::npos) << glb.error();
 }
 
 // Defect 3: aspectRatio 1e-5 aborted (bad_alloc), 0.004 was OOM-killed and
@@ -610,14 +637,14 @@ TEST_F(LoaderTest, CameraAspectRatioIsRangeChecked) {
   for (double aspect : {1e-5, 0.004, 1e30, -1.0, 33.0}) {
     d.j["cameras"] = {{{"name", "cam"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
     d.j["cameras"][0]["perspective"]["aspectRatio"] = aspect;
-    LoadResult r = load(writeDoc(d, "a" + std::to_string(i++) + ".gltf"));
-    ASSERT_FALSE(r.scene) << aspect;
-    EXPECT_NE(r.error.find("camera 0 'cam': aspectRatio must be in [0.03125,32]"), std::string::npos) << r.error;
+    SceneResult r = load(writeDoc(d, "a" + std::to_string(i++) + ".gltf"));
+    ASSERT_FALSE(r) << aspect;
+    EXPECT_NE(r.error().find("camera 0 'cam': aspectRatio must be in [0.03125,32]"), std::string::npos) << r.error();
   }
   d.j["cameras"][0]["perspective"]["aspectRatio"] = 1.5;
-  LoadResult ok = load(writeDoc(d, "ok.gltf"));
-  ASSERT_TRUE(ok.scene) << ok.error;
-  EXPECT_FLOAT_EQ(ok.scene->camera.aspect, 1.5f);
+  SceneResult ok = load(writeDoc(d, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_FLOAT_EQ((*ok)->camera.aspect, 1.5f);
 }
 
 // Defect 4: Embree aborted for a camera at z = 2e18 or a light at 1e30; only
@@ -627,14 +654,15 @@ TEST_F(LoaderTest, WorldSpacePositionsAreRangeChecked) {
   d.j["cameras"] = {{{"name", "far"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}}};
   d.j["nodes"] = {{{"mesh", 0}}, {{"camera", 0}, {"translation", {0, 0, 2e18}}}};
   d.j["scenes"][0]["nodes"] = {0, 1};
-  LoadResult r = load(writeDoc(d, "camera.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("node 1: its world transform has an entry of 2e+18, outside +-1e+12"), std::string::npos)
-      << r.error;
+  SceneResult r = load(writeDoc(d, "camera.gltf"));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("node 1: its world transform has an entry of 2e+18, outside +-1e+12"), std::string::npos)
+      << r.error();
   d.j["nodes"][1]["translation"] = {0, 0, 2e10};
   r = load(writeDoc(d, "camera2.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("camera 0 'far': position lies at (0 0 2e+10) in world space"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("camera 0 'far': position lies at (0 0 2e+10) in world space"), std::string::npos)
+      << r.error();
 
   Doc e = quadDoc();
   e.j["extensions"] = {{"KHR_lights_punctual", {{"lights", {{{"name", "sun"}, {"type", "point"}, {"intensity", 1}}}}}}};
@@ -642,26 +670,26 @@ TEST_F(LoaderTest, WorldSpacePositionsAreRangeChecked) {
                   {{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}, {"translation", {1e30, 0, 0}}}};
   e.j["scenes"][0]["nodes"] = {0, 1};
   r = load(writeDoc(e, "light.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("node 1: its world transform has an entry of 1e+30"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("node 1: its world transform has an entry of 1e+30"), std::string::npos) << r.error();
   e.j["nodes"][1]["translation"] = {-3e9, 0, 0};
   r = load(writeDoc(e, "light2.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("light 0 'sun': position lies at (-3e+09 0 0) in world space, outside +-1e+09"),
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("light 0 'sun': position lies at (-3e+09 0 0) in world space, outside +-1e+09"),
             std::string::npos)
-      << r.error;
+      << r.error();
 
   // Local positions are small, the node's scale makes them huge; an emitter
   // scaled like this used to be dropped (infinite power) and render black.
   Doc f = quadDoc();
   f.j["nodes"][0]["scale"] = {1e10, 1e10, 1};
   r = load(writeDoc(f, "scaled.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("POSITION[1] lies at (1e+10 0 0) in world space"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("POSITION[1] lies at (1e+10 0 0) in world space"), std::string::npos) << r.error();
   f.j["nodes"][0]["scale"] = {1e20, 1e20, 1};
   r = load(writeDoc(f, "scaled2.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("its world transform has an entry of 1e+20"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("its world transform has an entry of 1e+20"), std::string::npos) << r.error();
 }
 
 // Defect 5: a 220-byte file declared 3e8 zero elements; a DAG of shared
@@ -670,29 +698,29 @@ TEST_F(LoaderTest, TinyFilesCannotDeclareHugeScenes) {
   Doc d = quadDoc();
   d.j["accessors"][0].erase("bufferView");
   d.j["accessors"][0]["count"] = 300000000;
-  LoadResult r = load(writeDoc(d, "zeros.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("count 300000000 without a bufferView"), std::string::npos) << r.error;
+  SceneResult r = load(writeDoc(d, "zeros.gltf"));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("count 300000000 without a bufferView"), std::string::npos) << r.error();
 
   LoadOptions small;
   small.maxTriangles = 100000;
   r = load(writeDoc(dagDoc(17, true), "dag.gltf"), small);  // 2^16 instances of 2 triangles
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("expands to 131072 triangles, more than 100000"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("expands to 131072 triangles, more than 100000"), std::string::npos) << r.error();
   // Counted before walking: the default limit with 2^29 instances fails at once.
   auto t0 = std::chrono::steady_clock::now();
   r = load(writeDoc(dagDoc(30, true), "bigdag.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("node instances"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("node instances"), std::string::npos) << r.error();
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
   r = load(writeDoc(dagDoc(12, true), "smalldag.gltf"), small);  // 2^11 instances: fine
-  ASSERT_TRUE(r.scene) << r.error;
-  EXPECT_EQ(r.scene->triangleCount(), 4096u);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ((*r)->triangleCount(), 4096u);
 
   // No meshes at all, only node instances: bounded too, within seconds.
   r = load(writeDoc(dagDoc(40, false), "empty-dag.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("node instances"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("node instances"), std::string::npos) << r.error();
 }
 
 // Defect 6: URIs read outside the scene's folder, errors disclosed the size
@@ -715,84 +743,84 @@ TEST_F(LoaderTest, UrisResolveInsideTheScenesFolderOnly) {
   {
     Doc e = d;
     e.j["buffers"] = {{{"byteLength", d.bin.size()}, {"uri", "data/quad.bin"}}};
-    LoadResult ok = load(write("scene/ok.gltf", e.j.dump()));
-    ASSERT_TRUE(ok.scene) << ok.error;
+    SceneResult ok = load(write("scene/ok.gltf", e.j.dump()));
+    ASSERT_TRUE(ok) << ok.error();
   }
   const std::string size = std::to_string(d.bin.size());
   const std::vector<std::string> hostile = {
       "../outside.bin", "data/../../outside.bin",       "/etc/passwd",
       "/etc/shadow",    "../../../../../../etc/passwd", (dir / "outside.bin").string()};
   for (const std::string& uri : hostile) {
-    LoadResult r = load(withUri(uri, "bad.gltf"));
-    ASSERT_FALSE(r.scene) << uri;
-    EXPECT_NE(r.error.find("bad.gltf"), std::string::npos) << r.error;
-    EXPECT_TRUE(r.error.find("outside the scene's folder") != std::string::npos ||
-                r.error.find("absolute paths are refused") != std::string::npos)
-        << r.error;
-    EXPECT_EQ(r.error.find("got " + size), std::string::npos) << "discloses the size: " << r.error;
-    EXPECT_EQ(r.error.find("requestedBytes"), std::string::npos) << r.error;
+    SceneResult r = load(withUri(uri, "bad.gltf"));
+    ASSERT_FALSE(r) << uri;
+    EXPECT_NE(r.error().find("bad.gltf"), std::string::npos) << r.error();
+    EXPECT_TRUE(r.error().find("outside the scene's folder") != std::string::npos ||
+                r.error().find("absolute paths are refused") != std::string::npos)
+        << r.error();
+    EXPECT_EQ(r.error().find("got " + size), std::string::npos) << "discloses the size: " << r.error();
+    EXPECT_EQ(r.error().find("requestedBytes"), std::string::npos) << r.error();
   }
   // A symlink inside the folder that leads out is refused too.
   fs::create_symlink(dir / "outside.bin", dir / "scene" / "link.bin");
-  LoadResult r = load(withUri("link.bin", "link.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("outside the scene's folder"), std::string::npos) << r.error;
+  SceneResult r = load(withUri("link.bin", "link.gltf"));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("outside the scene's folder"), std::string::npos) << r.error();
   // No fallback to the current directory.
   auto cwd = fs::current_path();
   fs::current_path(dir);
   r = load(withUri("outside.bin", "cwd.gltf"));
   fs::current_path(cwd);
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("URI 'outside.bin': cannot be read (no such file)"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("URI 'outside.bin': cannot be read (no such file)"), std::string::npos) << r.error();
   // Special files: a FIFO must not hang, a directory is not "out of memory".
   ASSERT_EQ(mkfifo((dir / "scene" / "fifo.bin").c_str(), 0600), 0);
   r = load(withUri("fifo.bin", "fifo.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("not a regular file"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("not a regular file"), std::string::npos) << r.error();
   r = load(withUri("data", "dir.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("it is a directory"), std::string::npos) << r.error;
-  EXPECT_EQ(r.error.find("memory"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("it is a directory"), std::string::npos) << r.error();
+  EXPECT_EQ(r.error().find("memory"), std::string::npos) << r.error();
   // The scene file itself.
   r = load((dir / "scene" / "fifo.bin").string());
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("not a regular file"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("not a regular file"), std::string::npos) << r.error();
   r = load("/dev/zero");
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("/dev/zero: cannot be read (not a regular file"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("/dev/zero: cannot be read (not a regular file"), std::string::npos) << r.error();
   r = load((dir / "scene").string());
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("it is a directory"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("it is a directory"), std::string::npos) << r.error();
 }
 
 // Defect 9: wrong JSON types were silently replaced by defaults.
 TEST_F(LoaderTest, WrongTypesOfKnownPropertiesAreNamed) {
   Doc d = quadDoc();
   d.j["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = "0.5";
-  LoadResult r = load(writeDoc(d, "a.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("a.gltf: material 0 'glow': 'roughnessFactor' must be a number (got \"0.5\")"),
+  SceneResult r = load(writeDoc(d, "a.gltf"));
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("a.gltf: material 0 'glow': 'roughnessFactor' must be a number (got \"0.5\")"),
             std::string::npos)
-      << r.error;
+      << r.error();
   Doc e = quadDoc();
   e.j["nodes"][0]["translation"] = {"1", 0, 0};
   r = load(writeDoc(e, "b.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("node 0 'quad-node': 'translation' must be an array of 3 numbers"), std::string::npos)
-      << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("node 0 'quad-node': 'translation' must be an array of 3 numbers"), std::string::npos)
+      << r.error();
   Doc f = quadDoc();
   f.j["materials"][0]["doubleSided"] = "yes";
   r = load(writeDoc(f, "c.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("'doubleSided' must be true or false"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("'doubleSided' must be true or false"), std::string::npos) << r.error();
 }
 
 // Defect 5: textures are expanded to float RGBA per texture, also when many
 // share one image; an image header may claim any size.
 TEST_F(LoaderTest, TextureMemoryIsBounded) {
-  std::string err;
   std::vector<uint8_t> px(512 * 512 * 3, 128);
-  ASSERT_TRUE(writePngRgb8((dir / "big.png").string(), 512, 512, px, &err)) << err;
+  Result<void> written = writePngRgb8((dir / "big.png").string(), 512, 512, px);
+  ASSERT_TRUE(written) << written.error();
   Doc d = quadDoc();
   d.j["images"] = {{{"uri", "big.png"}}};
   d.j["textures"] = {{{"source", 0}}, {{"source", 0}}, {{"source", 0}}};
@@ -802,12 +830,12 @@ TEST_F(LoaderTest, TextureMemoryIsBounded) {
   m["emissiveTexture"] = {{"index", 2}};
   LoadOptions o;
   o.maxTexels = 3 * 512 * 512;
-  LoadResult ok = load(writeDoc(d, "ok.gltf"), o);
-  ASSERT_TRUE(ok.scene) << ok.error;
+  SceneResult ok = load(writeDoc(d, "ok.gltf"), o);
+  ASSERT_TRUE(ok) << ok.error();
   o.maxTexels = 3 * 512 * 512 - 1;
-  LoadResult r = load(writeDoc(d, "many.gltf"), o);
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("texels in total"), std::string::npos) << r.error;
+  SceneResult r = load(writeDoc(d, "many.gltf"), o);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("texels in total"), std::string::npos) << r.error();
   // A PNG whose header claims 10000x10000 is refused before decoding (stb
   // itself refuses more than 2^30 bytes).
   std::ifstream in(dir / "big.png", std::ios::binary);
@@ -818,6 +846,6 @@ TEST_F(LoaderTest, TextureMemoryIsBounded) {
   write("huge.png", png);
   d.j["images"] = {{{"uri", "huge.png"}}};
   r = load(writeDoc(d, "huge.gltf"));
-  ASSERT_FALSE(r.scene);
-  EXPECT_NE(r.error.find("10000x10000 pixels is more than the texture limit"), std::string::npos) << r.error;
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("10000x10000 pixels is more than the texture limit"), std::string::npos) << r.error();
 }

@@ -605,9 +605,9 @@ TEST(ManyLight, NearMirrorRoughAndGrazingStayFinite) {
   s->camera.up = cross(s->camera.right, s->camera.forward);
   Loaded l;
   l.scene = s;
-  std::string err;
-  l.accel = Accel::build(*s, &err);
-  ASSERT_TRUE(l.accel) << err;
+  Result<std::unique_ptr<Accel>> built = Accel::build(*s);
+  ASSERT_TRUE(built) << built.error();
+  l.accel = std::move(built).value();
   l.lights = std::make_unique<LightSampler>(*s);
   ManyLightSettings ms;
   ms.lights = 800;
@@ -705,9 +705,9 @@ TEST(ManyLight, NoLightThroughThinSheets) {
     SCOPED_TRACE(doubleSided ? "double-sided" : "one-sided");
     Loaded l;
     l.scene = backLitSheet(doubleSided);
-    std::string err;
-    l.accel = Accel::build(*l.scene, &err);
-    ASSERT_TRUE(l.accel) << err;
+    Result<std::unique_ptr<Accel>> built = Accel::build(*l.scene);
+    ASSERT_TRUE(built) << built.error();
+    l.accel = std::move(built).value();
     l.lights = std::make_unique<LightSampler>(*l.scene);
     Reference ref = ptIndirect(l, 16, 16, 64, 3);
     EXPECT_EQ(ref.mean, 0.0) << "the path tracer finds no indirect light on the front";

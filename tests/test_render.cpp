@@ -54,9 +54,9 @@ PixelStats sampleImage(const PathTracer& pt, int spp) {
 }
 
 std::shared_ptr<const Scene> loadAsset(const std::string& name) {
-  LoadResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-  EXPECT_TRUE(r.scene) << r.error;
-  return r.scene;
+  SceneResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+  EXPECT_TRUE(r) << r.error();
+  return r.valueOr(nullptr);
 }
 
 // Per-point irradiance form factor from a differential area to a parallel
@@ -84,9 +84,9 @@ double rectFormFactor(double x0, double x1, double z0, double z1, double c) {
 TEST(RenderPT, FurnaceMatchesAnalyticRadiance) {
   auto scene = loadAsset("furnace");
   ASSERT_TRUE(scene);
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
-  ASSERT_TRUE(accel) << err;
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  ASSERT_TRUE(built) << built.error();
+  auto accel = std::move(built).value();
   LightSampler lights(*scene);
   RenderSettings rs;
   rs.width = rs.height = 24;
@@ -156,9 +156,9 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
   s.camera.up = Vec3(0, 0, -1);
   s.camera.right = Vec3(1, 0, 0);
   s.camera.yfov = 2 * std::atan(3.0f);  // sees the floor over [-1.5, 1.5]^2
-  std::string err;
-  auto accel = Accel::build(s, &err);
-  ASSERT_TRUE(accel) << err;
+  Result<std::unique_ptr<Accel>> built = Accel::build(s);
+  ASSERT_TRUE(built) << built.error();
+  auto accel = std::move(built).value();
   LightSampler lights(s);
   RenderSettings rs;
   rs.width = rs.height = 24;
@@ -202,8 +202,8 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
 TEST(RenderPT, SameSeedSameImageRegardlessOfThreads) {
   auto scene = loadAsset("cornell-glossy");
   ASSERT_TRUE(scene);
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  auto accel = std::move(built).value();
   LightSampler lights(*scene);
   RenderSettings rs;
   rs.width = rs.height = 32;
@@ -230,8 +230,8 @@ TEST(RenderPT, SameSeedSameImageRegardlessOfThreads) {
 
 TEST(RenderPT, StopFlagAbortsAPass) {
   auto scene = loadAsset("cornell-glossy");
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  auto accel = std::move(built).value();
   LightSampler lights(*scene);
   RenderSettings rs;
   rs.width = rs.height = 64;
@@ -247,8 +247,8 @@ TEST(RenderPT, BundledScenesRenderFiniteAndNonBlack) {
   for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
     auto scene = loadAsset(name);
     ASSERT_TRUE(scene);
-    std::string err;
-    auto accel = Accel::build(*scene, &err);
+    Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+    auto accel = std::move(built).value();
     LightSampler lights(*scene);
     RenderSettings rs;
     rs.width = rs.height = 24;
@@ -283,19 +283,21 @@ TEST(ImageIO, ExrRoundTripAndAtomicFailure) {
   Image a(3, 2), b(3, 2);
   for (size_t i = 0; i < a.rgb.size(); ++i) a.rgb[i] = float(i) * 0.5f, b.rgb[i] = -float(i);
   std::string path = testing::TempDir() + "vsl_io_test.exr";
-  std::string err;
-  ASSERT_TRUE(writeExr(path, {{"", a}, {"second", b}}, &err)) << err;
-  std::vector<Layer> layers;
-  ASSERT_TRUE(readExr(path, layers, &err)) << err;
-  ASSERT_EQ(layers.size(), 2u);
-  for (const Layer& l : layers) EXPECT_EQ(l.image.rgb, l.name.empty() ? a.rgb : b.rgb) << l.name;
+  Result<void> w = writeExr(path, {{"", a}, {"second", b}});
+  ASSERT_TRUE(w) << w.error();
+  Result<std::vector<Layer>> layers = readExr(path);
+  ASSERT_TRUE(layers) << layers.error();
+  ASSERT_EQ(layers->size(), 2u);
+  for (const Layer& l : *layers) EXPECT_EQ(l.image.rgb, l.name.empty() ? a.rgb : b.rgb) << l.name;
   // A failed write (mismatched layer sizes) leaves the existing file intact.
   Image bad(5, 5);
-  EXPECT_FALSE(writeExr(path, {{"", a}, {"x", bad}}, &err));
-  ASSERT_TRUE(readExr(path, layers, &err)) << err;
-  EXPECT_EQ(layers.size(), 2u);
+  EXPECT_FALSE(writeExr(path, {{"", a}, {"x", bad}}));
+  layers = readExr(path);
+  ASSERT_TRUE(layers) << layers.error();
+  EXPECT_EQ(layers->size(), 2u);
   // Writing into a directory that does not exist fails cleanly.
-  EXPECT_FALSE(writeExr("/nonexistent-dir/x.exr", {{"", a}}, &err));
-  EXPECT_NE(err.find("/nonexistent-dir/x.exr"), std::string::npos) << err;
-  EXPECT_FALSE(readExr(testing::TempDir() + "does-not-exist.exr", layers, &err));
+  w = writeExr("/nonexistent-dir/x.exr", {{"", a}});
+  EXPECT_FALSE(w);
+  EXPECT_NE(w.error().find("/nonexistent-dir/x.exr"), std::string::npos) << w.error();
+  EXPECT_FALSE(readExr(testing::TempDir() + "does-not-exist.exr"));
 }

@@ -14,6 +14,7 @@
 #include "core/compare.h"
 #include "core/image_io.h"
 #include "core/memory_budget.h"
+#include "core/parallel.h"
 #include "core/session.h"
 #include "core/virtual_lights.h"
 
@@ -53,7 +54,7 @@ std::shared_ptr<const Snapshot> waitFor(const Session& session, uint64_t g,
 
 TEST(Session, RendersToCompletionWithAllLayers) {
   Session session;
-  uint64_t g = session.restart(small("cornell-glossy", 200, 16));
+  uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
   ASSERT_GT(g, 0u);
   auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
   ASSERT_TRUE(snap);
@@ -107,7 +108,7 @@ TEST(Session, RestartStormNeverShowsStaleSnapshots) {
       // Record before restart() so the reader never sees an unknown generation.
       lightsOfGeneration[session.generation() + 1] = s.many.lights;
     }
-    uint64_t g = session.restart(s);
+    uint64_t g = session.restart(s).value();
     ASSERT_EQ(g, last + 1);
     last = g;
     if (i % 37 == 0) std::this_thread::sleep_for(5ms);
@@ -122,11 +123,11 @@ TEST(Session, RestartStormNeverShowsStaleSnapshots) {
 
 TEST(Session, FailedLoadKeepsThePreviousScene) {
   Session session;
-  uint64_t g1 = session.restart(small("furnace", 50, 8));
+  uint64_t g1 = session.restart(small("furnace", 50, 8)).value();
   ASSERT_TRUE(waitFor(session, g1, [](const Snapshot& s) { return s.batchesDone > 0; }));
   StudioSettings bad = small("furnace", 60, 8);
   bad.scene = std::string(VSL_SOURCE_DIR) + "/does-not-exist.gltf";
-  uint64_t g2 = session.restart(bad);
+  uint64_t g2 = session.restart(bad).value();
   auto snap = waitFor(session, g2, [](const Snapshot& s) { return s.batchesDone > 0; });
   ASSERT_TRUE(snap);
   EXPECT_EQ(snap->settings.scene, asset("furnace"));
@@ -137,46 +138,69 @@ TEST(Session, FailedLoadKeepsThePreviousScene) {
   EXPECT_GT(st.loadErrorSerial, 0u);
 }
 
+// An exception on a parallel worker (here injected into the first parallelFor
+// the session runs, in light tracing) reaches the session's worker, is reported
+// through status() and the log, and the next restart renders normally.
+TEST(Session, WorkerExceptionIsReportedAndTheSessionGoesOn) {
+  Session session;
+  failParallelForTesting(3, "injected worker failure");
+  uint64_t g1 = session.restart(small("furnace", 50, 8)).value();
+  Session::Status st;
+  for (int i = 0; i < 6000 && (st = session.status()).runErrorSerial == 0; ++i) std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(st.runError, "the render failed: injected worker failure");
+  EXPECT_EQ(st.runErrorSerial, 1u);
+  uint64_t g2 = session.restart(small("furnace", 50, 8)).value();
+  ASSERT_GT(g2, g1);
+  auto snap = waitFor(session, g2, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
+  EXPECT_EQ(session.status().runErrorSerial, 1u);
+}
+
 TEST(Session, InvalidSettingsAreRejected) {
   Session session;
   StudioSettings s = small("furnace", 0, 8);
-  std::string err;
-  EXPECT_EQ(session.restart(s, &err), 0u);
-  EXPECT_NE(err.find("lights"), std::string::npos) << err;
+  Result<uint64_t> r = session.restart(s);
+  EXPECT_FALSE(r);
+  EXPECT_EQ(r.error(), "lights: must be in [1,50000000] (got 0)");
   s = small("furnace", 10, 8);
   s.many.radiusScale = -1;
+  std::string err;  // the compatibility form: 0 and the reason
   EXPECT_EQ(session.restart(s, &err), 0u);
+  EXPECT_NE(err.find("radius-scale"), std::string::npos) << err;
   EXPECT_EQ(session.generation(), 0u);
 }
 
 TEST(Session, DestroyedWhileRenderingStopsPromptly) {
   for (int i = 0; i < 3; ++i) {
     Session session;
-    session.restart(small("kitchen", 200000, 64));
+    ASSERT_TRUE(session.restart(small("kitchen", 200000, 64)));
     std::this_thread::sleep_for(std::chrono::milliseconds(20 * i));
   }  // the destructor cancels between tiles and joins; a hang fails by timeout
   SUCCEED();
 }
 
 // Settings whose memory estimate does not fit are refused before anything
-// stops: restart() returns 0 with the estimate, and the render goes on.
+// stops: restart() returns an error with the estimate, and the render goes on.
 TEST(Session, RefusesSettingsThatDoNotFitInMemory) {
   Session session;
-  uint64_t g = session.restart(small("furnace", 50, 8));
+  uint64_t g = session.restart(small("furnace", 50, 8)).value();
   ASSERT_TRUE(waitFor(session, g, [](const Snapshot& s) { return s.batchesDone > 0; }));
   session.setAvailableMemoryForTesting(uint64_t(400) << 20);  // 400 MB
   StudioSettings huge = small("furnace", 50, 8);
   huge.many.width = 16384;
   huge.many.height = 0;  // from the camera: 16384x16384 for the furnace
-  std::string err;
-  EXPECT_EQ(session.restart(huge, &err), 0u);
+  Result<uint64_t> r = session.restart(huge);
+  ASSERT_FALSE(r);
+  const std::string& err = r.error();
   EXPECT_NE(err.find("memory:"), std::string::npos) << err;
   EXPECT_NE(err.find("needs about"), std::string::npos) << err;
   EXPECT_NE(err.find("at most"), std::string::npos) << "offers the largest setting that fits: " << err;
   EXPECT_EQ(session.generation(), g) << "the running render is untouched";
   StudioSettings many = small("furnace", 20'000'000, 8);
-  EXPECT_EQ(session.restart(many, &err), 0u);
-  EXPECT_NE(err.find("lights fit"), std::string::npos) << err;
+  Result<uint64_t> r2 = session.restart(many);
+  ASSERT_FALSE(r2);
+  EXPECT_NE(r2.error().find("lights fit"), std::string::npos) << r2.error();
 }
 
 TEST(Session, MemoryEstimateIsItemised) {
@@ -195,11 +219,11 @@ TEST(Session, MemoryEstimateIsItemised) {
 TEST(Session, RestartStopsLightTracingAndKnnPromptly) {
   Session session;
   for (int delayMs : {50, 400, 900}) {
-    uint64_t g = session.restart(small("cornell-glossy", 400000, 8));
+    uint64_t g = session.restart(small("cornell-glossy", 400000, 8)).value();
     std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
     Session::Status st = session.status();
     auto t0 = std::chrono::steady_clock::now();
-    uint64_t g2 = session.restart(small("furnace", 30, 8));
+    uint64_t g2 = session.restart(small("furnace", 30, 8)).value();
     ASSERT_EQ(g2, g + 1);
     auto snap = waitFor(session, g2, [](const Snapshot& s) { return s.batchesDone > 0; });
     ASSERT_TRUE(snap);
@@ -215,12 +239,12 @@ TEST(Session, FailedLoadResumesTheRunningRender) {
   StudioSettings s = small("cornell-glossy", 3000, 24);
   s.many.batches = 16;
   s.maxReferenceSpp = 64;
-  uint64_t g1 = session.restart(s);
+  uint64_t g1 = session.restart(s).value();
   auto before = waitFor(session, g1, [](const Snapshot& x) { return x.batchesDone >= 2; });
   ASSERT_TRUE(before);
   StudioSettings bad = s;
   bad.scene = std::string(VSL_SOURCE_DIR) + "/does-not-exist.gltf";
-  uint64_t g2 = session.restart(bad);
+  uint64_t g2 = session.restart(bad).value();
   auto after = waitFor(session, g2, [](const Snapshot&) { return true; });
   ASSERT_TRUE(after);
   EXPECT_GE(after->batchesDone, before->batchesDone) << "the render went on instead of starting over";
@@ -240,11 +264,11 @@ TEST(Session, SceneWithoutEmittersIsReportedAndKeepsThePreviousScene) {
       "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
   }
   Session session;
-  uint64_t g1 = session.restart(small("furnace", 50, 8));
+  uint64_t g1 = session.restart(small("furnace", 50, 8)).value();
   ASSERT_TRUE(waitFor(session, g1, [](const Snapshot& s) { return s.batchesDone > 0; }));
   StudioSettings dark = small("furnace", 50, 8);
   dark.scene = path;
-  uint64_t g2 = session.restart(dark);
+  uint64_t g2 = session.restart(dark).value();
   ASSERT_TRUE(waitFor(session, g2, [](const Snapshot& s) { return s.batchesDone > 0; }));
   Session::Status st = session.status();
   EXPECT_TRUE(st.noEmitters);
@@ -258,7 +282,7 @@ TEST(Session, FirstSceneMissingIsReported) {
   Session session;
   StudioSettings s = small("furnace", 50, 8);
   s.scene = std::string(VSL_SOURCE_DIR) + "/missing.gltf";
-  session.restart(s);
+  ASSERT_TRUE(session.restart(s));
   for (int i = 0; i < 3000 && session.status().loadErrorSerial == 0; ++i) std::this_thread::sleep_for(10ms);
   Session::Status st = session.status();
   EXPECT_GT(st.loadErrorSerial, 0u);
@@ -268,7 +292,7 @@ TEST(Session, FirstSceneMissingIsReported) {
 
 TEST(Session, ProgressCountsLightsAndTime) {
   Session session;
-  uint64_t g = session.restart(small("cornell-glossy", 500, 16));
+  uint64_t g = session.restart(small("cornell-glossy", 500, 16)).value();
   auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone; });
   ASSERT_TRUE(snap);
   EXPECT_GT(snap->lightsPerSecond, 0);
@@ -307,7 +331,7 @@ struct TempCache {
 TEST(Session, LiveReferenceNoiseIsEstimatedAndSubtracted) {
   TempCache cache;
   Session session;
-  uint64_t g = session.restart(small("cornell-glossy", 200, 16));
+  uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
   auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
   ASSERT_TRUE(snap);
   EXPECT_FALSE(snap->convergedReference);
@@ -342,7 +366,7 @@ TEST(Session, UsesAMatchingCachedReference) {
   ASSERT_TRUE(storeCachedReference(ref, lr.scene->path, nullptr, &err)) << err;
 
   Session session;
-  uint64_t g = session.restart(small("cornell-glossy", 200, 16));
+  uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
   auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
   ASSERT_TRUE(snap);
   EXPECT_TRUE(snap->convergedReference);
@@ -364,7 +388,7 @@ TEST(Session, AReferenceOfAnotherSizeIsRefused) {
   Session session;
   StudioSettings s = small("cornell-glossy", 200, 16);
   s.referencePath = path;
-  uint64_t g = session.restart(s);
+  uint64_t g = session.restart(s).value();
   auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone && x.referenceDone; });
   ASSERT_TRUE(snap);
   EXPECT_FALSE(snap->convergedReference);
@@ -381,7 +405,7 @@ TEST(Session, BackgroundReferenceFillsTheCacheAndIsUsed) {
   Session session;
   StudioSettings s = small("cornell-glossy", 200, 16);
   s.backgroundReferenceSpp = 16;
-  uint64_t g = session.restart(s);
+  uint64_t g = session.restart(s).value();
   auto snap = waitFor(session, g, [](const Snapshot& x) { return x.convergedReference && x.referenceDone; });
   ASSERT_TRUE(snap);
   EXPECT_EQ(snap->referenceSpp, 16);

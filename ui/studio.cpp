@@ -1992,7 +1992,7 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
   } catch (const std::exception& e) {
     return refuse(std::string("a value of the wrong type or out of range (") + e.what() + ")");
   }
-  if (std::string e = s.validate(); !e.empty()) return refuse("invalid settings (" + e + ")");
+  if (std::string e = s.validate().error(); !e.empty()) return refuse("invalid settings (" + e + ")");
   *settings = s;
   *view = v;
   return true;

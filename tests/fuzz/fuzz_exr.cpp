@@ -18,9 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!f) std::abort();
   if (size > 0 && std::fwrite(data, 1, size, f) != size) std::abort();
   if (std::fclose(f) != 0) std::abort();
-  std::vector<vsl::Layer> layers;
-  std::string error;
-  bool ok = vsl::readExr(path, layers, &error);
-  if (ok ? layers.empty() : error.find(path) == std::string::npos) std::abort();
+  vsl::Result<std::vector<vsl::Layer>> layers = vsl::readExr(path);
+  if (layers ? layers->empty() : layers.error().find(path) == std::string::npos) std::abort();
   return 0;
 }

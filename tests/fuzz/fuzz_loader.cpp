@@ -1,7 +1,7 @@
 // libFuzzer harness over the glTF / GLB loader (vsl::loadScene). The input is
 // written to a file in a private temporary folder (the loader reads files,
 // and URIs resolve inside that folder), then loaded. Any crash, sanitizer
-// report, leak, timeout or out-of-memory is a finding; a LoadResult with an
+// report, leak, timeout or out-of-memory is a finding; a SceneResult with an
 // error is the expected outcome for most inputs.
 #include <unistd.h>
 
@@ -35,8 +35,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (std::fclose(f) != 0) std::abort();
   vsl::LoadOptions options;
   options.maxTriangles = 2'000'000;  // keeps every input within libFuzzer's memory limit
-  vsl::LoadResult r = vsl::loadScene(path, options);
+  vsl::SceneResult r = vsl::loadScene(path, options);
   // Either a scene or an error naming the file, never both or neither.
-  if (r.scene ? !r.error.empty() : r.error.find(path) == std::string::npos) std::abort();
+  if (r ? !r.error().empty() : r.error().find(path) == std::string::npos) std::abort();
   return 0;
 }
