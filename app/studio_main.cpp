@@ -5,7 +5,7 @@
 //
 //   vsl-studio [SCENE] [--headless] [--frames N] [--screenshot PATH]
 //              [--export DIR] [--after SECONDS] [--window WxH] [--lights N] [--width W]
-//              [--crop X,Y,W,H] [--fresh]
+//              [--crop X,Y,W,H] [--fresh] [--reference REF.exr] [--background-reference SPP]
 //
 // Without a SCENE, the last session's scene, settings and view come back
 // (ui::lastSessionPath(); --fresh ignores it); every run that did not fail
@@ -46,6 +46,8 @@ struct Args {
   bool lightsGiven = false, widthGiven = false;  // on the command line: they win over the last session
   bool fresh = false;                            // ignore the last session
   std::string crop;                              // X,Y,W,H in image pixels
+  std::string reference;                         // a converged reference EXR
+  int backgroundReference = 0;                   // spp of a reference rendered into the cache
 };
 
 // What the studio starts with: options and the initial view.
@@ -146,6 +148,8 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.batches = 16;
   o.settings.many.directSamples = 64;
   o.settings.maxReferenceSpp = 1024;
+  o.settings.referencePath = a.reference;
+  o.settings.backgroundReferenceSpp = a.backgroundReference;
   return o;
 }
 
@@ -181,6 +185,8 @@ void restoreLastSession(const Args& a, Launch* launch) {
   }
   if (a.lightsGiven) s.many.lights = a.lights;
   if (a.widthGiven) s.many.width = a.width, s.many.height = 0;
+  s.referencePath = a.reference;  // the reference is this run's, never the last session's
+  s.backgroundReferenceSpp = a.backgroundReference;
   v.crop = launch->view.crop;  // --crop applies to this run only
   launch->options.settings = s;
   launch->options.scene = s.scene;
@@ -408,6 +414,12 @@ int main(int argc, char** argv) {
   app.add_option("--crop", a.crop,
                  "Crop inset X,Y,W,H in image pixels: exports include magnified crops of every image, their "
                  "metrics and a crop figure");
+  app.add_option("--reference", a.reference,
+                 "A converged reference EXR of the render's size with an 'indirect' layer (vsl reference writes one); "
+                 "default: a matching cached reference, else the live path tracer");
+  app.add_option("--background-reference", a.backgroundReference,
+                 "Once the methods are done, render a reference of this many spp into the cache and use it")
+      ->check(CLI::Range(0, 1 << 20));
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
   try {
     app.parse(argc, argv);
