@@ -1003,6 +1003,11 @@ void Studio::updateMetrics() {
     metrics_[i] = compareImages(*componentImage(kMetricSources[i], view_.component, scratch), *ref);
   }
   referenceMean_ = metrics_[0].average.meanRef;
+  const Snapshot& s = *snap_;
+  Image live = view_.component == Component::Direct     ? s.ptDirect
+               : view_.component == Component::Indirect ? s.ptIndirect
+                                                        : add(s.ptDirect, s.ptIndirect);
+  livePtMetrics_ = compareImages(live, *ref);
 }
 
 void Studio::metricsPanel() {
@@ -1044,6 +1049,10 @@ void Studio::metricsPanel() {
     best[0] = std::min(best[0], metrics_[i].average.rmse);
     best[1] = std::min(best[1], metrics_[i].average.relMse - noise);
     if (double e = atEqualTime(i); std::isfinite(e)) best[2] = std::min(best[2], e);
+  }
+  if (s.convergedReference) {
+    best[0] = std::min(best[0], livePtMetrics_.average.rmse);
+    best[1] = std::min(best[1], livePtMetrics_.average.relMse - noise);
   }
   const double ptEqual = indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, budget) : NAN;
   if (std::isfinite(ptEqual)) best[2] = std::min(best[2], ptEqual);
@@ -1091,15 +1100,20 @@ void Studio::metricsPanel() {
                                                    : "The live path tracer is the reference: its value is its own "
                                                      "noise, relMSE(A, B)/4 from two independent halves");
     ImGui::TableNextColumn();
-    ImGui::Text("%.5g", s.convergedReference ? 0.0 : referenceMean_);
+    ImGui::Text("%.5g", s.convergedReference ? livePtMetrics_.average.meanTest : referenceMean_);
     ImGui::TableNextColumn();
-    ImGui::TextUnformatted("-");
+    if (s.convergedReference)
+      cell(livePtMetrics_.average.rmse, best[0], "%.4g");
+    else
+      ImGui::TextUnformatted("-");
     ImGui::TableNextColumn();
-    // The path tracer's error is tracked for the indirect component (where
-    // the methods differ); it is not shown under another component's title.
-    if (indirect) {
-      const double pt = s.history.empty() ? 0.0 : s.history.back().pt;
-      ImGui::Text(s.convergedReference ? "%.4g" : "~%.3g", pt);
+    // Against a converged reference the live path tracer is measured like the
+    // methods; as the reference itself its value is its own noise, which is
+    // estimated for the indirect component only.
+    if (s.convergedReference) {
+      cell(livePtMetrics_.average.relMse - noise, best[1], "%.4g");
+    } else if (indirect) {
+      ImGui::Text("~%.3g", s.referenceNoise);
     } else {
       ImGui::TextDisabled("n/a");
       if (ImGui::IsItemHovered())
@@ -1146,8 +1160,7 @@ void Studio::plotErrors(const ImVec2& size) {
   ImVec2 p0 = ImGui::GetCursorScreenPos(), p1(p0.x + size.x, p0.y + size.y);
   ImGui::Dummy(size);
   // The title sits above the plot area, never over the curves.
-  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255),
-              "relMSE (indirect, less the reference's noise) vs each method's own time");
+  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255), "relMSE (indirect) - ref. noise vs own time");
   const float titleH = ImGui::GetTextLineHeight() + 4, padL = 56, padB = 18, padR = 56;
   ImVec2 a(p0.x + padL, p0.y + titleH + 4), b(p1.x - padR, p1.y - padB);
   dl->AddRect(ImVec2(a.x, a.y), ImVec2(b.x, b.y), IM_COL32(120, 120, 120, 255));

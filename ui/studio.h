@@ -241,6 +241,7 @@ class Studio {
   const Snapshot* metricsFor_ = nullptr;
   Component metricsComponent_ = Component::Full;
   CompareResult metrics_[4];
+  CompareResult livePtMetrics_;  // the live path tracer against a converged reference
   double referenceMean_ = 0;
   // Crop insets of the shown snapshot, rebuilt when it, the component, the
   // metric or the rectangle change.
