@@ -3,15 +3,18 @@
 // wipe split is honoured, exposure is a uniform, and error maps use the
 // stated colour map.
 #include <gtest/gtest.h>
+
 #include <imgui.h>
 #include <imgui_impl_opengl3.h>
 #include <stb_image.h>
+#include <thread>
 
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "core/compare.h"
+#include "core/flip.h"
 #include "core/image_io.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
@@ -152,6 +155,36 @@ TEST_F(StudioFrame, SingleViewShowsToneMappedFilmValues) {
   EXPECT_EQ(compareGrid(
                 px, studio->drawnImages()[0], [&](int x, int y) { return srgb8(img.at(x, y) * 2.0f); }, 2),
             0);
+}
+
+// The table's FLIP column: computed off the UI thread, it equals LDR-FLIP of
+// the tone-mapped method against the tone-mapped reference.
+TEST_F(StudioFrame, FlipColumnMatchesFlipOfTheShownImages) {
+  ui::ViewState& v = studio->view();
+  v.component = Component::Indirect;
+  v.exposure = 0;
+  std::optional<std::vector<double>> f;
+  for (int i = 0; i < 200 && !f; ++i) {  // bounded: the task takes milliseconds here
+    renderFrames(1);
+    f = studio->flipMeans();
+    if (!f) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(f);
+  const Snapshot& s = *studio->snapshot();
+  EXPECT_DOUBLE_EQ((*f)[0], flipLdr(toSrgbImage(s.many.vsl), toSrgbImage(s.refIndirect)).mean);
+  EXPECT_DOUBLE_EQ((*f)[1], flipLdr(toSrgbImage(s.many.vpl), toSrgbImage(s.refIndirect)).mean);
+  EXPECT_GT((*f)[0], 0.0);
+  // Another exposure is another tone map: the old numbers no longer apply.
+  v.exposure = 2;
+  std::optional<std::vector<double>> g;
+  for (int i = 0; i < 200 && !g; ++i) {
+    renderFrames(1);
+    g = studio->flipMeans();
+    if (!g) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(g);
+  EXPECT_DOUBLE_EQ((*g)[0], flipLdr(toSrgbImage(s.many.vsl, 2), toSrgbImage(s.refIndirect, 2)).mean);
+  EXPECT_NE((*g)[0], (*f)[0]);
 }
 
 TEST_F(StudioFrame, WipeSplitIsHonoured) {

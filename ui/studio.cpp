@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "core/flip.h"
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/parallel.h"
@@ -242,7 +243,50 @@ void Studio::pullSnapshot() {
 
 bool Studio::busy() const { return session_ && session_->status().busy(); }
 
-bool Studio::wantsFrame() const { return !session_ || session_->version() != drawnVersion_ || restartPending(); }
+bool Studio::wantsFrame() const {
+  const bool flipDone = flipTask_.valid() && flipTask_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  return !session_ || session_->version() != drawnVersion_ || restartPending() || flipDone;
+}
+
+std::optional<std::vector<double>> Studio::flipMeans() const {
+  if (!flip_ || !snap_ || flip_->serial != snap_->serial || flip_->component != view_.component ||
+      flip_->exposure != view_.exposure)
+    return std::nullopt;
+  return std::vector<double>(std::begin(flip_->mean), std::end(flip_->mean));
+}
+
+// One FLIP task at a time, on its own thread: a new one starts when the
+// snapshot, the component or the exposure changed since the last result.
+void Studio::updateFlip() {
+  if (flipTask_.valid()) {
+    if (flipTask_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    flip_ = flipTask_.get();
+  }
+  if (!snap_ || snap_->width == 0 || snap_->refIndirect.rgb.empty()) return;
+  if (flip_ && flip_->serial == snap_->serial && flip_->component == view_.component &&
+      flip_->exposure == view_.exposure)
+    return;
+  std::shared_ptr<const Snapshot> snap = snap_;
+  const Component c = view_.component;
+  const float exposure = view_.exposure;
+  flipTask_ = std::async(std::launch::async, [snap, c, exposure] {
+    auto pick = [c](const Image& d, const Image& i) {
+      return c == Component::Direct ? d : c == Component::Indirect ? i : add(d, i);
+    };
+    const Snapshot& s = *snap;
+    const Image ref = toSrgbImage(pick(s.refDirect, s.refIndirect), exposure);
+    const Image* indirect[5] = {&s.many.vsl, &s.many.vpl, &s.many.vplUnclamped, &s.many.vplDiffuse, &s.ptIndirect};
+    FlipNumbers f;
+    f.serial = s.serial;
+    f.component = c;
+    f.exposure = exposure;
+    for (int i = 0; i < 5; ++i) {
+      const Image& direct = i == 4 ? s.ptDirect : s.many.direct;
+      f.mean[i] = flipLdr(toSrgbImage(pick(direct, *indirect[i]), exposure), ref).mean;
+    }
+    return f;
+  });
+}
 
 std::string Studio::fatalError() const {
   if (!session_) return "";
@@ -349,6 +393,7 @@ void Studio::frame() {
   auto t0 = std::chrono::steady_clock::now();
   beginFrame();
   pullSnapshot();
+  updateFlip();
   updateTextures();
   drawn_.clear();
 
@@ -1065,7 +1110,28 @@ void Studio::metricsPanel() {
     else
       ImGui::Text(fmt, v);
   };
-  if (ImGui::BeginTable("metrics", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(470, 0))) {
+  // FLIP: the newest result for this component and exposure (greyed while a
+  // newer snapshot's is being computed).
+  const bool flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
+  const bool flipFresh = flipHere && flip_->serial == s.serial;
+  double bestFlip = INFINITY;
+  if (flipHere)
+    for (int i = 0; i < 5; ++i)
+      if (i < 4 || s.convergedReference) bestFlip = std::min(bestFlip, flip_->mean[i]);
+  auto flipCell = [&](int i) {
+    if (!flipHere || (i == 4 && !s.convergedReference))
+      ImGui::TextDisabled("-");
+    else if (!flipFresh)
+      ImGui::TextDisabled("%.4f", flip_->mean[i]);
+    else
+      cell(flip_->mean[i], bestFlip, "%.4f");
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "LDR-FLIP (HPG 2020, mean pooled) of the tone-mapped images at this exposure, against the "
+          "reference; computed off the UI thread%s",
+          flipFresh ? "" : " (grey: from an earlier picture)");
+  };
+  if (ImGui::BeginTable("metrics", 6, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(530, 0))) {
     ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
                             ImGuiTableColumnFlags_WidthStretch);
     ImGui::TableSetupColumn("mean");
@@ -1074,6 +1140,7 @@ void Studio::metricsPanel() {
     char eqTitle[32];
     std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", budget);
     ImGui::TableSetupColumn(indirect ? eqTitle : "@equal t");
+    ImGui::TableSetupColumn("FLIP");
     ImGui::TableHeadersRow();
     for (int i = 0; i < 4; ++i) {
       const CompareResult& c = metrics_[i];
@@ -1091,6 +1158,8 @@ void Studio::metricsPanel() {
                           noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
       ImGui::TableNextColumn();
       cell(atEqualTime(i), best[2], "%.4g");
+      ImGui::TableNextColumn();
+      flipCell(i);
     }
     ImGui::TableNextRow();
     ImGui::TableNextColumn();
@@ -1121,10 +1190,12 @@ void Studio::metricsPanel() {
     }
     ImGui::TableNextColumn();
     cell(ptEqual, best[2], "%.4g");
+    ImGui::TableNextColumn();
+    flipCell(4);
     ImGui::EndTable();
   }
   // Which reference, and how noisy it is.
-  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 470);
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 530);
   char noiseText[48] = "unknown (no halves)";
   if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
   ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),

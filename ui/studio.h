@@ -7,6 +7,7 @@
 #include <imgui.h>
 
 #include <chrono>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -156,6 +157,10 @@ class Studio {
   ViewState& view() { return view_; }
   const ViewState& view() const { return view_; }
   void setSnapshotForTesting(std::shared_ptr<const Snapshot> s);
+  // The newest LDR-FLIP means (kMetricSources order, then the live path
+  // tracer) for the shown component and exposure, if one has been computed
+  // for the current snapshot.
+  std::optional<std::vector<double>> flipMeans() const;
 
   // Screen rectangles of the images drawn in the last frame (for tests and
   // for saving the view).
@@ -242,6 +247,17 @@ class Studio {
   Component metricsComponent_ = Component::Full;
   CompareResult metrics_[4];
   CompareResult livePtMetrics_;  // the live path tracer against a converged reference
+  // LDR-FLIP of each method (and the live path tracer) against the reference
+  // for the shown component and exposure, computed off the UI thread.
+  struct FlipNumbers {
+    uint64_t serial = 0;  // of the snapshot it was computed from
+    Component component = Component::Indirect;
+    float exposure = 0;
+    double mean[5] = {};  // kMetricSources, then the live path tracer
+  };
+  std::future<FlipNumbers> flipTask_;
+  std::optional<FlipNumbers> flip_;
+  void updateFlip();
   double referenceMean_ = 0;
   // Crop insets of the shown snapshot, rebuilt when it, the component, the
   // metric or the rectangle change.
