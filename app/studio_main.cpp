@@ -111,12 +111,12 @@ struct Script {
 
   bool saveScreenshot(int fbw, int fbh) {
     std::vector<uint8_t> px = ui::readFramebuffer(0, 0, fbw, fbh, fbh);
-    std::string err;
-    if (writePngRgb8(args.screenshot, fbw, fbh, px, &err)) {
+    Result<void> written = writePngRgb8(args.screenshot, fbw, fbh, px);
+    if (written) {
       std::fprintf(stderr, "wrote %s\n", args.screenshot.c_str());
       return true;
     }
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+    std::fprintf(stderr, "error: %s\n", written.error().c_str());
     return false;
   }
 

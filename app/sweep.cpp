@@ -362,17 +362,18 @@ std::vector<Summary> summarise(const std::vector<Point>& pts) {
 // Runs this shard's part of the grid; fills the points and what the outputs need.
 int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
   std::string err;
-  LoadResult lr = loadScene(a.scene);
-  if (!lr.scene) {
-    std::fprintf(stderr, "error: %s\n", lr.error.c_str());
+  SceneResult lr = loadScene(a.scene);
+  if (!lr) {
+    std::fprintf(stderr, "error: %s\n", lr.error().c_str());
     return 1;
   }
-  const Scene& scene = *lr.scene;
-  auto accel = Accel::build(scene, &err);
-  if (!accel) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  const Scene& scene = **lr;
+  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
+  if (!built) {
+    std::fprintf(stderr, "error: %s\n", built.error().c_str());
     return 1;
   }
+  std::unique_ptr<Accel> accel = std::move(built).value();
   LightSampler lights(scene);
   // The reference (reference.h): the file given, else the cached one for
   // this scene at --width. Its own noise comes from its halves
@@ -382,10 +383,12 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   Reference reference;
   std::string referenceName = a.reference;
   if (!a.reference.empty()) {
-    if (!readReference(a.reference, 0, 0, reference, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    Result<Reference> read = readReference(a.reference, 0, 0);
+    if (!read) {
+      std::fprintf(stderr, "error: %s\n", read.error().c_str());
       return 1;
     }
+    reference = std::move(read).value();
   } else {
     int w = a.width, h = 0;
     resolveResolution(scene, w, h);
@@ -408,12 +411,12 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
                reference.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(refNoise)).c_str() : "unknown");
   Image refB;
   if (!a.referenceB.empty()) {
-    Reference b;
-    if (!readReference(a.referenceB, ref->width, ref->height, b, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    Result<Reference> b = readReference(a.referenceB, ref->width, ref->height);
+    if (!b) {
+      std::fprintf(stderr, "error: %s\n", b.error().c_str());
       return 1;
     }
-    refNoise = 0.5 * compareImages(b.indirect, *ref).average.relMse;
+    refNoise = 0.5 * compareImages(b->indirect, *ref).average.relMse;
     std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
                  refNoise);
   }
@@ -474,7 +477,6 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
 int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::vector<Summary>& summary,
                const std::map<std::string, std::vector<size_t>>& finals,
                const std::map<std::string, std::vector<size_t>>& fronts, const std::filesystem::path& dir) {
-  std::string err;
   const double refNoise = meta.refNoise;
   std::map<std::string, std::vector<size_t>> series;
   for (size_t i = 0; i < pts.size(); ++i)
@@ -536,8 +538,8 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
                             {"pareto.gp", gp2.str()},
                             {"flip_vs_time.gp", gp3.str()}}) {
     std::string path = (dir / name).string();
-    if (!writeTextFile(path, text, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile(path, text); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
@@ -553,7 +555,6 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
 
 // sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
 int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
-  std::string err;
   std::error_code ec;
   std::filesystem::create_directories(outDir, ec);
   if (ec) {
@@ -640,8 +641,8 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
   for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, refNoise)},
                             {"summary.csv", sumCsv.str()},
                             {"sweep.json", js.dump(2) + "\n"}})
-    if (!writeTextFile((dir / name).string(), text, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile((dir / name).string(), text); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
 

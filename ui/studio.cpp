@@ -150,9 +150,9 @@ void Studio::restart(bool fromScratch) {
     accepted_ = settings_;
     return;
   }
-  std::string err;
-  uint64_t g = session_->restart(settings_, &err, fromScratch);
-  if (g == 0) {
+  Result<uint64_t> started = session_->restart(settings_, fromScratch);
+  if (!started) {
+    const std::string& err = started.error();
     // Shown next to the control it names ("lights: ..."), or next to the
     // control last changed for a memory refusal; the render goes on.
     size_t colon = err.find(':');
@@ -163,7 +163,7 @@ void Studio::restart(bool fromScratch) {
     return;
   }
   restartedAt_ = std::chrono::steady_clock::now();
-  restartGeneration_ = g;
+  restartGeneration_ = *started;
   accepted_ = settings_;
   settingsError_.clear();
   settingsErrorKey_.clear();
@@ -1251,12 +1251,11 @@ void Studio::afterRender(int fbWidth, int fbHeight) {
   int x1 = std::min(fbWidth, int(viewMax_.x)), y1 = std::min(fbHeight, int(viewMax_.y));
   if (x1 <= x0 || y1 <= y0) return;
   std::vector<uint8_t> px = readFramebuffer(x0, y0, x1 - x0, y1 - y0, fbHeight);
-  std::string err;
-  if (writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px, &err)) {
+  if (Result<void> saved = writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px)) {
     message_ = "wrote " + savePngPath_;
     log::info(message_);
   } else {
-    errorDialog_ = "Saving the view failed; existing files are untouched.\n\n" + err;
+    errorDialog_ = "Saving the view failed; existing files are untouched.\n\n" + saved.error();
   }
 }
 
@@ -1391,11 +1390,12 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                                {"error-vpl-signed", ep.signedDiff},
                                {"error-vpl-relsq", ep.relSquared}};
   std::string err;
-  if (!writeExr(path("images.exr"), layers, &err,
-                {{"vsl.version", VSL_VERSION},
-                 {"vsl.scene", s.settings.scene},
-                 {"vsl.settings", s.settings.many.describe()}}))
-    return fail(err);
+  if (Result<void> w = writeExr(path("images.exr"), layers,
+                                {{"vsl.version", VSL_VERSION},
+                                 {"vsl.scene", s.settings.scene},
+                                 {"vsl.settings", s.settings.many.describe()}});
+      !w)
+    return fail(w.error());
   files.push_back(path("images.exr"));
 
   // Every image at the render's resolution, the shown component and exposure.
@@ -1404,7 +1404,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
     Image scratch;
     const Image* img = componentImage(Source(i), view_.component, scratch);
     std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
-    if (!writePng(path(name), *img, view_.exposure, &err)) return fail(err);
+    if (Result<void> w = writePng(path(name), *img, view_.exposure); !w) return fail(w.error());
     files.push_back(path(name));
   }
   // Error maps of each method on one shared scale (set by hand, or the
@@ -1424,7 +1424,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
     std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
     std::string name =
         "error-" + sourceSlug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
-    if (!writePngRgb8(path(name), s.width, rows, px, &err)) return fail(err);
+    if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
     files.push_back(path(name));
   }
 
@@ -1531,7 +1531,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                       {"reference", reference},
                       {"equalTimeIndirect", equalTime},
                       {"errorHistory", hist}};
-  if (!writeTextFile(path("metrics.json"), j.dump(2) + "\n", &err)) return fail(err);
+  if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
   files.push_back(path("metrics.json"));
   if (written) *written = files;
   if (folderOut) *folderOut = folder.string();
@@ -1797,7 +1797,10 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
                                : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
     Rgb8 big = magnified(tiles.back(), f);
     const std::string path = (std::filesystem::path(folder) / name).string();
-    if (!writePngRgb8(path, big.w, big.h, big.px, error)) return false;
+    if (Result<void> w = writePngRgb8(path, big.w, big.h, big.px); !w) {
+      *error = w.error();
+      return false;
+    }
     files->push_back(path);
     names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
   }
@@ -1818,7 +1821,10 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
   }
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
-  if (!writePngRgb8(figPath, figure.w, figure.h, figure.px, error)) return false;
+  if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) {
+    *error = w.error();
+    return false;
+  }
   files->push_back(figPath);
 
   // The crops' metrics for the full and indirect components (as the whole
@@ -1912,7 +1918,9 @@ bool saveLastSession(const std::string& path, const StudioSettings& s, const Vie
         std::filesystem::path(path).parent_path().string() + ": cannot create the directory (" + ec.message() + ")";
     return false;
   }
-  return writeTextFile(path, j.dump(2) + "\n", error);
+  Result<void> w = writeTextFile(path, j.dump(2) + "\n");
+  if (!w) *error = w.error();
+  return w.ok();
 }
 
 namespace {
