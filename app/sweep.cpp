@@ -127,14 +127,13 @@ std::string pointsCsv(const std::vector<Point>& pts, double refNoise) {
   return csv.str();
 }
 
-// Parses pointsCsv()'s text; false on a malformed line (named in *error).
-bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* error) {
+// Parses pointsCsv()'s text; an error on a malformed line (named in it).
+Result<void> parsePoints(const std::string& text, std::vector<Point>& pts) {
   std::istringstream in(text);
   std::string line;
   std::getline(in, line);
   if (line + "\n" != kPointsHeader) {
-    *error = "not a sweep.csv of this version (header '" + line + "')";
-    return false;
+    return Error("not a sweep.csv of this version (header '" + line + "')");
   }
   auto num = [](const std::string& f) { return f == "nan" ? NAN : std::stod(f); };
   while (std::getline(in, line)) {
@@ -143,8 +142,7 @@ bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* 
     for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
     if (!line.empty() && line.back() == ',') f.push_back("");
     if (f.size() != 15) {
-      *error = "malformed line '" + line + "'";
-      return false;
+      return Error("malformed line '" + line + "'");
     }
     try {
       Point p;
@@ -164,11 +162,10 @@ bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* 
       p.variance = num(f[14]);
       pts.push_back(p);
     } catch (const std::exception&) {
-      *error = "malformed number in '" + line + "'";
-      return false;
+      return Error("malformed number in '" + line + "'");
     }
   }
-  return true;
+  return {};
 }
 
 // Linear-interpolated quantile of unsorted values.
@@ -361,7 +358,6 @@ std::vector<Summary> summarise(const std::vector<Point>& pts) {
 
 // Runs this shard's part of the grid; fills the points and what the outputs need.
 int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
-  std::string err;
   SceneResult lr = loadScene(a.scene);
   if (!lr) {
     std::fprintf(stderr, "error: %s\n", lr.error().c_str());
@@ -463,8 +459,8 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   // Summaries are taken from the points as the CSV holds them, so a merged
   // run reproduces them exactly.
   std::vector<Point> exact;
-  if (!parsePoints(pointsCsv(pts, refNoise), exact, &err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  if (Result<void> parsed = parsePoints(pointsCsv(pts, refNoise), exact); !parsed) {
+    std::fprintf(stderr, "error: %s\n", parsed.error().c_str());
     return 1;
   }
   pts = std::move(exact);
@@ -662,21 +658,19 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
 }
 
 // Reads one shard's sweep.json and sweep.csv.
-bool readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts, std::string* error) {
+Result<void> readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts) {
   const std::filesystem::path d(dir);
-  auto slurp = [&](const std::string& name, std::string& out) {
+  auto slurp = [&](const std::string& name, std::string& out) -> Result<void> {
     std::ifstream in(d / name, std::ios::binary);
-    if (!in) {
-      *error = (d / name).string() + ": cannot read (is it a sweep output directory?)";
-      return false;
-    }
+    if (!in) return Error((d / name).string() + ": cannot read (is it a sweep output directory?)");
     std::ostringstream ss;
     ss << in.rdbuf();
     out = ss.str();
-    return true;
+    return {};
   };
   std::string js, csv;
-  if (!slurp("sweep.json", js) || !slurp("sweep.csv", csv)) return false;
+  if (Result<void> r = slurp("sweep.json", js); !r) return r;
+  if (Result<void> r = slurp("sweep.csv", csv); !r) return r;
   try {
     nlohmann::json j = nlohmann::json::parse(js);
     meta.scene = j.at("scene");
@@ -697,28 +691,24 @@ bool readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts,
     meta.shardIndex = j.contains("shard") ? int(j["shard"].at("index")) : 0;
     meta.shardCount = j.contains("shard") ? int(j["shard"].at("count")) : 1;
   } catch (const std::exception& e) {
-    *error = (d / "sweep.json").string() + ": " + e.what();
-    return false;
+    return Error((d / "sweep.json").string() + ": " + e.what());
   }
-  if (!parsePoints(csv, pts, error)) {
-    *error = (d / "sweep.csv").string() + ": " + *error;
-    return false;
-  }
-  return true;
+  if (Result<void> parsed = parsePoints(csv, pts); !parsed)
+    return Error((d / "sweep.csv").string() + ": " + parsed.error());
+  return {};
 }
 
 // Joins shard directories: every shard of one grid exactly once; the points
 // are put back in the order of an unsharded run.
 int mergeShards(const SweepArgs& a) {
-  std::string err;
   SweepMeta meta;
   std::vector<std::vector<Point>> shardPts;
   std::vector<int> seen;
   for (const std::string& dir : a.merge) {
     SweepMeta m;
     std::vector<Point> pts;
-    if (!readShard(dir, m, pts, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> read = readShard(dir, m, pts); !read) {
+      std::fprintf(stderr, "error: %s\n", read.error().c_str());
       return 1;
     }
     if (seen.empty()) {

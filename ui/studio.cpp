@@ -645,12 +645,12 @@ void Studio::controlsPanel() {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("A screen grab of the view area, in a new file");
   ImGui::SameLine();
   if (ImGui::Button("Export images")) {
-    std::string err, folder;
+    std::string folder;
     std::vector<std::string> written;
-    if (exportAll(exportDir_, &err, &written, &folder))
+    if (Result<void> exported = exportAll(exportDir_, &written, &folder))
       message_ = "wrote " + std::to_string(written.size()) + " files to " + folder;
     else
-      errorDialog_ = "Export failed; existing files are untouched.\n\n" + err;
+      errorDialog_ = "Export failed; existing files are untouched.\n\n" + exported.error();
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
@@ -1342,12 +1342,8 @@ std::string Studio::uniquePath(const std::string& dir, const std::string& stem, 
   return p.string();
 }
 
-bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written,
-                       std::string* folderOut) {
-  auto fail = [&](const std::string& e) {
-    if (error) *error = e;
-    return false;
-  };
+Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>* written, std::string* folderOut) {
+  auto fail = [](const std::string& e) -> Result<void> { return Error(e); };
   if (!snap_ || snap_->width == 0) return fail("nothing to export yet");
   const Snapshot& s = *snap_;
   std::error_code ec;
@@ -1389,7 +1385,6 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                                {"error-vsl-relsq", ev.relSquared},
                                {"error-vpl-signed", ep.signedDiff},
                                {"error-vpl-relsq", ep.relSquared}};
-  std::string err;
   if (Result<void> w = writeExr(path("images.exr"), layers,
                                 {{"vsl.version", VSL_VERSION},
                                  {"vsl.scene", s.settings.scene},
@@ -1432,7 +1427,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   if (!view_.crop.empty()) {
     Image full;
     const Image* refFull = referenceImage(view_.component, full);
-    if (!exportCrops(folder.string(), *refFull, &cropJson, &files, &err)) return fail(err);
+    if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return w;
   }
 
   nlohmann::json metrics;
@@ -1536,7 +1531,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   if (written) *written = files;
   if (folderOut) *folderOut = folder.string();
   log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
-  return true;
+  return {};
 }
 
 }  // namespace vsl::ui
@@ -1772,15 +1767,13 @@ void outline(Rgb8& img, const CropRect& r, int t) {
 // top row the reference and the methods, bottom row the methods' error
 // maps; at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
 // *out.
-bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
-                         std::vector<std::string>* files, std::string* error) const {
+Result<void> Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
+                                 std::vector<std::string>* files) const {
   const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
-  if (r.empty()) {
-    *error = "crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
-             std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
-             std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image";
-    return false;
-  }
+  if (r.empty())
+    return Error("crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
+                 std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
+                 std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image");
   if (r.w != view_.crop.w || r.h != view_.crop.h)
     log::warning("crop clipped to the image: " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
                  std::to_string(r.w) + "," + std::to_string(r.h));
@@ -1797,10 +1790,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
                                : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
     Rgb8 big = magnified(tiles.back(), f);
     const std::string path = (std::filesystem::path(folder) / name).string();
-    if (Result<void> w = writePngRgb8(path, big.w, big.h, big.px); !w) {
-      *error = w.error();
-      return false;
-    }
+    if (Result<void> w = writePngRgb8(path, big.w, big.h, big.px); !w) return w;
     files->push_back(path);
     names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
   }
@@ -1821,10 +1811,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
   }
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
-  if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) {
-    *error = w.error();
-    return false;
-  }
+  if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) return w;
   files->push_back(figPath);
 
   // The crops' metrics for the full and indirect components (as the whole
@@ -1857,7 +1844,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
            "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
            "bottom row: the methods' error maps"},
           {"metricsAgainstReferenceCrop", metrics}};
-  return true;
+  return {};
 }
 
 }  // namespace vsl::ui
@@ -1880,7 +1867,7 @@ std::string lastSessionPath() {
   return (base / "vsl-studio" / "last-session.json").string();
 }
 
-bool saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v, std::string* error) {
+Result<void> saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v) {
   const ManyLightSettings& m = s.many;
   nlohmann::json j = {{"version", 1},
                       {"scene", std::filesystem::absolute(s.scene).lexically_normal().string()},
@@ -1913,14 +1900,10 @@ bool saveLastSession(const std::string& path, const StudioSettings& s, const Vie
                         {"errorScale", v.errorScale}}}};
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
-  if (ec) {
-    *error =
-        std::filesystem::path(path).parent_path().string() + ": cannot create the directory (" + ec.message() + ")";
-    return false;
-  }
-  Result<void> w = writeTextFile(path, j.dump(2) + "\n");
-  if (!w) *error = w.error();
-  return w.ok();
+  if (ec)
+    return Error(std::filesystem::path(path).parent_path().string() + ": cannot create the directory (" + ec.message() +
+                 ")");
+  return writeTextFile(path, j.dump(2) + "\n");
 }
 
 namespace {
