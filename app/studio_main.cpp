@@ -87,15 +87,16 @@ struct Script {
     if (!args.exportDir.empty() && !exported) {
       bool ready = args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900;
       if (ready) {
-        std::string err, folder;
+        std::string folder;
         std::vector<std::string> written;
         exported = true;
-        if (studio.exportAll(args.exportDir, &err, &written, &folder)) {
+        Result<void> done = studio.exportAll(args.exportDir, &written, &folder);
+        if (done) {
           for (const std::string& w : written) std::fprintf(stderr, "wrote %s\n", w.c_str());
           exportFolder = folder;
         } else {
           std::fprintf(
-              stderr, "error: export failed: %s%s\n", err.c_str(),
+              stderr, "error: export failed: %s%s\n", done.error().c_str(),
               snap ? "" : " (no picture yet: give --after more seconds, or leave it out to wait for the render)");
           failed = true;
           return true;
@@ -113,12 +114,12 @@ struct Script {
 
   bool saveScreenshot(int fbw, int fbh) {
     std::vector<uint8_t> px = ui::readFramebuffer(0, 0, fbw, fbh, fbh);
-    std::string err;
-    if (writePngRgb8(args.screenshot, fbw, fbh, px, &err)) {
+    Result<void> written = writePngRgb8(args.screenshot, fbw, fbh, px);
+    if (written) {
       std::fprintf(stderr, "wrote %s\n", args.screenshot.c_str());
       return true;
     }
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+    std::fprintf(stderr, "error: %s\n", written.error().c_str());
     return false;
   }
 
@@ -158,11 +159,12 @@ ui::StudioOptions studioOptions(const Args& a) {
 void rememberSession(const ui::Studio& studio) {
   if (!studio.fatalError().empty()) return;
   const std::string path = ui::lastSessionPath();
-  std::string err;
-  if (path.empty())
+  if (path.empty()) {
     log::warning("the last session is not saved: neither XDG_CONFIG_HOME nor HOME is set");
-  else if (!ui::saveLastSession(path, studio.acceptedSettings(), studio.view(), &err))
-    log::warning("the last session is not saved: " + err);
+    return;
+  }
+  if (Result<void> saved = ui::saveLastSession(path, studio.acceptedSettings(), studio.view()); !saved)
+    log::warning("the last session is not saved: " + saved.error());
 }
 
 // Without a scene argument: the last session's scene, settings and view
@@ -197,9 +199,8 @@ void restoreLastSession(const Args& a, Launch* launch) {
 
 int runHeadless(const Args& a, const Launch& launch, int w, int h) {
   ui::HeadlessGL gl;
-  std::string err;
-  if (!gl.init(w, h, &err)) {
-    std::fprintf(stderr, "error: headless OpenGL: %s\n", err.c_str());
+  if (Result<void> ready = gl.init(w, h); !ready) {
+    std::fprintf(stderr, "error: headless OpenGL: %s\n", ready.error().c_str());
     return 1;
   }
   IMGUI_CHECKVERSION();

@@ -127,14 +127,13 @@ std::string pointsCsv(const std::vector<Point>& pts, double refNoise) {
   return csv.str();
 }
 
-// Parses pointsCsv()'s text; false on a malformed line (named in *error).
-bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* error) {
+// Parses pointsCsv()'s text; an error on a malformed line (named in it).
+Result<void> parsePoints(const std::string& text, std::vector<Point>& pts) {
   std::istringstream in(text);
   std::string line;
   std::getline(in, line);
   if (line + "\n" != kPointsHeader) {
-    *error = "not a sweep.csv of this version (header '" + line + "')";
-    return false;
+    return Error("not a sweep.csv of this version (header '" + line + "')");
   }
   auto num = [](const std::string& f) { return f == "nan" ? NAN : std::stod(f); };
   while (std::getline(in, line)) {
@@ -143,8 +142,7 @@ bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* 
     for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
     if (!line.empty() && line.back() == ',') f.push_back("");
     if (f.size() != 15) {
-      *error = "malformed line '" + line + "'";
-      return false;
+      return Error("malformed line '" + line + "'");
     }
     try {
       Point p;
@@ -164,11 +162,10 @@ bool parsePoints(const std::string& text, std::vector<Point>& pts, std::string* 
       p.variance = num(f[14]);
       pts.push_back(p);
     } catch (const std::exception&) {
-      *error = "malformed number in '" + line + "'";
-      return false;
+      return Error("malformed number in '" + line + "'");
     }
   }
-  return true;
+  return {};
 }
 
 // Linear-interpolated quantile of unsorted values.
@@ -361,18 +358,18 @@ std::vector<Summary> summarise(const std::vector<Point>& pts) {
 
 // Runs this shard's part of the grid; fills the points and what the outputs need.
 int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
-  std::string err;
-  LoadResult lr = loadScene(a.scene);
-  if (!lr.scene) {
-    std::fprintf(stderr, "error: %s\n", lr.error.c_str());
+  SceneResult lr = loadScene(a.scene);
+  if (!lr) {
+    std::fprintf(stderr, "error: %s\n", lr.error().c_str());
     return 1;
   }
-  const Scene& scene = *lr.scene;
-  auto accel = Accel::build(scene, &err);
-  if (!accel) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  const Scene& scene = **lr;
+  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
+  if (!built) {
+    std::fprintf(stderr, "error: %s\n", built.error().c_str());
     return 1;
   }
+  std::unique_ptr<Accel> accel = std::move(built).value();
   LightSampler lights(scene);
   // The reference (reference.h): the file given, else the cached one for
   // this scene at --width. Its own noise comes from its halves
@@ -382,10 +379,12 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   Reference reference;
   std::string referenceName = a.reference;
   if (!a.reference.empty()) {
-    if (!readReference(a.reference, 0, 0, reference, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    Result<Reference> read = readReference(a.reference, 0, 0);
+    if (!read) {
+      std::fprintf(stderr, "error: %s\n", read.error().c_str());
       return 1;
     }
+    reference = std::move(read).value();
   } else {
     int w = a.width, h = 0;
     resolveResolution(scene, w, h);
@@ -408,12 +407,12 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
                reference.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(refNoise)).c_str() : "unknown");
   Image refB;
   if (!a.referenceB.empty()) {
-    Reference b;
-    if (!readReference(a.referenceB, ref->width, ref->height, b, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    Result<Reference> b = readReference(a.referenceB, ref->width, ref->height);
+    if (!b) {
+      std::fprintf(stderr, "error: %s\n", b.error().c_str());
       return 1;
     }
-    refNoise = 0.5 * compareImages(b.indirect, *ref).average.relMse;
+    refNoise = 0.5 * compareImages(b->indirect, *ref).average.relMse;
     std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
                  refNoise);
   }
@@ -460,8 +459,8 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   // Summaries are taken from the points as the CSV holds them, so a merged
   // run reproduces them exactly.
   std::vector<Point> exact;
-  if (!parsePoints(pointsCsv(pts, refNoise), exact, &err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  if (Result<void> parsed = parsePoints(pointsCsv(pts, refNoise), exact); !parsed) {
+    std::fprintf(stderr, "error: %s\n", parsed.error().c_str());
     return 1;
   }
   pts = std::move(exact);
@@ -474,7 +473,6 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
 int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::vector<Summary>& summary,
                const std::map<std::string, std::vector<size_t>>& finals,
                const std::map<std::string, std::vector<size_t>>& fronts, const std::filesystem::path& dir) {
-  std::string err;
   const double refNoise = meta.refNoise;
   std::map<std::string, std::vector<size_t>> series;
   for (size_t i = 0; i < pts.size(); ++i)
@@ -536,8 +534,8 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
                             {"pareto.gp", gp2.str()},
                             {"flip_vs_time.gp", gp3.str()}}) {
     std::string path = (dir / name).string();
-    if (!writeTextFile(path, text, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile(path, text); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
@@ -553,7 +551,6 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
 
 // sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
 int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
-  std::string err;
   std::error_code ec;
   std::filesystem::create_directories(outDir, ec);
   if (ec) {
@@ -640,8 +637,8 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
   for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, refNoise)},
                             {"summary.csv", sumCsv.str()},
                             {"sweep.json", js.dump(2) + "\n"}})
-    if (!writeTextFile((dir / name).string(), text, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeTextFile((dir / name).string(), text); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
 
@@ -661,21 +658,19 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
 }
 
 // Reads one shard's sweep.json and sweep.csv.
-bool readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts, std::string* error) {
+Result<void> readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts) {
   const std::filesystem::path d(dir);
-  auto slurp = [&](const std::string& name, std::string& out) {
+  auto slurp = [&](const std::string& name, std::string& out) -> Result<void> {
     std::ifstream in(d / name, std::ios::binary);
-    if (!in) {
-      *error = (d / name).string() + ": cannot read (is it a sweep output directory?)";
-      return false;
-    }
+    if (!in) return Error((d / name).string() + ": cannot read (is it a sweep output directory?)");
     std::ostringstream ss;
     ss << in.rdbuf();
     out = ss.str();
-    return true;
+    return {};
   };
   std::string js, csv;
-  if (!slurp("sweep.json", js) || !slurp("sweep.csv", csv)) return false;
+  if (Result<void> r = slurp("sweep.json", js); !r) return r;
+  if (Result<void> r = slurp("sweep.csv", csv); !r) return r;
   try {
     nlohmann::json j = nlohmann::json::parse(js);
     meta.scene = j.at("scene");
@@ -696,28 +691,24 @@ bool readShard(const std::string& dir, SweepMeta& meta, std::vector<Point>& pts,
     meta.shardIndex = j.contains("shard") ? int(j["shard"].at("index")) : 0;
     meta.shardCount = j.contains("shard") ? int(j["shard"].at("count")) : 1;
   } catch (const std::exception& e) {
-    *error = (d / "sweep.json").string() + ": " + e.what();
-    return false;
+    return Error((d / "sweep.json").string() + ": " + e.what());
   }
-  if (!parsePoints(csv, pts, error)) {
-    *error = (d / "sweep.csv").string() + ": " + *error;
-    return false;
-  }
-  return true;
+  if (Result<void> parsed = parsePoints(csv, pts); !parsed)
+    return Error((d / "sweep.csv").string() + ": " + parsed.error());
+  return {};
 }
 
 // Joins shard directories: every shard of one grid exactly once; the points
 // are put back in the order of an unsharded run.
 int mergeShards(const SweepArgs& a) {
-  std::string err;
   SweepMeta meta;
   std::vector<std::vector<Point>> shardPts;
   std::vector<int> seen;
   for (const std::string& dir : a.merge) {
     SweepMeta m;
     std::vector<Point> pts;
-    if (!readShard(dir, m, pts, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> read = readShard(dir, m, pts); !read) {
+      std::fprintf(stderr, "error: %s\n", read.error().c_str());
       return 1;
     }
     if (seen.empty()) {

@@ -311,12 +311,12 @@ int cmdReference(ReferenceArgs& a) {
     return 2;
   }
   s.width = w, s.height = h;
-  std::string err;
-  auto accel = Accel::build(*scene, &err);
-  if (!accel) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  if (!built) {
+    std::fprintf(stderr, "error: %s\n", built.error().c_str());
     return 1;
   }
+  std::unique_ptr<Accel> accel = std::move(built).value();
   const std::string key = referenceKey(*scene, w, h, s.maxDepth);
   LightSampler lights(*scene);
   ReferenceRenderer rr(*scene, *accel, lights, s);
@@ -361,18 +361,19 @@ int cmdReference(ReferenceArgs& a) {
                ref.spp, formatSeconds(ref.seconds).c_str(), noise, ref.fullNoise());
   if (rr.rejected() > 0) log::warning("rejected " + std::to_string(rr.rejected()) + " non-finite contributions");
   if (!a.out.empty()) {
-    if (!writeReference(a.out, ref, a.scene, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written = writeReference(a.out, ref, a.scene); !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     std::fprintf(stderr, "wrote %s (layers: full, direct, indirect and halves A.*, B.*)\n", a.out.c_str());
   }
   if (!a.noCache) {
-    std::string written;
-    if (!storeCachedReference(ref, a.scene, &written, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    Result<std::string> stored = storeCachedReference(ref, a.scene);
+    if (!stored) {
+      std::fprintf(stderr, "error: %s\n", stored.error().c_str());
       return 1;
     }
+    const std::string& written = *stored;
     if (written.empty())
       std::fprintf(stderr, "cache: kept %s (it has at least as many samples)\n", referenceCachePath(key).c_str());
     else
@@ -440,7 +441,10 @@ void printFlip(const CompareFlip& f, float exposure) {
 // bar, LDR to PATH and HDR to PATH's stem + "-hdr.png".
 bool writeFlipMaps(const CompareArgs& a, const CompareFlip& f, std::string& err) {
   if (!a.flipExr.empty()) {
-    if (!writeExr(a.flipExr, {{"", f.ldr.map}, {"ldr", f.ldr.map}, {"hdr", f.hdr.map}}, &err)) return false;
+    if (Result<void> w = writeExr(a.flipExr, {{"", f.ldr.map}, {"ldr", f.ldr.map}, {"hdr", f.hdr.map}}); !w) {
+      err = w.error();
+      return false;
+    }
     std::fprintf(stderr, "wrote %s (FLIP maps, layers: default=ldr, ldr, hdr)\n", a.flipExr.c_str());
   }
   if (!a.flipPng.empty()) {
@@ -450,7 +454,10 @@ bool writeFlipMaps(const CompareArgs& a, const CompareFlip& f, std::string& err)
     for (auto [path, map] : {std::pair{a.flipPng, &f.ldr.map}, std::pair{stem + "-hdr.png", &f.hdr.map}}) {
       int rows = 0;
       std::vector<uint8_t> px = magmaWithBar(*map, &rows);
-      if (!writePngRgb8(path, map->width, rows, px, &err)) return false;
+      if (Result<void> w = writePngRgb8(path, map->width, rows, px); !w) {
+        err = w.error();
+        return false;
+      }
       std::fprintf(stderr, "wrote %s (FLIP, magma: black 0 ... light yellow 1, colour bar below)\n", path.c_str());
     }
   }
@@ -472,16 +479,20 @@ int loadCompareInputs(const CompareArgs& a, bool layerGiven, bool refLayerGiven,
   const std::string& refPath = a.images.back();
   const size_t K = a.images.size() - 1;
   in.testLayers.resize(K);
-  std::string err;
-  for (size_t k = 0; k < K; ++k)
-    if (!readExr(a.images[k], in.testLayers[k], &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+  for (size_t k = 0; k < K; ++k) {
+    Result<std::vector<Layer>> read = readExr(a.images[k]);
+    if (!read) {
+      std::fprintf(stderr, "error: %s\n", read.error().c_str());
       return 1;
     }
-  if (!readExr(refPath, in.refLayers, &err)) {
-    std::fprintf(stderr, "error: %s\n", err.c_str());
+    in.testLayers[k] = std::move(read).value();
+  }
+  Result<std::vector<Layer>> refRead = readExr(refPath);
+  if (!refRead) {
+    std::fprintf(stderr, "error: %s\n", refRead.error().c_str());
     return 1;
   }
+  in.refLayers = std::move(refRead).value();
   const std::string& refName = refLayerGiven ? a.refLayer : a.layer;
   const Image* r = in.ref = findLayer(in.refLayers, refName, refLayerGiven || layerGiven);
   if (!r) {
@@ -554,14 +565,13 @@ int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
   if (!a.out.empty() || !a.png.empty()) {
     ErrorImages e = errorImages(*t, *r, eps);
     if (!a.out.empty()) {
-      if (!writeExr(a.out,
-                    {{"", e.absolute},
-                     {"signed", e.signedDiff},
-                     {"absolute", e.absolute},
-                     {"squared", e.squared},
-                     {"relSquared", e.relSquared}},
-                    &err)) {
-        std::fprintf(stderr, "error: %s\n", err.c_str());
+      if (Result<void> written = writeExr(a.out, {{"", e.absolute},
+                                                  {"signed", e.signedDiff},
+                                                  {"absolute", e.absolute},
+                                                  {"squared", e.squared},
+                                                  {"relSquared", e.relSquared}});
+          !written) {
+        std::fprintf(stderr, "error: %s\n", written.error().c_str());
         return 1;
       }
       std::fprintf(stderr, "wrote %s (layers: default=absolute, signed, absolute, squared, relSquared)\n",
@@ -584,8 +594,8 @@ int cmdCompare(const CompareArgs& a, bool layerGiven, bool refLayerGiven) {
         Vec3 col = falseColour(v[i] / vmax);
         px[3 * i] = uint8_t(col.x * 255), px[3 * i + 1] = uint8_t(col.y * 255), px[3 * i + 2] = uint8_t(col.z * 255);
       }
-      if (!writePngRgb8(a.png, t->width, t->height, px, &err)) {
-        std::fprintf(stderr, "error: %s\n", err.c_str());
+      if (Result<void> written = writePngRgb8(a.png, t->width, t->height, px); !written) {
+        std::fprintf(stderr, "error: %s\n", written.error().c_str());
         return 1;
       }
       std::fprintf(stderr, "wrote %s (relative squared error, white = %.3g)\n", a.png.c_str(), vmax);
@@ -638,8 +648,10 @@ int compareMany(const CompareArgs& a, const std::vector<const Image*>& tests, co
     return 1;
   }
   if (!a.out.empty()) {
-    if (!writeExr(a.out, {{"", bv.bias}, {"bias", bv.bias}, {"noise", bv.noise}, {"mean", bv.mean}}, &err)) {
-      std::fprintf(stderr, "error: %s\n", err.c_str());
+    if (Result<void> written =
+            writeExr(a.out, {{"", bv.bias}, {"bias", bv.bias}, {"noise", bv.noise}, {"mean", bv.mean}});
+        !written) {
+      std::fprintf(stderr, "error: %s\n", written.error().c_str());
       return 1;
     }
     std::fprintf(stderr,

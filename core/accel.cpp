@@ -79,15 +79,6 @@ Result<std::unique_ptr<Accel>> Accel::build(const Scene& scene) {
   return a;
 }
 
-std::unique_ptr<Accel> Accel::build(const Scene& scene, std::string* error) {
-  Result<std::unique_ptr<Accel>> r = build(scene);
-  if (!r) {
-    if (error) *error = r.error();
-    return nullptr;
-  }
-  return std::move(r).value();
-}
-
 std::optional<Hit> Accel::intersect(const Ray& ray) const {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);

@@ -24,9 +24,6 @@ class Accel {
   // Builds a BVH over the scene's triangles; on failure an error names the
   // Embree error (Embree errors also go to the log).
   static Result<std::unique_ptr<Accel>> build(const Scene& scene);
-  // Compatibility for core/session.cpp and app/sweep.cpp until they use the
-  // above: null and *error on failure.
-  static std::unique_ptr<Accel> build(const Scene& scene, std::string* error);
   ~Accel();
 
   std::optional<Hit> intersect(const Ray& ray) const;

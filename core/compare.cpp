@@ -6,6 +6,8 @@
 #include <sstream>
 #include <vector>
 
+#include "core/check.h"
+
 namespace vsl {
 
 double RelMseEpsilon::resolve(const Image& ref) const {
@@ -28,6 +30,8 @@ std::string RelMseEpsilon::describe() const {
 }
 
 CompareResult compareImages(const Image& test, const Image& ref, RelMseEpsilon spec) {
+  VSL_CHECK_EQ(test.width, ref.width);
+  VSL_CHECK_EQ(test.height, ref.height);
   CompareResult r;
   r.epsilonSpec = spec;
   const double epsilon = r.epsilon = spec.resolve(ref);
@@ -74,6 +78,8 @@ CompareResult compareImages(const Image& test, const Image& ref, RelMseEpsilon s
 }
 
 double worstPixelShare(const Image& test, const Image& ref, double fraction, RelMseEpsilon spec) {
+  VSL_CHECK_EQ(test.width, ref.width);
+  VSL_CHECK_EQ(test.height, ref.height);
   const double epsilon = spec.resolve(ref);
   const size_t n = size_t(test.width) * test.height;
   std::vector<double> e(n, 0.0);
@@ -95,6 +101,8 @@ double worstPixelShare(const Image& test, const Image& ref, double fraction, Rel
 }
 
 ErrorImages errorImages(const Image& test, const Image& ref, RelMseEpsilon spec) {
+  VSL_CHECK_EQ(test.width, ref.width);
+  VSL_CHECK_EQ(test.height, ref.height);
   const double epsilon = spec.resolve(ref);
   ErrorImages e{Image(test.width, test.height), Image(test.width, test.height), Image(test.width, test.height),
                 Image(test.width, test.height)};
@@ -109,6 +117,10 @@ ErrorImages errorImages(const Image& test, const Image& ref, RelMseEpsilon spec)
 }
 
 BiasVarianceResult biasVariance(const std::vector<const Image*>& tests, const Image& ref, RelMseEpsilon spec) {
+  for (const Image* test : tests) {
+    VSL_CHECK_EQ(test->width, ref.width);
+    VSL_CHECK_EQ(test->height, ref.height);
+  }
   BiasVarianceResult r;
   const int K = int(tests.size());
   r.renders = K;

@@ -7,7 +7,7 @@
 // relMSE does not depend on the image's overall scale and an all-black image
 // scores about 1 (docs/METRICS.md). An absolute eps (the old default, 0.01)
 // is still available: a bare number passed as the eps means that.
-// Thread-safe; images must have equal sizes (checked by the caller).
+// Thread-safe; images must have equal sizes (VSL_CHECK: a bug otherwise).
 #pragma once
 
 #include <string>

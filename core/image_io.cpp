@@ -279,37 +279,4 @@ Result<void> writeTextFile(const std::string& path, const std::string& text) {
   return writeFileAtomically(path, text.data(), text.size());
 }
 
-// ---- Compatibility: bool and *error --------------------------------------------------
-
-namespace {
-bool reported(const Result<void>& r, std::string* error) {
-  if (!r && error) *error = r.error();
-  return r.ok();
-}
-}  // namespace
-
-bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error) {
-  return reported(writeFileAtomically(path, data, size), error);
-}
-bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
-              const std::map<std::string, std::string>& attributes) {
-  return reported(writeExr(path, layers, attributes), error);
-}
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
-             std::map<std::string, std::string>* attributes) {
-  Result<std::vector<Layer>> r = readExr(path, attributes);
-  layers = r ? std::move(r).value() : std::vector<Layer>();
-  if (!r && error) *error = r.error();
-  return r.ok();
-}
-bool writePng(const std::string& path, const Image& image, float exposure, std::string* error) {
-  return reported(writePng(path, image, exposure), error);
-}
-bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error) {
-  return reported(writePngRgb8(path, width, height, rgb), error);
-}
-bool writeTextFile(const std::string& path, const std::string& text, std::string* error) {
-  return reported(writeTextFile(path, text), error);
-}
-
 }  // namespace vsl

@@ -45,16 +45,4 @@ Result<void> writePng(const std::string& path, const Image& image, float exposur
 Result<void> writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb);
 Result<void> writeTextFile(const std::string& path, const std::string& text);
 
-// Compatibility for ui/studio.cpp, app/studio_main.cpp, app/sweep.cpp and
-// `vsl compare` until they use the above: false and *error on failure (readExr
-// leaves `layers` empty then). Remove once nothing calls them.
-bool writeFileAtomically(const std::string& path, const void* data, size_t size, std::string* error);
-bool writeExr(const std::string& path, const std::vector<Layer>& layers, std::string* error,
-              const std::map<std::string, std::string>& attributes = {});
-bool readExr(const std::string& path, std::vector<Layer>& layers, std::string* error,
-             std::map<std::string, std::string>* attributes = nullptr);
-bool writePng(const std::string& path, const Image& image, float exposure, std::string* error);
-bool writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb, std::string* error);
-bool writeTextFile(const std::string& path, const std::string& text, std::string* error);
-
 }  // namespace vsl

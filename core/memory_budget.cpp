@@ -73,11 +73,11 @@ std::string formatBytes(uint64_t bytes) {
   return buf;
 }
 
-std::string checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction) {
+Result<void> checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction) {
   MemoryEstimate e = estimateStudioMemory(lights, width, height);
-  if (available == 0) return "";
+  if (available == 0) return {};
   const uint64_t budget = uint64_t(double(available) * fraction);
-  if (e.total() <= budget) return "";
+  if (e.total() <= budget) return {};
   std::ostringstream m;
   m << "needs about " << formatBytes(e.total()) << " (" << formatBytes(e.bytesPerPixel) << " per pixel at " << width
     << "x" << height << ", " << formatBytes(e.bytesPerLight) << " per light); " << formatBytes(budget)
@@ -91,7 +91,7 @@ std::string checkStudioMemory(uint64_t lights, int width, int height, uint64_t a
     int maxWidth = int(std::floor(std::sqrt(pixels * aspect)));
     if (maxWidth >= 8) m << "; with these lights a width of at most " << maxWidth << " px fits";
   }
-  return m.str();
+  return Error(m.str());
 }
 
 }  // namespace vsl

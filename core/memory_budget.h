@@ -13,6 +13,8 @@
 #include <cstdint>
 #include <string>
 
+#include "core/result.h"
+
 namespace vsl {
 
 struct MemoryEstimate {
@@ -32,12 +34,12 @@ uint64_t availableMemoryBytes();
 // "1.5 GB", "730 MB", "12 KB".
 std::string formatBytes(uint64_t bytes);
 
-// Empty when the estimate fits in `fraction` of `available` bytes (or when
-// available is 0, unknown); else a message that states the estimate, the
+// Success when the estimate fits in `fraction` of `available` bytes (or when
+// available is 0, unknown); else an error that states the estimate, the
 // budget and the largest light count and width that fit, e.g.
 // "needs about 286 GB (1.1 KB per pixel at 16384x16384, 178 B per light);
 // 19 GB may be used (75% of 25 GB available); with these lights a width of
 // at most 4177 px fits".
-std::string checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75);
+Result<void> checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75);
 
 }  // namespace vsl

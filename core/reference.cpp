@@ -162,7 +162,7 @@ std::string referenceCachePath(const std::string& key) { return referenceCacheDi
 
 // ---- Files ----------------------------------------------------------------------------
 
-bool writeReference(const std::string& path, const Reference& ref, const std::string& scenePath, std::string* error) {
+Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath) {
   std::vector<Layer> layers = {{"", ref.full}, {"full", ref.full}, {"direct", ref.direct}, {"indirect", ref.indirect}};
   if (ref.hasHalves()) {
     layers.insert(layers.end(), {{"A.full", ref.fullA},
@@ -181,30 +181,26 @@ bool writeReference(const std::string& path, const Reference& ref, const std::st
                                               {"vsl.reference.seconds", std::to_string(ref.seconds)},
                                               {"vsl.reference.key", ref.key},
                                               {"vsl.reference.indirectNoise", noise}};
-  return writeExr(path, layers, error, attrs);
+  return writeExr(path, layers, attrs);
 }
 
-bool readReference(const std::string& path, int width, int height, Reference& out, std::string* error,
-                   const std::string& indirectLayer) {
-  std::vector<Layer> layers;
+Result<Reference> readReference(const std::string& path, int width, int height, const std::string& indirectLayer) {
   std::map<std::string, std::string> attrs;
-  if (!readExr(path, layers, error, &attrs)) return false;
+  Result<std::vector<Layer>> read = readExr(path, &attrs);
+  if (!read) return Error(read.error());
+  const std::vector<Layer>& layers = *read;
   const Layer* ind = layerNamed(layers, indirectLayer);
   if (!ind) {
     std::string have;
     for (const Layer& l : layers) have += (have.empty() ? "" : ", ") + (l.name.empty() ? "(default)" : l.name);
-    if (error)
-      *error = path + ": no '" + indirectLayer + "' layer (it has: " + have +
-               "); the methods are compared on indirect light: render one with `vsl reference`, or name the layer "
-               "that holds the indirect component";
-    return false;
+    return Error(path + ": no '" + indirectLayer + "' layer (it has: " + have +
+                 "); the methods are compared on indirect light: render one with `vsl reference`, or name the layer "
+                 "that holds the indirect component");
   }
   const Image& I = ind->image;
   if ((width > 0 && I.width != width) || (height > 0 && I.height != height)) {
-    if (error)
-      *error = path + ": " + std::to_string(I.width) + "x" + std::to_string(I.height) + ", but the render is " +
-               std::to_string(width) + "x" + std::to_string(height);
-    return false;
+    return Error(path + ": " + std::to_string(I.width) + "x" + std::to_string(I.height) + ", but the render is " +
+                 std::to_string(width) + "x" + std::to_string(height));
   }
   Reference r;
   r.width = I.width;
@@ -231,41 +227,31 @@ bool readReference(const std::string& path, int width, int height, Reference& ou
   if (auto it = attrs.find("vsl.reference.spp"); it != attrs.end()) r.spp = std::atoi(it->second.c_str());
   if (auto it = attrs.find("vsl.reference.seconds"); it != attrs.end()) r.seconds = std::atof(it->second.c_str());
   if (auto it = attrs.find("vsl.reference.key"); it != attrs.end()) r.key = it->second;
-  out = std::move(r);
-  return true;
+  return r;
 }
 
 std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height) {
   std::string path = referenceCachePath(key);
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return nullptr;
-  auto r = std::make_unique<Reference>();
-  std::string err;
-  if (!readReference(path, width, height, *r, &err)) return nullptr;
+  Result<Reference> read = readReference(path, width, height);
+  if (!read) return nullptr;
+  auto r = std::make_unique<Reference>(std::move(read).value());
   r->key = key;
   return r;
 }
 
-bool storeCachedReference(const Reference& ref, const std::string& scenePath, std::string* writtenPath,
-                          std::string* error) {
-  if (writtenPath) writtenPath->clear();
-  if (ref.key.empty()) {
-    if (error) *error = "reference cache: the reference has no key";
-    return false;
-  }
+Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath) {
+  if (ref.key.empty()) return Error("reference cache: the reference has no key");
   if (auto existing = findCachedReference(ref.key, ref.width, ref.height); existing && existing->spp >= ref.spp)
-    return true;
+    return std::string();
   std::string dir = referenceCacheDir();
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) {
-    if (error) *error = dir + ": cannot create the reference cache (" + ec.message() + ")";
-    return false;
-  }
+  if (ec) return Error(dir + ": cannot create the reference cache (" + ec.message() + ")");
   std::string path = referenceCachePath(ref.key);
-  if (!writeReference(path, ref, scenePath, error)) return false;
-  if (writtenPath) *writtenPath = path;
-  return true;
+  if (Result<void> w = writeReference(path, ref, scenePath); !w) return Error(w.error());
+  return path;
 }
 
 }  // namespace vsl

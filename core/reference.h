@@ -31,6 +31,7 @@
 
 #include "core/film.h"
 #include "core/pathtracer.h"
+#include "core/result.h"
 
 namespace vsl {
 
@@ -90,19 +91,18 @@ std::string referenceCacheDir();
 std::string referenceCachePath(const std::string& key);
 
 // Writes a reference with its halves and attributes (atomically).
-bool writeReference(const std::string& path, const Reference& ref, const std::string& scenePath, std::string* error);
+Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath);
 // Reads any EXR as a reference of width x height (0: any size): the
 // `indirect` layer is required (or the layer named indirectLayer), full and
 // direct are optional (a missing full is direct + indirect when both exist).
 // Errors name the file and the problem (another size, no indirect layer).
-bool readReference(const std::string& path, int width, int height, Reference& out, std::string* error,
-                   const std::string& indirectLayer = "indirect");
+Result<Reference> readReference(const std::string& path, int width, int height,
+                                const std::string& indirectLayer = "indirect");
 // The cached reference for this key, if one exists and reads; null otherwise.
 std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height);
 // Stores ref in the cache unless an entry with at least as many samples is
-// already there. Returns the path written ("" if kept the existing one);
-// false on I/O failure.
-bool storeCachedReference(const Reference& ref, const std::string& scenePath, std::string* writtenPath,
-                          std::string* error);
+// already there. Returns the path written ("" if kept the existing one); an
+// error on I/O failure.
+Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath);
 
 }  // namespace vsl

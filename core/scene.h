@@ -121,14 +121,6 @@ struct LoadOptions {
 using SceneResult = Result<std::shared_ptr<const Scene>>;
 SceneResult loadScene(const std::string& path, const LoadOptions& options = {});
 
-// Compatibility for core/session.cpp and app/sweep.cpp until they use
-// Result: `LoadResult r = loadScene(path);` keeps compiling.
-struct LoadResult {
-  std::shared_ptr<const Scene> scene;                                         // null on failure
-  std::string error;                                                          // "file: element: reason" on failure
-  LoadResult(SceneResult r) : scene(r.valueOr(nullptr)), error(r.error()) {}  // NOLINT
-};
-
 // A camera that frames the bounding box from the +z side.
 Camera frameBounds(const Vec3& bmin, const Vec3& bmax);
 

@@ -141,13 +141,13 @@ bool Session::shutdown(double seconds) {
   return exitedCv_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return exited_; });
 }
 
-std::string Session::checkMemory(const StudioSettings& s, int width, int height) const {
+Result<void> Session::checkMemory(const StudioSettings& s, int width, int height) const {
   uint64_t available = memoryForTesting_.load();
   if (available == 0) available = availableMemoryBytes();
-  std::string m = checkStudioMemory(s.many.lights, width, height, available);
-  return m.empty() ? m
-                   : "memory: " + std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" +
-                         std::to_string(height) + " " + m;
+  Result<void> m = checkStudioMemory(s.many.lights, width, height, available);
+  if (m) return {};
+  return Error("memory: " + std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" +
+               std::to_string(height) + " " + m.error());
 }
 
 Result<uint64_t> Session::restart(const StudioSettings& settings, bool fromScratch) {
@@ -160,7 +160,7 @@ Result<uint64_t> Session::restart(const StudioSettings& settings, bool fromScrat
     int h = settings.many.height;
     float aspect = st.scene == settings.scene && st.sceneAspect > 0 ? st.sceneAspect : 1.0f;
     if (h <= 0) h = std::max(1, int(std::lround(w / aspect)));
-    e = checkMemory(settings, w, h);
+    e = checkMemory(settings, w, h).error();
   }
   if (!e.empty()) return Error(e);
   uint64_t g;
@@ -280,8 +280,8 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   if (!ensureScene(w, s) || stopped()) return;
   int width = s.many.width, height = s.many.height;
   resolveResolution(*w.scene, width, height);
-  if (std::string e = checkMemory(s, width, height); !e.empty()) {
-    reportRunError("settings refused (the previous render goes on): " + e);
+  if (Result<void> fits = checkMemory(s, width, height); !fits) {
+    reportRunError("settings refused (the previous render goes on): " + fits.error());
     if (!w.job) return;
     s = w.job->settings;  // keep the render that fits
   }
@@ -307,23 +307,31 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
     status_.loading = s.scene;
   }
   setStage("loading");
-  LoadResult r = loadScene(s.scene);
+  SceneResult r = loadScene(s.scene);
+  std::shared_ptr<const Scene> scene = r.valueOr(nullptr);
   std::unique_ptr<Accel> accel;
   std::unique_ptr<LightSampler> lights;
-  std::string err = r.error;
+  std::string err = r.error();
   bool noEmitters = false;
-  if (r.scene) accel = Accel::build(*r.scene, &err);
+  if (scene) {
+    Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+    if (built) {
+      accel = std::move(built).value();
+    } else {
+      err = built.error();
+    }
+  }
   if (accel) {
-    lights = std::make_unique<LightSampler>(*r.scene);
+    lights = std::make_unique<LightSampler>(*scene);
     if (lights->empty()) {
       noEmitters = true;
       err = s.scene +
             ": the scene has no emitters (no emissive material and no KHR_lights_punctual light), so every method "
             "renders black";
-      for (const std::string& warning : r.scene->warnings) err += "\n" + warning;  // e.g. an unsupported extension
+      for (const std::string& warning : scene->warnings) err += "\n" + warning;  // e.g. an unsupported extension
     }
   }
-  if (!r.scene || !accel || noEmitters) {
+  if (!scene || !accel || noEmitters) {
     log::error("cannot load scene: " + err);
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -337,7 +345,7 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
     return true;
   }
   w.job.reset();  // it points into the old scene
-  w.scene = r.scene;
+  w.scene = scene;
   w.accel = std::move(accel);
   w.lights = std::move(lights);
   w.scenePath = s.scene;
@@ -471,12 +479,11 @@ void Session::chooseReference(Worker& w, Job& job) {
   if (!file.empty() && w.convergedFor == want) return;
   std::shared_ptr<const vsl::Reference> chosen;
   if (!file.empty()) {
-    auto r = std::make_shared<vsl::Reference>();
-    std::string err;
-    if (readReference(file, width, height, *r, &err))
-      chosen = std::move(r);
+    Result<vsl::Reference> r = readReference(file, width, height);
+    if (r)
+      chosen = std::make_shared<vsl::Reference>(std::move(r).value());
     else
-      reportRunError("reference not used: " + err + "; errors are measured against the live path tracer");
+      reportRunError("reference not used: " + r.error() + "; errors are measured against the live path tracer");
   } else {
     chosen = findCachedReference(w.cacheKey, width, height);
   }
@@ -510,8 +517,8 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
   auto save = [&] {
     vsl::Reference r = bg.result();
     r.key = w.cacheKey;
-    std::string written, err;
-    if (!storeCachedReference(r, w.scenePath, &written, &err)) reportRunError("reference cache: " + err);
+    if (Result<std::string> stored = storeCachedReference(r, w.scenePath); !stored)
+      reportRunError("reference cache: " + stored.error());
     return r;
   };
   auto lastPublish = Clock::now();

@@ -140,12 +140,6 @@ class Session {
   // and the current render goes on. fromScratch: never resume an interrupted
   // render with the same settings.
   Result<uint64_t> restart(const StudioSettings& settings, bool fromScratch = false);
-  // Compatibility for ui/studio.cpp until it uses the above: 0 and *error.
-  uint64_t restart(const StudioSettings& settings, std::string* error, bool fromScratch = false) {
-    Result<uint64_t> r = restart(settings, fromScratch);
-    if (!r && error) *error = r.error();
-    return r.valueOr(0);
-  }
   // The newest snapshot of the current generation if its serial is greater
   // than `haveSerial`, else null.
   std::shared_ptr<const Snapshot> latest(uint64_t haveSerial) const;
@@ -195,7 +189,7 @@ class Session {
   void setStage(const std::string& stage, uint32_t lightsTarget = 0);
   void reportRunError(const std::string& message);
   bool stopped() const { return stop_.load(std::memory_order_relaxed); }
-  std::string checkMemory(const StudioSettings& s, int width, int height) const;
+  Result<void> checkMemory(const StudioSettings& s, int width, int height) const;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;

@@ -197,9 +197,10 @@ TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
   fs::path d = scratch("flip");
   Image black(32, 24), white(32, 24);
   for (float& v : white.rgb) v = 1;
-  std::string err;
-  ASSERT_TRUE(writeExr((d / "black.exr").string(), {{"", black}}, &err)) << err;
-  ASSERT_TRUE(writeExr((d / "white.exr").string(), {{"", white}}, &err)) << err;
+  Result<void> w = writeExr((d / "black.exr").string(), {{"", black}});
+  ASSERT_TRUE(w) << w.error();
+  w = writeExr((d / "white.exr").string(), {{"", white}});
+  ASSERT_TRUE(w) << w.error();
   Proc p = runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() + " --json --flip-exr " +
                   (d / "flip.exr").string() + " --flip-png " + (d / "flip.png").string());
   ASSERT_EQ(p.code, 0) << p.out;
@@ -210,9 +211,9 @@ TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
   EXPECT_EQ(j["epsilon_mode"], "relative");
   EXPECT_NEAR(double(j["epsilon"]), 0.01, 1e-6);  // 0.01 x (mean luminance 1)^2
   EXPECT_FALSE(j["R"].contains("flip"));
-  std::vector<Layer> layers;
-  ASSERT_TRUE(readExr((d / "flip.exr").string(), layers, &err)) << err;
-  EXPECT_EQ(layers.size(), 3u);
+  Result<std::vector<Layer>> layers = readExr((d / "flip.exr").string());
+  ASSERT_TRUE(layers) << layers.error();
+  EXPECT_EQ(layers->size(), 3u);
   EXPECT_TRUE(fs::exists(d / "flip.png"));
   EXPECT_TRUE(fs::exists(d / "flip-hdr.png"));
   // The absolute eps on request.
@@ -230,9 +231,10 @@ TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
   fs::path d = scratch("bv");
   Image ref(8, 8), a(8, 8), b(8, 8), c(8, 8);
   for (size_t i = 0; i < ref.rgb.size(); ++i) ref.rgb[i] = 1, a.rgb[i] = 1.1f, b.rgb[i] = 1.2f, c.rgb[i] = 1.3f;
-  std::string err;
-  for (auto [name, img] : {std::pair{"ref", &ref}, {"a", &a}, {"b", &b}, {"c", &c}})
-    ASSERT_TRUE(writeExr((d / (std::string(name) + ".exr")).string(), {{"", *img}}, &err)) << err;
+  for (auto [name, img] : {std::pair{"ref", &ref}, {"a", &a}, {"b", &b}, {"c", &c}}) {
+    Result<void> w = writeExr((d / (std::string(name) + ".exr")).string(), {{"", *img}});
+    ASSERT_TRUE(w) << w.error();
+  }
   auto f = [&](const char* n) { return (d / (std::string(n) + ".exr")).string() + " "; };
   Proc p = runVsl("compare " + f("a") + f("b") + f("c") + f("ref") + "--json -o " + (d / "bv.exr").string());
   ASSERT_EQ(p.code, 0) << p.out;
@@ -244,11 +246,11 @@ TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
   EXPECT_NEAR(double(j["average"]["bias2"]), (0.04 - 0.01 / 3) / (1 + eps), 1e-5);
   EXPECT_NEAR(double(j["average"]["relMSE"]), 0.04 / (1 + eps), 1e-5);
   EXPECT_TRUE(j["average"].contains("flip"));
-  std::vector<Layer> layers;
-  ASSERT_TRUE(readExr((d / "bv.exr").string(), layers, &err)) << err;
-  ASSERT_EQ(layers.size(), 4u);  // default (bias), bias, noise, mean
+  Result<std::vector<Layer>> layers = readExr((d / "bv.exr").string());
+  ASSERT_TRUE(layers) << layers.error();
+  ASSERT_EQ(layers->size(), 4u);  // default (bias), bias, noise, mean
   std::map<std::string, const Image*> byName;
-  for (const Layer& l : layers) byName[l.name] = &l.image;
+  for (const Layer& l : *layers) byName[l.name] = &l.image;
   ASSERT_TRUE(byName.count("bias") && byName.count("noise") && byName.count("mean"));
   EXPECT_NEAR(byName["bias"]->rgb[0], 0.2f, 1e-5f);
   EXPECT_NEAR(byName["noise"]->rgb[0], 0.1f, 1e-5f);

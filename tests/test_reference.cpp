@@ -73,10 +73,12 @@ TEST(Reference, FileRoundTripKeepsLayersHalvesAndSamples) {
   test::Loaded l = test::loadAsset("cornell-glossy", 16);
   vsl::Reference r = renderReference(l, 16, 12, 4, 1);
   r.key = "k1";
-  std::string dir = tempDir("file"), path = dir + "/ref.exr", err;
-  ASSERT_TRUE(writeReference(path, r, "scene.gltf", &err)) << err;
-  vsl::Reference back;
-  ASSERT_TRUE(readReference(path, 16, 12, back, &err)) << err;
+  std::string dir = tempDir("file"), path = dir + "/ref.exr";
+  Result<void> written = writeReference(path, r, "scene.gltf");
+  ASSERT_TRUE(written) << written.error();
+  Result<vsl::Reference> read = readReference(path, 16, 12);
+  ASSERT_TRUE(read) << read.error();
+  const vsl::Reference& back = *read;
   EXPECT_EQ(back.spp, 4);
   EXPECT_EQ(back.key, "k1");
   EXPECT_EQ(back.source, path);
@@ -86,7 +88,9 @@ TEST(Reference, FileRoundTripKeepsLayersHalvesAndSamples) {
   EXPECT_EQ(back.fullB.rgb, r.fullB.rgb);
   EXPECT_DOUBLE_EQ(back.indirectNoise(), r.indirectNoise());
   // Another size is refused, naming both sizes.
-  EXPECT_FALSE(readReference(path, 32, 12, back, &err));
+  Result<vsl::Reference> other = readReference(path, 32, 12);
+  EXPECT_FALSE(other);
+  const std::string& err = other.error();
   EXPECT_NE(err.find("16x12"), std::string::npos) << err;
   EXPECT_NE(err.find("32x12"), std::string::npos) << err;
   std::filesystem::remove_all(dir);
@@ -95,21 +99,25 @@ TEST(Reference, FileRoundTripKeepsLayersHalvesAndSamples) {
 // Another renderer's image: an indirect layer is required; without halves
 // the noise is unknown, never zero.
 TEST(Reference, ForeignImagesNeedAnIndirectLayer) {
-  std::string dir = tempDir("foreign"), err;
+  std::string dir = tempDir("foreign");
   Image img(8, 8);
   for (float& v : img.rgb) v = 0.5f;
-  ASSERT_TRUE(writeExr(dir + "/rgb.exr", {{"", img}}, &err)) << err;
-  vsl::Reference r;
-  EXPECT_FALSE(readReference(dir + "/rgb.exr", 8, 8, r, &err));
-  EXPECT_NE(err.find("no 'indirect' layer"), std::string::npos) << err;
-  EXPECT_NE(err.find("rgb.exr"), std::string::npos) << err;
-  ASSERT_TRUE(writeExr(dir + "/ind.exr", {{"indirect", img}, {"direct", img}}, &err)) << err;
-  ASSERT_TRUE(readReference(dir + "/ind.exr", 8, 8, r, &err)) << err;
-  EXPECT_FALSE(r.hasHalves());
-  EXPECT_LT(r.indirectNoise(), 0);
-  EXPECT_FLOAT_EQ(r.full.rgb[0], 1.0f);  // full = direct + indirect
+  Result<void> w = writeExr(dir + "/rgb.exr", {{"", img}});
+  ASSERT_TRUE(w) << w.error();
+  Result<vsl::Reference> r = readReference(dir + "/rgb.exr", 8, 8);
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("no 'indirect' layer"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("rgb.exr"), std::string::npos) << r.error();
+  w = writeExr(dir + "/ind.exr", {{"indirect", img}, {"direct", img}});
+  ASSERT_TRUE(w) << w.error();
+  r = readReference(dir + "/ind.exr", 8, 8);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_FALSE(r->hasHalves());
+  EXPECT_LT(r->indirectNoise(), 0);
+  EXPECT_FLOAT_EQ(r->full.rgb[0], 1.0f);  // full = direct + indirect
   // A layer may be named instead.
-  ASSERT_TRUE(readReference(dir + "/rgb.exr", 8, 8, r, &err, "")) << err;
+  r = readReference(dir + "/rgb.exr", 8, 8, "");
+  ASSERT_TRUE(r) << r.error();
   std::filesystem::remove_all(dir);
 }
 
@@ -129,16 +137,16 @@ TEST(Reference, CacheKeysAndEntries) {
   for (const auto& e : std::filesystem::directory_iterator(std::filesystem::path(l.scene->path).parent_path()))
     if (e.path().extension() == ".bin") std::filesystem::copy_file(e.path(), dir + "/" + e.path().filename().string());
   { std::ofstream(copy, std::ios::app) << " "; }
-  LoadResult other = loadScene(copy);
-  ASSERT_TRUE(other.scene) << other.error;
-  EXPECT_NE(k, referenceKey(*other.scene, 16, 16, 64));
+  SceneResult other = loadScene(copy);
+  ASSERT_TRUE(other) << other.error();
+  EXPECT_NE(k, referenceKey(**other, 16, 16, 64));
 
   EXPECT_EQ(findCachedReference(k, 16, 16), nullptr);
   vsl::Reference r = renderReference(l, 16, 16, 8, 0);
   r.key = k;
-  std::string written, err;
-  ASSERT_TRUE(storeCachedReference(r, l.scene->path, &written, &err)) << err;
-  EXPECT_EQ(written, referenceCachePath(k));
+  Result<std::string> written = storeCachedReference(r, l.scene->path);
+  ASSERT_TRUE(written) << written.error();
+  EXPECT_EQ(*written, referenceCachePath(k));
   auto found = findCachedReference(k, 16, 16);
   ASSERT_NE(found, nullptr);
   EXPECT_EQ(found->spp, 8);
@@ -146,8 +154,9 @@ TEST(Reference, CacheKeysAndEntries) {
   // Fewer samples never replace more.
   vsl::Reference fewer = renderReference(l, 16, 16, 2, 0);
   fewer.key = k;
-  ASSERT_TRUE(storeCachedReference(fewer, l.scene->path, &written, &err)) << err;
-  EXPECT_TRUE(written.empty());
+  written = storeCachedReference(fewer, l.scene->path);
+  ASSERT_TRUE(written) << written.error();
+  EXPECT_TRUE(written->empty());
   EXPECT_EQ(findCachedReference(k, 16, 16)->spp, 8);
   unsetenv("VSL_REFERENCE_CACHE");
   std::filesystem::remove_all(dir);

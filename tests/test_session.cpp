@@ -165,9 +165,9 @@ TEST(Session, InvalidSettingsAreRejected) {
   EXPECT_EQ(r.error(), "lights: must be in [1,50000000] (got 0)");
   s = small("furnace", 10, 8);
   s.many.radiusScale = -1;
-  std::string err;  // the compatibility form: 0 and the reason
-  EXPECT_EQ(session.restart(s, &err), 0u);
-  EXPECT_NE(err.find("radius-scale"), std::string::npos) << err;
+  r = session.restart(s);
+  EXPECT_FALSE(r);
+  EXPECT_NE(r.error().find("radius-scale"), std::string::npos) << r.error();
   EXPECT_EQ(session.generation(), 0u);
 }
 
@@ -208,9 +208,11 @@ TEST(Session, MemoryEstimateIsItemised) {
   EXPECT_GE(e.bytesPerLight, sizeof(VirtualLight));
   EXPECT_EQ(e.lightBytes, 1000 * e.bytesPerLight);
   EXPECT_EQ(e.pixelBytes, 5000 * e.bytesPerPixel);
-  EXPECT_EQ(checkStudioMemory(1000, 100, 50, 0), "") << "unknown availability applies no limit";
-  EXPECT_EQ(checkStudioMemory(1000, 100, 50, e.total() * 2), "");
-  EXPECT_NE(checkStudioMemory(1000, 100, 50, e.total() / 2), "");
+  EXPECT_TRUE(checkStudioMemory(1000, 100, 50, 0)) << "unknown availability applies no limit";
+  EXPECT_TRUE(checkStudioMemory(1000, 100, 50, e.total() * 2));
+  Result<void> tooBig = checkStudioMemory(1000, 100, 50, e.total() / 2);
+  EXPECT_FALSE(tooBig);
+  EXPECT_NE(tooBig.error(), "");
 }
 
 // Every stage stops promptly on a restart, light tracing and k-NN included
@@ -350,20 +352,21 @@ TEST(Session, LiveReferenceNoiseIsEstimatedAndSubtracted) {
 // measured against it with its noise subtracted.
 TEST(Session, UsesAMatchingCachedReference) {
   TempCache cache;
-  LoadResult lr = loadScene(asset("cornell-glossy"));
-  ASSERT_TRUE(lr.scene);
-  std::string err;
-  auto accel = Accel::build(*lr.scene, &err);
-  ASSERT_TRUE(accel) << err;
-  LightSampler lights(*lr.scene);
+  SceneResult lr = loadScene(asset("cornell-glossy"));
+  ASSERT_TRUE(lr) << lr.error();
+  const Scene& scene = **lr;
+  Result<std::unique_ptr<Accel>> accel = Accel::build(scene);
+  ASSERT_TRUE(accel) << accel.error();
+  LightSampler lights(scene);
   RenderSettings rs;
   rs.width = rs.height = 16;
   rs.seed = 5;
-  ReferenceRenderer rr(*lr.scene, *accel, lights, rs);
+  ReferenceRenderer rr(scene, **accel, lights, rs);
   while (rr.spp() < 32) ASSERT_TRUE(rr.step());
   vsl::Reference ref = rr.result();
-  ref.key = referenceKey(*lr.scene, 16, 16, RenderSettings().maxDepth);
-  ASSERT_TRUE(storeCachedReference(ref, lr.scene->path, nullptr, &err)) << err;
+  ref.key = referenceKey(scene, 16, 16, RenderSettings().maxDepth);
+  Result<std::string> stored = storeCachedReference(ref, scene.path);
+  ASSERT_TRUE(stored) << stored.error();
 
   Session session;
   uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
@@ -383,8 +386,9 @@ TEST(Session, UsesAMatchingCachedReference) {
 // goes on against the live path tracer.
 TEST(Session, AReferenceOfAnotherSizeIsRefused) {
   TempCache cache;
-  std::string path = cache.dir + "-ref.exr", err;
-  ASSERT_TRUE(writeExr(path, {{"indirect", Image(20, 16)}}, &err)) << err;
+  std::string path = cache.dir + "-ref.exr";
+  Result<void> written = writeExr(path, {{"indirect", Image(20, 16)}});
+  ASSERT_TRUE(written) << written.error();
   Session session;
   StudioSettings s = small("cornell-glossy", 200, 16);
   s.referencePath = path;
@@ -410,9 +414,9 @@ TEST(Session, BackgroundReferenceFillsTheCacheAndIsUsed) {
   ASSERT_TRUE(snap);
   EXPECT_EQ(snap->referenceSpp, 16);
   EXPECT_EQ(snap->referenceSource.rfind("cache: ", 0), 0u) << snap->referenceSource;
-  LoadResult lr = loadScene(asset("cornell-glossy"));
-  ASSERT_TRUE(lr.scene);
-  auto cached = findCachedReference(referenceKey(*lr.scene, 16, 16, RenderSettings().maxDepth), 16, 16);
+  SceneResult lr = loadScene(asset("cornell-glossy"));
+  ASSERT_TRUE(lr) << lr.error();
+  auto cached = findCachedReference(referenceKey(**lr, 16, 16, RenderSettings().maxDepth), 16, 16);
   ASSERT_TRUE(cached);
   EXPECT_EQ(cached->spp, 16);
   EXPECT_EQ(cached->indirect.rgb, snap->refIndirect.rgb);

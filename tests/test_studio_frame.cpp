@@ -32,8 +32,8 @@ class StudioFrame : public ::testing::Test {
   std::unique_ptr<ui::Studio> studio;
 
   void SetUp() override {
-    std::string err;
-    ASSERT_TRUE(gl.init(kW, kH, &err)) << err;
+    Result<void> ready = gl.init(kW, kH);
+    ASSERT_TRUE(ready) << ready.error();
     ImGui::CreateContext();
     ImGuiIO& io = ImGui::GetIO();
     io.IniFilename = nullptr;
@@ -377,10 +377,12 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
   renderFrames(1);
   std::string dir = std::string(VSL_BINARY_DIR) + "/studio-export-test";
   std::filesystem::remove_all(dir);
-  std::string err, f1, f2;
+  std::string f1, f2;
   std::vector<std::string> w1, w2;
-  ASSERT_TRUE(studio->exportAll(dir, &err, &w1, &f1)) << err;
-  ASSERT_TRUE(studio->exportAll(dir, &err, &w2, &f2)) << err;
+  Result<void> e1 = studio->exportAll(dir, &w1, &f1);
+  ASSERT_TRUE(e1) << e1.error();
+  Result<void> e2 = studio->exportAll(dir, &w2, &f2);
+  ASSERT_TRUE(e2) << e2.error();
   EXPECT_NE(f1, f2);
   EXPECT_TRUE(std::filesystem::exists(f1 + "/metrics.json"));
   EXPECT_TRUE(std::filesystem::exists(f2 + "/metrics.json"));
@@ -421,9 +423,10 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
   v.crop = ui::CropRect{10, 4, 16, 8};
   std::string dir = std::string(VSL_BINARY_DIR) + "/studio-crop-test";
   std::filesystem::remove_all(dir);
-  std::string err, folder;
+  std::string folder;
   std::vector<std::string> written;
-  ASSERT_TRUE(studio->exportAll(dir, &err, &written, &folder)) << err;
+  Result<void> exported = studio->exportAll(dir, &written, &folder);
+  ASSERT_TRUE(exported) << exported.error();
   const int f = ui::cropMagnification(v.crop);
   EXPECT_EQ(f, 16);  // 256 / 16
   int crops = 0;
@@ -479,8 +482,9 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
 
   // A crop outside the image fails the export with the reason.
   v.crop = ui::CropRect{100, 50, 8, 8};
-  EXPECT_FALSE(studio->exportAll(dir, &err, &written, &folder));
-  EXPECT_NE(err.find("lies outside"), std::string::npos) << err;
+  exported = studio->exportAll(dir, &written, &folder);
+  EXPECT_FALSE(exported);
+  EXPECT_NE(exported.error().find("lies outside"), std::string::npos) << exported.error();
 }
 
 // Shift+drag on an image draws the crop rectangle over the pixels it
@@ -548,8 +552,8 @@ TEST(LastSession, RoundTripAndCorruptFiles) {
   v.mode = ui::ViewMode::Wipe;
   v.panels[0] = ui::Source::VplDiffuse;
   v.exposure = 1.5f;
-  std::string err;
-  ASSERT_TRUE(ui::saveLastSession(path, s, v, &err)) << err;
+  Result<void> saved = ui::saveLastSession(path, s, v);
+  ASSERT_TRUE(saved) << saved.error();
   StudioSettings r;
   ui::ViewState rv;
   std::string warning;

@@ -18,10 +18,9 @@ HeadlessGL::~HeadlessGL() {
   }
 }
 
-bool HeadlessGL::init(int width, int height, std::string* error) {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m + " (EGL error 0x" + std::to_string(eglGetError()) + ")";
-    return false;
+Result<void> HeadlessGL::init(int width, int height) {
+  auto fail = [&](const std::string& m) -> Result<void> {
+    return Error(m + " (EGL error 0x" + std::to_string(eglGetError()) + ")");
   };
   auto getPlatformDisplay =
       reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
@@ -47,12 +46,10 @@ bool HeadlessGL::init(int width, int height, std::string* error) {
   glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, width, height);
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color_);
-  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-    if (error) *error = "OpenGL: the framebuffer object is incomplete";
-    return false;
-  }
+  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+    return Error("OpenGL: the framebuffer object is incomplete");
   glViewport(0, 0, width, height);
-  return true;
+  return {};
 }
 
 void HeadlessGL::bind() const {

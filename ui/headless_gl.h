@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "core/result.h"
+
 namespace vsl::ui {
 
 class HeadlessGL {
@@ -15,8 +17,8 @@ class HeadlessGL {
   HeadlessGL(const HeadlessGL&) = delete;
   HeadlessGL& operator=(const HeadlessGL&) = delete;
   // Creates the context and a width x height RGBA8 framebuffer, and makes
-  // them current. Returns false with a reason on failure.
-  bool init(int width, int height, std::string* error);
+  // them current. An error with the reason on failure.
+  Result<void> init(int width, int height);
   void bind() const;
   int width() const { return width_; }
   int height() const { return height_; }

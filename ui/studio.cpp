@@ -151,9 +151,9 @@ void Studio::restart(bool fromScratch) {
     accepted_ = settings_;
     return;
   }
-  std::string err;
-  uint64_t g = session_->restart(settings_, &err, fromScratch);
-  if (g == 0) {
+  Result<uint64_t> started = session_->restart(settings_, fromScratch);
+  if (!started) {
+    const std::string& err = started.error();
     // Shown next to the control it names ("lights: ..."), or next to the
     // control last changed for a memory refusal; the render goes on.
     size_t colon = err.find(':');
@@ -164,7 +164,7 @@ void Studio::restart(bool fromScratch) {
     return;
   }
   restartedAt_ = std::chrono::steady_clock::now();
-  restartGeneration_ = g;
+  restartGeneration_ = *started;
   accepted_ = settings_;
   settingsError_.clear();
   settingsErrorKey_.clear();
@@ -690,12 +690,12 @@ void Studio::controlsPanel() {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("A screen grab of the view area, in a new file");
   ImGui::SameLine();
   if (ImGui::Button("Export images")) {
-    std::string err, folder;
+    std::string folder;
     std::vector<std::string> written;
-    if (exportAll(exportDir_, &err, &written, &folder))
+    if (Result<void> exported = exportAll(exportDir_, &written, &folder))
       message_ = "wrote " + std::to_string(written.size()) + " files to " + folder;
     else
-      errorDialog_ = "Export failed; existing files are untouched.\n\n" + err;
+      errorDialog_ = "Export failed; existing files are untouched.\n\n" + exported.error();
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
@@ -1335,12 +1335,11 @@ void Studio::afterRender(int fbWidth, int fbHeight) {
   int x1 = std::min(fbWidth, int(viewMax_.x)), y1 = std::min(fbHeight, int(viewMax_.y));
   if (x1 <= x0 || y1 <= y0) return;
   std::vector<uint8_t> px = readFramebuffer(x0, y0, x1 - x0, y1 - y0, fbHeight);
-  std::string err;
-  if (writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px, &err)) {
+  if (Result<void> saved = writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px)) {
     message_ = "wrote " + savePngPath_;
     log::info(message_);
   } else {
-    errorDialog_ = "Saving the view failed; existing files are untouched.\n\n" + err;
+    errorDialog_ = "Saving the view failed; existing files are untouched.\n\n" + saved.error();
   }
 }
 
@@ -1427,12 +1426,8 @@ std::string Studio::uniquePath(const std::string& dir, const std::string& stem, 
   return p.string();
 }
 
-bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written,
-                       std::string* folderOut) {
-  auto fail = [&](const std::string& e) {
-    if (error) *error = e;
-    return false;
-  };
+Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>* written, std::string* folderOut) {
+  auto fail = [](const std::string& e) -> Result<void> { return Error(e); };
   if (!snap_ || snap_->width == 0) return fail("nothing to export yet");
   const Snapshot& s = *snap_;
   std::error_code ec;
@@ -1474,12 +1469,12 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                                {"error-vsl-relsq", ev.relSquared},
                                {"error-vpl-signed", ep.signedDiff},
                                {"error-vpl-relsq", ep.relSquared}};
-  std::string err;
-  if (!writeExr(path("images.exr"), layers, &err,
-                {{"vsl.version", VSL_VERSION},
-                 {"vsl.scene", s.settings.scene},
-                 {"vsl.settings", s.settings.many.describe()}}))
-    return fail(err);
+  if (Result<void> w = writeExr(path("images.exr"), layers,
+                                {{"vsl.version", VSL_VERSION},
+                                 {"vsl.scene", s.settings.scene},
+                                 {"vsl.settings", s.settings.many.describe()}});
+      !w)
+    return fail(w.error());
   files.push_back(path("images.exr"));
 
   // Every image at the render's resolution, the shown component and exposure.
@@ -1488,7 +1483,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
     Image scratch;
     const Image* img = componentImage(Source(i), view_.component, scratch);
     std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
-    if (!writePng(path(name), *img, view_.exposure, &err)) return fail(err);
+    if (Result<void> w = writePng(path(name), *img, view_.exposure); !w) return fail(w.error());
     files.push_back(path(name));
   }
   // Error maps of each method on one shared scale (set by hand, or the
@@ -1508,7 +1503,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
     std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
     std::string name =
         "error-" + sourceSlug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
-    if (!writePngRgb8(path(name), s.width, rows, px, &err)) return fail(err);
+    if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
     files.push_back(path(name));
   }
 
@@ -1516,7 +1511,7 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
   if (!view_.crop.empty()) {
     Image full;
     const Image* refFull = referenceImage(view_.component, full);
-    if (!exportCrops(folder.string(), *refFull, &cropJson, &files, &err)) return fail(err);
+    if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return w;
   }
 
   nlohmann::json metrics;
@@ -1615,12 +1610,12 @@ bool Studio::exportAll(const std::string& dir, std::string* error, std::vector<s
                       {"reference", reference},
                       {"equalTimeIndirect", equalTime},
                       {"errorHistory", hist}};
-  if (!writeTextFile(path("metrics.json"), j.dump(2) + "\n", &err)) return fail(err);
+  if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
   files.push_back(path("metrics.json"));
   if (written) *written = files;
   if (folderOut) *folderOut = folder.string();
   log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
-  return true;
+  return {};
 }
 
 }  // namespace vsl::ui
@@ -1856,15 +1851,13 @@ void outline(Rgb8& img, const CropRect& r, int t) {
 // top row the reference and the methods, bottom row the methods' error
 // maps; at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
 // *out.
-bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
-                         std::vector<std::string>* files, std::string* error) const {
+Result<void> Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
+                                 std::vector<std::string>* files) const {
   const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
-  if (r.empty()) {
-    *error = "crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
-             std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
-             std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image";
-    return false;
-  }
+  if (r.empty())
+    return Error("crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
+                 std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
+                 std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image");
   if (r.w != view_.crop.w || r.h != view_.crop.h)
     log::warning("crop clipped to the image: " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
                  std::to_string(r.w) + "," + std::to_string(r.h));
@@ -1881,7 +1874,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
                                : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
     Rgb8 big = magnified(tiles.back(), f);
     const std::string path = (std::filesystem::path(folder) / name).string();
-    if (!writePngRgb8(path, big.w, big.h, big.px, error)) return false;
+    if (Result<void> w = writePngRgb8(path, big.w, big.h, big.px); !w) return w;
     files->push_back(path);
     names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
   }
@@ -1902,7 +1895,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
   }
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
-  if (!writePngRgb8(figPath, figure.w, figure.h, figure.px, error)) return false;
+  if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) return w;
   files->push_back(figPath);
 
   // The crops' metrics for the full and indirect components (as the whole
@@ -1935,7 +1928,7 @@ bool Studio::exportCrops(const std::string& folder, const Image& full, nlohmann:
            "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
            "bottom row: the methods' error maps"},
           {"metricsAgainstReferenceCrop", metrics}};
-  return true;
+  return {};
 }
 
 }  // namespace vsl::ui
@@ -1958,7 +1951,7 @@ std::string lastSessionPath() {
   return (base / "vsl-studio" / "last-session.json").string();
 }
 
-bool saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v, std::string* error) {
+Result<void> saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v) {
   const ManyLightSettings& m = s.many;
   nlohmann::json j = {{"version", 1},
                       {"scene", std::filesystem::absolute(s.scene).lexically_normal().string()},
@@ -1991,12 +1984,10 @@ bool saveLastSession(const std::string& path, const StudioSettings& s, const Vie
                         {"errorScale", v.errorScale}}}};
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
-  if (ec) {
-    *error =
-        std::filesystem::path(path).parent_path().string() + ": cannot create the directory (" + ec.message() + ")";
-    return false;
-  }
-  return writeTextFile(path, j.dump(2) + "\n", error);
+  if (ec)
+    return Error(std::filesystem::path(path).parent_path().string() + ": cannot create the directory (" + ec.message() +
+                 ")");
+  return writeTextFile(path, j.dump(2) + "\n");
 }
 
 namespace {

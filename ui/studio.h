@@ -84,9 +84,8 @@ struct ViewState {
 // $XDG_CONFIG_HOME/vsl-studio/last-session.json, or ~/.config/... when
 // XDG_CONFIG_HOME is unset; "" when neither is known.
 std::string lastSessionPath();
-// Written atomically (writeTextFile); creates the folder. False and *error on failure.
-bool saveLastSession(const std::string& path, const StudioSettings& settings, const ViewState& view,
-                     std::string* error);
+// Written atomically (writeTextFile); creates the folder. An error on failure.
+Result<void> saveLastSession(const std::string& path, const StudioSettings& settings, const ViewState& view);
 // Reads the file over *settings and *view (fields it lacks keep their
 // values). False when there is nothing to restore: *warning is "" for a
 // missing file, else the reason (unreadable, corrupt, invalid settings), and
@@ -111,8 +110,8 @@ class Studio {
   // resolution (the shown component and exposure; error maps with a colour
   // bar) and a JSON with every resolved setting, the metrics, the machine,
   // the thread count and the timings. *folder receives its path.
-  bool exportAll(const std::string& dir, std::string* error, std::vector<std::string>* written = nullptr,
-                 std::string* folder = nullptr);
+  Result<void> exportAll(const std::string& dir, std::vector<std::string>* written = nullptr,
+                         std::string* folder = nullptr);
 
   // True when the session changed since the last frame (a new snapshot, a
   // new stage, an error): the caller redraws. busy(): work is in progress
@@ -181,8 +180,8 @@ class Studio {
   void cropsPanel();
   void updateCrops();
   void drawCropOutline(ImDrawList* dl);
-  bool exportCrops(const std::string& folder, const Image& full, nlohmann::json* out, std::vector<std::string>* files,
-                   std::string* error) const;
+  Result<void> exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
+                           std::vector<std::string>* files) const;
   void plotErrors(const ImVec2& size);
   void restart(bool fromScratch = false);
   void pullSnapshot();
