@@ -180,4 +180,22 @@ Vec3 falseColour(float t) {
   return lerp(x - i, stops[i], stops[i + 1]);
 }
 
+std::vector<uint8_t> colourMapWithBar(const Image& map, Vec3 (*colour)(float), float vmax, int* rows) {
+  const int w = map.width, h = map.height, bar = 16;
+  const float scale = 1.0f / std::max(vmax, 1e-12f);
+  std::vector<uint8_t> px(size_t(w) * size_t(h + bar) * 3, 20);
+  auto put = [&](int x, int y, const Vec3& c) {
+    uint8_t* q = &px[(size_t(y) * w + x) * 3];
+    q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
+    q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
+    q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) put(x, y, colour(map.at(x, y).x * scale));
+  for (int y = h + 4; y < h + bar; ++y)
+    for (int x = 0; x < w; ++x) put(x, y, colour((x + 0.5f) / float(w)));
+  *rows = h + bar;
+  return px;
+}
+
 }  // namespace vsl

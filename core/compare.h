@@ -97,4 +97,9 @@ BiasVarianceResult biasVariance(const std::vector<const Image*>& tests, const Im
 // A false-colour map (black-blue-magenta-yellow-white) of v / vmax.
 Vec3 falseColour(float t);
 
+// A map (values in the R channel) as 8-bit sRGB pixels through a colour map
+// of value / vmax, with a colour bar from 0 (left) to vmax (right) in 16 rows
+// below it (4 of them a dark gap); *rows = height + 16.
+std::vector<uint8_t> colourMapWithBar(const Image& map, Vec3 (*colour)(float), float vmax, int* rows);
+
 }  // namespace vsl

@@ -8,6 +8,8 @@
 //   [SECTION] Tone map and colour map
 #include "core/flip.h"
 
+#include "core/compare.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -402,21 +404,6 @@ Vec3 magma(float t) {
   return lerp((x - x0) / (x1 - x0), kStops[i], kStops[i + 1]);
 }
 
-std::vector<uint8_t> magmaWithBar(const Image& map, int* rows) {
-  const int w = map.width, h = map.height, bar = 16;
-  std::vector<uint8_t> px(size_t(w) * size_t(h + bar) * 3, 20);
-  auto put = [&](int x, int y, const Vec3& c) {
-    uint8_t* q = &px[(size_t(y) * w + x) * 3];
-    q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
-    q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
-    q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
-  };
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) put(x, y, magma(map.at(x, y).x));
-  for (int y = h + 4; y < h + bar; ++y)
-    for (int x = 0; x < w; ++x) put(x, y, magma((x + 0.5f) / float(w)));
-  *rows = h + bar;
-  return px;
-}
+std::vector<uint8_t> magmaWithBar(const Image& map, int* rows) { return colourMapWithBar(map, magma, 1.0f, rows); }
 
 }  // namespace vsl

@@ -14,27 +14,15 @@
 #include <sstream>
 
 #include "core/image_io.h"
+#include "tests/run_vsl.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Proc {
-  int code;
-  std::string out;  // stdout and stderr together
-};
+using vsl::test::Proc;
 
-Proc run(const std::string& args) {
-  std::string cmd = std::string(VSL_BINARY_DIR) + "/bin/vsl " + args + " 2>&1";
-  Proc r{-1, ""};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+Proc run(const std::string& args) { return vsl::test::runVsl(args); }
 
 // The comma-separated fields of one CSV line (the sweep's CSV has no quoting).
 std::vector<std::string> csvFields(const std::string& line) {

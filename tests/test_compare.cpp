@@ -14,6 +14,7 @@
 #include "core/image_io.h"
 #include "core/many_light.h"
 #include "support.h"
+#include "tests/run_vsl.h"
 
 using namespace vsl;
 using namespace vsl::test;
@@ -143,23 +144,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Proc {
-  int code;
-  std::string out;
-};
+using vsl::test::Proc;
 
 // Runs `vsl ARGS`; stderr is dropped unless asked for (stdout is the JSON).
-Proc runVsl(const std::string& args, bool withStderr = false) {
-  std::string cmd = std::string(VSL_BINARY_DIR) + "/bin/vsl " + args + (withStderr ? " 2>&1" : " 2>/dev/null");
-  Proc r{-1, ""};
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+Proc vslOut(const std::string& args, bool withStderr = false) { return vsl::test::runVsl(args, withStderr); }
 
 fs::path scratch(const std::string& name) {
   fs::path d = fs::temp_directory_path() / ("vsl_compare_" + name);
@@ -201,7 +189,7 @@ TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
   ASSERT_TRUE(w) << w.error();
   w = writeExr((d / "white.exr").string(), {{"", white}});
   ASSERT_TRUE(w) << w.error();
-  Proc p = runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() + " --json --flip-exr " +
+  Proc p = vslOut("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() + " --json --flip-exr " +
                   (d / "flip.exr").string() + " --flip-png " + (d / "flip.png").string());
   ASSERT_EQ(p.code, 0) << p.out;
   auto j = nlohmann::json::parse(p.out);
@@ -217,7 +205,7 @@ TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
   EXPECT_TRUE(fs::exists(d / "flip.png"));
   EXPECT_TRUE(fs::exists(d / "flip-hdr.png"));
   // The absolute eps on request.
-  auto a = nlohmann::json::parse(runVsl("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() +
+  auto a = nlohmann::json::parse(vslOut("compare " + (d / "black.exr").string() + " " + (d / "white.exr").string() +
                                         " --json --no-flip --epsilon-mode absolute --epsilon 0.5")
                                      .out);
   EXPECT_EQ(a["epsilon_mode"], "absolute");
@@ -236,7 +224,7 @@ TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
     ASSERT_TRUE(w) << w.error();
   }
   auto f = [&](const char* n) { return (d / (std::string(n) + ".exr")).string() + " "; };
-  Proc p = runVsl("compare " + f("a") + f("b") + f("c") + f("ref") + "--json -o " + (d / "bv.exr").string());
+  Proc p = vslOut("compare " + f("a") + f("b") + f("c") + f("ref") + "--json -o " + (d / "bv.exr").string());
   ASSERT_EQ(p.code, 0) << p.out;
   auto j = nlohmann::json::parse(p.out);
   EXPECT_EQ(j["renders"], 3);
@@ -264,14 +252,14 @@ TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
 TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
   fs::path d = scratch("shard");
   std::string sceneFile = std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf";
-  ASSERT_EQ(runVsl("render " + sceneFile + " --spp 8 --width 16 --height 16 -o " + (d / "ref.exr").string()).code, 0);
+  ASSERT_EQ(vslOut("render " + sceneFile + " --spp 8 --width 16 --height 16 -o " + (d / "ref.exr").string()).code, 0);
   const std::string grid = "sweep " + sceneFile + " --methods vpl,vsl --lights 40,80 --radius-scale 0.5,1 " +
                            "--batches 2 --sets 2 --time 1000 --reference " + (d / "ref.exr").string() + " -o ";
-  Proc all = runVsl(grid + (d / "all").string(), true);
+  Proc all = vslOut(grid + (d / "all").string(), true);
   ASSERT_EQ(all.code, 0) << all.out;
-  ASSERT_EQ(runVsl(grid + (d / "s0").string() + " --shard 0/2").code, 0);
-  ASSERT_EQ(runVsl(grid + (d / "s1").string() + " --shard 1/2").code, 0);
-  Proc m = runVsl("sweep --merge " + (d / "s1").string() + " " + (d / "s0").string() + " -o " + (d / "merged").string(),
+  ASSERT_EQ(vslOut(grid + (d / "s0").string() + " --shard 0/2").code, 0);
+  ASSERT_EQ(vslOut(grid + (d / "s1").string() + " --shard 1/2").code, 0);
+  Proc m = vslOut("sweep --merge " + (d / "s1").string() + " " + (d / "s0").string() + " -o " + (d / "merged").string(),
                   true);
   ASSERT_EQ(m.code, 0) << m.out;
   // The shards split the six configurations.
@@ -295,8 +283,8 @@ TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
   for (const char* png : {"merged/pareto.png", "merged/flip_vs_time.png"}) EXPECT_TRUE(fs::exists(d / png)) << png;
   // A shard given twice, or one missing, is refused; so is a malformed --shard.
   EXPECT_EQ(
-      runVsl("sweep --merge " + (d / "s0").string() + " " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
-  EXPECT_EQ(runVsl("sweep --merge " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
-  EXPECT_EQ(runVsl(grid + (d / "x").string() + " --shard 2/2").code, 2);
+      vslOut("sweep --merge " + (d / "s0").string() + " " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
+  EXPECT_EQ(vslOut("sweep --merge " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
+  EXPECT_EQ(vslOut(grid + (d / "x").string() + " --shard 2/2").code, 2);
   fs::remove_all(d);
 }

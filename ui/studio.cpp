@@ -1367,20 +1367,7 @@ Image errorMap(const Image& test, const Image& ref, ErrorMetric metric) {
 // An error map in false colour (0 black ... vmax white), with a colour bar in
 // 16 rows below it.
 std::vector<uint8_t> falseColourWithBar(const Image& map, float vmax, int* rows) {
-  const int w = map.width, h = map.height, bar = 16;
-  std::vector<uint8_t> px(size_t(w) * (h + bar) * 3, 20);
-  auto put = [&](int x, int y, const Vec3& c) {
-    uint8_t* q = &px[(size_t(y) * w + x) * 3];
-    q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
-    q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
-    q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
-  };
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) put(x, y, falseColour(map.at(x, y).x / std::max(vmax, 1e-12f)));
-  for (int y = h + 4; y < h + bar; ++y)
-    for (int x = 0; x < w; ++x) put(x, y, falseColour((x + 0.5f) / w));
-  *rows = h + bar;
-  return px;
+  return colourMapWithBar(map, falseColour, vmax, rows);
 }
 
 std::string firstLineOf(const char* path, const std::string& key) {
