@@ -26,7 +26,7 @@ Image average(const Image& a, const Image& b) {
 }
 
 // The path depth of the live path tracer and of the references it looks up.
-constexpr int kReferenceDepth = RenderSettings().maxDepth;
+const int kReferenceDepth = RenderSettings().maxDepth;
 
 }  // namespace
 
