@@ -916,6 +916,11 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                   "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
       ->default_str(std::to_string(ManyLightSettings().continueAlpha))
       ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--split-alpha", m.splitAlpha,
+                  "Gather points whose specular lobe is narrower than this (GGX alpha, narrower axis) gather "
+                  "their diffuse lobe and continue the eye path with the specular lobe; 0 = off")
+      ->default_str(std::to_string(ManyLightSettings().splitAlpha))
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--lobe-radius", m.lobeRadius,
                   "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")
       ->default_str("0")

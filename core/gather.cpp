@@ -23,6 +23,7 @@ Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& l
       clamp_(clampBound),
       vsl_(settings.vslOptions()),
       continueAlpha_(settings.continueAlpha),
+      splitAlpha_(settings.splitAlpha),
       lobeRadius_(settings.lobeRadius),
       computeVsl_(computeVsl),
       computeVpl_(computeVpl),
@@ -32,33 +33,43 @@ namespace {
 constexpr int kMaxSpecularChain = 8;
 }
 
-GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const {
-  GatherPoint gp;
+EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const {
+  EyeSample es;
+  es.count = 1;
+  int cur = 0;  // the gather point this part of the path leads to
   Ray ray = scene_.camera.generateRay(x + rng.uniform(), y + rng.uniform(), width, height);
   Vec3 beta(1.0f);
   for (int j = 0; j < kMaxSpecularChain; ++j) {
+    GatherPoint& gp = es.points[cur];
     ++c.rays;
     std::optional<Hit> hit = accel_.intersect(ray);
-    if (!hit) return gp;
+    if (!hit) return es;
     SurfaceHit sh = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
     Vec3 wo = -ray.d;
     // Emission after two or more scattering events is indirect.
     if (j >= 2) gp.shared += beta * scene_.emitted(sh, wo);
     Brdf brdf = scene_.brdf(sh);
     Vec3 woL = sh.shading.toLocal(wo);
-    if (woL.z <= 0) return gp;
-    if (brdf.isNarrowMetal(continueAlpha_) && j + 1 < kMaxSpecularChain) {
+    if (woL.z <= 0) return es;
+    const bool narrow = std::min(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
+    const bool last = j + 1 >= kMaxSpecularChain;
+    if (!last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f))) {
       auto bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
-      if (!bs) return gp;
+      if (!bs) return es;
       Vec3 wi = sh.shading.toWorld(bs->wi);
-      if (dot(wi, sh.ng) <= 0) return gp;
+      if (dot(wi, sh.ng) <= 0) return es;
       beta *= bs->f * (bs->wi.z / bs->pdf);
       ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
       ray.d = wi;
       continue;
     }
-    // The gather point. Behind a specular chain, its own direct light is
-    // indirect for the image (two or more scattering events).
+    // The gather point: the whole BRDF, or its diffuse lobe if the specular
+    // lobe is split off (once per eye sample).
+    const bool split = narrow && cur + 1 < kMaxGatherPoints && !last;
+    const BrdfAt full(brdf, woL);
+    gp.rx.f = split ? full.diffuseLobe() : full;
+    // Behind a specular chain, its own direct light is indirect for the
+    // image (two or more scattering events).
     if (j >= 1) {
       if (auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()})) {
         Vec3 wiL = sh.shading.toLocal(ls->wi);
@@ -66,19 +77,29 @@ GatherPoint Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gat
           Ray s;
           ++c.rays;
           if (segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) && !accel_.occluded(s))
-            gp.shared += beta * brdf.eval(woL, wiL) * ls->Li * (wiL.z / ls->pdf);
+            gp.shared += beta * gp.rx.f.eval(wiL) * ls->Li * (wiL.z / ls->pdf);
         }
       }
     }
     gp.valid = true;
     gp.p = sh.p;
     gp.beta = beta;
-    gp.rx.f = BrdfAt(brdf, woL);
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
-    return gp;
+    if (!split) return es;
+    // The specular lobe, sampled alone, leads to the next gather point. Its
+    // direct light there is the emission the continued ray hits (next-event
+    // light above was for the diffuse lobe only).
+    es.count = ++cur + 1;
+    auto bs = full.specularLobe().sample(rng.uniform(), {rng.uniform(), rng.uniform()});
+    if (!bs) return es;
+    Vec3 wi = sh.shading.toWorld(bs->wi);
+    if (dot(wi, sh.ng) <= 0) return es;
+    beta *= bs->f * (bs->wi.z / bs->pdf);
+    ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
+    ray.d = wi;
   }
-  return gp;
+  return es;
 }
 
 void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,

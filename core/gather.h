@@ -29,6 +29,28 @@ struct GatherPoint {
   Vec3 shared;  // indirect light found on the way, common to every method
 };
 
+// One eye sample's gather points: one, or two where lobe splitting sent the
+// specular lobe on (ManyLightSettings::splitAlpha). The pixel's estimate is
+// the sum over both points of their shared light and their gathers. Point k
+// seeds its VSL quadrature with gatherStream(pixel, k).
+constexpr int kMaxGatherPoints = 2;
+struct EyeSample {
+  GatherPoint points[kMaxGatherPoints];
+  int count = 0;  // points used (an unused or escaped point is not valid)
+  Vec3 shared() const {
+    Vec3 s(0.0f);
+    for (int k = 0; k < count; ++k) s += points[k].shared;
+    return s;
+  }
+  bool anyValid() const {
+    for (int k = 0; k < count; ++k)
+      if (points[k].valid) return true;
+    return false;
+  }
+};
+// The VSL quadrature stream of gather point k of a pixel (k = 0: the pixel).
+inline uint64_t gatherStream(uint64_t pixel, int k) { return k == 0 ? pixel : pixel ^ (uint64_t(k) << 48); }
+
 struct GatherCounters {
   uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
 };
@@ -48,8 +70,9 @@ class Gatherer {
            float clampBound, bool computeVsl, bool computeVpl);
 
   // Camera ray through (x + jitter, y + jitter), continued through
-  // near-specular surfaces to the first surface that is not.
-  GatherPoint eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const;
+  // near-specular surfaces to the first surface that is not, and split there
+  // by lobe if its specular lobe is narrow (see ManyLightSettings::splitAlpha).
+  EyeSample eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const;
   // Adds light L's contribution to acc (per layer, RGB). lightId and pixel
   // seed the VSL quadrature's random stream.
   void evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
@@ -70,7 +93,7 @@ class Gatherer {
   const LightSampler& lights_;
   float clamp_;
   VslOptions vsl_;
-  float continueAlpha_, lobeRadius_;
+  float continueAlpha_, splitAlpha_, lobeRadius_;
   bool computeVsl_, computeVpl_;
   uint64_t seed_;
 };

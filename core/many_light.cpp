@@ -47,6 +47,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "lobe-radius: must be in [0,100] (got " << lobeRadius << ")";
   else if (!(continueAlpha >= 0 && continueAlpha <= 1))
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
+  else if (!(splitAlpha >= 0 && splitAlpha <= 1))
+    e << "split-alpha: must be in [0,1] (got " << splitAlpha << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
   if (std::string m = e.str(); !m.empty()) return Error(m);
@@ -71,6 +73,7 @@ std::string ManyLightSettings::describe() const {
   if (clippedDisk) s << " --clipped-disk";
   if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
   s << " --continue-alpha " << continueAlpha;
+  if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();
 }
@@ -178,7 +181,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
     const auto tileStart = Clock::now();
     GatherCounters c;
     const int tw = x1 - x0, n = tw * (y1 - y0);
-    std::vector<GatherPoint> gps(static_cast<size_t>(n));
+    std::vector<EyeSample> gps(static_cast<size_t>(n));
     struct Sums {
       double v[kGatherLayers][3] = {};
     };
@@ -196,7 +199,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
       direct[pix] = dsum / float(dEnd - dBegin);
       Rng rng = Rng::forItem(pix, uint64_t(b), 2, seed);
       gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
-      shared[pix] = gps[size_t(i)].shared;
+      shared[pix] = gps[size_t(i)].shared();
     }
     // Each pixel against each block in three timed parts: the shared
     // connection (orientation, shadow ray), then VPL's and VSL's own
@@ -212,23 +215,26 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
       }
       const size_t l1 = std::min(nb, l0 + kLightBlock);
       for (int i = 0; i < n; ++i) {
-        const GatherPoint& gp = gps[size_t(i)];
-        if (!gp.valid) continue;
         const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
-        size_t nv = 0;
-        for (size_t l = l0; l < l1; ++l)
-          if (gatherer.connect(gp, batch[l], geo[nv], c)) visible[nv++] = uint32_t(l);
-        auto t1 = Clock::now();
-        if (settings_.computeVpl) {
-          for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch[visible[v]], geo[v], acc[size_t(i)].v, c);
-          auto t2 = Clock::now();
-          vplOwn += seconds(t2 - t1);
-          t1 = t2;
-        }
-        if (settings_.computeVsl) {
-          for (size_t v = 0; v < nv; ++v)
-            gatherer.addVsl(gp, batch[visible[v]], geo[v], order_[begin + visible[v]], pix, acc[size_t(i)].v, c);
-          vslOwn += seconds(Clock::now() - t1);
+        for (int k = 0; k < gps[size_t(i)].count; ++k) {
+          const GatherPoint& gp = gps[size_t(i)].points[k];
+          if (!gp.valid) continue;
+          size_t nv = 0;
+          for (size_t l = l0; l < l1; ++l)
+            if (gatherer.connect(gp, batch[l], geo[nv], c)) visible[nv++] = uint32_t(l);
+          auto t1 = Clock::now();
+          if (settings_.computeVpl) {
+            for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch[visible[v]], geo[v], acc[size_t(i)].v, c);
+            auto t2 = Clock::now();
+            vplOwn += seconds(t2 - t1);
+            t1 = t2;
+          }
+          if (settings_.computeVsl) {
+            const uint64_t stream = gatherStream(pix, k);
+            for (size_t v = 0; v < nv; ++v)
+              gatherer.addVsl(gp, batch[visible[v]], geo[v], order_[begin + visible[v]], stream, acc[size_t(i)].v, c);
+            vslOwn += seconds(Clock::now() - t1);
+          }
         }
       }
     }

@@ -24,10 +24,16 @@
 //          all glossy-to-anything transport; pure metals re-emit nothing.
 // Components: "direct" is computed by the path tracer's direct estimator
 // (emission plus one scattering event), so all methods differ only in the
-// indirect component. Gathering happens at the first camera hit that is not
-// a narrow metal (GGX alpha below continueAlpha on both axes); eye paths
-// continue through those, adding their own emission and next-event light so
-// that nothing is double counted or dropped.
+// indirect component.
+// Gathering happens at the first camera hit that is not a narrow metal (GGX
+// alpha below continueAlpha on both axes); eye paths continue through those,
+// adding their own emission and next-event light so that nothing is double
+// counted or dropped. With lobe splitting (splitAlpha), a gather point whose
+// specular lobe is narrow gathers its diffuse lobe only (next-event light
+// too), and its specular lobe, sampled alone, continues to one more gather
+// point, where emission that the continued ray hits is counted instead of
+// next-event light for that lobe. Each eye sample so has one or two gather
+// points (kMaxGatherPoints); their sum is the pixel's estimate.
 // Progressive batches: lights are processed in a random order, in batches of
 // geometrically growing size; after each batch every layer is an unbiased
 // estimate of the image with all N lights (batch sums scaled by N / batch size).
@@ -73,6 +79,15 @@ struct ManyLightSettings {
   // gathering there (docs/VSL-QUALITY.md).
   float continueAlpha = kDefaultContinueAlpha;
   static constexpr float kDefaultContinueAlpha = 0.02f;
+  // Lobe splitting (0 = off): at a gather point whose specular lobe is
+  // narrower than this along its narrower GGX axis, the diffuse lobe is
+  // gathered there and the specular lobe continues the eye path to a second
+  // gather point (a metal, which has no diffuse lobe, continues whole). A
+  // lobe narrower than the VSL cones sees each light's sphere as a bright
+  // disk; continuing it gathers where the lobe lands instead. See "Gathering"
+  // above.
+  float splitAlpha = kDefaultSplitAlpha;
+  static constexpr float kDefaultSplitAlpha = 0.0f;
   VslOptions vslOptions() const { return {vslSamples, clippedDisk}; }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off

@@ -173,6 +173,25 @@ BrdfAt::BrdfAt(const Brdf& brdf, const Vec3& w) : b_(brdf), w_(w), above_(w.z > 
   pdfBound_ = (1 - ps_) * kInvPi + specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay);
 }
 
+BrdfAt BrdfAt::diffuseLobe() const {
+  BrdfAt d = *this;
+  d.specularOn_ = false;
+  d.ps_ = 0;
+  d.specPdfScale_ = 0;
+  d.pdfBound_ = kInvPi;
+  return d;
+}
+
+BrdfAt BrdfAt::specularLobe() const {
+  BrdfAt s = *this;
+  s.kd_ = Vec3(0.0f);
+  if (!above_) return s;
+  s.ps_ = 1;
+  s.specPdfScale_ = 1.0f / ((1 + lambdaW_) * 4 * w_.z);
+  s.pdfBound_ = s.specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay);
+  return s;
+}
+
 BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
   Parts p{Vec3(0.0f), Vec3(0.0f)};
   if (pdfOut) *pdfOut = 0;
@@ -180,6 +199,7 @@ BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
   const float s = b_.specularWeight, m = b_.metallic;
   if (m < 1) p.diffuse = kd_ * (1 - s * albedoAt(row_, wi.z));
   if (pdfOut) *pdfOut = (1 - ps_) * cosineHemispherePdf(wi.z);
+  if (!specularOn_) return p;
   Vec3 h = w_ + wi;
   float hl = length(h);
   if (!(hl > 0)) return p;
@@ -199,6 +219,7 @@ BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
 float BrdfAt::pdf(const Vec3& wi) const {
   if (!above_ || wi.z <= 0) return 0;
   float pdf = (1 - ps_) * cosineHemispherePdf(wi.z);
+  if (!specularOn_) return pdf;
   Vec3 h = normalize(w_ + wi);
   if (dot(w_, h) > 0) pdf += specPdfScale_ * b_.ggx.D(h);
   return pdf;

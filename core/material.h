@@ -117,6 +117,12 @@ class BrdfAt {
   const Brdf& brdf() const { return b_; }
   const Vec3& w() const { return w_; }
 
+  // This BRDF restricted to one lobe: eval, pdf and sample then see only the
+  // diffuse or only the specular lobe, consistently (the two restrictions
+  // sum to the full BRDF). Used to split a gather point by lobe.
+  BrdfAt diffuseLobe() const;
+  BrdfAt specularLobe() const;
+
   struct Parts {
     Vec3 diffuse, specular;
     Vec3 total() const { return diffuse + specular; }
@@ -137,7 +143,8 @@ class BrdfAt {
   Vec3 kd_{0.0f};  // diffuse lobe divided by (1 - s E(wi))
   float lambdaW_ = 0, ps_ = 0, specPdfScale_ = 0, pdfBound_ = 0;
   AlbedoRow row_;
-  bool above_ = false;  // w.z > 0
+  bool above_ = false;      // w.z > 0
+  bool specularOn_ = true;  // false: restricted to the diffuse lobe
 };
 
 // An RGBA image in [0,1] (as stored, not yet linearised).

@@ -233,7 +233,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   rs.seed = settings.seed;
   rs.maxDepth = 1;
   PathTracer direct(scene, accel, lights, rs);
-  std::vector<GatherPoint> gps(P);
+  std::vector<EyeSample> gps(P);
   res.images.direct = Image(W, H);
   std::atomic<uint64_t> pairs{0};
   parallelFor(size_t(H), [&](size_t y) {
@@ -270,7 +270,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
         size_t p = size_t(y0 + int(rng.uniformInt(uint32_t(y1 - y0)))) * W +
                    size_t(x0 + int(rng.uniformInt(uint32_t(x1 - x0))));
         pick = p;
-        if (gps[p].valid) break;
+        if (gps[p].anyValid()) break;
       }
       rowPix.push_back(pick);
     }
@@ -281,10 +281,11 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
     for (size_t j = c * 256; j < std::min(N, (c + 1) * 256); ++j) {
       if (stopped()) return;
       for (int r = 0; r < R; ++r) {
-        const GatherPoint& gp = gps[rowPix[r]];
-        if (!gp.valid) continue;
+        const EyeSample& es = gps[rowPix[r]];
+        if (!es.anyValid()) continue;
         double acc[kGatherLayers][3] = {};
-        both.evaluate(gp, gl[j], j, rowPix[r], acc, cnt);
+        for (int k = 0; k < es.count; ++k)
+          if (es.points[k].valid) both.evaluate(es.points[k], gl[j], j, gatherStream(rowPix[r], k), acc, cnt);
         auto lum = [&](int layer) {
           return float(0.2126 * acc[layer][0] + 0.7152 * acc[layer][1] + 0.0722 * acc[layer][2]);
         };
@@ -324,19 +325,22 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
     GatherCounters cnt;
     for (int x = 0; x < W; ++x) {
       size_t pix = y * W + x;
-      const GatherPoint& gp = gps[pix];
-      Vec3 vsl = gp.shared, vpl = gp.shared;
-      if (gp.valid) {
+      const EyeSample& es = gps[pix];
+      Vec3 vsl = es.shared(), vpl = es.shared();
+      for (int g = 0; g < es.count; ++g) {
+        const GatherPoint& gp = es.points[g];
+        if (!gp.valid) continue;
+        const uint64_t stream = gatherStream(pix, g);
         double sv[3] = {}, sp[3] = {};
         for (size_t q = 0; q < repVsl.size(); ++q) {
           const Representative& r = repVsl[q];
           double acc[kGatherLayers][3] = {};
-          vslOnly.evaluate(gp, repGl[q], r.light, pix, acc, cnt);
+          vslOnly.evaluate(gp, repGl[q], r.light, stream, acc, cnt);
           for (int k = 0; k < 3; ++k) sv[k] += r.weight * acc[kVslLayer][k];
         }
         for (const Representative& r : repVpl) {
           double acc[kGatherLayers][3] = {};
-          vplOnly.evaluate(gp, gl[r.light], r.light, pix, acc, cnt);
+          vplOnly.evaluate(gp, gl[r.light], r.light, stream, acc, cnt);
           for (int k = 0; k < 3; ++k) sp[k] += r.weight * acc[vplLayer][k];
         }
         vsl += Vec3(float(sv[0]), float(sv[1]), float(sv[2]));

@@ -553,6 +553,12 @@ void Studio::controlsPanel() {
         "Eye paths continue through pure metals with GGX alpha below this instead of gathering "
         "there (near-mirrors reflect the gather at the next surface).");
   errorField("continue-alpha");
+  track("split-alpha", ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
+        "continue the eye path with the specular lobe (glossy floors reflect the gather at the next surface).");
+  errorField("split-alpha");
   sectionTitle("VPL");
   track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
   if (!clampOff_) {
@@ -1957,6 +1963,7 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"clippedDisk", m.clippedDisk},
                         {"lobeRadius", m.lobeRadius},
                         {"continueAlpha", m.continueAlpha},
+                        {"splitAlpha", m.splitAlpha},
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
                         {"diffuseOnly", m.diffuseOnly},
@@ -2027,6 +2034,7 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     readField(js, "clippedDisk", &m.clippedDisk);
     readField(js, "lobeRadius", &m.lobeRadius);
     readField(js, "continueAlpha", &m.continueAlpha);
+    readField(js, "splitAlpha", &m.splitAlpha);
     if (js.contains("clamp"))
       m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
     readField(js, "diffuseOnly", &m.diffuseOnly);
