@@ -51,9 +51,11 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     Brdf brdf = scene_.brdf(sh);
     Vec3 woL = sh.shading.toLocal(wo);
     if (woL.z <= 0) return es;
-    const bool narrow = std::min(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
+    const bool narrow = std::max(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
     const bool last = j + 1 >= kMaxSpecularChain;
     if (!last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f))) {
+      // Punctual lights reflected here are never hit by the continued ray.
+      if (j >= 1) gp.shared += beta * nextEvent(BrdfAt(brdf, woL), sh, true, rng, c);
       auto bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
       if (!bs) return es;
       Vec3 wi = sh.shading.toWorld(bs->wi);
@@ -70,17 +72,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.rx.f = split ? full.diffuseLobe() : full;
     // Behind a specular chain, its own direct light is indirect for the
     // image (two or more scattering events).
-    if (j >= 1) {
-      if (auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()})) {
-        Vec3 wiL = sh.shading.toLocal(ls->wi);
-        if (wiL.z > 0 && dot(ls->wi, sh.ng) > 0) {
-          Ray s;
-          ++c.rays;
-          if (segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) && !accel_.occluded(s))
-            gp.shared += beta * gp.rx.f.eval(wiL) * ls->Li * (wiL.z / ls->pdf);
-        }
-      }
-    }
+    if (j >= 1) gp.shared += beta * nextEvent(gp.rx.f, sh, false, rng, c);
     gp.valid = true;
     gp.p = sh.p;
     gp.beta = beta;
@@ -88,10 +80,12 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.rx.ng = sh.ng;
     if (!split) return es;
     // The specular lobe, sampled alone, leads to the next gather point. Its
-    // direct light there is the emission the continued ray hits (next-event
-    // light above was for the diffuse lobe only).
+    // direct light is the emission the continued ray hits (next-event light
+    // above was for the diffuse lobe only), and punctual lights here.
+    const BrdfAt specular = full.specularLobe();
+    if (j >= 1) gp.shared += beta * nextEvent(specular, sh, true, rng, c);
     es.count = ++cur + 1;
-    auto bs = full.specularLobe().sample(rng.uniform(), {rng.uniform(), rng.uniform()});
+    auto bs = specular.sample(rng.uniform(), {rng.uniform(), rng.uniform()});
     if (!bs) return es;
     Vec3 wi = sh.shading.toWorld(bs->wi);
     if (dot(wi, sh.ng) <= 0) return es;
@@ -100,6 +94,17 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     ray.d = wi;
   }
   return es;
+}
+
+Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const {
+  auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()});
+  if (!ls || (deltaOnly && !ls->delta)) return Vec3(0.0f);
+  Vec3 wiL = sh.shading.toLocal(ls->wi);
+  if (!(wiL.z > 0 && dot(ls->wi, sh.ng) > 0)) return Vec3(0.0f);
+  Ray s;
+  ++c.rays;
+  if (!segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) || accel_.occluded(s)) return Vec3(0.0f);
+  return f.eval(wiL) * ls->Li * (wiL.z / ls->pdf);
 }
 
 void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,

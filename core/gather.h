@@ -88,6 +88,11 @@ class Gatherer {
               double acc[kGatherLayers][3], GatherCounters& c) const;
 
  private:
+  // Next-event light at sh reflected by f toward the viewer, from one light
+  // sampled by power; deltaOnly: punctual lights only (zero for area lights,
+  // whose light a continued ray finds by hitting them).
+  Vec3 nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const;
+
   const Scene& scene_;
   const Accel& accel_;
   const LightSampler& lights_;

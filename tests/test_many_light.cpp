@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "chi2.h"
+#include "core/gather.h"
 #include "core/many_light.h"
 #include "core/mrcs.h"
 #include "core/parallel.h"
@@ -793,18 +794,24 @@ TEST(ManyLight, LobeRestrictionsSumToTheBrdfAndSampleTheirOwnPdf) {
 // Splitting every gather point by lobe (the specular lobe continues to a
 // second gather point) changes how the image is estimated, not what: the
 // unclamped VPL indirect image still converges to the path tracer's, and on
-// the same light sets it agrees with gathering the whole BRDF (paired, so the
-// light sets' own variance cancels).
-TEST(ManyLightStats, LobeSplittingKeepsUnclampedVplUnbiased) {
+// the same light sets it agrees with gathering the whole BRDF (paired).
+namespace {
+
+// cornell-glossy with a mostly metal floor, so that most of what it reflects
+// goes through the split-off specular lobe and dropping or double counting
+// that lobe shows.
+Loaded splitScene() {
   Loaded l = loadAsset("cornell-glossy");
-  // A mostly metal floor: most of what it reflects goes through the split-off
-  // specular lobe, so dropping or double counting that lobe shows.
   // (The scene is shared as const; nothing has rendered it yet.)
   for (Material& m : const_cast<Scene&>(*l.scene).materials)
     if (m.name == "glossy-floor") {
       m.metallic = 0.9f;
       m.baseColor = Vec3(0.9f);
     }
+  return l;
+}
+
+void expectSplitUnbiased(const Loaded& l, uint64_t seed) {
   const int W = 16, H = 16, sets = 24;
   Reference ref = ptIndirect(l, W, H, 2048, 77);
   std::vector<double> means, diffs;
@@ -815,9 +822,9 @@ TEST(ManyLightStats, LobeSplittingKeepsUnclampedVplUnbiased) {
     s.width = W;
     s.height = H;
     s.batches = 1;
-    s.seed = 2000 + k;
+    s.seed = seed + k;
     s.computeVsl = false;
-    s.splitAlpha = 0.5f;  // the glossy floor splits, the metal box continues whole
+    s.splitAlpha = 0.5f;  // glossy dielectrics split, the metal box continues whole
     ManyLightImages im = renderMany(l, s);
     s.splitAlpha = 0;
     ManyLightImages plain = renderMany(l, s);
@@ -840,4 +847,69 @@ TEST(ManyLightStats, LobeSplittingKeepsUnclampedVplUnbiased) {
   EXPECT_LT(std::abs(z), 4.0);
   EXPECT_LT(std::abs(zd), 4.0);
   EXPECT_GT(splitPixels, sets * W * H / 4);  // the setting reached the floor and box
+}
+
+}  // namespace
+
+TEST(ManyLightStats, LobeSplittingKeepsUnclampedVplUnbiased) { expectSplitUnbiased(splitScene(), 2000); }
+
+// Eye path -> mirror floor (continued) -> glossy wall (split) -> point light:
+// a continued ray can never hit a point light, so the wall's highlight in its
+// split-off specular lobe must come from next-event light there. Nothing
+// else emits and nothing is gathered, so the first gather point's own light
+// is the wall's direct light alone, which splitting must not change (the
+// split-off point's light is the next bounce, which gathering would add).
+TEST(ManyLightStats, LobeSplittingKeepsPunctualLightsBehindMirrors) {
+  Loaded l = loadAsset("cornell-glossy");
+  Scene& scene = const_cast<Scene&>(*l.scene);  // not rendered yet
+  for (Material& m : scene.materials) {
+    m.emission = Vec3(0.0f);
+    m.baseColor = Vec3(0.0f);
+    if (m.name == "white") {  // back wall and ceiling: mostly metal, glossy
+      m.baseColor = Vec3(0.9f);
+      m.metallic = 0.9f;
+      m.roughness = 0.15f;
+    }
+    if (m.name == "glossy-floor") {  // a near-mirror
+      m.baseColor = Vec3(0.9f);
+      m.metallic = 1.0f;
+      m.roughness = 0.1f;
+    }
+  }
+  PunctualLight p;
+  p.position = scene.center() + Vec3(0, 0.4f * (scene.boundsMax.y - scene.center().y), 0);
+  p.intensity = Vec3(4.0f);
+  scene.punctualLights.push_back(p);
+  LightSampler lights(scene);
+  const int W = 16, H = 16, samples = 1600;
+  auto run = [&](float splitAlpha, int* splits) {
+    ManyLightSettings s;
+    s.splitAlpha = splitAlpha;
+    Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
+    GatherCounters c;
+    double sum = 0, sum2 = 0;
+    int n = 0;
+    for (int y = H / 2; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        for (int i = 0; i < samples; ++i, ++n) {
+          Rng rng = Rng::forItem(uint64_t(y * W + x), uint64_t(i), 11, 0);
+          EyeSample es = g.eyePath(x, y, W, H, rng, c);
+          *splits += es.count > 1;
+          double v = luminance(es.points[0].shared);  // not the split-off point's
+          sum += v;
+          sum2 += v * v;
+        }
+    double m = sum / n;
+    return std::pair<double, double>(m, std::max(sum2 / n - m * m, 0.0) / n);
+  };
+  int splitsOff = 0, splitsOn = 0;
+  auto [whole, wholeVar] = run(0.0f, &splitsOff);
+  auto [split, splitVar] = run(0.05f, &splitsOn);  // the walls (alpha 0.0225) split, the box (0.0625) gathers
+  double z = (split - whole) / std::sqrt(wholeVar + splitVar);
+  std::printf("walls seen in the mirror: whole %.6f +- %.6f, split %.6f +- %.6f (z = %.2f; %d split eye paths)\n",
+              whole, std::sqrt(wholeVar), split, std::sqrt(splitVar), z, splitsOn);
+  EXPECT_GT(whole, 0.0);
+  EXPECT_EQ(splitsOff, 0);
+  EXPECT_GT(splitsOn, W * H / 8 * samples);
+  EXPECT_LT(std::abs(z), 4.0);
 }
