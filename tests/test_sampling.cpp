@@ -1,5 +1,5 @@
 // Sampling triplets: round trips, pdfs that integrate to one, and
-// distributions whose frequencies match their pmfs.
+// distributions whose frequencies match their pmfs (tests/chi2.h).
 #include <gtest/gtest.h>
 
 #include "chi2.h"
@@ -46,25 +46,27 @@ TEST(Sampling, CosineHemisphereRoundTripAndPdf) {
 // uniform on [0,1) and independent; chi-square on a 2D grid of the two.
 TEST(Sampling, UniformConeIsUniformInSolidAngle) {
   for (float cosMax : {0.99999f, 0.999f, 0.9f, 0.0f, -0.5f}) {
-    Rng rng(12, 1);
-    const int bins = 20, n = 400000;
-    std::vector<int> h(bins * bins, 0);
-    for (int i = 0; i < n; ++i) {
-      Vec3 w = sampleUniformCone({rng.uniform(), rng.uniform()}, cosMax);
-      ASSERT_NEAR(length(w), 1.0f, 1e-5f);
-      ASSERT_GE(w.z, cosMax - 1e-5f);
-      // 1 - cos from the sine, which stays accurate for tiny cones.
-      double s2 = double(w.x) * w.x + double(w.y) * w.y;
-      double oneMinusCos = w.z > 0 ? s2 / (1.0 + w.z) : 1.0 - w.z;
-      double t = oneMinusCos / (1.0 - double(cosMax));
-      double phi = std::atan2(double(w.y), double(w.x));
-      if (phi < 0) phi += 2 * M_PI;
-      int a = std::min(std::max(int(t * bins), 0), bins - 1), b = std::min(int(phi / (2 * M_PI) * bins), bins - 1);
-      h[a * bins + b]++;
-    }
-    double e = double(n) / (bins * bins), chi2 = 0;
-    for (int c : h) chi2 += (c - e) * (c - e) / e;
-    EXPECT_GT(test::chi2Survival(chi2, bins * bins - 1), 1e-3) << "cosMax " << cosMax << " chi2 " << chi2;
+    bool bad = false;
+    test::Chi2Config cfg;
+    cfg.samples = 400000;
+    cfg.seed = 12, cfg.stream = 1;
+    cfg.subdiv = 2;
+    auto r = test::chi2Test(
+        test::planeDomain({0, 0}, {1, 1}, 20, 20),
+        [&](Rng& rng) -> std::optional<Vec3> {
+          Vec3 w = sampleUniformCone({rng.uniform(), rng.uniform()}, cosMax);
+          if (!(std::abs(length(w) - 1.0f) <= 1e-5f) || !(w.z >= cosMax - 1e-5f)) bad = true;
+          // 1 - cos from the sine, which stays accurate for tiny cones.
+          double s2 = double(w.x) * w.x + double(w.y) * w.y;
+          double oneMinusCos = w.z > 0 ? s2 / (1.0 + w.z) : 1.0 - w.z;
+          double phi = std::atan2(double(w.y), double(w.x));
+          if (phi < 0) phi += 2 * M_PI;
+          return Vec3(float(oneMinusCos / (1.0 - double(cosMax))), float(phi / (2 * M_PI)), 0);
+        },
+        [](const Vec3&) { return 1.0; }, cfg, "cone_uniform");
+    EXPECT_FALSE(bad) << "cosMax " << cosMax << ": a sample is not unit length or lies outside the cone";
+    EXPECT_TRUE(r.message.empty()) << "cosMax " << cosMax << ": " << r.message;
+    EXPECT_GT(r.pValue, 1e-3) << "cosMax " << cosMax << " chi2 " << r.statistic << " dof " << r.dof;
     EXPECT_FLOAT_EQ(uniformConePdf(cosMax), float(1.0 / (2 * M_PI * (1.0 - cosMax))));
   }
 }
@@ -95,30 +97,60 @@ TEST(Sampling, DiscreteDistributionFrequenciesMatchPmf) {
   DiscreteDistribution d(w);
   double total = 6.5;
   for (size_t i = 0; i < w.size(); ++i) EXPECT_FLOAT_EQ(d.pmf(i), float(w[i] / total));
-  Rng rng(1, 2);
-  const int n = 650000;
-  std::vector<int> counts(w.size(), 0);
-  for (int i = 0; i < n; ++i) {
-    float pmf, ur;
-    size_t k = d.sample(rng.uniform(), &pmf, &ur);
-    ASSERT_GT(pmf, 0.0f) << "sampled zero-weight item " << k;
-    ASSERT_FLOAT_EQ(pmf, d.pmf(k));
-    ASSERT_GE(ur, 0.0f);
-    ASSERT_LT(ur, 1.0f);
-    counts[k]++;
-  }
-  double chi2 = 0;
-  int dof = -1;
-  for (size_t i = 0; i < w.size(); ++i) {
-    if (w[i] == 0) {
-      EXPECT_EQ(counts[i], 0);
-      continue;
-    }
-    double e = n * w[i] / total;
-    chi2 += (counts[i] - e) * (counts[i] - e) / e;
-    ++dof;
-  }
-  EXPECT_GT(test::chi2Survival(chi2, dof), 1e-3) << "chi2 " << chi2;
+  test::Chi2Config cfg;
+  cfg.samples = 650000;
+  cfg.seed = 1, cfg.stream = 2;
+  std::string bad;
+  std::vector<float> remapped;  // u rescaled within the chosen bucket
+  remapped.reserve(cfg.samples);
+  auto r = test::chi2Discrete(
+      [&](Rng& rng) -> std::optional<size_t> {
+        float pmf, ur;
+        size_t k = d.sample(rng.uniform(), &pmf, &ur);
+        if (bad.empty() && !(pmf > 0 && pmf == d.pmf(k) && ur >= 0 && ur < 1))
+          bad = "item " + std::to_string(k) + ": pmf " + std::to_string(pmf) + ", remapped u " + std::to_string(ur);
+        remapped.push_back(ur);
+        return k;
+      },
+      [&](size_t i) { return w[i] / total; }, w.size(), cfg, "discrete");
+  EXPECT_TRUE(bad.empty()) << bad;
+  EXPECT_TRUE(r.message.empty()) << r.message;  // includes: no zero-weight item is ever sampled
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+  // The remapped u is uniform on [0,1) again, for reuse (line domain).
+  size_t next = 0;
+  cfg.samples = remapped.size();
+  auto ru = test::chi2Test(
+      test::lineDomain(0, 1, 50), [&](Rng&) { return std::optional<Vec3>(Vec3(remapped[next++], 0, 0)); },
+      [](const Vec3&) { return 1.0; }, cfg, "discrete_remapped");
+  EXPECT_TRUE(ru.message.empty()) << ru.message;
+  EXPECT_GT(ru.pValue, 1e-3) << "remapped u: chi2 " << ru.statistic << " dof " << ru.dof;
+}
+
+// The harness itself: it must reject a wrong pdf, samples where the pdf is
+// zero, and samples outside the domain.
+TEST(Sampling, Chi2HarnessRejectsWrongSamplers) {
+  test::Chi2Config cfg;
+  cfg.samples = 200000;
+  auto uniformSphere = [](Rng& g) { return std::optional<Vec3>(sampleUniformSphere({g.uniform(), g.uniform()})); };
+  // Cosine samples against the uniform hemisphere's pdf: a wrong shape.
+  auto shape = test::chi2Directions(
+      [](Rng& g) {
+        return std::optional<Vec3>(sampleCosineHemisphere({g.uniform(), g.uniform()}));
+      },
+      [](const Vec3& w) { return w.z > 0 ? 1 / (2 * M_PI) : 0.0; }, cfg);
+  EXPECT_LT(shape.pValue, 1e-6);
+  // Sphere samples against a hemisphere's pdf: half land where it is zero.
+  auto zero = test::chi2Directions(
+      uniformSphere, [](const Vec3& w) { return w.z > 0 ? 1 / (2 * M_PI) : 0.0; }, cfg);
+  EXPECT_NE(zero.message.find("where the pdf is zero"), std::string::npos) << zero.message;
+  // Samples outside a cone domain.
+  auto outside = test::chi2Test(
+      test::sphereDomain(8, 16, 0.5), uniformSphere, [](const Vec3&) { return 0.1; }, cfg);
+  EXPECT_NE(outside.message.find("outside"), std::string::npos) << outside.message;
+  // A discrete sampler that picks a zero-pmf item.
+  auto item = test::chi2Discrete([](Rng& g) { return std::optional<size_t>(g.uniform() < 0.5f ? 0 : 1); },
+                                 [](size_t i) { return i == 0 ? 1.0 : 0.0; }, 2, cfg);
+  EXPECT_NE(item.message.find("pmf is 0"), std::string::npos) << item.message;
 }
 
 TEST(Sampling, EmptyDistributionIsSafe) {
