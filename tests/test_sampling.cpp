@@ -126,6 +126,118 @@ TEST(Sampling, DiscreteDistributionFrequenciesMatchPmf) {
   EXPECT_GT(ru.pValue, 1e-3) << "remapped u: chi2 " << ru.statistic << " dof " << ru.dof;
 }
 
+// ---- The triplets: sample(inverse(x)) == x, and chi-square of sample against pdf ----
+
+// Round trips in the sampled space, where they are well conditioned
+// everywhere (u-space round trips lose phi at the poles).
+TEST(Sampling, UniformSphereTriplet) {
+  Rng rng(21, 1);
+  for (int i = 0; i < 100000; ++i) {
+    Vec2 u{rng.uniform(), rng.uniform()};
+    Vec3 w = sampleUniformSphere(u);
+    ASSERT_NEAR(length(w), 1.0f, 1e-5f);
+    Vec2 back = invertUniformSphere(w);
+    ASSERT_GE(back.x, 0.0f);
+    ASSERT_LT(back.y, 1.0f);
+    ASSERT_NEAR(back.x, u.x, 2e-6f);
+    Vec3 again = sampleUniformSphere(back);
+    ASSERT_LT(length(again - w), 2e-5f) << "u = (" << u.x << ", " << u.y << ")";
+  }
+  test::Chi2Config cfg;
+  cfg.samples = 400000;
+  auto r = test::chi2Directions(
+      [](Rng& g) {
+        return std::optional<Vec3>(sampleUniformSphere({g.uniform(), g.uniform()}));
+      },
+      [](const Vec3&) { return double(uniformSpherePdf()); }, cfg, "sphere");
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+}
+
+// The cone's pdf against a histogram over the cone itself (theta in
+// [0, thetaMax]), so that tiny cones get as many cells as wide ones; both
+// parameterisations (cosMax and 1 - cosMax) invert.
+TEST(Sampling, UniformConeTriplet) {
+  const std::vector<float> cosMaxes = {0.99999f, 0.999f, 0.9f, 0.0f, -0.5f};
+  const double level = test::sidak(1e-3, int(cosMaxes.size()));
+  for (size_t k = 0; k < cosMaxes.size(); ++k) {
+    const float cosMax = cosMaxes[k], omc = 1 - cosMax;
+    Rng rng(22, 1);
+    for (int i = 0; i < 50000; ++i) {
+      Vec2 u{rng.uniform(), rng.uniform()};
+      Vec3 w = sampleUniformCone(u, cosMax);
+      Vec2 back = invertUniformCone(w, cosMax), backOmc = invertUniformConeOmc(w, omc);
+      ASSERT_NEAR(back.x, u.x, 1e-4f) << "cosMax " << cosMax;
+      ASSERT_EQ(back.x, backOmc.x);
+      ASSERT_EQ(back.y, backOmc.y);
+      Vec3 again = sampleUniformConeOmc(back, omc);
+      // Relative to the cone's size: tiny cones hold tiny differences.
+      ASSERT_LT(length(again - w), 2e-5f * std::max(std::sqrt(omc), 1e-2f) + 1e-7f)
+          << "cosMax " << cosMax << " u = (" << u.x << ", " << u.y << ")";
+    }
+    test::Chi2Config cfg;
+    cfg.samples = 400000;
+    cfg.seed = 23 + k;  // independent tests, for the Sidak correction
+    const double thetaMax = std::acos(double(cosMax));
+    auto r = test::chi2Test(
+        test::sphereDomain(24, 48, thetaMax),
+        [&](Rng& g) {
+          return std::optional<Vec3>(sampleUniformCone({g.uniform(), g.uniform()}, cosMax));
+        },
+        [&](const Vec3&) { return double(uniformConePdf(cosMax)); }, cfg, "cone");
+    EXPECT_TRUE(r.message.empty()) << "cosMax " << cosMax << ": " << r.message;
+    EXPECT_GT(r.pValue, level) << "cosMax " << cosMax << " chi2 " << r.statistic << " dof " << r.dof;
+    std::printf("cone cosMax %-8g chi2 %8.1f dof %4d p %.4f\n", cosMax, r.statistic, r.dof, r.pValue);
+  }
+}
+
+TEST(Sampling, UniformTriangleTriplet) {
+  Rng rng(24, 1);
+  for (int i = 0; i < 100000; ++i) {
+    Vec2 u{rng.uniform(), rng.uniform()};
+    Vec2 b = sampleUniformTriangle(u);
+    Vec2 back = invertUniformTriangle(b);
+    ASSERT_NEAR(back.x, u.x, 2e-7f) << "u = (" << u.x << ", " << u.y << ")";
+    ASSERT_NEAR(back.y, u.y, 2e-7f) << "u = (" << u.x << ", " << u.y << ")";
+    Vec2 again = sampleUniformTriangle(back);
+    ASSERT_NEAR(again.x, b.x, 2e-7f);
+    ASSERT_NEAR(again.y, b.y, 2e-7f);
+  }
+  EXPECT_FLOAT_EQ(uniformTrianglePdf(0.25f), 4.0f);
+  // Barycentric (b0, b1) space: the reference triangle has area 1/2, so the
+  // density there is uniformTrianglePdf(1/2) = 2.
+  test::Chi2Config cfg;
+  cfg.samples = 400000;
+  cfg.seed = 25;
+  auto r = test::chi2Test(
+      test::triangleDomain(32),
+      [](Rng& g) {
+        Vec2 b = sampleUniformTriangle({g.uniform(), g.uniform()});
+        return std::optional<Vec3>(Vec3(b.x, b.y, 0));
+      },
+      [](const Vec3& b) {
+        return b.x >= 0 && b.y >= 0 && b.x + b.y <= 1 + 1e-6f ? double(uniformTrianglePdf(0.5f)) : 0.0;
+      },
+      cfg, "triangle");
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+}
+
+TEST(Sampling, ConcentricDiskMatchesPdf) {
+  test::Chi2Config cfg;
+  cfg.samples = 400000;
+  cfg.seed = 26;
+  auto r = test::chi2Test(
+      test::diskDomain(),
+      [](Rng& g) {
+        Vec2 p = sampleUniformDiskConcentric({g.uniform(), g.uniform()});
+        return std::optional<Vec3>(Vec3(p.x, p.y, 0));
+      },
+      [](const Vec3&) { return double(uniformDiskPdf()); }, cfg, "disk");
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+}
+
 // The harness itself: it must reject a wrong pdf, samples where the pdf is
 // zero, and samples outside the domain.
 TEST(Sampling, Chi2HarnessRejectsWrongSamplers) {
