@@ -81,6 +81,63 @@ int componentSize(int ct) {
   return 0;
 }
 
+// One component at p, of a glTF componentType; normalized integers map to
+// [0,1] (unsigned) or [-1,1] (signed), per the specification.
+double readComponent(const unsigned char* p, int componentType, bool normalized) {
+  double v = 0;
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      int8_t x;
+      std::memcpy(&x, p, 1);
+      v = normalized ? std::max(x / 127.0, -1.0) : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+      uint8_t x;
+      std::memcpy(&x, p, 1);
+      v = normalized ? x / 255.0 : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t x;
+      std::memcpy(&x, p, 2);
+      v = normalized ? std::max(x / 32767.0, -1.0) : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t x;
+      std::memcpy(&x, p, 2);
+      v = normalized ? x / 65535.0 : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_INT: {
+      int32_t x;
+      std::memcpy(&x, p, 4);
+      v = x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t x;
+      std::memcpy(&x, p, 4);
+      v = x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float x;
+      std::memcpy(&x, p, 4);
+      v = x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
+      double x;
+      std::memcpy(&x, p, 8);
+      v = x;
+      break;
+    }
+  }
+  return v;
+}
+
 // Reads an accessor as doubles, count x components, with every offset checked
 // against its buffer view and buffer.
 // zeroBudget bounds accessors without a bufferView (all zeros): a file must
@@ -130,61 +187,7 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
   out.resize(count * nc);
   for (size_t i = 0; i < count; ++i) {
     const unsigned char* e = base + i * stride;
-    for (int c = 0; c < nc; ++c) {
-      const unsigned char* p = e + c * cs;
-      double v = 0;
-      switch (acc.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_BYTE: {
-          int8_t x;
-          std::memcpy(&x, p, 1);
-          v = acc.normalized ? std::max(x / 127.0, -1.0) : x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
-          uint8_t x;
-          std::memcpy(&x, p, 1);
-          v = acc.normalized ? x / 255.0 : x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_SHORT: {
-          int16_t x;
-          std::memcpy(&x, p, 2);
-          v = acc.normalized ? std::max(x / 32767.0, -1.0) : x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-          uint16_t x;
-          std::memcpy(&x, p, 2);
-          v = acc.normalized ? x / 65535.0 : x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_INT: {
-          int32_t x;
-          std::memcpy(&x, p, 4);
-          v = x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-          uint32_t x;
-          std::memcpy(&x, p, 4);
-          v = x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-          float x;
-          std::memcpy(&x, p, 4);
-          v = x;
-          break;
-        }
-        case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
-          double x;
-          std::memcpy(&x, p, 8);
-          v = x;
-          break;
-        }
-      }
-      out[i * nc + c] = v;
-    }
+    for (int c = 0; c < nc; ++c) out[i * nc + c] = readComponent(e + c * cs, acc.componentType, acc.normalized);
   }
   return out;
 }
@@ -430,16 +433,41 @@ struct Loader {
     return m;
   }
 
+  // A primitive's vertex attributes, as read from the file (object space).
+  struct Attributes {
+    size_t count = 0;  // vertices
+    std::vector<double> pos, nrm, tan, uv;
+    bool hasN = false, hasT = false, hasUV = false;
+  };
+
+  // One mesh primitive under world transform xf: its triangles, with their
+  // vertices in world space, appended to the scene.
   void primitive(const tinygltf::Mesh& mesh, int meshIndex, int primIndex, const Mat4& xf,
                  const std::string& nodeWhere) {
     const tinygltf::Primitive& prim = mesh.primitives[primIndex];
     std::string where =
         nodeWhere + " " + quoted("mesh", meshIndex, mesh.name) + " primitive " + std::to_string(primIndex);
+    int mode = triangleMode(prim, where);
+    if (mode < 0) return;
+    Attributes at = attributes(prim, where);
+    if (at.count == 0) return;
+    std::vector<uint32_t> tris = triangulate(mode, indices(prim, at.count, where), at.count, where);
+    uint32_t matIndex = primitiveMaterial(prim, at, where);
+    bool flip = xf.det3() < 0;  // mirrored transforms reverse the winding
+    uint32_t base = appendVertices(at, xf, flip, where);
+    // Generate tangents from UV derivatives where the file has none.
+    if (!at.hasT && at.hasUV && scene.materials[matIndex].anisotropyStrength > 0) generateTangents(base, tris);
+    appendTriangles(base, tris, flip, matIndex, where);
+  }
+
+  // The primitive's mode if it holds triangles, or -1 (with a warning) for
+  // points and lines; warns about what it carries that is not modelled.
+  int triangleMode(const tinygltf::Primitive& prim, const std::string& where) {
     int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
     if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
         mode == TINYGLTF_MODE_LINE_STRIP) {
       warn(where + ": points and lines are not modelled (skipped)");
-      return;
+      return -1;
     }
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
       throw LoadError{where + ": unknown primitive mode " + std::to_string(mode)};
@@ -451,51 +479,64 @@ struct Loader {
           name.rfind("WEIGHTS_", 0) != 0 && name.rfind("_", 0) != 0)
         warn(where + ": attribute " + name + " is not used");
     if (prim.attributes.count("COLOR_0")) warn(where + ": vertex colours (COLOR_0) are not modelled (ignored)");
+    return mode;
+  }
 
+  // POSITION (finite), and NORMAL, TANGENT and TEXCOORD_0 where present, each
+  // with POSITION's count. count is 0 for an empty primitive.
+  Attributes attributes(const tinygltf::Primitive& prim, const std::string& where) {
+    Attributes at;
     auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end()) throw LoadError{where + ": has no POSITION attribute"};
-    size_t nv = 0;
-    std::vector<double> pos = readAccessor(model, it->second, where + " POSITION", 3, &nv, inputBytes);
-    if (nv == 0) return;
-    for (size_t i = 0; i < pos.size(); ++i)
-      if (!std::isfinite(pos[i])) throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
-
+    at.pos = readAccessor(model, it->second, where + " POSITION", 3, &at.count, inputBytes);
+    if (at.count == 0) return at;
+    for (size_t i = 0; i < at.pos.size(); ++i)
+      if (!std::isfinite(at.pos[i])) throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
     auto optional = [&](const char* name, int comps, std::vector<double>& out) {
       auto a = prim.attributes.find(name);
       if (a == prim.attributes.end()) return false;
       size_t n = 0;
       out = readAccessor(model, a->second, where + " " + name, comps, &n, inputBytes);
-      if (n != nv)
+      if (n != at.count)
         throw LoadError{where + ": " + name + " has " + std::to_string(n) + " entries but POSITION has " +
-                        std::to_string(nv)};
+                        std::to_string(at.count)};
       return true;
     };
-    std::vector<double> nrm, tan, uv;
-    bool hasN = optional("NORMAL", 3, nrm);
-    bool hasT = optional("TANGENT", 4, tan);
-    bool hasUV = optional("TEXCOORD_0", 2, uv);
+    at.hasN = optional("NORMAL", 3, at.nrm);
+    at.hasT = optional("TANGENT", 4, at.tan);
+    at.hasUV = optional("TEXCOORD_0", 2, at.uv);
+    return at;
+  }
 
-    // Indices.
+  // The primitive's vertex indices (unsigned, each below nv), or 0..nv-1
+  // when it has none.
+  std::vector<uint32_t> indices(const tinygltf::Primitive& prim, size_t nv, const std::string& where) {
     std::vector<uint32_t> idx;
-    if (prim.indices >= 0) {
-      size_t ni = 0;
-      std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni, inputBytes);
-      const auto& acc = model.accessors[prim.indices];
-      if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-          acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-          acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-        throw LoadError{where + ": indices must be unsigned integers"};
-      idx.resize(ni);
-      for (size_t i = 0; i < ni; ++i) {
-        if (raw[i] >= double(nv))
-          throw LoadError{where + ": index " + std::to_string(uint64_t(raw[i])) + " at position " + std::to_string(i) +
-                          " is out of range (" + std::to_string(nv) + " vertices)"};
-        idx[i] = uint32_t(raw[i]);
-      }
-    } else {
+    if (prim.indices < 0) {
       idx.resize(nv);
       for (size_t i = 0; i < nv; ++i) idx[i] = uint32_t(i);
+      return idx;
     }
+    size_t ni = 0;
+    std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni, inputBytes);
+    const auto& acc = model.accessors[prim.indices];
+    if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      throw LoadError{where + ": indices must be unsigned integers"};
+    idx.resize(ni);
+    for (size_t i = 0; i < ni; ++i) {
+      if (raw[i] >= double(nv))
+        throw LoadError{where + ": index " + std::to_string(uint64_t(raw[i])) + " at position " + std::to_string(i) +
+                        " is out of range (" + std::to_string(nv) + " vertices)"};
+      idx[i] = uint32_t(raw[i]);
+    }
+    return idx;
+  }
+
+  // Triangle lists, strips and fans as a list of index triples, after
+  // bounding the size of the whole scene.
+  std::vector<uint32_t> triangulate(int mode, const std::vector<uint32_t>& idx, size_t nv, const std::string& where) {
     // Bound the whole scene, not only this file's bytes: shared meshes under
     // a DAG of nodes multiply (20 levels of 882 triangles are billions).
     size_t newTris = mode == TINYGLTF_MODE_TRIANGLES ? idx.size() / 3 : idx.size() >= 3 ? idx.size() - 2 : 0;
@@ -506,20 +547,24 @@ struct Loader {
     if (mode == TINYGLTF_MODE_TRIANGLES) {
       if (idx.size() % 3 != 0) warn(where + ": index count is not a multiple of 3 (trailing indices ignored)");
       tris.assign(idx.begin(), idx.begin() + (idx.size() / 3) * 3);
-    } else {
-      for (size_t i = 2; i < idx.size(); ++i) {
-        if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
-          if (i % 2 == 0)
-            tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
-          else
-            tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
-        } else {
-          tris.insert(tris.end(), {idx[0], idx[i - 1], idx[i]});
-        }
+      return tris;
+    }
+    for (size_t i = 2; i < idx.size(); ++i) {
+      if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+        if (i % 2 == 0)
+          tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
+        else
+          tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
+      } else {
+        tris.insert(tris.end(), {idx[0], idx[i - 1], idx[i]});
       }
     }
+    return tris;
+  }
 
-    // Material.
+  // The scene material of the primitive (glTF's default material when it
+  // names none).
+  uint32_t primitiveMaterial(const tinygltf::Primitive& prim, const Attributes& at, const std::string& where) {
     uint32_t matIndex;
     if (prim.material < 0) {
       matIndex = uint32_t(model.materials.size());  // the default material slot
@@ -529,56 +574,68 @@ struct Loader {
       matIndex = uint32_t(prim.material);
     }
     const Material& mat = scene.materials[matIndex];
-    if (mat.anisotropyStrength > 0 && !hasT && !hasUV)
+    if (mat.anisotropyStrength > 0 && !at.hasT && !at.hasUV)
       warn(where + ": anisotropic material '" + mat.name +
            "' on a mesh with neither TANGENT nor TEXCOORD_0; the anisotropy direction is arbitrary");
+    return matIndex;
+  }
 
-    // Append transformed vertices.
-    bool flip = xf.det3() < 0;  // mirrored transforms reverse the winding
+  // Appends the vertices transformed to world space; returns the index of
+  // the first.
+  uint32_t appendVertices(const Attributes& at, const Mat4& xf, bool flip, const std::string& where) {
     uint32_t base = uint32_t(scene.positions.size());
-    for (size_t i = 0; i < nv; ++i) {
+    for (size_t i = 0; i < at.count; ++i) {
       double world[3];
-      transformPoint(xf, pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], world);
+      transformPoint(xf, at.pos[3 * i], at.pos[3 * i + 1], at.pos[3 * i + 2], world);
       if (!worldPointOk(world)) checkWorldPoint(world, where + ": POSITION[" + std::to_string(i) + "]");
       Vec3 p{float(world[0]), float(world[1]), float(world[2])};
       scene.positions.push_back(p);
       scene.boundsMin = min(scene.boundsMin, p);
       scene.boundsMax = max(scene.boundsMax, p);
       Vec3 n(0.0f);
-      if (hasN) {
-        n = xf.normal(unitOrZero(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]));
+      if (at.hasN) {
+        n = xf.normal(unitOrZero(at.nrm[3 * i], at.nrm[3 * i + 1], at.nrm[3 * i + 2]));
         if (!isFinite(n)) n = Vec3(0.0f);
       }
       scene.normals.push_back(n);
       Vec3 t(0.0f);
       float s = 1;
-      if (hasT) {
-        t = normalize(xf.vector(unitOrZero(tan[4 * i], tan[4 * i + 1], tan[4 * i + 2])));
+      if (at.hasT) {
+        t = normalize(xf.vector(unitOrZero(at.tan[4 * i], at.tan[4 * i + 1], at.tan[4 * i + 2])));
         if (!isFinite(t)) t = Vec3(0.0f);
-        s = tan[4 * i + 3] < 0 ? -1.0f : 1.0f;
+        s = at.tan[4 * i + 3] < 0 ? -1.0f : 1.0f;
         if (flip) s = -s;
       }
       scene.tangents.push_back(t);
       scene.tangentSigns.push_back(s);
-      scene.uvs.push_back(hasUV ? Vec2{float(uv[2 * i]), float(uv[2 * i + 1])} : Vec2{0, 0});
+      scene.uvs.push_back(at.hasUV ? Vec2{float(at.uv[2 * i]), float(at.uv[2 * i + 1])} : Vec2{0, 0});
     }
-    // Generate tangents from UV derivatives where the file has none.
-    if (!hasT && hasUV && mat.anisotropyStrength > 0) {
-      for (size_t k = 0; k + 2 < tris.size(); k += 3) {
-        uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
-        Vec3 e1 = scene.positions[b] - scene.positions[a], e2 = scene.positions[c] - scene.positions[a];
-        float du1 = scene.uvs[b].x - scene.uvs[a].x, dv1 = scene.uvs[b].y - scene.uvs[a].y;
-        float du2 = scene.uvs[c].x - scene.uvs[a].x, dv2 = scene.uvs[c].y - scene.uvs[a].y;
-        float det = du1 * dv2 - du2 * dv1;
-        if (std::abs(det) < 1e-12f) continue;
-        Vec3 t = (e1 * dv2 - e2 * dv1) / det;
-        for (uint32_t v : {a, b, c}) scene.tangents[v] += t;
-      }
-      for (uint32_t v = base; v < scene.positions.size(); ++v) {
-        Vec3 t = normalize(scene.tangents[v]);
-        scene.tangents[v] = isFinite(t) ? t : Vec3(0.0f);
-      }
+    return base;
+  }
+
+  // Tangents from UV derivatives, summed over the triangles at each vertex
+  // from base on, for anisotropic materials on meshes without TANGENT.
+  void generateTangents(uint32_t base, const std::vector<uint32_t>& tris) {
+    for (size_t k = 0; k + 2 < tris.size(); k += 3) {
+      uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
+      Vec3 e1 = scene.positions[b] - scene.positions[a], e2 = scene.positions[c] - scene.positions[a];
+      float du1 = scene.uvs[b].x - scene.uvs[a].x, dv1 = scene.uvs[b].y - scene.uvs[a].y;
+      float du2 = scene.uvs[c].x - scene.uvs[a].x, dv2 = scene.uvs[c].y - scene.uvs[a].y;
+      float det = du1 * dv2 - du2 * dv1;
+      if (std::abs(det) < 1e-12f) continue;
+      Vec3 t = (e1 * dv2 - e2 * dv1) / det;
+      for (uint32_t v : {a, b, c}) scene.tangents[v] += t;
     }
+    for (uint32_t v = base; v < scene.positions.size(); ++v) {
+      Vec3 t = normalize(scene.tangents[v]);
+      scene.tangents[v] = isFinite(t) ? t : Vec3(0.0f);
+    }
+  }
+
+  // Appends the triangles (winding reversed under a mirroring transform),
+  // skipping those of zero area with one warning.
+  void appendTriangles(uint32_t base, const std::vector<uint32_t>& tris, bool flip, uint32_t matIndex,
+                       const std::string& where) {
     size_t degenerate = 0;
     for (size_t k = 0; k + 2 < tris.size(); k += 3) {
       uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
@@ -1070,46 +1127,114 @@ void checkEmittedPower(const Scene& scene, const std::string& file) {
 
 // ---- [7] loadScene ----------------------------------------------------------------
 
+namespace {
+
+// The file's bytes (isBinary: a .glb), after the JSON checks that tinygltf
+// does not make (or makes with unbounded recursion).
+std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary) {
+  Result<std::vector<unsigned char>> read = readRegularFile(path);
+  if (!read) throw LoadError{path + ": cannot be read (" + read.error() + ")"};
+  std::vector<unsigned char> bytes = std::move(read).value();
+  if (bytes.empty()) throw LoadError{path + ": file is empty"};
+  isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  std::string_view text = jsonText(bytes, isBinary);
+  if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
+    throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
+                    std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it"};
+  nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+  if (!doc.is_discarded()) TypeChecker{path}.check(doc);
+  return bytes;
+}
+
+// tinygltf's parse, with URIs resolved inside the scene's folder only.
+// Returns tinygltf's warnings.
+std::string parseGltf(const std::string& path, const std::vector<unsigned char>& bytes, bool isBinary,
+                      tinygltf::Model& model) {
+  UriPolicy policy;
+  std::error_code ec;
+  std::filesystem::path parent = std::filesystem::absolute(path, ec).parent_path();
+  policy.root = std::filesystem::weakly_canonical(parent, ec);
+  if (ec) policy.root = parent.lexically_normal();
+  policy.rootPrefix = policy.root.string();
+  if (policy.rootPrefix.empty() || policy.rootPrefix.back() != '/') policy.rootPrefix += '/';
+  tinygltf::TinyGLTF gltf;
+  gltf.SetFsCallbacks({&uriFileExists, &uriExpandPath, &uriReadFile, &uriWriteFile, &policy});
+  gltf.SetImageLoader(&loadImageBounded, nullptr);
+  std::string err, warn;
+  std::string dir = policy.root.string();
+  bool ok = isBinary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), dir)
+                     : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
+                                                unsigned(bytes.size()), dir);
+  if (!ok) {
+    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+    throw LoadError{path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err)};
+  }
+  return warn;
+}
+
+// Refuses required extensions we do not model; warns about used ones,
+// animations and skins.
+void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string& path) {
+  static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
+                                                   "KHR_materials_specular", "KHR_lights_punctual"};
+  // A required extension changes what the file means (Draco-compressed
+  // geometry, quantised attributes): loading without it would render
+  // something else, so it is refused.
+  for (const auto& e : model.extensionsRequired)
+    if (!kSupported.count(e))
+      throw LoadError{path + ": required extension " + e +
+                      " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
+                      "KHR_materials_emissive_strength, KHR_materials_specular)"};
+  for (const auto& e : model.extensionsUsed)
+    if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
+  if (!model.animations.empty())
+    L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
+  if (!model.skins.empty()) L.warn(path + ": " + std::to_string(model.skins.size()) + " skin(s) not modelled");
+}
+
+// The root nodes: the default scene's, or without scenes every node that is
+// nobody's child.
+std::vector<int> rootNodes(const tinygltf::Model& model, const std::string& path) {
+  std::vector<int> roots;
+  if (!model.scenes.empty()) {
+    int si = model.defaultScene >= 0 ? model.defaultScene : 0;
+    if (size_t(si) >= model.scenes.size())
+      throw LoadError{path + ": default scene " + std::to_string(si) + " does not exist"};
+    return model.scenes[si].nodes;
+  }
+  std::vector<char> isChild(model.nodes.size(), 0);
+  for (const auto& n : model.nodes)
+    for (int c : n.children)
+      if (c >= 0 && size_t(c) < model.nodes.size()) isChild[c] = 1;
+  for (size_t i = 0; i < model.nodes.size(); ++i)
+    if (!isChild[i]) roots.push_back(int(i));
+  return roots;
+}
+
+// After the walk: something to render, finite power, a camera.
+void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOptions& options) {
+  if (scene.triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
+  checkEmittedPower(scene, path);
+  bool anyEmitter = !scene.punctualLights.empty();
+  for (uint32_t t = 0; t < scene.triangleCount() && !anyEmitter; ++t)
+    anyEmitter = scene.materials[scene.triMaterial[t]].isEmissive();
+  if (!anyEmitter) L.warn(path + ": the scene has no emissive triangles and no punctual lights; it renders black");
+  if (!options.cameraName.empty() && !scene.cameraFromFile)
+    throw LoadError{path + ": no perspective camera named '" + options.cameraName + "'"};
+  if (!scene.cameraFromFile) {
+    scene.camera = frameBounds(scene.boundsMin, scene.boundsMax);
+    L.warn(path + ": no perspective camera; using a default camera that frames the scene");
+  }
+}
+
+}  // namespace
+
 SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
-    Result<std::vector<unsigned char>> read = readRegularFile(path);
-    if (!read) return Error(path + ": cannot be read (" + read.error() + ")");
-    std::vector<unsigned char> bytes = std::move(read).value();
-    if (bytes.empty()) return Error(path + ": file is empty");
-    bool isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
-
-    // JSON checks that tinygltf does not make (or makes with unbounded recursion).
-    std::string_view text = jsonText(bytes, isBinary);
-    if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
-      return Error(path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
-                   std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it");
-    nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
-    if (!doc.is_discarded()) TypeChecker{path}.check(doc);
-    doc = nullptr;
-
-    // URIs resolve inside the scene's folder only.
-    UriPolicy policy;
-    {
-      std::error_code ec;
-      std::filesystem::path parent = std::filesystem::absolute(path, ec).parent_path();
-      policy.root = std::filesystem::weakly_canonical(parent, ec);
-      if (ec) policy.root = parent.lexically_normal();
-      policy.rootPrefix = policy.root.string();
-      if (policy.rootPrefix.empty() || policy.rootPrefix.back() != '/') policy.rootPrefix += '/';
-    }
-    tinygltf::TinyGLTF gltf;
-    gltf.SetFsCallbacks({&uriFileExists, &uriExpandPath, &uriReadFile, &uriWriteFile, &policy});
-    gltf.SetImageLoader(&loadImageBounded, nullptr);
+    bool isBinary = false;
+    std::vector<unsigned char> bytes = readSceneFile(path, isBinary);
     tinygltf::Model model;
-    std::string err, warn;
-    std::string dir = policy.root.string();
-    bool ok = isBinary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), dir)
-                       : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
-                                                  unsigned(bytes.size()), dir);
-    if (!ok) {
-      while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-      return Error(path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err));
-    }
+    std::string warn = parseGltf(path, bytes, isBinary, model);
 
     auto scene = std::make_shared<Scene>();
     scene->path = path;
@@ -1124,21 +1249,7 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
       for (std::string line; std::getline(ws, line);)
         if (!line.empty()) L.warn(path + ": " + line);
     }
-    static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
-                                                     "KHR_materials_specular", "KHR_lights_punctual"};
-    // A required extension changes what the file means (Draco-compressed
-    // geometry, quantised attributes): loading without it would render
-    // something else, so it is refused.
-    for (const auto& e : model.extensionsRequired)
-      if (!kSupported.count(e))
-        return Error(path + ": required extension " + e +
-                     " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
-                     "KHR_materials_emissive_strength, KHR_materials_specular)");
-    for (const auto& e : model.extensionsUsed)
-      if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
-    if (!model.animations.empty())
-      L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
-    if (!model.skins.empty()) L.warn(path + ": " + std::to_string(model.skins.size()) + " skin(s) not modelled");
+    checkExtensions(model, L, path);
 
     for (size_t i = 0; i < model.materials.size(); ++i) scene->materials.push_back(L.material(int(i)));
     // glTF's default material: white, metallic 1, roughness 1.
@@ -1146,38 +1257,13 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
     def.name = "default";
     scene->materials.push_back(def);
 
-    std::vector<int> roots;
-    if (!model.scenes.empty()) {
-      int si = model.defaultScene >= 0 ? model.defaultScene : 0;
-      if (size_t(si) >= model.scenes.size())
-        throw LoadError{path + ": default scene " + std::to_string(si) + " does not exist"};
-      roots = model.scenes[si].nodes;
-    } else {
-      // No scenes: every node that is nobody's child is a root.
-      std::vector<char> isChild(model.nodes.size(), 0);
-      for (const auto& n : model.nodes)
-        for (int c : n.children)
-          if (c >= 0 && size_t(c) < model.nodes.size()) isChild[c] = 1;
-      for (size_t i = 0; i < model.nodes.size(); ++i)
-        if (!isChild[i]) roots.push_back(int(i));
-    }
+    std::vector<int> roots = rootNodes(model, path);
     checkInstancedSize(model, roots, path, options.maxTriangles);
     std::vector<char> onPath(model.nodes.size(), 0);
     size_t visits = 0;
     for (int r : roots) L.walk(r, onPath, visits, options);
 
-    if (scene->triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
-    checkEmittedPower(*scene, path);
-    bool anyEmitter = !scene->punctualLights.empty();
-    for (uint32_t t = 0; t < scene->triangleCount() && !anyEmitter; ++t)
-      anyEmitter = scene->materials[scene->triMaterial[t]].isEmissive();
-    if (!anyEmitter) L.warn(path + ": the scene has no emissive triangles and no punctual lights; it renders black");
-    if (!options.cameraName.empty() && !scene->cameraFromFile)
-      throw LoadError{path + ": no perspective camera named '" + options.cameraName + "'"};
-    if (!scene->cameraFromFile) {
-      scene->camera = frameBounds(scene->boundsMin, scene->boundsMax);
-      L.warn(path + ": no perspective camera; using a default camera that frames the scene");
-    }
+    finishScene(*scene, L, path, options);
     return std::shared_ptr<const Scene>(std::move(scene));
   } catch (const LoadError& e) {
     return Error(e.message);
