@@ -33,6 +33,7 @@ Vec3 sampleUniformCone(Vec2 u, float cosMax);
 // pdf = 1/(2 pi oneMinusCosMax).
 Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax);
 inline float uniformConePdf(float cosMax) { return 1.0f / (2.0f * kPi * (1.0f - cosMax)); }
+inline float uniformConeOmcPdf(float oneMinusCosMax) { return 1.0f / (2.0f * kPi * oneMinusCosMax); }
 // The u that sampleUniformCone(u, cosMax) / sampleUniformConeOmc(u,
 // oneMinusCosMax) maps to the unit direction w inside the cone. 1 - cos(theta)
 // is taken from w's sine, so tiny cones invert precisely.

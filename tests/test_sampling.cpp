@@ -178,6 +178,7 @@ TEST(Sampling, UniformConeTriplet) {
       ASSERT_LT(length(again - w), 2e-5f * std::max(std::sqrt(omc), 1e-2f) + 1e-7f)
           << "cosMax " << cosMax << " u = (" << u.x << ", " << u.y << ")";
     }
+    EXPECT_EQ(uniformConeOmcPdf(omc), uniformConePdf(cosMax));
     test::Chi2Config cfg;
     cfg.samples = 400000;
     cfg.seed = 23 + k;  // independent tests, for the Sidak correction
@@ -187,7 +188,7 @@ TEST(Sampling, UniformConeTriplet) {
         [&](Rng& g) {
           return std::optional<Vec3>(sampleUniformCone({g.uniform(), g.uniform()}, cosMax));
         },
-        [&](const Vec3&) { return double(uniformConePdf(cosMax)); }, cfg, "cone");
+        [&](const Vec3&) { return double(uniformConeOmcPdf(omc)); }, cfg, "cone");
     EXPECT_TRUE(r.message.empty()) << "cosMax " << cosMax << ": " << r.message;
     EXPECT_GT(r.pValue, level) << "cosMax " << cosMax << " chi2 " << r.statistic << " dof " << r.dof;
     std::printf("cone cosMax %-8g chi2 %8.1f dof %4d p %.4f\n", cosMax, r.statistic, r.dof, r.pValue);
