@@ -19,21 +19,34 @@ LightSampler::LightSampler(const Scene& scene) : scene_(scene) {
   dist_ = DiscreteDistribution(power);
 }
 
-std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, Vec2 u) const {
+TrianglePoint sampleTrianglePoint(const Scene& scene, uint32_t tri, Vec2 u) {
+  Vec2 b = sampleUniformTriangle(u);
+  const Vec3& p0 = scene.positions[scene.indices[3 * tri]];
+  const Vec3& p1 = scene.positions[scene.indices[3 * tri + 1]];
+  const Vec3& p2 = scene.positions[scene.indices[3 * tri + 2]];
+  // sampleUniformTriangle's (b0, b1) weigh p0 and p1; Embree's (b1, b2) weigh p1 and p2.
+  Vec2 bary{b.y, 1 - b.x - b.y};
+  return {p0 * b.x + p1 * bary.x + p2 * bary.y, bary};
+}
+
+std::optional<SampledLight> LightSampler::sample(float uLight) const {
   if (empty()) return std::nullopt;
-  float pmf;
-  size_t i = dist_.sample(uLight, &pmf);
-  if (!(pmf > 0)) return std::nullopt;
+  SampledLight l;
+  l.light = dist_.sample(uLight, &l.pmf);
+  if (!(l.pmf > 0)) return std::nullopt;
+  return l;
+}
+
+std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, Vec2 u) const {
+  std::optional<SampledLight> picked = sample(uLight);
+  if (!picked) return std::nullopt;
+  const size_t i = picked->light;
+  const float pmf = picked->pmf;
   LightSample s;
   if (i < emissiveTris_.size()) {
     uint32_t tri = emissiveTris_[i];
-    Vec2 b = sampleUniformTriangle(u);
-    const Vec3& p0 = scene_.positions[scene_.indices[3 * tri]];
-    const Vec3& p1 = scene_.positions[scene_.indices[3 * tri + 1]];
-    const Vec3& p2 = scene_.positions[scene_.indices[3 * tri + 2]];
-    // Embree-style barycentrics: y = (1-b1-b2) p0 + b1 p1 + b2 p2.
-    Vec2 bary{b.y, 1 - b.x - b.y};
-    s.pLight = p0 * b.x + p1 * bary.x + p2 * bary.y;
+    TrianglePoint y = sampleTrianglePoint(scene_, tri, u);
+    s.pLight = y.p;
     Vec3 d = s.pLight - p;
     float d2 = lengthSquared(d);
     if (!(d2 > 0)) return std::nullopt;
@@ -46,7 +59,7 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
     s.nLight = cosL > 0 ? n : -n;
     cosL = std::abs(cosL);
     if (!(cosL > 0)) return std::nullopt;
-    s.Li = scene_.emission(tri, bary);
+    s.Li = scene_.emission(tri, y.bary);
     s.pdf = pmf / scene_.triangleArea(tri) * d2 / cosL;
     s.delta = false;
   } else {
@@ -67,20 +80,16 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
 }
 
 std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Vec2 uDir) const {
-  if (empty()) return std::nullopt;
-  float pmf;
-  size_t i = dist_.sample(uLight, &pmf);
-  if (!(pmf > 0)) return std::nullopt;
+  std::optional<SampledLight> picked = sample(uLight);
+  if (!picked) return std::nullopt;
+  const size_t i = picked->light;
+  const float pmf = picked->pmf;
   EmissionSample e;
   if (i < emissiveTris_.size()) {
     uint32_t tri = emissiveTris_[i];
     const Material& m = scene_.materials[scene_.triMaterial[tri]];
-    Vec2 b = sampleUniformTriangle(uPos);
-    const Vec3& p0 = scene_.positions[scene_.indices[3 * tri]];
-    const Vec3& p1 = scene_.positions[scene_.indices[3 * tri + 1]];
-    const Vec3& p2 = scene_.positions[scene_.indices[3 * tri + 2]];
-    Vec2 bary{b.y, 1 - b.x - b.y};
-    e.p = p0 * b.x + p1 * bary.x + p2 * bary.y;
+    TrianglePoint y = sampleTrianglePoint(scene_, tri, uPos);
+    e.p = y.p;
     e.n = scene_.triangleNormal(tri);
     float sides = 1;
     if (m.doubleSided) {  // pick a side with probability 1/2, reusing uDir.x
@@ -95,7 +104,7 @@ std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Ve
     }
     // Cosine-weighted direction: Le cos / (pmf (1/A) (cos/pi) / sides) = Le pi A sides / pmf.
     e.w = Frame(e.n).toWorld(sampleCosineHemisphere(uDir));
-    e.beta = scene_.emission(tri, bary) * (kPi * scene_.triangleArea(tri) * sides / pmf);
+    e.beta = scene_.emission(tri, y.bary) * (kPi * scene_.triangleArea(tri) * sides / pmf);
   } else {
     const PunctualLight& L = scene_.punctualLights[i - emissiveTris_.size()];
     e.p = L.position;

@@ -20,6 +20,22 @@ struct LightSample {
   bool delta = false;  // punctual: no MIS with BRDF sampling
 };
 
+// A uniformly sampled point on a triangle: pdf = 1/Scene::triangleArea(tri)
+// (area measure). bary are the Embree-style barycentrics (b1, b2) of p, with
+// p = (1 - b1 - b2) p0 + b1 p1 + b2 p2, as Scene::emission takes them.
+struct TrianglePoint {
+  Vec3 p;
+  Vec2 bary;
+};
+TrianglePoint sampleTrianglePoint(const Scene& scene, uint32_t tri, Vec2 u);
+
+// A light chosen by the light sampler: its index (emissive triangles first,
+// in scene order, then the punctual lights) and the probability of choosing it.
+struct SampledLight {
+  size_t light = 0;
+  float pmf = 0;
+};
+
 // A ray leaving an emitter, for light tracing.
 struct EmissionSample {
   Vec3 p;     // origin on the emitter
@@ -35,6 +51,13 @@ class LightSampler {
   bool empty() const { return dist_.size() == 0; }
   double totalPower() const { return dist_.total(); }
   size_t emissiveTriangleCount() const { return emissiveTris_.size(); }
+  // Lights in sampler order: emissive triangles, then punctual lights.
+  size_t lightCount() const { return emissiveTris_.size() + scene_.punctualLights.size(); }
+
+  // Picks a light in proportion to its power. Empty when the scene has no
+  // lights. pmf(light) is the probability of picking it (zero past the end).
+  std::optional<SampledLight> sample(float uLight) const;
+  float pmf(size_t light) const { return dist_.pmf(light); }
 
   // Picks a light by power (uLight) and a point on it (u) as seen from p.
   // Empty when the scene has no lights or the point faces away.

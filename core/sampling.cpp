@@ -54,6 +54,12 @@ Vec3 sampleUniformSphere(Vec2 u) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
+Vec2 invertUniformSphere(const Vec3& w) {
+  float phi = std::atan2(w.y, w.x);
+  if (phi < 0) phi += 2 * kPi;
+  return {(1 - w.z) / 2, std::min(phi / (2 * kPi), 0.99999994f)};
+}
+
 Vec3 sampleUniformCone(Vec2 u, float cosMax) { return sampleUniformConeOmc(u, 1 - cosMax); }
 
 Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax) {
@@ -66,6 +72,17 @@ Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax) {
   return {std::cos(phi) * sinTheta, std::sin(phi) * sinTheta, cosTheta};
 }
 
+Vec2 invertUniformCone(const Vec3& w, float cosMax) { return invertUniformConeOmc(w, 1 - cosMax); }
+
+Vec2 invertUniformConeOmc(const Vec3& w, float oneMinusCosMax) {
+  // 1 - cos(theta) = sin^2 / (1 + cos) near the axis, where 1 - z cancels.
+  float sin2 = w.x * w.x + w.y * w.y;
+  float oneMinusCos = w.z > 0 ? sin2 / (1 + w.z) : 1 - w.z;
+  float phi = std::atan2(w.y, w.x);
+  if (phi < 0) phi += 2 * kPi;
+  return {std::min(oneMinusCos / oneMinusCosMax, 1.0f), std::min(phi / (2 * kPi), 0.99999994f)};
+}
+
 Vec2 sampleUniformTriangle(Vec2 u) {
   float b0, b1;
   if (u.x < u.y) {
@@ -76,6 +93,12 @@ Vec2 sampleUniformTriangle(Vec2 u) {
     b0 = u.x - b1;
   }
   return {b0, b1};
+}
+
+Vec2 invertUniformTriangle(Vec2 b) {
+  // The two branches of sampleUniformTriangle: b0 < b1 came from u.x < u.y.
+  if (b.x < b.y) return {2 * b.x, b.y + b.x};
+  return {b.x + b.y, 2 * b.y};
 }
 
 DiscreteDistribution::DiscreteDistribution(std::span<const double> weights) {

@@ -12,6 +12,7 @@ namespace vsl {
 
 // Concentric map of [0,1)^2 to the unit disk (Shirley-Chiu). pdf = 1/pi (area).
 Vec2 sampleUniformDiskConcentric(Vec2 u);
+inline float uniformDiskPdf() { return kInvPi; }
 Vec2 invertUniformDiskConcentric(Vec2 p);
 
 // Cosine-weighted hemisphere about +z. pdf(w) = cos(theta)/pi (solid angle).
@@ -19,9 +20,11 @@ Vec3 sampleCosineHemisphere(Vec2 u);
 inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0 ? cosTheta * kInvPi : 0.0f; }
 Vec2 invertCosineHemisphere(const Vec3& w);
 
-// Uniform sphere. pdf = 1/(4 pi) (solid angle).
+// Uniform sphere. pdf = 1/(4 pi) (solid angle). The inverse returns
+// u = ((1 - z)/2, phi/(2 pi)) with phi in [0, 2 pi).
 Vec3 sampleUniformSphere(Vec2 u);
 inline float uniformSpherePdf() { return 1.0f / (4.0f * kPi); }
+Vec2 invertUniformSphere(const Vec3& w);
 
 // Uniform cone about +z with cos(half-angle) = cosMax. pdf = 1/(2 pi (1 - cosMax))
 // (solid angle).
@@ -30,11 +33,20 @@ Vec3 sampleUniformCone(Vec2 u, float cosMax);
 // pdf = 1/(2 pi oneMinusCosMax).
 Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax);
 inline float uniformConePdf(float cosMax) { return 1.0f / (2.0f * kPi * (1.0f - cosMax)); }
+inline float uniformConeOmcPdf(float oneMinusCosMax) { return 1.0f / (2.0f * kPi * oneMinusCosMax); }
+// The u that sampleUniformCone(u, cosMax) / sampleUniformConeOmc(u,
+// oneMinusCosMax) maps to the unit direction w inside the cone. 1 - cos(theta)
+// is taken from w's sine, so tiny cones invert precisely.
+Vec2 invertUniformCone(const Vec3& w, float cosMax);
+Vec2 invertUniformConeOmc(const Vec3& w, float oneMinusCosMax);
 
 // Uniform point on a triangle, as barycentrics (b0, b1); b2 = 1 - b0 - b1.
-// pdf = 1/area (area). Uses the low-distortion square-to-triangle map of
-// Heitz 2019.
+// pdf = 1/area (area measure on the triangle). Uses the low-distortion
+// square-to-triangle map of pbrt-v4 (after Heitz 2019); the inverse maps
+// barycentrics back to the u that produced them.
 Vec2 sampleUniformTriangle(Vec2 u);
+inline float uniformTrianglePdf(float area) { return 1.0f / area; }
+Vec2 invertUniformTriangle(Vec2 b);
 
 // Multiple importance sampling heuristics for one sample of each strategy.
 inline float powerHeuristic(float pdfA, float pdfB) {

@@ -1,19 +1,13 @@
 // core::Scene: flattened world-space triangles, materials, textures, punctual
-// lights and the camera, loaded from glTF 2.0 (.gltf or .glb) with tinygltf.
-//
-// What is modelled: triangle meshes (triangles, strips, fans) through the node
-// hierarchy; POSITION, NORMAL, TANGENT, TEXCOORD_0; the metallic-roughness
-// material with base-colour, metallic-roughness and emissive textures;
-// KHR_materials_emissive_strength; KHR_materials_anisotropy;
-// KHR_lights_punctual point and spot lights; perspective cameras.
-// Everything else a file uses is reported in Scene::warnings by element name;
-// invalid data makes loadScene() fail with a message naming file and element.
+// lights and the camera. core/loader.h fills one from a glTF 2.0 file (and is
+// included here, so that a Scene's users can load one).
 #pragma once
 
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "core/loader.h"
 #include "core/material.h"
 #include "core/math.h"
 #include "core/result.h"
@@ -99,27 +93,6 @@ struct Scene {
   // Emitted radiance of a triangle at barycentrics, ignoring direction.
   Vec3 emission(uint32_t tri, Vec2 uv) const;
 };
-
-struct LoadOptions {
-  std::string cameraName;  // empty = the first perspective camera
-  // The flattened scene may hold at most this many triangles (instancing
-  // through the node hierarchy multiplies a small file's meshes).
-  size_t maxTriangles = 20'000'000;
-  // Texels of all textures together (each is expanded to float RGBA).
-  size_t maxTexels = size_t(1) << 27;
-};
-
-// Loads a .gltf or .glb file. Never throws; never crashes on hostile input.
-// Limits: the file and every buffer or image it references must be regular
-// files of at most 2 GiB; URIs resolve inside the scene's folder only (no
-// absolute paths, no "..", no symlinks leading out, no fallback to the current
-// directory); JSON nesting at most 64 levels; node hierarchy at most 1024
-// levels and 1,000,000 node instances; options.maxTriangles triangles;
-// textures at most 2^26 pixels each and options.maxTexels together; world-space coordinates of geometry, camera
-// and lights within +-1e9; camera aspectRatio in [1/32, 32].
-// On failure the error reads "file: element: reason".
-using SceneResult = Result<std::shared_ptr<const Scene>>;
-SceneResult loadScene(const std::string& path, const LoadOptions& options = {});
 
 // A camera that frames the bounding box from the +z side.
 Camera frameBounds(const Vec3& bmin, const Vec3& bmax);

@@ -1,11 +1,16 @@
-// Helpers shared by the rendering test suites: bundled scenes with their
-// acceleration structure and light sampler, hand-built geometry, and the
-// path-traced indirect reference with its standard error.
+// Helpers shared by the test suites: bundled scenes (alone, or with their
+// acceleration structure and light sampler), hand-built geometry, files and
+// scratch folders, means with their standard errors, and the path-traced
+// indirect reference with its standard error.
 #pragma once
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,10 +29,57 @@ struct Loaded {
   int width = 0, height = 0;  // the asked width, height from the camera's aspect ratio
 };
 
+// ---- Files --------------------------------------------------------------------------
+
+// A file's bytes (empty if it cannot be read).
+inline std::string slurp(const std::filesystem::path& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// An empty folder NAME under the system's temporary folder (emptied if it exists).
+inline std::filesystem::path scratchDir(const std::string& name) {
+  std::filesystem::path d = std::filesystem::temp_directory_path() / name;
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+// ---- Statistics -----------------------------------------------------------------------
+
+// The mean of samples added one at a time, and its standard error (the
+// samples' population variance over n), in double.
+struct MeanAccumulator {
+  double sum = 0, sum2 = 0;
+  size_t n = 0;
+  void add(double v) {
+    sum += v;
+    sum2 += v * v;
+    ++n;
+  }
+  double mean() const { return n ? sum / double(n) : 0.0; }
+  double variance() const { return n ? std::max(sum2 / double(n) - mean() * mean(), 0.0) : 0.0; }
+  double standardError() const { return n ? std::sqrt(variance() / double(n)) : 0.0; }
+};
+
+// ---- Scenes ---------------------------------------------------------------------------
+
+inline std::string assetPath(const std::string& name) {
+  return std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf";
+}
+
+// The scene assets/scenes/NAME.gltf alone; null (and a test failure) if it
+// does not load.
+inline std::shared_ptr<const Scene> loadAssetScene(const std::string& name) {
+  SceneResult r = loadScene(assetPath(name));
+  EXPECT_TRUE(r) << r.error();
+  return r.valueOr(nullptr);
+}
+
 // assets/scenes/NAME.gltf; failures are reported as test failures.
 inline Loaded loadAsset(const std::string& name, int width = 48) {
   Loaded l;
-  SceneResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
+  SceneResult r = loadScene(assetPath(name));
   EXPECT_TRUE(r) << r.error();
   if (!r) return l;
   l.scene = r.value();

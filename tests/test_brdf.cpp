@@ -6,6 +6,7 @@
 #include "chi2.h"
 #include "core/material.h"
 #include "core/sampling.h"
+#include "support.h"
 
 using namespace vsl;
 
@@ -19,15 +20,12 @@ Vec3 dirFromAngles(float thetaDeg, float phiDeg) {
 // Directional albedo E[f cos / pdf] with its standard error.
 std::pair<double, double> albedo(const Brdf& b, const Vec3& wo, int n, uint64_t seed) {
   Rng rng(seed, 3);
-  double s = 0, s2 = 0;
+  test::MeanAccumulator acc;
   for (int i = 0; i < n; ++i) {
     auto bs = b.sample(wo, rng.uniform(), {rng.uniform(), rng.uniform()});
-    double v = bs ? double(luminance(bs->f)) * bs->wi.z / bs->pdf : 0.0;
-    s += v;
-    s2 += v * v;
+    acc.add(bs ? double(luminance(bs->f)) * bs->wi.z / bs->pdf : 0.0);
   }
-  double mean = s / n, var = std::max(s2 / n - mean * mean, 0.0);
-  return {mean, std::sqrt(var / n)};
+  return {acc.mean(), acc.standardError()};
 }
 
 struct Case {

@@ -149,19 +149,9 @@ using vsl::test::Proc;
 // Runs `vsl ARGS`; stderr is dropped unless asked for (stdout is the JSON).
 Proc vslOut(const std::string& args, bool withStderr = false) { return vsl::test::runVsl(args, withStderr); }
 
-fs::path scratch(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("vsl_compare_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path scratch(const std::string& name) { return vsl::test::scratchDir("vsl_compare_" + name); }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using vsl::test::slurp;
 
 // A CSV without the given columns (timing differs between runs).
 std::string withoutColumns(const std::string& csv, std::vector<size_t> drop) {

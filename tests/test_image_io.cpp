@@ -15,6 +15,7 @@
 
 #include "core/image_io.h"
 #include "core/rng.h"
+#include "support.h"
 
 using namespace vsl;
 namespace fs = std::filesystem;
@@ -25,21 +26,14 @@ class ImageIo : public ::testing::Test {
  protected:
   fs::path dir;
   void SetUp() override {
-    dir = fs::temp_directory_path() /
-          ("vsl_image_io_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    dir = vsl::test::scratchDir("vsl_image_io_" +
+                                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
   }
   void TearDown() override { fs::remove_all(dir); }
   std::string file(const std::string& n) { return (dir / n).string(); }
 };
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using vsl::test::slurp;
 
 // An image of noise: it does not compress, so its files are large.
 Image noise(int w, int h) {

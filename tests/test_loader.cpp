@@ -13,6 +13,7 @@
 #include "core/image_io.h"
 #include "core/rng.h"
 #include "core/scene.h"
+#include "support.h"
 
 using namespace vsl;
 using json = nlohmann::json;
@@ -501,17 +502,8 @@ TEST_F(LoaderTest, TexturesAreLoadedAndSampled) {
 TEST_F(LoaderTest, CorruptedFilesNeverCrash) {
   Doc d = quadDoc();
   std::string good = writeDoc(d, "good.gltf");
-  std::string text;
-  {
-    std::ifstream f(good, std::ios::binary);
-    text.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-  }
-  std::string glbPath = writeGlb(d, "good.glb");
-  std::string glb;
-  {
-    std::ifstream f(glbPath, std::ios::binary);
-    glb.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-  }
+  std::string text = vsl::test::slurp(good);
+  std::string glb = vsl::test::slurp(writeGlb(d, "good.glb"));
   Rng rng(99, 1);
   int scenes = 0, errors = 0;
   for (int i = 0; i < 400; ++i) {
@@ -838,8 +830,7 @@ TEST_F(LoaderTest, TextureMemoryIsBounded) {
   EXPECT_NE(r.error().find("texels in total"), std::string::npos) << r.error();
   // A PNG whose header claims 10000x10000 is refused before decoding (stb
   // itself refuses more than 2^30 bytes).
-  std::ifstream in(dir / "big.png", std::ios::binary);
-  std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string png = vsl::test::slurp(dir / "big.png");
   const uint8_t side[4] = {0, 0, 0x27, 0x10};  // 10000, big-endian, in IHDR
   std::memcpy(&png[16], side, 4);
   std::memcpy(&png[20], side, 4);

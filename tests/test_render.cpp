@@ -9,6 +9,7 @@
 
 using namespace vsl;
 using vsl::test::addQuad;
+using vsl::test::loadAssetScene;
 
 namespace {
 
@@ -53,12 +54,6 @@ PixelStats sampleImage(const PathTracer& pt, int spp) {
   return s;
 }
 
-std::shared_ptr<const Scene> loadAsset(const std::string& name) {
-  SceneResult r = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf");
-  EXPECT_TRUE(r) << r.error();
-  return r.valueOr(nullptr);
-}
-
 // Per-point irradiance form factor from a differential area to a parallel
 // rectangle [0,a] x [0,b] at height c, with the point below one corner.
 double cornerFormFactor(double a, double b, double c) {
@@ -82,7 +77,7 @@ double rectFormFactor(double x0, double x1, double z0, double z1, double c) {
 // everywhere; the direct part (emission + one bounce) is Le + a Le = 1.5 and
 // the indirect part is the rest, 0.5.
 TEST(RenderPT, FurnaceMatchesAnalyticRadiance) {
-  auto scene = loadAsset("furnace");
+  auto scene = loadAssetScene("furnace");
   ASSERT_TRUE(scene);
   Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
   ASSERT_TRUE(built) << built.error();
@@ -200,7 +195,7 @@ TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
 }
 
 TEST(RenderPT, SameSeedSameImageRegardlessOfThreads) {
-  auto scene = loadAsset("cornell-glossy");
+  auto scene = loadAssetScene("cornell-glossy");
   ASSERT_TRUE(scene);
   Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
   auto accel = std::move(built).value();
@@ -229,7 +224,7 @@ TEST(RenderPT, SameSeedSameImageRegardlessOfThreads) {
 }
 
 TEST(RenderPT, StopFlagAbortsAPass) {
-  auto scene = loadAsset("cornell-glossy");
+  auto scene = loadAssetScene("cornell-glossy");
   Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
   auto accel = std::move(built).value();
   LightSampler lights(*scene);
@@ -245,7 +240,7 @@ TEST(RenderPT, StopFlagAbortsAPass) {
 
 TEST(RenderPT, BundledScenesRenderFiniteAndNonBlack) {
   for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
-    auto scene = loadAsset(name);
+    auto scene = loadAssetScene(name);
     ASSERT_TRUE(scene);
     Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
     auto accel = std::move(built).value();

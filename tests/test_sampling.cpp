@@ -1,10 +1,13 @@
 // Sampling triplets: round trips, pdfs that integrate to one, and
-// distributions whose frequencies match their pmfs.
+// distributions whose frequencies match their pmfs (tests/chi2.h); the light
+// sampler's pmf and sampleLi's pdf, after pbrt-v4's lightsamplers_test.
 #include <gtest/gtest.h>
 
 #include "chi2.h"
+#include "core/lights.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "support.h"
 
 using namespace vsl;
 
@@ -46,25 +49,27 @@ TEST(Sampling, CosineHemisphereRoundTripAndPdf) {
 // uniform on [0,1) and independent; chi-square on a 2D grid of the two.
 TEST(Sampling, UniformConeIsUniformInSolidAngle) {
   for (float cosMax : {0.99999f, 0.999f, 0.9f, 0.0f, -0.5f}) {
-    Rng rng(12, 1);
-    const int bins = 20, n = 400000;
-    std::vector<int> h(bins * bins, 0);
-    for (int i = 0; i < n; ++i) {
-      Vec3 w = sampleUniformCone({rng.uniform(), rng.uniform()}, cosMax);
-      ASSERT_NEAR(length(w), 1.0f, 1e-5f);
-      ASSERT_GE(w.z, cosMax - 1e-5f);
-      // 1 - cos from the sine, which stays accurate for tiny cones.
-      double s2 = double(w.x) * w.x + double(w.y) * w.y;
-      double oneMinusCos = w.z > 0 ? s2 / (1.0 + w.z) : 1.0 - w.z;
-      double t = oneMinusCos / (1.0 - double(cosMax));
-      double phi = std::atan2(double(w.y), double(w.x));
-      if (phi < 0) phi += 2 * M_PI;
-      int a = std::min(std::max(int(t * bins), 0), bins - 1), b = std::min(int(phi / (2 * M_PI) * bins), bins - 1);
-      h[a * bins + b]++;
-    }
-    double e = double(n) / (bins * bins), chi2 = 0;
-    for (int c : h) chi2 += (c - e) * (c - e) / e;
-    EXPECT_GT(test::chi2Survival(chi2, bins * bins - 1), 1e-3) << "cosMax " << cosMax << " chi2 " << chi2;
+    bool bad = false;
+    test::Chi2Config cfg;
+    cfg.samples = 400000;
+    cfg.seed = 12, cfg.stream = 1;
+    cfg.subdiv = 2;
+    auto r = test::chi2Test(
+        test::planeDomain({0, 0}, {1, 1}, 20, 20),
+        [&](Rng& rng) -> std::optional<Vec3> {
+          Vec3 w = sampleUniformCone({rng.uniform(), rng.uniform()}, cosMax);
+          if (!(std::abs(length(w) - 1.0f) <= 1e-5f) || !(w.z >= cosMax - 1e-5f)) bad = true;
+          // 1 - cos from the sine, which stays accurate for tiny cones.
+          double s2 = double(w.x) * w.x + double(w.y) * w.y;
+          double oneMinusCos = w.z > 0 ? s2 / (1.0 + w.z) : 1.0 - w.z;
+          double phi = std::atan2(double(w.y), double(w.x));
+          if (phi < 0) phi += 2 * M_PI;
+          return Vec3(float(oneMinusCos / (1.0 - double(cosMax))), float(phi / (2 * M_PI)), 0);
+        },
+        [](const Vec3&) { return 1.0; }, cfg, "cone_uniform");
+    EXPECT_FALSE(bad) << "cosMax " << cosMax << ": a sample is not unit length or lies outside the cone";
+    EXPECT_TRUE(r.message.empty()) << "cosMax " << cosMax << ": " << r.message;
+    EXPECT_GT(r.pValue, 1e-3) << "cosMax " << cosMax << " chi2 " << r.statistic << " dof " << r.dof;
     EXPECT_FLOAT_EQ(uniformConePdf(cosMax), float(1.0 / (2 * M_PI * (1.0 - cosMax))));
   }
 }
@@ -95,30 +100,173 @@ TEST(Sampling, DiscreteDistributionFrequenciesMatchPmf) {
   DiscreteDistribution d(w);
   double total = 6.5;
   for (size_t i = 0; i < w.size(); ++i) EXPECT_FLOAT_EQ(d.pmf(i), float(w[i] / total));
-  Rng rng(1, 2);
-  const int n = 650000;
-  std::vector<int> counts(w.size(), 0);
-  for (int i = 0; i < n; ++i) {
-    float pmf, ur;
-    size_t k = d.sample(rng.uniform(), &pmf, &ur);
-    ASSERT_GT(pmf, 0.0f) << "sampled zero-weight item " << k;
-    ASSERT_FLOAT_EQ(pmf, d.pmf(k));
-    ASSERT_GE(ur, 0.0f);
-    ASSERT_LT(ur, 1.0f);
-    counts[k]++;
+  test::Chi2Config cfg;
+  cfg.samples = 650000;
+  cfg.seed = 1, cfg.stream = 2;
+  std::string bad;
+  std::vector<float> remapped;  // u rescaled within the chosen bucket
+  remapped.reserve(cfg.samples);
+  auto r = test::chi2Discrete(
+      [&](Rng& rng) -> std::optional<size_t> {
+        float pmf, ur;
+        size_t k = d.sample(rng.uniform(), &pmf, &ur);
+        if (bad.empty() && !(pmf > 0 && pmf == d.pmf(k) && ur >= 0 && ur < 1))
+          bad = "item " + std::to_string(k) + ": pmf " + std::to_string(pmf) + ", remapped u " + std::to_string(ur);
+        remapped.push_back(ur);
+        return k;
+      },
+      [&](size_t i) { return w[i] / total; }, w.size(), cfg, "discrete");
+  EXPECT_TRUE(bad.empty()) << bad;
+  EXPECT_TRUE(r.message.empty()) << r.message;  // includes: no zero-weight item is ever sampled
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+  // The remapped u is uniform on [0,1) again, for reuse (line domain).
+  size_t next = 0;
+  cfg.samples = remapped.size();
+  auto ru = test::chi2Test(
+      test::lineDomain(0, 1, 50), [&](Rng&) { return std::optional<Vec3>(Vec3(remapped[next++], 0, 0)); },
+      [](const Vec3&) { return 1.0; }, cfg, "discrete_remapped");
+  EXPECT_TRUE(ru.message.empty()) << ru.message;
+  EXPECT_GT(ru.pValue, 1e-3) << "remapped u: chi2 " << ru.statistic << " dof " << ru.dof;
+}
+
+// ---- The triplets: sample(inverse(x)) == x, and chi-square of sample against pdf ----
+
+// Round trips in the sampled space, where they are well conditioned
+// everywhere (u-space round trips lose phi at the poles).
+TEST(Sampling, UniformSphereTriplet) {
+  Rng rng(21, 1);
+  for (int i = 0; i < 100000; ++i) {
+    Vec2 u{rng.uniform(), rng.uniform()};
+    Vec3 w = sampleUniformSphere(u);
+    ASSERT_NEAR(length(w), 1.0f, 1e-5f);
+    Vec2 back = invertUniformSphere(w);
+    ASSERT_GE(back.x, 0.0f);
+    ASSERT_LT(back.y, 1.0f);
+    ASSERT_NEAR(back.x, u.x, 2e-6f);
+    Vec3 again = sampleUniformSphere(back);
+    ASSERT_LT(length(again - w), 2e-5f) << "u = (" << u.x << ", " << u.y << ")";
   }
-  double chi2 = 0;
-  int dof = -1;
-  for (size_t i = 0; i < w.size(); ++i) {
-    if (w[i] == 0) {
-      EXPECT_EQ(counts[i], 0);
-      continue;
+  test::Chi2Config cfg;
+  cfg.samples = 400000;
+  auto r = test::chi2Directions(
+      [](Rng& g) {
+        return std::optional<Vec3>(sampleUniformSphere({g.uniform(), g.uniform()}));
+      },
+      [](const Vec3&) { return double(uniformSpherePdf()); }, cfg, "sphere");
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+}
+
+// The cone's pdf against a histogram over the cone itself (theta in
+// [0, thetaMax]), so that tiny cones get as many cells as wide ones; both
+// parameterisations (cosMax and 1 - cosMax) invert.
+TEST(Sampling, UniformConeTriplet) {
+  const std::vector<float> cosMaxes = {0.99999f, 0.999f, 0.9f, 0.0f, -0.5f};
+  const double level = test::sidak(1e-3, int(cosMaxes.size()));
+  for (size_t k = 0; k < cosMaxes.size(); ++k) {
+    const float cosMax = cosMaxes[k], omc = 1 - cosMax;
+    Rng rng(22, 1);
+    for (int i = 0; i < 50000; ++i) {
+      Vec2 u{rng.uniform(), rng.uniform()};
+      Vec3 w = sampleUniformCone(u, cosMax);
+      Vec2 back = invertUniformCone(w, cosMax), backOmc = invertUniformConeOmc(w, omc);
+      ASSERT_NEAR(back.x, u.x, 1e-4f) << "cosMax " << cosMax;
+      ASSERT_EQ(back.x, backOmc.x);
+      ASSERT_EQ(back.y, backOmc.y);
+      Vec3 again = sampleUniformConeOmc(back, omc);
+      // Relative to the cone's size: tiny cones hold tiny differences.
+      ASSERT_LT(length(again - w), 2e-5f * std::max(std::sqrt(omc), 1e-2f) + 1e-7f)
+          << "cosMax " << cosMax << " u = (" << u.x << ", " << u.y << ")";
     }
-    double e = n * w[i] / total;
-    chi2 += (counts[i] - e) * (counts[i] - e) / e;
-    ++dof;
+    EXPECT_EQ(uniformConeOmcPdf(omc), uniformConePdf(cosMax));
+    test::Chi2Config cfg;
+    cfg.samples = 400000;
+    cfg.seed = 23 + k;  // independent tests, for the Sidak correction
+    const double thetaMax = std::acos(double(cosMax));
+    auto r = test::chi2Test(
+        test::sphereDomain(24, 48, thetaMax),
+        [&](Rng& g) {
+          return std::optional<Vec3>(sampleUniformCone({g.uniform(), g.uniform()}, cosMax));
+        },
+        [&](const Vec3&) { return double(uniformConeOmcPdf(omc)); }, cfg, "cone");
+    EXPECT_TRUE(r.message.empty()) << "cosMax " << cosMax << ": " << r.message;
+    EXPECT_GT(r.pValue, level) << "cosMax " << cosMax << " chi2 " << r.statistic << " dof " << r.dof;
+    std::printf("cone cosMax %-8g chi2 %8.1f dof %4d p %.4f\n", cosMax, r.statistic, r.dof, r.pValue);
   }
-  EXPECT_GT(test::chi2Survival(chi2, dof), 1e-3) << "chi2 " << chi2;
+}
+
+TEST(Sampling, UniformTriangleTriplet) {
+  Rng rng(24, 1);
+  for (int i = 0; i < 100000; ++i) {
+    Vec2 u{rng.uniform(), rng.uniform()};
+    Vec2 b = sampleUniformTriangle(u);
+    Vec2 back = invertUniformTriangle(b);
+    ASSERT_NEAR(back.x, u.x, 2e-7f) << "u = (" << u.x << ", " << u.y << ")";
+    ASSERT_NEAR(back.y, u.y, 2e-7f) << "u = (" << u.x << ", " << u.y << ")";
+    Vec2 again = sampleUniformTriangle(back);
+    ASSERT_NEAR(again.x, b.x, 2e-7f);
+    ASSERT_NEAR(again.y, b.y, 2e-7f);
+  }
+  EXPECT_FLOAT_EQ(uniformTrianglePdf(0.25f), 4.0f);
+  // Barycentric (b0, b1) space: the reference triangle has area 1/2, so the
+  // density there is uniformTrianglePdf(1/2) = 2.
+  test::Chi2Config cfg;
+  cfg.samples = 400000;
+  cfg.seed = 25;
+  auto r = test::chi2Test(
+      test::triangleDomain(32),
+      [](Rng& g) {
+        Vec2 b = sampleUniformTriangle({g.uniform(), g.uniform()});
+        return std::optional<Vec3>(Vec3(b.x, b.y, 0));
+      },
+      [](const Vec3& b) {
+        return b.x >= 0 && b.y >= 0 && b.x + b.y <= 1 + 1e-6f ? double(uniformTrianglePdf(0.5f)) : 0.0;
+      },
+      cfg, "triangle");
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+}
+
+TEST(Sampling, ConcentricDiskMatchesPdf) {
+  test::Chi2Config cfg;
+  cfg.samples = 400000;
+  cfg.seed = 26;
+  auto r = test::chi2Test(
+      test::diskDomain(),
+      [](Rng& g) {
+        Vec2 p = sampleUniformDiskConcentric({g.uniform(), g.uniform()});
+        return std::optional<Vec3>(Vec3(p.x, p.y, 0));
+      },
+      [](const Vec3&) { return double(uniformDiskPdf()); }, cfg, "disk");
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+}
+
+// The harness itself: it must reject a wrong pdf, samples where the pdf is
+// zero, and samples outside the domain.
+TEST(Sampling, Chi2HarnessRejectsWrongSamplers) {
+  test::Chi2Config cfg;
+  cfg.samples = 200000;
+  auto uniformSphere = [](Rng& g) { return std::optional<Vec3>(sampleUniformSphere({g.uniform(), g.uniform()})); };
+  // Cosine samples against the uniform hemisphere's pdf: a wrong shape.
+  auto shape = test::chi2Directions(
+      [](Rng& g) {
+        return std::optional<Vec3>(sampleCosineHemisphere({g.uniform(), g.uniform()}));
+      },
+      [](const Vec3& w) { return w.z > 0 ? 1 / (2 * M_PI) : 0.0; }, cfg);
+  EXPECT_LT(shape.pValue, 1e-6);
+  // Sphere samples against a hemisphere's pdf: half land where it is zero.
+  auto zero = test::chi2Directions(
+      uniformSphere, [](const Vec3& w) { return w.z > 0 ? 1 / (2 * M_PI) : 0.0; }, cfg);
+  EXPECT_NE(zero.message.find("where the pdf is zero"), std::string::npos) << zero.message;
+  // Samples outside a cone domain.
+  auto outside = test::chi2Test(
+      test::sphereDomain(8, 16, 0.5), uniformSphere, [](const Vec3&) { return 0.1; }, cfg);
+  EXPECT_NE(outside.message.find("outside"), std::string::npos) << outside.message;
+  // A discrete sampler that picks a zero-pmf item.
+  auto item = test::chi2Discrete([](Rng& g) { return std::optional<size_t>(g.uniform() < 0.5f ? 0 : 1); },
+                                 [](size_t i) { return i == 0 ? 1.0 : 0.0; }, 2, cfg);
+  EXPECT_NE(item.message.find("pmf is 0"), std::string::npos) << item.message;
 }
 
 TEST(Sampling, EmptyDistributionIsSafe) {
@@ -130,6 +278,198 @@ TEST(Sampling, EmptyDistributionIsSafe) {
   std::vector<double> bad = {std::nan(""), -1, INFINITY};
   DiscreteDistribution e(bad);
   EXPECT_EQ(e.total(), 0.0);
+}
+
+// ---- The light sampler ------------------------------------------------------------------
+
+namespace {
+
+// A quad of the plane z = height spanning [x0,x1] x [y0,y1], facing -z (down,
+// toward the origin) or +z.
+void addQuadAt(Scene& s, float height, float x0, float x1, float y0, float y1, bool facesDown, uint32_t material) {
+  if (facesDown)
+    test::addQuad(s, Vec3(x0, y0, height), Vec3(0, y1 - y0, 0), Vec3(x1 - x0, 0, 0), material);
+  else
+    test::addQuad(s, Vec3(x0, y0, height), Vec3(x1 - x0, 0, 0), Vec3(0, y1 - y0, 0), material);
+}
+
+Material emitter(Vec3 Le, bool doubleSided) {
+  Material m;
+  m.emission = Le;
+  m.doubleSided = doubleSided;
+  return m;
+}
+
+// Emitters seen from the origin, none behind another. On the plane z = 1
+// (each listed with its extent there; the quad at z = 2 projects onto it):
+//   0: [-1.5,-0.5] x [-1.0, 0.5], z = 1, faces the origin, Le 1
+//   1: [ 0.2, 1.2] x [ 0.3, 1.1], z = 1, faces the origin, Le (3, 1, 0.5)
+//   2: [-1.0, 0.0] x [ 0.6, 1.5], z = 2, faces away but is double-sided, Le 0.7
+//   3: [ 0.5, 1.5] x [-1.5,-0.5], z = 1, faces away (one-sided: dark from the origin)
+// plus a point light and a spot light. Every edge lies on a multiple of 0.1 on
+// the plane z = 1, the cell size of the histogram below.
+std::unique_ptr<Scene> lightScene() {
+  auto s = std::make_unique<Scene>();
+  s->materials = {emitter(Vec3(1.0f), false), emitter(Vec3(3.0f, 1.0f, 0.5f), false), emitter(Vec3(0.7f), true),
+                  emitter(Vec3(2.0f), false)};
+  addQuadAt(*s, 1, -1.5f, -0.5f, -1.0f, 0.5f, true, 0);
+  addQuadAt(*s, 1, 0.2f, 1.2f, 0.3f, 1.1f, true, 1);
+  addQuadAt(*s, 2, -2.0f, 0.0f, 1.2f, 3.0f, false, 2);
+  addQuadAt(*s, 1, 0.5f, 1.5f, -1.5f, -0.5f, false, 3);
+  PunctualLight point;
+  point.position = Vec3(0, 0, 3);
+  point.intensity = Vec3(2.0f);
+  PunctualLight spot;
+  spot.type = PunctualLight::Type::Spot;
+  spot.position = Vec3(1, 1, 1);
+  spot.direction = Vec3(0, 0, -1);
+  spot.intensity = Vec3(5.0f);
+  spot.cosInner = 0.95f;
+  spot.cosOuter = 0.8f;
+  s->punctualLights = {point, spot};
+  return s;
+}
+
+// The nearest triangle of s that the ray from o along w hits, with the
+// distance (Moller-Trumbore in double).
+std::optional<std::pair<uint32_t, double>> firstHit(const Scene& s, const Vec3& o, const Vec3& w) {
+  std::optional<std::pair<uint32_t, double>> best;
+  for (uint32_t t = 0; t < s.triangleCount(); ++t) {
+    const Vec3 &p0 = s.positions[s.indices[3 * t]], &p1 = s.positions[s.indices[3 * t + 1]],
+               &p2 = s.positions[s.indices[3 * t + 2]];
+    double e1[3] = {p1.x - p0.x, p1.y - p0.y, p1.z - p0.z}, e2[3] = {p2.x - p0.x, p2.y - p0.y, p2.z - p0.z};
+    double d[3] = {w.x, w.y, w.z}, q[3] = {o.x - p0.x, o.y - p0.y, o.z - p0.z};
+    auto cross3 = [](const double* a, const double* b, double* c) {
+      c[0] = a[1] * b[2] - a[2] * b[1], c[1] = a[2] * b[0] - a[0] * b[2], c[2] = a[0] * b[1] - a[1] * b[0];
+    };
+    auto dot3 = [](const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+    double pv[3], qv[3];
+    cross3(d, e2, pv);
+    double det = dot3(e1, pv);
+    if (std::abs(det) < 1e-12) continue;
+    double u = dot3(q, pv) / det;
+    cross3(q, e1, qv);
+    double v = dot3(d, qv) / det, dist = dot3(e2, qv) / det;
+    if (u < 0 || v < 0 || u + v > 1 || dist <= 0) continue;
+    if (!best || dist < best->second) best = {{t, dist}};
+  }
+  return best;
+}
+
+}  // namespace
+
+// The sampler picks each light with the probability pmf() reports, and that
+// probability is the light's share of the total power (pbrt-v4's
+// PowerLightSampler tests). Chi-square of the picked indices against pmf().
+TEST(LightSampler, PickFrequenciesMatchPmfAndPower) {
+  std::unique_ptr<Scene> scene = lightScene();
+  LightSampler lights(*scene);
+  ASSERT_EQ(lights.lightCount(), 10u);  // 8 emissive triangles, 2 punctual lights
+  // Power by hand: pi Le area per emitting side; punctual lights' own power().
+  std::vector<double> power;
+  for (uint32_t t = 0; t < scene->triangleCount(); ++t) {
+    const Material& m = scene->materials[scene->triMaterial[t]];
+    power.push_back(double(luminance(m.emission)) * scene->triangleArea(t) * M_PI * (m.doubleSided ? 2 : 1));
+  }
+  for (const PunctualLight& L : scene->punctualLights) power.push_back(L.power());
+  double total = 0, pmfSum = 0;
+  for (double p : power) total += p;
+  for (size_t i = 0; i < power.size(); ++i) {
+    EXPECT_NEAR(lights.pmf(i), power[i] / total, 1e-6) << "light " << i;
+    pmfSum += lights.pmf(i);
+  }
+  EXPECT_NEAR(pmfSum, 1.0, 1e-6);
+  EXPECT_EQ(lights.pmf(lights.lightCount()), 0.0f);
+
+  std::string bad;
+  test::Chi2Config cfg;
+  cfg.samples = 1000000;
+  cfg.seed = 31;
+  auto r = test::chi2Discrete(
+      [&](Rng& g) -> std::optional<size_t> {
+        std::optional<SampledLight> l = lights.sample(g.uniform());
+        if (!l) {
+          if (bad.empty()) bad = "sample() returned nothing";
+          return std::nullopt;
+        }
+        if (bad.empty() && l->pmf != lights.pmf(l->light))
+          bad = "light " + std::to_string(l->light) + ": sample() says pmf " + std::to_string(l->pmf) +
+                ", pmf() says " + std::to_string(lights.pmf(l->light));
+        return l->light;
+      },
+      [&](size_t i) { return double(lights.pmf(i)); }, lights.lightCount(), cfg, "light_pmf");
+  EXPECT_TRUE(bad.empty()) << bad;
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+  std::printf("light pick frequencies: chi2 %.1f dof %d p %.4f\n", r.statistic, r.dof, r.pValue);
+
+  Scene empty;
+  EXPECT_FALSE(LightSampler(empty).sample(0.5f).has_value());
+}
+
+// sampleLi's directions from a point follow the solid-angle density its pdf
+// (and pdfLi) claims: chi-square on a histogram over the plane z = 1, whose
+// cells the emitters' edges follow (the Jacobian from that plane to solid
+// angle is cos / d^2 = 1 / d^3). Punctual lights (delta) and the quad that
+// faces away give no direction; they count toward the total, so the expected
+// counts sum to less than the sample count. Each sample's pdf must equal
+// pdfLi for the point it chose (relative 1e-4).
+TEST(LightSampler, SampleLiMatchesItsPdf) {
+  std::unique_ptr<Scene> scene = lightScene();
+  LightSampler lights(*scene);
+  const Vec3 p(0.0f);
+
+  test::Domain plane = test::planeDomain({-2, -2}, {2, 2}, 40, 40);
+  plane.name = "plane z = 1";
+  plane.forward = [](double x, double y) { return normalize(Vec3(float(x), float(y), 1)); };
+  plane.jacobian = [](double x, double y) {
+    double d2 = x * x + y * y + 1;
+    return 1 / (d2 * std::sqrt(d2));
+  };
+  plane.backward = [](const Vec3& w) {
+    if (!(w.z > 0)) return std::array<double, 2>{1e30, 1e30};
+    return std::array<double, 2>{double(w.x) / w.z, double(w.y) / w.z};
+  };
+  // The density toward w: pdfLi of the emitter the ray meets, if it emits
+  // toward p (the emitters do not overlap as seen from p).
+  auto density = [&](const Vec3& w) {
+    auto hit = firstHit(*scene, p, w);
+    if (!hit) return 0.0;
+    uint32_t tri = hit->first;
+    const Material& m = scene->materials[scene->triMaterial[tri]];
+    if (dot(scene->triangleNormal(tri), w) >= 0 && !m.doubleSided) return 0.0;
+    return double(lights.pdfLi(p, tri, p + w * float(hit->second)));
+  };
+
+  std::string bad;
+  size_t checked = 0;
+  test::Chi2Config cfg;
+  cfg.samples = 1000000;
+  cfg.seed = 32;
+  cfg.subdiv = 4;
+  auto r = test::chi2Test(
+      plane,
+      [&](Rng& g) -> std::optional<Vec3> {
+        float uLight = g.uniform();
+        Vec2 u{g.uniform(), g.uniform()};
+        std::optional<LightSample> s = lights.sampleLi(p, uLight, u);
+        if (!s || s->delta) return std::nullopt;
+        if (checked < 20000 && bad.empty()) {  // the sample's own pdf against pdfLi
+          ++checked;
+          auto hit = firstHit(*scene, p, s->wi);
+          float expect = hit ? lights.pdfLi(p, hit->first, s->pLight) : 0.0f;
+          if (!hit || std::abs(s->pdf - expect) > 1e-4f * expect)
+            bad = "sample toward (" + std::to_string(s->wi.x) + ", " + std::to_string(s->wi.y) + ", " +
+                  std::to_string(s->wi.z) + "): pdf " + std::to_string(s->pdf) + ", pdfLi " + std::to_string(expect);
+        }
+        return s->wi;
+      },
+      density, cfg, "sample_li");
+  EXPECT_TRUE(bad.empty()) << bad;
+  EXPECT_TRUE(r.message.empty()) << r.message;
+  EXPECT_GT(r.pValue, 1e-3) << "chi2 " << r.statistic << " dof " << r.dof;
+  std::printf("sampleLi directions: chi2 %.1f dof %d p %.4f (pooled %d cells into %d)\n", r.statistic, r.dof, r.pValue,
+              r.pooledIn, r.pooledOut);
 }
 
 TEST(Rng, ForItemIsReproducibleAndDistinct) {

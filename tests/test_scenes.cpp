@@ -37,8 +37,6 @@ using namespace vsl::test;
 
 namespace {
 
-double greyMean(const Image& img) { return channelMean(img); }
-
 // The path tracer's indirect mean at the scene's test resolution.
 Reference ptIndirect(const Loaded& l, int spp, uint64_t seed) {
   return test::ptIndirect(l, l.width, l.height, spp, seed);
@@ -75,9 +73,9 @@ VplMeans vplMeans(const Loaded& l, uint32_t lights, std::initializer_list<uint64
     s.computeVsl = false;  // the fractions are about VPLs; VSL has its own tests
     ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
     ManyLightImages im = gather(l, run.set, run.radii, s);
-    m.clamped += w * greyMean(im.vpl);
-    m.unclamped += w * greyMean(im.vplUnclamped);
-    m.diffuse += w * greyMean(im.vplDiffuse);
+    m.clamped += w * channelMean(im.vpl);
+    m.unclamped += w * channelMean(im.vplUnclamped);
+    m.diffuse += w * channelMean(im.vplDiffuse);
     if (!metal) continue;
     VirtualLightSet onMetal;
     onMetal.paths = run.set.paths;
@@ -87,8 +85,8 @@ VplMeans vplMeans(const Loaded& l, uint32_t lights, std::initializer_list<uint64
         onMetal.lights.push_back(run.set.lights[i]), radii.push_back(run.radii[i]);
     EXPECT_GT(onMetal.lights.size(), run.set.lights.size() / 4) << "the light must reach the metal walls";
     ManyLightImages mi = gather(l, onMetal, radii, s);
-    m.metalUnclamped += w * greyMean(mi.vplUnclamped);
-    m.metalDiffuse += w * greyMean(mi.vplDiffuse);
+    m.metalUnclamped += w * channelMean(mi.vplUnclamped);
+    m.metalDiffuse += w * channelMean(mi.vplDiffuse);
     for (float v : mi.vplDiffuse.rgb) m.metalDiffuseMax = std::max(m.metalDiffuseMax, v);
   }
   return m;

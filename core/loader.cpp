@@ -1,0 +1,1277 @@
+// The glTF 2.0 loader (core/loader.h): tinygltf parses, and everything here
+// checks and flattens. Sections:
+//   [1] accessor reading with bounds checks
+//   [2] materials, textures and extensions
+//   [3] the Loader: node traversal, meshes, cameras, lights
+//   [4] files: the scene file, and URIs only inside the scene's folder
+//   [5] JSON checks before tinygltf: nesting depth, value types
+//   [6] whole-scene checks: instanced size, emitted power
+//   [7] loadScene()
+#include "core/loader.h"
+
+#include <fcntl.h>
+#include <stb_image.h>
+#include <sys/stat.h>
+#include <tiny_gltf.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <string_view>
+
+#include "core/scene.h"
+
+namespace vsl {
+
+namespace {
+
+// Thrown inside the loader only; loadScene() turns it into an Error.
+struct LoadError {
+  std::string message;
+};
+
+std::string quoted(const std::string& kind, int index, const std::string& name) {
+  std::ostringstream s;
+  s << kind << " " << index;
+  if (!name.empty()) s << " '" << name << "'";
+  return s.str();
+}
+
+// ---- [1] Accessors -------------------------------------------------------------
+
+int componentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR:
+      return 1;
+    case TINYGLTF_TYPE_VEC2:
+      return 2;
+    case TINYGLTF_TYPE_VEC3:
+      return 3;
+    case TINYGLTF_TYPE_VEC4:
+      return 4;
+    case TINYGLTF_TYPE_MAT2:
+      return 4;
+    case TINYGLTF_TYPE_MAT3:
+      return 9;
+    case TINYGLTF_TYPE_MAT4:
+      return 16;
+  }
+  return 0;
+}
+
+int componentSize(int ct) {
+  switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
+      return 8;
+  }
+  return 0;
+}
+
+// One component at p, of a glTF componentType; normalized integers map to
+// [0,1] (unsigned) or [-1,1] (signed), per the specification.
+double readComponent(const unsigned char* p, int componentType, bool normalized) {
+  double v = 0;
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      int8_t x;
+      std::memcpy(&x, p, 1);
+      v = normalized ? std::max(x / 127.0, -1.0) : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+      uint8_t x;
+      std::memcpy(&x, p, 1);
+      v = normalized ? x / 255.0 : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t x;
+      std::memcpy(&x, p, 2);
+      v = normalized ? std::max(x / 32767.0, -1.0) : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t x;
+      std::memcpy(&x, p, 2);
+      v = normalized ? x / 65535.0 : x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_INT: {
+      int32_t x;
+      std::memcpy(&x, p, 4);
+      v = x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t x;
+      std::memcpy(&x, p, 4);
+      v = x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float x;
+      std::memcpy(&x, p, 4);
+      v = x;
+      break;
+    }
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
+      double x;
+      std::memcpy(&x, p, 8);
+      v = x;
+      break;
+    }
+  }
+  return v;
+}
+
+// Reads an accessor as doubles, count x components, with every offset checked
+// against its buffer view and buffer.
+// zeroBudget bounds accessors without a bufferView (all zeros): a file must
+// hold at least one byte per element it declares, so a 220-byte file cannot
+// make us zero-fill 100 GB.
+std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, int wantComponents,
+                                 size_t* countOut, uint64_t zeroBudget) {
+  if (index < 0 || size_t(index) >= model.accessors.size())
+    throw LoadError{what + ": accessor " + std::to_string(index) + " does not exist"};
+  const tinygltf::Accessor& acc = model.accessors[index];
+  std::string where = what + " (accessor " + std::to_string(index) + ")";
+  int nc = componentCount(acc.type), cs = componentSize(acc.componentType);
+  if (nc == 0 || cs == 0) throw LoadError{where + ": unknown type or componentType"};
+  if (wantComponents > 0 && nc != wantComponents)
+    throw LoadError{where + ": expected " + std::to_string(wantComponents) + " components, got " + std::to_string(nc)};
+  if (acc.sparse.isSparse) throw LoadError{where + ": sparse accessors are not supported"};
+  size_t count = acc.count;
+  *countOut = count;
+  std::vector<double> out;
+  if (count == 0) return out;
+  if (acc.bufferView < 0) {  // all zeros, per the specification
+    if (count > zeroBudget)
+      throw LoadError{where + ": count " + std::to_string(count) +
+                      " without a bufferView (all zeros) is more than this file of " + std::to_string(zeroBudget) +
+                      " bytes can describe"};
+    out.assign(count * nc, 0.0);
+    return out;
+  }
+  if (size_t(acc.bufferView) >= model.bufferViews.size())
+    throw LoadError{where + ": bufferView " + std::to_string(acc.bufferView) + " does not exist"};
+  const tinygltf::BufferView& bv = model.bufferViews[acc.bufferView];
+  if (bv.buffer < 0 || size_t(bv.buffer) >= model.buffers.size())
+    throw LoadError{where + ": buffer " + std::to_string(bv.buffer) + " does not exist"};
+  const tinygltf::Buffer& buf = model.buffers[bv.buffer];
+  uint64_t elem = uint64_t(nc) * cs;
+  uint64_t stride = bv.byteStride ? bv.byteStride : elem;
+  if (stride < elem) throw LoadError{where + ": byteStride smaller than the element size"};
+  if (uint64_t(bv.byteOffset) + bv.byteLength > buf.data.size())
+    throw LoadError{where + ": bufferView " + std::to_string(acc.bufferView) + " runs past the end of buffer " +
+                    std::to_string(bv.buffer) + " (" + std::to_string(buf.data.size()) + " bytes)"};
+  if (count > (uint64_t(1) << 32)) throw LoadError{where + ": count " + std::to_string(count) + " is absurd"};
+  uint64_t need = uint64_t(acc.byteOffset) + stride * (count - 1) + elem;
+  if (need > bv.byteLength)
+    throw LoadError{where + ": needs " + std::to_string(need) + " bytes but its bufferView has " +
+                    std::to_string(bv.byteLength)};
+  const unsigned char* base = buf.data.data() + bv.byteOffset + acc.byteOffset;
+  out.resize(count * nc);
+  for (size_t i = 0; i < count; ++i) {
+    const unsigned char* e = base + i * stride;
+    for (int c = 0; c < nc; ++c) out[i * nc + c] = readComponent(e + c * cs, acc.componentType, acc.normalized);
+  }
+  return out;
+}
+
+// ---- [2] Materials and textures -------------------------------------------------
+
+double numberOr(const tinygltf::Value& obj, const char* key, double fallback, const std::string& where) {
+  if (!obj.IsObject() || !obj.Has(key)) return fallback;
+  const tinygltf::Value& v = obj.Get(key);
+  if (!v.IsNumber()) throw LoadError{where + ": '" + key + "' must be a number"};
+  return v.GetNumberAsDouble();
+}
+
+int textureIndexOf(const tinygltf::Value& obj, const char* key, const std::string& where) {
+  if (!obj.IsObject() || !obj.Has(key)) return -1;
+  const tinygltf::Value& t = obj.Get(key);
+  if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber())
+    throw LoadError{where + ": '" + key + "' must be an object with an integer 'index'"};
+  return int(t.Get("index").GetNumberAsDouble());
+}
+
+void checkRange(double v, double lo, double hi, const std::string& where, const char* what) {
+  if (!(v >= lo && v <= hi)) {
+    std::ostringstream s;
+    s << where << ": " << what << " must be in [" << lo << "," << hi << "] (got " << v << ")";
+    throw LoadError{s.str()};
+  }
+}
+
+// Coordinates the ray tracer can take: Embree asserts on ray origins beyond
+// about 1.8e18, and squared distances must stay finite in float. 1e9 m keeps
+// every product of two coordinates far inside float range.
+constexpr double kMaxWorldCoordinate = 1e9;
+// Entries of an accumulated node transform (translation or scale).
+constexpr double kMaxTransformEntry = 1e12;
+// Hierarchy limits: real files nest a few dozen levels.
+constexpr size_t kMaxNodeDepth = 1024;
+constexpr size_t kMaxNodeVisits = 1'000'000;
+
+std::string formatPoint(double x, double y, double z) {
+  std::ostringstream s;
+  s << "(" << x << " " << y << " " << z << ")";
+  return s.str();
+}
+
+// Whether the ray tracer can take a world-space point.
+bool worldPointOk(const double p[3]) {
+  return std::abs(p[0]) <= kMaxWorldCoordinate && std::abs(p[1]) <= kMaxWorldCoordinate &&
+         std::abs(p[2]) <= kMaxWorldCoordinate;
+}
+
+// Throws unless a world-space point is one the ray tracer can take (the
+// message is built only on failure: this runs for every vertex).
+void checkWorldPoint(const double p[3], const std::string& what) {
+  if (worldPointOk(p)) return;
+  std::ostringstream s;
+  s << what << " lies at " << formatPoint(p[0], p[1], p[2]) << " in world space, outside +-" << kMaxWorldCoordinate
+    << " (the ray tracer cannot represent it)";
+  throw LoadError{s.str()};
+}
+
+// xf applied to a point, in double (no float overflow before the range check).
+void transformPoint(const Mat4& xf, double x, double y, double z, double out[3]) {
+  for (int r = 0; r < 3; ++r) out[r] = xf.at(r, 0) * x + xf.at(r, 1) * y + xf.at(r, 2) * z + xf.at(r, 3);
+}
+
+// A direction from the file made unit length in double; zero when it has none.
+Vec3 unitOrZero(double x, double y, double z) {
+  double len = std::sqrt(x * x + y * y + z * z);
+  if (!(len > 0) || !std::isfinite(len)) return Vec3(0.0f);
+  return Vec3(float(x / len), float(y / len), float(z / len));
+}
+
+struct Loader {
+  const tinygltf::Model& model;
+  Scene& scene;
+  std::string file;
+  std::vector<int> textureSlot;  // glTF texture index -> Scene::textures index
+  std::set<std::string> warned;
+  uint64_t inputBytes = 0;  // the file and its buffers: bounds zero-filled accessors
+  uint64_t texels = 0;      // texels of all textures so far
+  uint64_t maxTexels = LoadOptions{}.maxTexels;
+  size_t maxTriangles = LoadOptions{}.maxTriangles;
+
+  void warn(const std::string& m) {
+    if (warned.insert(m).second) scene.warnings.push_back(m);
+  }
+
+  int texture(int gltfIndex, const std::string& where) {
+    if (gltfIndex < 0) return -1;
+    if (size_t(gltfIndex) >= model.textures.size())
+      throw LoadError{where + ": texture " + std::to_string(gltfIndex) + " does not exist"};
+    if (textureSlot[gltfIndex] >= 0) return textureSlot[gltfIndex];
+    const tinygltf::Texture& t = model.textures[gltfIndex];
+    if (t.source < 0 || size_t(t.source) >= model.images.size())
+      throw LoadError{where + ": texture " + std::to_string(gltfIndex) + " has no valid image source"};
+    const tinygltf::Image& img = model.images[t.source];
+    if (img.width <= 0 || img.height <= 0 || img.component < 1 || img.component > 4 ||
+        (img.bits != 8 && img.bits != 16) ||
+        img.image.size() < size_t(img.width) * img.height * img.component * (img.bits / 8))
+      throw LoadError{where + ": image " + std::to_string(t.source) + " could not be decoded"};
+    if (!t.extensions.empty())
+      for (auto& [k, v] : t.extensions)
+        warn(quoted("texture", gltfIndex, t.name) + ": extension " + k + " is not supported (ignored)");
+    // Every texture is expanded to float RGBA (16 bytes a texel), also when
+    // many textures share one image: bound the total before allocating.
+    texels += uint64_t(img.width) * uint64_t(img.height);
+    if (texels > maxTexels)
+      throw LoadError{where + ": textures would hold more than " + std::to_string(maxTexels) +
+                      " texels in total (16 bytes each as float RGBA)"};
+    Texture tex;
+    tex.name = img.name.empty() ? img.uri : img.name;
+    tex.width = img.width;
+    tex.height = img.height;
+    tex.rgba.assign(size_t(img.width) * img.height * 4, 1.0f);
+    size_t n = size_t(img.width) * img.height;
+    for (size_t i = 0; i < n; ++i)
+      for (int c = 0; c < img.component; ++c) {
+        float v;
+        if (img.bits == 8) {
+          v = img.image[i * img.component + c] / 255.0f;
+        } else {
+          uint16_t x;
+          std::memcpy(&x, &img.image[(i * img.component + c) * 2], 2);
+          v = x / 65535.0f;
+        }
+        // Grey images replicate into RGB.
+        if (img.component <= 2 && c == 0)
+          tex.rgba[i * 4] = tex.rgba[i * 4 + 1] = tex.rgba[i * 4 + 2] = v;
+        else if (img.component == 2 && c == 1)
+          tex.rgba[i * 4 + 3] = v;
+        else
+          tex.rgba[i * 4 + c] = v;
+      }
+    textureSlot[gltfIndex] = int(scene.textures.size());
+    scene.textures.push_back(std::move(tex));
+    return textureSlot[gltfIndex];
+  }
+
+  void checkTexCoord(const tinygltf::TextureInfo& ti, const std::string& where, const char* slot) {
+    if (ti.index >= 0 && ti.texCoord != 0)
+      warn(where + ": " + slot + " uses TEXCOORD_" + std::to_string(ti.texCoord) + "; only TEXCOORD_0 is modelled");
+    if (ti.index >= 0)
+      for (auto& [k, v] : ti.extensions) warn(where + ": " + slot + " extension " + k + " is not supported (ignored)");
+  }
+
+  Material material(int index) {
+    const tinygltf::Material& gm = model.materials[index];
+    std::string where = file + ": " + quoted("material", index, gm.name);
+    Material m;
+    m.name = gm.name.empty() ? "material " + std::to_string(index) : gm.name;
+    const auto& pbr = gm.pbrMetallicRoughness;
+    if (pbr.baseColorFactor.size() != 4) throw LoadError{where + ": baseColorFactor must have 4 components"};
+    for (int c = 0; c < 4; ++c) checkRange(pbr.baseColorFactor[c], 0, 1, where, "baseColorFactor");
+    m.baseColor = Vec3(float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]), float(pbr.baseColorFactor[2]));
+    checkRange(pbr.metallicFactor, 0, 1, where, "metallicFactor");
+    checkRange(pbr.roughnessFactor, 0, 1, where, "roughnessFactor");
+    m.metallic = float(pbr.metallicFactor);
+    m.roughness = float(pbr.roughnessFactor);
+    m.doubleSided = gm.doubleSided;
+    m.baseColorTexture = texture(pbr.baseColorTexture.index, where + " baseColorTexture");
+    m.metallicRoughnessTexture = texture(pbr.metallicRoughnessTexture.index, where + " metallicRoughnessTexture");
+    m.emissiveTexture = texture(gm.emissiveTexture.index, where + " emissiveTexture");
+    checkTexCoord(pbr.baseColorTexture, where, "baseColorTexture");
+    checkTexCoord(pbr.metallicRoughnessTexture, where, "metallicRoughnessTexture");
+    checkTexCoord(gm.emissiveTexture, where, "emissiveTexture");
+
+    Vec3 emissive(0.0f);
+    if (!gm.emissiveFactor.empty()) {
+      if (gm.emissiveFactor.size() != 3) throw LoadError{where + ": emissiveFactor must have 3 components"};
+      for (int c = 0; c < 3; ++c) checkRange(gm.emissiveFactor[c], 0, 1, where, "emissiveFactor");
+      emissive = Vec3(float(gm.emissiveFactor[0]), float(gm.emissiveFactor[1]), float(gm.emissiveFactor[2]));
+    }
+    float strength = 1;
+    for (const auto& [name, ext] : gm.extensions) {
+      std::string ew = where + " " + name;
+      if (name == "KHR_materials_emissive_strength") {
+        strength = float(numberOr(ext, "emissiveStrength", 1.0, ew));
+        checkRange(strength, 0, 1e9, ew, "emissiveStrength");
+      } else if (name == "KHR_materials_anisotropy") {
+        m.anisotropyStrength = float(numberOr(ext, "anisotropyStrength", 0.0, ew));
+        checkRange(m.anisotropyStrength, 0, 1, ew, "anisotropyStrength");
+        m.anisotropyRotation = float(numberOr(ext, "anisotropyRotation", 0.0, ew));
+        if (!std::isfinite(m.anisotropyRotation)) throw LoadError{ew + ": anisotropyRotation must be finite"};
+        m.anisotropyTexture = texture(textureIndexOf(ext, "anisotropyTexture", ew), ew + " anisotropyTexture");
+      } else if (name == "KHR_materials_specular") {
+        m.specularWeight = float(numberOr(ext, "specularFactor", 1.0, ew));
+        checkRange(m.specularWeight, 0, 1, ew, "specularFactor");
+        if (ext.IsObject() &&
+            (ext.Has("specularColorFactor") || ext.Has("specularTexture") || ext.Has("specularColorTexture")))
+          warn(ew + ": only specularFactor is modelled (specular colour and textures ignored)");
+      } else {
+        warn(where + ": extension " + name + " is not modelled (ignored)");
+      }
+    }
+    m.emission = emissive * strength;
+    if (gm.normalTexture.index >= 0) warn(where + ": normalTexture is not modelled (ignored)");
+    if (gm.occlusionTexture.index >= 0)
+      warn(where + ": occlusionTexture is not used (a path tracer computes occlusion itself)");
+    if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
+      warn(where + ": alphaMode " + gm.alphaMode + " is not modelled (rendered opaque)");
+    return m;
+  }
+
+  // ---- [3] Nodes, meshes, cameras, lights ---------------------------------------
+
+  static Mat4 localTransform(const tinygltf::Node& n, const std::string& where) {
+    Mat4 m;
+    if (n.matrix.size() == 16) {
+      for (int i = 0; i < 16; ++i) m.m[i] = n.matrix[i];
+    } else if (!n.matrix.empty()) {
+      throw LoadError{where + ": matrix must have 16 numbers"};
+    } else {
+      Mat4 t, r, s;
+      if (n.translation.size() == 3)
+        for (int i = 0; i < 3; ++i) t.at(i, 3) = n.translation[i];
+      else if (!n.translation.empty())
+        throw LoadError{where + ": translation must have 3 numbers"};
+      if (n.rotation.size() == 4) {
+        double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
+        double len = std::sqrt(x * x + y * y + z * z + w * w);
+        if (!(len > 0)) throw LoadError{where + ": rotation quaternion has zero length"};
+        x /= len, y /= len, z /= len, w /= len;
+        r.at(0, 0) = 1 - 2 * (y * y + z * z);
+        r.at(0, 1) = 2 * (x * y - z * w);
+        r.at(0, 2) = 2 * (x * z + y * w);
+        r.at(1, 0) = 2 * (x * y + z * w);
+        r.at(1, 1) = 1 - 2 * (x * x + z * z);
+        r.at(1, 2) = 2 * (y * z - x * w);
+        r.at(2, 0) = 2 * (x * z - y * w);
+        r.at(2, 1) = 2 * (y * z + x * w);
+        r.at(2, 2) = 1 - 2 * (x * x + y * y);
+      } else if (!n.rotation.empty())
+        throw LoadError{where + ": rotation must have 4 numbers"};
+      if (n.scale.size() == 3)
+        for (int i = 0; i < 3; ++i) s.at(i, i) = n.scale[i];
+      else if (!n.scale.empty())
+        throw LoadError{where + ": scale must have 3 numbers"};
+      m = t * r * s;
+    }
+    for (double v : m.m)
+      if (!std::isfinite(v)) throw LoadError{where + ": transform is not finite"};
+    return m;
+  }
+
+  // A primitive's vertex attributes, as read from the file (object space).
+  struct Attributes {
+    size_t count = 0;  // vertices
+    std::vector<double> pos, nrm, tan, uv;
+    bool hasN = false, hasT = false, hasUV = false;
+  };
+
+  // One mesh primitive under world transform xf: its triangles, with their
+  // vertices in world space, appended to the scene.
+  void primitive(const tinygltf::Mesh& mesh, int meshIndex, int primIndex, const Mat4& xf,
+                 const std::string& nodeWhere) {
+    const tinygltf::Primitive& prim = mesh.primitives[primIndex];
+    std::string where =
+        nodeWhere + " " + quoted("mesh", meshIndex, mesh.name) + " primitive " + std::to_string(primIndex);
+    int mode = triangleMode(prim, where);
+    if (mode < 0) return;
+    Attributes at = attributes(prim, where);
+    if (at.count == 0) return;
+    std::vector<uint32_t> tris = triangulate(mode, indices(prim, at.count, where), at.count, where);
+    uint32_t matIndex = primitiveMaterial(prim, at, where);
+    bool flip = xf.det3() < 0;  // mirrored transforms reverse the winding
+    uint32_t base = appendVertices(at, xf, flip, where);
+    // Generate tangents from UV derivatives where the file has none.
+    if (!at.hasT && at.hasUV && scene.materials[matIndex].anisotropyStrength > 0) generateTangents(base, tris);
+    appendTriangles(base, tris, flip, matIndex, where);
+  }
+
+  // The primitive's mode if it holds triangles, or -1 (with a warning) for
+  // points and lines; warns about what it carries that is not modelled.
+  int triangleMode(const tinygltf::Primitive& prim, const std::string& where) {
+    int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+        mode == TINYGLTF_MODE_LINE_STRIP) {
+      warn(where + ": points and lines are not modelled (skipped)");
+      return -1;
+    }
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+      throw LoadError{where + ": unknown primitive mode " + std::to_string(mode)};
+    if (!prim.targets.empty()) warn(where + ": morph targets are not modelled (base shape used)");
+    for (auto& [k, v] : prim.extensions) warn(where + ": extension " + k + " is not supported (ignored)");
+    for (auto& [name, acc] : prim.attributes)
+      if (name != "POSITION" && name != "NORMAL" && name != "TANGENT" && name != "TEXCOORD_0" &&
+          name.rfind("TEXCOORD_", 0) != 0 && name.rfind("COLOR_", 0) != 0 && name.rfind("JOINTS_", 0) != 0 &&
+          name.rfind("WEIGHTS_", 0) != 0 && name.rfind("_", 0) != 0)
+        warn(where + ": attribute " + name + " is not used");
+    if (prim.attributes.count("COLOR_0")) warn(where + ": vertex colours (COLOR_0) are not modelled (ignored)");
+    return mode;
+  }
+
+  // POSITION (finite), and NORMAL, TANGENT and TEXCOORD_0 where present, each
+  // with POSITION's count. count is 0 for an empty primitive.
+  Attributes attributes(const tinygltf::Primitive& prim, const std::string& where) {
+    Attributes at;
+    auto it = prim.attributes.find("POSITION");
+    if (it == prim.attributes.end()) throw LoadError{where + ": has no POSITION attribute"};
+    at.pos = readAccessor(model, it->second, where + " POSITION", 3, &at.count, inputBytes);
+    if (at.count == 0) return at;
+    for (size_t i = 0; i < at.pos.size(); ++i)
+      if (!std::isfinite(at.pos[i])) throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
+    auto optional = [&](const char* name, int comps, std::vector<double>& out) {
+      auto a = prim.attributes.find(name);
+      if (a == prim.attributes.end()) return false;
+      size_t n = 0;
+      out = readAccessor(model, a->second, where + " " + name, comps, &n, inputBytes);
+      if (n != at.count)
+        throw LoadError{where + ": " + name + " has " + std::to_string(n) + " entries but POSITION has " +
+                        std::to_string(at.count)};
+      return true;
+    };
+    at.hasN = optional("NORMAL", 3, at.nrm);
+    at.hasT = optional("TANGENT", 4, at.tan);
+    at.hasUV = optional("TEXCOORD_0", 2, at.uv);
+    return at;
+  }
+
+  // The primitive's vertex indices (unsigned, each below nv), or 0..nv-1
+  // when it has none.
+  std::vector<uint32_t> indices(const tinygltf::Primitive& prim, size_t nv, const std::string& where) {
+    std::vector<uint32_t> idx;
+    if (prim.indices < 0) {
+      idx.resize(nv);
+      for (size_t i = 0; i < nv; ++i) idx[i] = uint32_t(i);
+      return idx;
+    }
+    size_t ni = 0;
+    std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni, inputBytes);
+    const auto& acc = model.accessors[prim.indices];
+    if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      throw LoadError{where + ": indices must be unsigned integers"};
+    idx.resize(ni);
+    for (size_t i = 0; i < ni; ++i) {
+      if (raw[i] >= double(nv))
+        throw LoadError{where + ": index " + std::to_string(uint64_t(raw[i])) + " at position " + std::to_string(i) +
+                        " is out of range (" + std::to_string(nv) + " vertices)"};
+      idx[i] = uint32_t(raw[i]);
+    }
+    return idx;
+  }
+
+  // Triangle lists, strips and fans as a list of index triples, after
+  // bounding the size of the whole scene.
+  std::vector<uint32_t> triangulate(int mode, const std::vector<uint32_t>& idx, size_t nv, const std::string& where) {
+    // Bound the whole scene, not only this file's bytes: shared meshes under
+    // a DAG of nodes multiply (20 levels of 882 triangles are billions).
+    size_t newTris = mode == TINYGLTF_MODE_TRIANGLES ? idx.size() / 3 : idx.size() >= 3 ? idx.size() - 2 : 0;
+    if (scene.triangleCount() + newTris > maxTriangles || scene.positions.size() + nv > 3 * maxTriangles)
+      throw LoadError{where + ": the scene expands to more than " + std::to_string(maxTriangles) +
+                      " triangles (meshes instanced through the node hierarchy multiply); refusing to load it"};
+    std::vector<uint32_t> tris;
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      if (idx.size() % 3 != 0) warn(where + ": index count is not a multiple of 3 (trailing indices ignored)");
+      tris.assign(idx.begin(), idx.begin() + (idx.size() / 3) * 3);
+      return tris;
+    }
+    for (size_t i = 2; i < idx.size(); ++i) {
+      if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+        if (i % 2 == 0)
+          tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
+        else
+          tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
+      } else {
+        tris.insert(tris.end(), {idx[0], idx[i - 1], idx[i]});
+      }
+    }
+    return tris;
+  }
+
+  // The scene material of the primitive (glTF's default material when it
+  // names none).
+  uint32_t primitiveMaterial(const tinygltf::Primitive& prim, const Attributes& at, const std::string& where) {
+    uint32_t matIndex;
+    if (prim.material < 0) {
+      matIndex = uint32_t(model.materials.size());  // the default material slot
+    } else if (size_t(prim.material) >= model.materials.size()) {
+      throw LoadError{where + ": material " + std::to_string(prim.material) + " does not exist"};
+    } else {
+      matIndex = uint32_t(prim.material);
+    }
+    const Material& mat = scene.materials[matIndex];
+    if (mat.anisotropyStrength > 0 && !at.hasT && !at.hasUV)
+      warn(where + ": anisotropic material '" + mat.name +
+           "' on a mesh with neither TANGENT nor TEXCOORD_0; the anisotropy direction is arbitrary");
+    return matIndex;
+  }
+
+  // Appends the vertices transformed to world space; returns the index of
+  // the first.
+  uint32_t appendVertices(const Attributes& at, const Mat4& xf, bool flip, const std::string& where) {
+    uint32_t base = uint32_t(scene.positions.size());
+    for (size_t i = 0; i < at.count; ++i) {
+      double world[3];
+      transformPoint(xf, at.pos[3 * i], at.pos[3 * i + 1], at.pos[3 * i + 2], world);
+      if (!worldPointOk(world)) checkWorldPoint(world, where + ": POSITION[" + std::to_string(i) + "]");
+      Vec3 p{float(world[0]), float(world[1]), float(world[2])};
+      scene.positions.push_back(p);
+      scene.boundsMin = min(scene.boundsMin, p);
+      scene.boundsMax = max(scene.boundsMax, p);
+      Vec3 n(0.0f);
+      if (at.hasN) {
+        n = xf.normal(unitOrZero(at.nrm[3 * i], at.nrm[3 * i + 1], at.nrm[3 * i + 2]));
+        if (!isFinite(n)) n = Vec3(0.0f);
+      }
+      scene.normals.push_back(n);
+      Vec3 t(0.0f);
+      float s = 1;
+      if (at.hasT) {
+        t = normalize(xf.vector(unitOrZero(at.tan[4 * i], at.tan[4 * i + 1], at.tan[4 * i + 2])));
+        if (!isFinite(t)) t = Vec3(0.0f);
+        s = at.tan[4 * i + 3] < 0 ? -1.0f : 1.0f;
+        if (flip) s = -s;
+      }
+      scene.tangents.push_back(t);
+      scene.tangentSigns.push_back(s);
+      scene.uvs.push_back(at.hasUV ? Vec2{float(at.uv[2 * i]), float(at.uv[2 * i + 1])} : Vec2{0, 0});
+    }
+    return base;
+  }
+
+  // Tangents from UV derivatives, summed over the triangles at each vertex
+  // from base on, for anisotropic materials on meshes without TANGENT.
+  void generateTangents(uint32_t base, const std::vector<uint32_t>& tris) {
+    for (size_t k = 0; k + 2 < tris.size(); k += 3) {
+      uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
+      Vec3 e1 = scene.positions[b] - scene.positions[a], e2 = scene.positions[c] - scene.positions[a];
+      float du1 = scene.uvs[b].x - scene.uvs[a].x, dv1 = scene.uvs[b].y - scene.uvs[a].y;
+      float du2 = scene.uvs[c].x - scene.uvs[a].x, dv2 = scene.uvs[c].y - scene.uvs[a].y;
+      float det = du1 * dv2 - du2 * dv1;
+      if (std::abs(det) < 1e-12f) continue;
+      Vec3 t = (e1 * dv2 - e2 * dv1) / det;
+      for (uint32_t v : {a, b, c}) scene.tangents[v] += t;
+    }
+    for (uint32_t v = base; v < scene.positions.size(); ++v) {
+      Vec3 t = normalize(scene.tangents[v]);
+      scene.tangents[v] = isFinite(t) ? t : Vec3(0.0f);
+    }
+  }
+
+  // Appends the triangles (winding reversed under a mirroring transform),
+  // skipping those of zero area with one warning.
+  void appendTriangles(uint32_t base, const std::vector<uint32_t>& tris, bool flip, uint32_t matIndex,
+                       const std::string& where) {
+    size_t degenerate = 0;
+    for (size_t k = 0; k + 2 < tris.size(); k += 3) {
+      uint32_t a = base + tris[k], b = base + tris[k + 1], c = base + tris[k + 2];
+      if (flip) std::swap(b, c);
+      Vec3 cr = cross(scene.positions[b] - scene.positions[a], scene.positions[c] - scene.positions[a]);
+      if (!(lengthSquared(cr) > 0)) {
+        ++degenerate;
+        continue;
+      }
+      scene.indices.insert(scene.indices.end(), {a, b, c});
+      scene.triMaterial.push_back(matIndex);
+    }
+    if (degenerate > 0) warn(where + ": " + std::to_string(degenerate) + " zero-area triangle(s) skipped");
+  }
+
+  void light(int lightIndex, const Mat4& xf, const std::string& where) {
+    if (lightIndex < 0 || size_t(lightIndex) >= model.lights.size())
+      throw LoadError{where + ": KHR_lights_punctual light " + std::to_string(lightIndex) + " does not exist"};
+    const tinygltf::Light& gl = model.lights[lightIndex];
+    std::string lw = file + ": " + quoted("light", lightIndex, gl.name);
+    PunctualLight L;
+    L.name = gl.name.empty() ? "light " + std::to_string(lightIndex) : gl.name;
+    Vec3 color(1.0f);
+    if (!gl.color.empty()) {
+      if (gl.color.size() != 3) throw LoadError{lw + ": color must have 3 components"};
+      for (int c = 0; c < 3; ++c) checkRange(gl.color[c], 0, 1, lw, "color");
+      color = Vec3(float(gl.color[0]), float(gl.color[1]), float(gl.color[2]));
+    }
+    checkRange(gl.intensity, 0, 1e12, lw, "intensity");
+    L.intensity = color * float(gl.intensity);
+    double world[3];
+    transformPoint(xf, 0, 0, 0, world);
+    checkWorldPoint(world, lw + ": position");
+    L.position = Vec3(float(world[0]), float(world[1]), float(world[2]));
+    L.direction = normalize(xf.vector(Vec3(0, 0, -1)));
+    if (gl.range > 0) warn(lw + ": range is not modelled (inverse-square falloff without cut-off)");
+    if (gl.type == "point") {
+      L.type = PunctualLight::Type::Point;
+    } else if (gl.type == "spot") {
+      L.type = PunctualLight::Type::Spot;
+      double inner = gl.spot.innerConeAngle, outer = gl.spot.outerConeAngle;
+      if (!(inner >= 0 && inner < outer && outer <= kPi / 2 + 1e-6))
+        throw LoadError{lw + ": spot cone angles must satisfy 0 <= inner < outer <= pi/2 (got " +
+                        std::to_string(inner) + ", " + std::to_string(outer) + ")"};
+      L.cosInner = float(std::cos(inner));
+      L.cosOuter = float(std::cos(outer));
+    } else if (gl.type == "directional") {
+      warn(lw + ": directional lights are not modelled (skipped)");
+      return;
+    } else {
+      throw LoadError{lw + ": unknown light type '" + gl.type + "'"};
+    }
+    if (!isFinite(L.position) || !isFinite(L.direction)) throw LoadError{lw + ": transform is not finite"};
+    if (luminance(L.intensity) > 0) scene.punctualLights.push_back(L);
+  }
+
+  void camera(int camIndex, const Mat4& xf, const std::string& where, const std::string& wanted) {
+    if (camIndex < 0 || size_t(camIndex) >= model.cameras.size())
+      throw LoadError{where + ": camera " + std::to_string(camIndex) + " does not exist"};
+    const tinygltf::Camera& gc = model.cameras[camIndex];
+    if (scene.cameraFromFile) return;
+    if (!wanted.empty() && gc.name != wanted) return;
+    std::string cw = file + ": " + quoted("camera", camIndex, gc.name);
+    if (gc.type != "perspective") {
+      warn(cw + ": " + gc.type + " cameras are not modelled (skipped)");
+      return;
+    }
+    checkRange(gc.perspective.yfov, 1e-4, kPi - 1e-4, cw, "yfov");
+    // aspectRatio sets the default image height (512 / aspect): keep both
+    // sides of the default image within [16, 16384] (0 = not given).
+    if (gc.perspective.aspectRatio != 0) checkRange(gc.perspective.aspectRatio, 1.0 / 32, 32, cw, "aspectRatio");
+    Camera c;
+    c.name = gc.name.empty() ? "camera " + std::to_string(camIndex) : gc.name;
+    double world[3];
+    transformPoint(xf, 0, 0, 0, world);
+    checkWorldPoint(world, cw + ": position");
+    c.position = Vec3(float(world[0]), float(world[1]), float(world[2]));
+    c.forward = normalize(xf.vector(Vec3(0, 0, -1)));
+    c.up = xf.vector(Vec3(0, 1, 0));
+    c.right = normalize(cross(c.forward, c.up));
+    c.up = cross(c.right, c.forward);
+    if (!isFinite(c.position) || !isFinite(c.right) || lengthSquared(c.right) < 0.5f)
+      throw LoadError{cw + ": camera transform is degenerate"};
+    c.yfov = float(gc.perspective.yfov);
+    c.aspect = float(gc.perspective.aspectRatio);
+    scene.camera = c;
+    scene.cameraFromFile = true;
+  }
+
+  // One node's own content: its meshes, camera and lights under world transform xf.
+  void nodeContent(int index, const Mat4& xf, const std::string& where, const LoadOptions& opts) {
+    const tinygltf::Node& n = model.nodes[index];
+    if (n.skin >= 0) warn(where + ": skins are not modelled (rendered in bind pose)");
+    if (n.mesh >= 0) {
+      if (size_t(n.mesh) >= model.meshes.size())
+        throw LoadError{where + ": mesh " + std::to_string(n.mesh) + " does not exist"};
+      const tinygltf::Mesh& mesh = model.meshes[n.mesh];
+      for (size_t p = 0; p < mesh.primitives.size(); ++p) primitive(mesh, n.mesh, int(p), xf, where);
+    }
+    if (n.camera >= 0) camera(n.camera, xf, where, opts.cameraName);
+    for (auto& [name, ext] : n.extensions) {
+      if (name == "KHR_lights_punctual") {
+        if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber())
+          throw LoadError{where + ": KHR_lights_punctual needs an integer 'light'"};
+        light(int(ext.Get("light").GetNumberAsDouble()), xf, where);
+      } else {
+        warn(where + ": extension " + name + " is not supported (ignored)");
+      }
+    }
+  }
+
+  // Depth-first walk of the hierarchy below root, with an explicit stack (a
+  // deep hierarchy must not overflow the call stack), a depth limit, cycle
+  // detection and a bound on node visits (shared subtrees multiply).
+  void walk(int root, std::vector<char>& onPath, size_t& visits, const LoadOptions& opts) {
+    struct Frame {
+      int node;
+      Mat4 xf;
+      size_t nextChild = 0;
+    };
+    std::vector<Frame> stack;
+    auto enter = [&](int index, const Mat4& parent) {
+      if (index < 0 || size_t(index) >= model.nodes.size())
+        throw LoadError{file + ": node " + std::to_string(index) + " does not exist"};
+      const tinygltf::Node& n = model.nodes[index];
+      std::string where = file + ": " + quoted("node", index, n.name);
+      if (onPath[index]) throw LoadError{where + ": the node hierarchy is recursive (a node is its own ancestor)"};
+      if (stack.size() >= kMaxNodeDepth)
+        throw LoadError{where + ": the node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) + " levels"};
+      if (++visits > kMaxNodeVisits)
+        throw LoadError{file + ": the node hierarchy has more than " + std::to_string(kMaxNodeVisits) +
+                        " node instances (shared subtrees multiply)"};
+      Mat4 xf = parent * localTransform(n, where);
+      for (double v : xf.m)
+        if (!(std::abs(v) <= kMaxTransformEntry)) {
+          std::ostringstream m;
+          m << where << ": its world transform has an entry of " << v << ", outside +-" << kMaxTransformEntry
+            << " (content there cannot be ray traced)";
+          throw LoadError{m.str()};
+        }
+      onPath[index] = 1;
+      nodeContent(index, xf, where, opts);
+      stack.push_back({index, xf});
+    };
+    enter(root, Mat4());
+    while (!stack.empty()) {
+      Frame& top = stack.back();
+      const std::vector<int>& children = model.nodes[top.node].children;
+      if (top.nextChild < children.size()) {
+        int child = children[top.nextChild++];
+        Mat4 xf = top.xf;  // enter() may reallocate the stack
+        enter(child, xf);
+      } else {
+        onPath[top.node] = 0;
+        stack.pop_back();
+      }
+    }
+  }
+};
+
+// ---- [4] Files: the scene file, and URIs only inside the scene's folder ---------
+
+constexpr uint64_t kMaxFileBytes = uint64_t(2) << 30;  // tinygltf takes sizes as unsigned int
+constexpr uint64_t kMaxTexturePixels = uint64_t(1) << 26;
+
+// Reads a regular file of at most kMaxFileBytes. A FIFO, device, socket or
+// directory is refused before any read (a FIFO would block, /dev/zero never
+// ends). The error is the bare reason, without the path.
+Result<std::vector<unsigned char>> readRegularFile(const std::string& path) {
+  int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) return Error(errno == ENOENT ? "no such file" : std::strerror(errno));
+  struct FdCloser {
+    int fd;
+    ~FdCloser() { ::close(fd); }
+  } closer{fd};
+  struct stat st;
+  if (::fstat(fd, &st) != 0) return Error(std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) return Error("it is a directory");
+  if (!S_ISREG(st.st_mode)) return Error("not a regular file (a FIFO, device or socket)");
+  if (uint64_t(st.st_size) > kMaxFileBytes) return Error("larger than 2 GiB");
+  std::vector<unsigned char> out(size_t(st.st_size));
+  size_t got = 0;
+  while (got < out.size()) {
+    ssize_t k = ::read(fd, out.data() + got, out.size() - got);
+    if (k < 0 && errno == EINTR) continue;
+    if (k < 0) return Error(std::strerror(errno));
+    if (k == 0) break;  // the file shrank
+    got += size_t(k);
+  }
+  out.resize(got);
+  return out;
+}
+
+// tinygltf's file callbacks. tinygltf tries basedir/uri and then ./uri; we
+// accept only the first candidate, so nothing falls back to the current
+// directory, and resolve it lexically and through symlinks inside the
+// scene's folder. Errors about refused URIs say nothing about the file they
+// name (whether it exists, its size).
+struct UriPolicy {
+  std::filesystem::path root;  // the scene's folder, canonical
+  std::string rootPrefix;      // root + "/"
+};
+
+std::string uriExpandPath(const std::string& path, void*) { return path; }  // no ~ or $VAR expansion
+
+bool uriFileExists(const std::string& path, void* user) {
+  const auto* policy = static_cast<const UriPolicy*>(user);
+  return path.rfind(policy->rootPrefix, 0) == 0;
+}
+
+bool insideRoot(const std::filesystem::path& p, const std::filesystem::path& root) {
+  std::filesystem::path rel = p.lexically_relative(root);
+  return !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
+}
+
+bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  const auto* policy = static_cast<const UriPolicy*>(user);
+  std::string uri = path.rfind(policy->rootPrefix, 0) == 0 ? path.substr(policy->rootPrefix.size()) : path;
+  auto fail = [&](const std::string& why) {
+    if (err) *err += "URI '" + uri + "': " + why + "\n";
+    return false;
+  };
+  if (uri.empty()) return fail("empty");
+  if (uri[0] == '/' || uri[0] == '\\')
+    return fail("absolute paths are refused; URIs are resolved inside the scene's folder only");
+  std::filesystem::path candidate = (policy->root / uri).lexically_normal();
+  if (!insideRoot(candidate, policy->root)) return fail("points outside the scene's folder (refused)");
+  std::error_code ec;
+  std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
+  if (ec || !insideRoot(resolved, policy->root)) return fail("points outside the scene's folder (refused)");
+  Result<std::vector<unsigned char>> bytes = readRegularFile(resolved.string());
+  if (!bytes) return fail("cannot be read (" + bytes.error() + ")");
+  *out = std::move(bytes).value();
+  return true;
+}
+
+bool uriWriteFile(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "the loader never writes files\n";
+  return false;
+}
+
+// Checks the decoded size of an image before tinygltf decodes it.
+bool loadImageBounded(tinygltf::Image* image, const int index, std::string* err, std::string* warn, int reqWidth,
+                      int reqHeight, const unsigned char* bytes, int size, void*) {
+  int w = 0, h = 0, comp = 0;
+  if (stbi_info_from_memory(bytes, size, &w, &h, &comp) && uint64_t(w) * uint64_t(h) > kMaxTexturePixels) {
+    if (err)
+      *err += "image " + std::to_string(index) + ": " + std::to_string(w) + "x" + std::to_string(h) +
+              " pixels is more than the texture limit of " + std::to_string(kMaxTexturePixels) + " pixels\n";
+    return false;
+  }
+  return tinygltf::LoadImageData(image, index, err, warn, reqWidth, reqHeight, bytes, size, nullptr);
+}
+
+// ---- [5] JSON checks before tinygltf: nesting depth, value types -----------------
+
+constexpr size_t kMaxJsonDepth = 64;
+
+// The JSON text of a .gltf, or the JSON chunk of a .glb (empty if malformed:
+// tinygltf then reports the problem).
+std::string_view jsonText(const std::vector<unsigned char>& bytes, bool isBinary) {
+  const char* p = reinterpret_cast<const char*>(bytes.data());
+  if (!isBinary) return {p, bytes.size()};
+  if (bytes.size() < 20) return {};
+  uint32_t len;
+  std::memcpy(&len, p + 12, 4);
+  if (uint64_t(len) + 20 > bytes.size()) return {};
+  return {p + 20, len};
+}
+
+// tinygltf converts JSON to its Value type recursively, one stack frame per
+// level of extras/extensions: refuse absurd nesting first. Counts brackets
+// outside strings; returns the byte offset where the limit is passed, or npos.
+size_t jsonDepthExceeded(std::string_view text, size_t limit) {
+  size_t depth = 0;
+  bool inString = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    char c = text[i];
+    if (inString) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > limit) return i;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return std::string_view::npos;
+}
+
+// tinygltf silently keeps the default when a known property has the wrong
+// type ("roughnessFactor": "0.5"). Name such values instead.
+struct TypeChecker {
+  using json = nlohmann::json;
+  std::string file;
+
+  static std::string got(const json& v) {
+    std::string d = v.dump();
+    if (d.size() > 40) d = d.substr(0, 37) + "...";
+    return d;
+  }
+  std::string element(const char* kind, size_t i, const json& obj) const {
+    std::string name = obj.is_object() && obj.contains("name") && obj["name"].is_string() ? obj["name"] : "";
+    return file + ": " + quoted(kind, int(i), name);
+  }
+  void number(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_number())
+      throw LoadError{where + ": '" + key + "' must be a number (got " + got(obj[key]) + ")"};
+  }
+  void integer(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_number_integer())
+      throw LoadError{where + ": '" + key + "' must be an integer (got " + got(obj[key]) + ")"};
+  }
+  void boolean(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_boolean())
+      throw LoadError{where + ": '" + key + "' must be true or false (got " + got(obj[key]) + ")"};
+  }
+  void numbers(const json& obj, const char* key, size_t n, const std::string& where) const {
+    if (!obj.contains(key)) return;
+    const json& a = obj[key];
+    bool ok = a.is_array() && a.size() == n;
+    for (size_t i = 0; ok && i < n; ++i) ok = a[i].is_number();
+    if (!ok)
+      throw LoadError{where + ": '" + key + "' must be an array of " + std::to_string(n) + " numbers (got " + got(a) +
+                      ")"};
+  }
+  const json& object(const json& obj, const char* key, const std::string& where) const {
+    static const json empty = json::object();
+    if (!obj.contains(key)) return empty;
+    if (!obj[key].is_object()) throw LoadError{where + ": '" + key + "' must be an object (got " + got(obj[key]) + ")"};
+    return obj[key];
+  }
+  // Calls f(element, where) for each object in the array doc[key].
+  template <typename F>
+  void each(const json& doc, const char* key, const char* kind, F f) const {
+    if (!doc.contains(key)) return;
+    if (!doc[key].is_array()) throw LoadError{file + ": '" + key + "' must be an array (got " + got(doc[key]) + ")"};
+    for (size_t i = 0; i < doc[key].size(); ++i) {
+      const json& e = doc[key][i];
+      std::string where = element(kind, i, e);
+      if (!e.is_object()) throw LoadError{where + ": must be an object (got " + got(e) + ")"};
+      f(e, where);
+    }
+  }
+
+  void check(const json& doc) const {
+    if (!doc.is_object()) return;  // tinygltf reports it
+    each(doc, "materials", "material", [&](const json& m, const std::string& w) {
+      const json& pbr = object(m, "pbrMetallicRoughness", w);
+      numbers(pbr, "baseColorFactor", 4, w);
+      number(pbr, "metallicFactor", w);
+      number(pbr, "roughnessFactor", w);
+      numbers(m, "emissiveFactor", 3, w);
+      number(m, "alphaCutoff", w);
+      boolean(m, "doubleSided", w);
+    });
+    each(doc, "nodes", "node", [&](const json& n, const std::string& w) {
+      numbers(n, "translation", 3, w);
+      numbers(n, "rotation", 4, w);
+      numbers(n, "scale", 3, w);
+      numbers(n, "matrix", 16, w);
+      integer(n, "mesh", w);
+      integer(n, "camera", w);
+    });
+    each(doc, "cameras", "camera", [&](const json& c, const std::string& w) {
+      const json& p = object(c, "perspective", w);
+      for (const char* k : {"yfov", "aspectRatio", "znear", "zfar"}) number(p, k, w);
+    });
+    each(doc, "accessors", "accessor", [&](const json& a, const std::string& w) {
+      for (const char* k : {"bufferView", "byteOffset", "componentType", "count"}) integer(a, k, w);
+      boolean(a, "normalized", w);
+    });
+    each(doc, "bufferViews", "bufferView", [&](const json& v, const std::string& w) {
+      for (const char* k : {"buffer", "byteOffset", "byteLength", "byteStride"}) integer(v, k, w);
+    });
+    each(doc, "meshes", "mesh", [&](const json& mesh, const std::string& w) {
+      each(mesh, "primitives", "primitive", [&](const json& prim, const std::string& pw) {
+        for (const char* k : {"indices", "material", "mode"}) integer(prim, k, w + " " + pw.substr(file.size() + 2));
+      });
+    });
+    const json& ext = object(doc, "extensions", file);
+    const json& punctual = object(ext, "KHR_lights_punctual", file + ": KHR_lights_punctual");
+    each(punctual, "lights", "light", [&](const json& l, const std::string& w) {
+      number(l, "intensity", w);
+      number(l, "range", w);
+      numbers(l, "color", 3, w);
+      const json& spot = object(l, "spot", w);
+      number(spot, "innerConeAngle", w);
+      number(spot, "outerConeAngle", w);
+    });
+  }
+};
+
+// ---- [6] Whole-scene checks: instanced size, emitted power -------------------------
+
+// Triangles a mesh declares, from accessor counts alone (0 where invalid:
+// the walk reports those).
+uint64_t declaredTriangles(const tinygltf::Model& model, int meshIndex) {
+  if (meshIndex < 0 || size_t(meshIndex) >= model.meshes.size()) return 0;
+  uint64_t n = 0;
+  for (const auto& prim : model.meshes[meshIndex].primitives) {
+    int acc = prim.indices;
+    if (acc < 0) {
+      auto it = prim.attributes.find("POSITION");
+      acc = it == prim.attributes.end() ? -1 : it->second;
+    }
+    if (acc < 0 || size_t(acc) >= model.accessors.size()) continue;
+    uint64_t count = model.accessors[acc].count;
+    int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_TRIANGLES)
+      n += count / 3;
+    else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN)
+      n += count >= 3 ? count - 2 : 0;
+  }
+  return n;
+}
+
+// Before walking: node instances and triangles of the whole hierarchy,
+// counted per node once (post-order over the DAG, saturating), so that a
+// small file whose shared subtrees multiply into billions of triangles is
+// refused at once instead of after millions of instances. A cycle stops the
+// count; the walk then reports it with the node's name.
+void checkInstancedSize(const tinygltf::Model& model, const std::vector<int>& roots, const std::string& file,
+                        size_t maxTriangles) {
+  static constexpr uint64_t kSaturated = uint64_t(1) << 62;
+  auto add = [](uint64_t a, uint64_t b) { return std::min(a + b, kSaturated); };
+  size_t n = model.nodes.size();
+  std::vector<uint64_t> visits(n, 0), tris(n, 0);
+  std::vector<char> state(n, 0);  // 0 new, 1 on the stack, 2 done
+  std::vector<std::pair<int, size_t>> stack;
+  uint64_t totalVisits = 0, totalTris = 0;
+  for (int root : roots) {
+    if (root < 0 || size_t(root) >= n) return;
+    if (state[root] != 2) {
+      stack.push_back({root, 0});
+      state[root] = 1;
+      while (!stack.empty()) {
+        auto& [node, next] = stack.back();
+        const std::vector<int>& children = model.nodes[node].children;
+        if (next < children.size()) {
+          int c = children[next++];
+          if (c < 0 || size_t(c) >= n || state[c] == 1) return;  // invalid or a cycle: the walk reports it
+          if (state[c] == 0) {
+            state[c] = 1;
+            stack.push_back({c, 0});
+          }
+          continue;
+        }
+        uint64_t v = 1, t = declaredTriangles(model, model.nodes[node].mesh);
+        for (int c : children) v = add(v, visits[c]), t = add(t, tris[c]);
+        visits[node] = v;
+        tris[node] = t;
+        state[node] = 2;
+        stack.pop_back();
+      }
+    }
+    totalVisits = add(totalVisits, visits[root]);
+    totalTris = add(totalTris, tris[root]);
+  }
+  auto count = [&](uint64_t v) { return v >= kSaturated ? std::string("more than 4e18") : std::to_string(v); };
+  if (totalVisits > kMaxNodeVisits)
+    throw LoadError{file + ": the node hierarchy has " + count(totalVisits) + " node instances, more than " +
+                    std::to_string(kMaxNodeVisits) + " (shared subtrees multiply)"};
+  if (totalTris > maxTriangles)
+    throw LoadError{file + ": the scene expands to " + count(totalTris) + " triangles, more than " +
+                    std::to_string(maxTriangles) + " (meshes instanced through the node hierarchy multiply)"};
+}
+
+// An emitter whose power overflows would be dropped by the light sampler and
+// the render would come out black: name it instead.
+void checkEmittedPower(const Scene& scene, const std::string& file) {
+  for (uint32_t t = 0; t < scene.triangleCount(); ++t) {
+    const Material& m = scene.materials[scene.triMaterial[t]];
+    if (!m.isEmissive()) continue;
+    double power = double(luminance(m.emission)) * scene.triangleArea(t) * kPi * (m.doubleSided ? 2 : 1);
+    if (!std::isfinite(power) || !std::isfinite(float(power)))
+      throw LoadError{file + ": material '" + m.name +
+                      "': emission times triangle area gives infinite power (triangle " + std::to_string(t) + ")"};
+  }
+  for (const PunctualLight& L : scene.punctualLights)
+    if (!std::isfinite(L.power())) throw LoadError{file + ": light '" + L.name + "': power is not finite"};
+}
+
+}  // namespace
+
+// ---- [7] loadScene ----------------------------------------------------------------
+
+namespace {
+
+// The file's bytes (isBinary: a .glb), after the JSON checks that tinygltf
+// does not make (or makes with unbounded recursion).
+std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary) {
+  Result<std::vector<unsigned char>> read = readRegularFile(path);
+  if (!read) throw LoadError{path + ": cannot be read (" + read.error() + ")"};
+  std::vector<unsigned char> bytes = std::move(read).value();
+  if (bytes.empty()) throw LoadError{path + ": file is empty"};
+  isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  std::string_view text = jsonText(bytes, isBinary);
+  if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
+    throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
+                    std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it"};
+  nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+  if (!doc.is_discarded()) TypeChecker{path}.check(doc);
+  return bytes;
+}
+
+// tinygltf's parse, with URIs resolved inside the scene's folder only.
+// Returns tinygltf's warnings.
+std::string parseGltf(const std::string& path, const std::vector<unsigned char>& bytes, bool isBinary,
+                      tinygltf::Model& model) {
+  UriPolicy policy;
+  std::error_code ec;
+  std::filesystem::path parent = std::filesystem::absolute(path, ec).parent_path();
+  policy.root = std::filesystem::weakly_canonical(parent, ec);
+  if (ec) policy.root = parent.lexically_normal();
+  policy.rootPrefix = policy.root.string();
+  if (policy.rootPrefix.empty() || policy.rootPrefix.back() != '/') policy.rootPrefix += '/';
+  tinygltf::TinyGLTF gltf;
+  gltf.SetFsCallbacks({&uriFileExists, &uriExpandPath, &uriReadFile, &uriWriteFile, &policy});
+  gltf.SetImageLoader(&loadImageBounded, nullptr);
+  std::string err, warn;
+  std::string dir = policy.root.string();
+  bool ok = isBinary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), dir)
+                     : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
+                                                unsigned(bytes.size()), dir);
+  if (!ok) {
+    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+    throw LoadError{path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err)};
+  }
+  return warn;
+}
+
+// Refuses required extensions we do not model; warns about used ones,
+// animations and skins.
+void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string& path) {
+  static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
+                                                   "KHR_materials_specular", "KHR_lights_punctual"};
+  // A required extension changes what the file means (Draco-compressed
+  // geometry, quantised attributes): loading without it would render
+  // something else, so it is refused.
+  for (const auto& e : model.extensionsRequired)
+    if (!kSupported.count(e))
+      throw LoadError{path + ": required extension " + e +
+                      " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
+                      "KHR_materials_emissive_strength, KHR_materials_specular)"};
+  for (const auto& e : model.extensionsUsed)
+    if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
+  if (!model.animations.empty())
+    L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
+  if (!model.skins.empty()) L.warn(path + ": " + std::to_string(model.skins.size()) + " skin(s) not modelled");
+}
+
+// The root nodes: the default scene's, or without scenes every node that is
+// nobody's child.
+std::vector<int> rootNodes(const tinygltf::Model& model, const std::string& path) {
+  std::vector<int> roots;
+  if (!model.scenes.empty()) {
+    int si = model.defaultScene >= 0 ? model.defaultScene : 0;
+    if (size_t(si) >= model.scenes.size())
+      throw LoadError{path + ": default scene " + std::to_string(si) + " does not exist"};
+    return model.scenes[si].nodes;
+  }
+  std::vector<char> isChild(model.nodes.size(), 0);
+  for (const auto& n : model.nodes)
+    for (int c : n.children)
+      if (c >= 0 && size_t(c) < model.nodes.size()) isChild[c] = 1;
+  for (size_t i = 0; i < model.nodes.size(); ++i)
+    if (!isChild[i]) roots.push_back(int(i));
+  return roots;
+}
+
+// After the walk: something to render, finite power, a camera.
+void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOptions& options) {
+  if (scene.triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
+  checkEmittedPower(scene, path);
+  bool anyEmitter = !scene.punctualLights.empty();
+  for (uint32_t t = 0; t < scene.triangleCount() && !anyEmitter; ++t)
+    anyEmitter = scene.materials[scene.triMaterial[t]].isEmissive();
+  if (!anyEmitter) L.warn(path + ": the scene has no emissive triangles and no punctual lights; it renders black");
+  if (!options.cameraName.empty() && !scene.cameraFromFile)
+    throw LoadError{path + ": no perspective camera named '" + options.cameraName + "'"};
+  if (!scene.cameraFromFile) {
+    scene.camera = frameBounds(scene.boundsMin, scene.boundsMax);
+    L.warn(path + ": no perspective camera; using a default camera that frames the scene");
+  }
+}
+
+}  // namespace
+
+SceneResult loadScene(const std::string& path, const LoadOptions& options) {
+  try {
+    bool isBinary = false;
+    std::vector<unsigned char> bytes = readSceneFile(path, isBinary);
+    tinygltf::Model model;
+    std::string warn = parseGltf(path, bytes, isBinary, model);
+
+    auto scene = std::make_shared<Scene>();
+    scene->path = path;
+    Loader L{model, *scene, path, std::vector<int>(model.textures.size(), -1), {}};
+    L.inputBytes = bytes.size();
+    for (const auto& b : model.buffers) L.inputBytes += b.data.size();
+    L.maxTriangles = options.maxTriangles;
+    L.maxTexels = options.maxTexels;
+    bytes = {};
+    if (!warn.empty()) {
+      std::istringstream ws(warn);
+      for (std::string line; std::getline(ws, line);)
+        if (!line.empty()) L.warn(path + ": " + line);
+    }
+    checkExtensions(model, L, path);
+
+    for (size_t i = 0; i < model.materials.size(); ++i) scene->materials.push_back(L.material(int(i)));
+    // glTF's default material: white, metallic 1, roughness 1.
+    Material def;
+    def.name = "default";
+    scene->materials.push_back(def);
+
+    std::vector<int> roots = rootNodes(model, path);
+    checkInstancedSize(model, roots, path, options.maxTriangles);
+    std::vector<char> onPath(model.nodes.size(), 0);
+    size_t visits = 0;
+    for (int r : roots) L.walk(r, onPath, visits, options);
+
+    finishScene(*scene, L, path, options);
+    return std::shared_ptr<const Scene>(std::move(scene));
+  } catch (const LoadError& e) {
+    return Error(e.message);
+  } catch (const std::bad_alloc&) {
+    return Error(path + ": out of memory while loading (the file declares absurd sizes?)");
+  } catch (const std::exception& e) {
+    return Error(path + ": " + e.what());
+  }
+}
+
+}  // namespace vsl
