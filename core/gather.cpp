@@ -97,14 +97,18 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
 }
 
 Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const {
-  auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()});
-  if (!ls || (deltaOnly && !ls->delta)) return Vec3(0.0f);
-  Vec3 wiL = sh.shading.toLocal(ls->wi);
-  if (!(wiL.z > 0 && dot(ls->wi, sh.ng) > 0)) return Vec3(0.0f);
-  Ray s;
-  ++c.rays;
-  if (!segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) || accel_.occluded(s)) return Vec3(0.0f);
-  return f.eval(wiL) * ls->Li * (wiL.z / ls->pdf);
+  Vec3 sum(0.0f);
+  for (int k = 0; k < kSharedLightSamples; ++k) {
+    auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()});
+    if (!ls || (deltaOnly && !ls->delta)) continue;
+    Vec3 wiL = sh.shading.toLocal(ls->wi);
+    if (!(wiL.z > 0 && dot(ls->wi, sh.ng) > 0)) continue;
+    Ray s;
+    ++c.rays;
+    if (!segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) || accel_.occluded(s)) continue;
+    sum += f.eval(wiL) * ls->Li * (wiL.z / ls->pdf);
+  }
+  return sum / float(kSharedLightSamples);
 }
 
 void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,

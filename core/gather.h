@@ -88,9 +88,13 @@ class Gatherer {
               double acc[kGatherLayers][3], GatherCounters& c) const;
 
  private:
-  // Next-event light at sh reflected by f toward the viewer, from one light
-  // sampled by power; deltaOnly: punctual lights only (zero for area lights,
-  // whose light a continued ray finds by hitting them).
+  // Next-event light at sh reflected by f toward the viewer, from
+  // kSharedLightSamples lights sampled by power; deltaOnly: punctual lights
+  // only (zero for area lights, whose light a continued ray finds by hitting
+  // them). Several samples, because behind a specular chain this is the
+  // pixel's own estimate of the light there, with no later passes to average
+  // it (one sample made glossy floors' reflections of lit walls speckled).
+  static constexpr int kSharedLightSamples = 16;
   Vec3 nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const;
 
   const Scene& scene_;
