@@ -5,7 +5,8 @@
 #   bash scripts/measure-vsl.sh [OUT_DIR] [WIDTH] [STUDY...]
 # STUDY: radius (scales 1 and 2 at 2,000 and 10,000 lights), knn (k = 5 and
 # 20 at scale 2), lobe (the lobe-aware minimum radius), continue
-# (--continue-alpha on a near-mirror box), compare (VSL vs VPL at 10,000
+# (--continue-alpha on a near-mirror box), split (--split-alpha 0 and 0.05:
+# narrow specular lobes continue the eye path), compare (VSL vs VPL at 10,000
 # lights with the default settings), equal (each method's best configuration
 # at an equal time budget). Environment: TIME (budget, default 10), MRCS, SETS (default 5), SPP
 # (reference samples per pixel for each of the two references, default 4096),
@@ -88,6 +89,15 @@ PY
         p=$(scene_path "$s"); n=$(basename "$p" .gltf)
         references "$n" "$p"
         sweep "$n" "$p" continue-0.15 --methods vpl,vsl --lights 10000 --continue-alpha 0.15
+      done ;;
+    split)
+      # Lobe splitting: narrow specular lobes continue the eye path (--split-alpha).
+      for s in $SCENES; do
+        p=$(scene_path "$s"); n=$(basename "$p" .gltf)
+        references "$n" "$p"
+        for a in 0 0.05; do
+          sweep "$n" "$p" "split-$a" --methods vpl,vsl --lights 10000 --split-alpha "$a"
+        done
       done ;;
     compare)
       for s in $SCENES; do
