@@ -39,34 +39,57 @@ float gaussian(Rng& r) {
 
 }  // namespace
 
-std::vector<Representative> clusterColumns(const std::vector<float>& columns, size_t lights, int rows, int clusters,
-                                           uint64_t seed, size_t* zeroColumns, double uniformMix) {
-  Rng rng(seed, 0x5eed);
-  // Norms; zero columns cannot be represented (they are dark at every row).
-  std::vector<double> norm(lights, 0.0);
-  std::vector<uint32_t> nz;
+namespace {
+
+// The nonzero columns as points for clustering: norms n_i and unit
+// directions u_i of their random projections to kDims.
+struct ColumnSpace {
+  std::vector<double> norm;  // per light
+  std::vector<uint32_t> nz;  // lights whose column is nonzero
+  std::vector<float> u;      // per nonzero column, kDims each
+
+  double n(size_t i) const { return norm[nz[i]]; }
+  const float* dir(size_t i) const { return &u[i * kDims]; }
+  float dot(size_t a, size_t b) const {
+    float s = 0;
+    for (int d = 0; d < kDims; ++d) s += u[a * kDims + d] * u[b * kDims + d];
+    return s;
+  }
+  // Cluster cost (sum n)^2 - |sum n u|^2 >= 0.
+  double cost(const std::vector<uint32_t>& m) const {
+    double sn = 0, v[kDims] = {};
+    for (uint32_t i : m) {
+      sn += n(i);
+      for (int d = 0; d < kDims; ++d) v[d] += n(i) * dir(i)[d];
+    }
+    double s2 = 0;
+    for (double x : v) s2 += x * x;
+    return std::max(sn * sn - s2, 0.0);
+  }
+};
+
+// Norms of every column; the nonzero ones (zero columns cannot be
+// represented: they are dark at every row).
+void columnNorms(const std::vector<float>& columns, size_t lights, int rows, ColumnSpace& cs) {
+  cs.norm.assign(lights, 0.0);
   for (size_t j = 0; j < lights; ++j) {
     double s = 0;
     for (int r = 0; r < rows; ++r) s += double(columns[j * rows + r]) * columns[j * rows + r];
-    norm[j] = std::sqrt(s);
-    if (norm[j] > 0 && std::isfinite(norm[j])) nz.push_back(uint32_t(j));
+    cs.norm[j] = std::sqrt(s);
+    if (cs.norm[j] > 0 && std::isfinite(cs.norm[j])) cs.nz.push_back(uint32_t(j));
   }
-  if (zeroColumns) *zeroColumns = lights - nz.size();
-  std::vector<Representative> reps;
-  if (nz.empty()) return reps;
-  if (nz.size() <= size_t(clusters)) {
-    for (uint32_t j : nz) reps.push_back({j, 1.0});
-    return reps;
-  }
-  const size_t n = nz.size();
-  // Random projection to kDims, then unit directions u_i; n_i keeps the norm.
+}
+
+// Random projection to kDims, then unit directions u_i (n_i keeps the norm).
+void projectColumns(const std::vector<float>& columns, int rows, Rng& rng, ColumnSpace& cs) {
+  const size_t n = cs.nz.size();
   std::vector<float> M(size_t(rows) * kDims);
   for (float& m : M) m = gaussian(rng);
-  std::vector<float> u(n * kDims);
+  cs.u.assign(n * kDims, 0.0f);
   parallelFor((n + 1023) / 1024, [&](size_t c) {
     for (size_t i = c * 1024; i < std::min(n, (c + 1) * 1024); ++i) {
-      const float* col = &columns[size_t(nz[i]) * rows];
-      float* ui = &u[i * kDims];
+      const float* col = &columns[size_t(cs.nz[i]) * rows];
+      float* ui = &cs.u[i * kDims];
       double len = 0;
       for (int d = 0; d < kDims; ++d) {
         double s = 0;
@@ -78,34 +101,24 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
       for (int d = 0; d < kDims; ++d) ui[d] *= inv;
     }
   });
-  auto dotU = [&](size_t a, size_t b) {
-    float s = 0;
-    for (int d = 0; d < kDims; ++d) s += u[a * kDims + d] * u[b * kDims + d];
-    return s;
-  };
-  // Cluster cost (sum n)^2 - |sum n u|^2 >= 0.
-  auto costOf = [&](const std::vector<uint32_t>& m) {
-    double sn = 0, v[kDims] = {};
-    for (uint32_t i : m) {
-      sn += norm[nz[i]];
-      for (int d = 0; d < kDims; ++d) v[d] += norm[nz[i]] * u[size_t(i) * kDims + d];
-    }
-    double s2 = 0;
-    for (double x : v) s2 += x * x;
-    return std::max(sn * sn - s2, 0.0);
-  };
+}
 
-  // 1. Sampling: about two thirds of the clusters from seeds drawn in
-  //    proportion to the column norm, every column joining its closest seed.
+// 1. Sampling: about two thirds of the clusters from seeds drawn in
+//    proportion to the column norm, every column joining its closest seed.
+std::vector<Cluster> seedClusters(const ColumnSpace& cs, int clusters, Rng& rng) {
+  const size_t n = cs.nz.size();
   std::vector<double> w(n);
-  for (size_t i = 0; i < n; ++i) w[i] = norm[nz[i]];
+  for (size_t i = 0; i < n; ++i) w[i] = cs.n(i);
   DiscreteDistribution byNorm(w);
   std::vector<uint32_t> seeds;
   std::vector<char> isSeed(n, 0);
   int want = std::max(1, (2 * clusters) / 3);
   for (int k = 0; k < 4 * want && int(seeds.size()) < want; ++k) {
     uint32_t s = uint32_t(byNorm.sample(rng.uniform(), nullptr));
-    if (!isSeed[s]) isSeed[s] = 1, seeds.push_back(s);
+    if (!isSeed[s]) {
+      isSeed[s] = 1;
+      seeds.push_back(s);
+    }
   }
   std::vector<uint32_t> assign(n);
   parallelFor((n + 511) / 512, [&](size_t c) {
@@ -114,20 +127,71 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
       uint32_t bk = 0;
       for (size_t k = 0; k < seeds.size(); ++k) {
         // d(i, s) = n_i n_s (1 - cos); n_i is common to every seed.
-        double d = norm[nz[seeds[k]]] * (1.0 - dotU(i, seeds[k]));
-        if (d < best) best = d, bk = uint32_t(k);
+        double d = cs.n(seeds[k]) * (1.0 - cs.dot(i, seeds[k]));
+        if (d < best) {
+          best = d;
+          bk = uint32_t(k);
+        }
       }
       assign[i] = bk;
     }
   });
   std::vector<Cluster> cl(seeds.size());
   for (size_t i = 0; i < n; ++i) cl[assign[i]].members.push_back(uint32_t(i));
-  // 2. Splitting: split the costliest cluster along a random projection at
-  //    the cut that minimises the two halves' total cost.
+  return cl;
+}
+
+// Splits cluster c along a random projection at the cut that minimises the
+// two halves' total cost; returns the right half (c keeps the left).
+Cluster splitCluster(const ColumnSpace& cs, Cluster& c, Rng& rng) {
+  float dir[kDims];
+  for (float& x : dir) x = gaussian(rng);
+  std::vector<std::pair<float, uint32_t>> t;
+  for (uint32_t i : c.members) {
+    float s = 0;
+    for (int d = 0; d < kDims; ++d) s += cs.dir(i)[d] * dir[d];
+    t.push_back({s, i});
+  }
+  std::sort(t.begin(), t.end());
+  // Prefix sums give every cut's cost in O(size x dims).
+  size_t m = t.size();
+  std::vector<double> pn(m + 1, 0.0), pv((m + 1) * kDims, 0.0);
+  for (size_t q = 0; q < m; ++q) {
+    double nq = cs.n(t[q].second);
+    pn[q + 1] = pn[q] + nq;
+    for (int d = 0; d < kDims; ++d) pv[(q + 1) * kDims + d] = pv[q * kDims + d] + nq * cs.dir(t[q].second)[d];
+  }
+  double best = 1e300;
+  size_t cut = m / 2;
+  for (size_t q = 1; q < m; ++q) {
+    double l2 = 0, r2 = 0;
+    for (int d = 0; d < kDims; ++d) {
+      double lv = pv[q * kDims + d], rv = pv[m * kDims + d] - lv;
+      l2 += lv * lv;
+      r2 += rv * rv;
+    }
+    double ln = pn[q], rn = pn[m] - pn[q];
+    double cost = std::max(ln * ln - l2, 0.0) + std::max(rn * rn - r2, 0.0);
+    if (cost < best) {
+      best = cost;
+      cut = q;
+    }
+  }
+  Cluster right;
+  for (size_t q = cut; q < m; ++q) right.members.push_back(t[q].second);
+  c.members.clear();
+  for (size_t q = 0; q < cut; ++q) c.members.push_back(t[q].second);
+  c.cost = cs.cost(c.members);
+  right.cost = cs.cost(right.members);
+  return right;
+}
+
+// 2. Splitting: split the costliest cluster until there are enough.
+void splitCostliest(const ColumnSpace& cs, int clusters, Rng& rng, std::vector<Cluster>& cl) {
   auto cmp = [&](size_t a, size_t b) { return cl[a].cost < cl[b].cost; };
   std::priority_queue<size_t, std::vector<size_t>, decltype(cmp)> queue(cmp);
   for (size_t k = 0; k < cl.size(); ++k) {
-    cl[k].cost = costOf(cl[k].members);
+    cl[k].cost = cs.cost(cl[k].members);
     queue.push(k);
   }
   size_t live = 0;
@@ -135,57 +199,25 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
   while (live < size_t(clusters) && !queue.empty()) {
     size_t k = queue.top();
     queue.pop();
-    Cluster& c = cl[k];
-    if (c.members.size() < 2 || c.cost <= 0) continue;
-    float dir[kDims];
-    for (float& x : dir) x = gaussian(rng);
-    std::vector<std::pair<float, uint32_t>> t;
-    for (uint32_t i : c.members) {
-      float s = 0;
-      for (int d = 0; d < kDims; ++d) s += u[size_t(i) * kDims + d] * dir[d];
-      t.push_back({s, i});
-    }
-    std::sort(t.begin(), t.end());
-    // Prefix sums give every cut's cost in O(size x dims).
-    size_t m = t.size();
-    std::vector<double> pn(m + 1, 0.0), pv((m + 1) * kDims, 0.0);
-    for (size_t q = 0; q < m; ++q) {
-      double nq = norm[nz[t[q].second]];
-      pn[q + 1] = pn[q] + nq;
-      for (int d = 0; d < kDims; ++d)
-        pv[(q + 1) * kDims + d] = pv[q * kDims + d] + nq * u[size_t(t[q].second) * kDims + d];
-    }
-    double best = 1e300;
-    size_t cut = m / 2;
-    for (size_t q = 1; q < m; ++q) {
-      double l2 = 0, r2 = 0;
-      for (int d = 0; d < kDims; ++d) {
-        double lv = pv[q * kDims + d], rv = pv[m * kDims + d] - lv;
-        l2 += lv * lv;
-        r2 += rv * rv;
-      }
-      double ln = pn[q], rn = pn[m] - pn[q];
-      double cost = std::max(ln * ln - l2, 0.0) + std::max(rn * rn - r2, 0.0);
-      if (cost < best) best = cost, cut = q;
-    }
-    Cluster right;
-    for (size_t q = cut; q < m; ++q) right.members.push_back(t[q].second);
-    c.members.clear();
-    for (size_t q = 0; q < cut; ++q) c.members.push_back(t[q].second);
-    c.cost = costOf(c.members);
-    right.cost = costOf(right.members);
+    if (cl[k].members.size() < 2 || cl[k].cost <= 0) continue;
+    Cluster right = splitCluster(cs, cl[k], rng);
     cl.push_back(std::move(right));
     queue.push(k);
     queue.push(cl.size() - 1);
     ++live;
   }
-  // 3. One representative per cluster, chosen with probability
-  //    p_i = (1 - mix) n_i / sum n + mix / |cluster| and weighted by 1 / p_i
-  //    (mix = 0: the cluster's norm sum over its own norm).
+}
+
+// 3. One representative per cluster, chosen with probability
+//    p_i = (1 - mix) n_i / sum n + mix / |cluster| and weighted by 1 / p_i
+//    (mix = 0: the cluster's norm sum over its own norm).
+std::vector<Representative> pickRepresentatives(const ColumnSpace& cs, const std::vector<Cluster>& cl,
+                                                double uniformMix, Rng& rng) {
+  std::vector<Representative> reps;
   for (const Cluster& c : cl) {
     if (c.members.empty()) continue;
     double total = 0;
-    for (uint32_t i : c.members) total += norm[nz[i]];
+    for (uint32_t i : c.members) total += cs.n(i);
     const double m = double(c.members.size());
     uint32_t pick = c.members.back();
     if (rng.uniformDouble() < uniformMix) {
@@ -193,20 +225,38 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
     } else {
       double x = rng.uniformDouble() * total;
       for (uint32_t i : c.members) {
-        x -= norm[nz[i]];
+        x -= cs.n(i);
         if (x < 0) {
           pick = i;
           break;
         }
       }
     }
-    const double p = (1 - uniformMix) * norm[nz[pick]] / total + uniformMix / m;
-    reps.push_back({nz[pick], 1.0 / p});
+    const double p = (1 - uniformMix) * cs.n(pick) / total + uniformMix / m;
+    reps.push_back({cs.nz[pick], 1.0 / p});
   }
   return reps;
 }
 
-// ---- Rendering ----------------------------------------------------------------------
+}  // namespace
+
+std::vector<Representative> clusterColumns(const std::vector<float>& columns, size_t lights, int rows, int clusters,
+                                           uint64_t seed, size_t* zeroColumns, double uniformMix) {
+  Rng rng(seed, 0x5eed);
+  ColumnSpace cs;
+  columnNorms(columns, lights, rows, cs);
+  if (zeroColumns) *zeroColumns = lights - cs.nz.size();
+  std::vector<Representative> reps;
+  if (cs.nz.empty()) return reps;
+  if (cs.nz.size() <= size_t(clusters)) {
+    for (uint32_t j : cs.nz) reps.push_back({j, 1.0});
+    return reps;
+  }
+  projectColumns(columns, rows, rng, cs);
+  std::vector<Cluster> cl = seedClusters(cs, clusters, rng);
+  splitCostliest(cs, clusters, rng, cl);
+  return pickRepresentatives(cs, cl, uniformMix, rng);
+}
 
 MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                       const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
