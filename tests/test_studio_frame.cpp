@@ -187,6 +187,44 @@ TEST_F(StudioFrame, FlipColumnMatchesFlipOfTheShownImages) {
   EXPECT_NE((*g)[0], (*f)[0]);
 }
 
+// The FLIP display: the first frame shows no map (the UI never waits for
+// FLIP); once the asynchronous task is done, the panel shows core/flip's
+// LDR-FLIP map of the same tone-mapped images, through magma on [0, 1].
+TEST_F(StudioFrame, FlipMapShowsCoreFlipsMap) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Single;
+  v.panels[0] = ui::Source::Vsl;
+  v.component = Component::Indirect;
+  v.display = ui::Display::Flip;
+  v.exposure = 0;
+  v.errorScale = 0;
+  renderFrames(1);
+  EXPECT_EQ(studio->flipMap(ui::Source::Vsl), nullptr) << "the first frame does not wait for FLIP";
+  const Image* shown = nullptr;
+  for (int i = 0; i < 200 && !shown; ++i) {  // bounded: the task takes milliseconds here
+    renderFrames(1);
+    shown = studio->flipMap(ui::Source::Vsl);
+    if (!shown) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(shown);
+  const Snapshot& s = *studio->snapshot();
+  const FlipResult want = flipLdr(toSrgbImage(s.many.vsl), toSrgbImage(s.refIndirect));
+  EXPECT_EQ(shown->rgb, want.map.rgb) << "the map is core/flip's, bit for bit";
+  float lo = 1, hi = 0;
+  for (float x : want.map.rgb) lo = std::min(lo, x), hi = std::max(hi, x);
+  EXPECT_LT(lo + 0.1f, hi) << "a map with some contrast, so the colours below mean something";
+  auto px = renderFrames();
+  ASSERT_EQ(studio->drawnImages().size(), 1u);
+  EXPECT_EQ(compareGrid(
+                px, studio->drawnImages()[0],
+                [&](int x, int y) {
+                  Vec3 c = magma(want.map.at(x, y).x);
+                  return Vec3(c.x * 255, c.y * 255, c.z * 255);
+                },
+                3),
+            0);
+}
+
 TEST_F(StudioFrame, WipeSplitIsHonoured) {
   ui::ViewState& v = studio->view();
   v.mode = ui::ViewMode::Wipe;

@@ -24,7 +24,10 @@ namespace vsl::ui {
 
 // What a view panel shows.
 enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostClamping, LostDiffuse, Count };
-enum class Display : int { Image, Error, Signed };
+// Flip: each method's LDR-FLIP map against the reference (core/flip.h) for
+// the shown component and exposure, computed off the UI thread with the
+// table's FLIP column, through magma on [0, map max] (auto: [0, 1]).
+enum class Display : int { Image, Error, Signed, Flip };
 enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSquared };
 enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
 
@@ -160,6 +163,11 @@ class Studio {
   // tracer) for the shown component and exposure, if one has been computed
   // for the current snapshot.
   std::optional<std::vector<double>> flipMeans() const;
+  // The LDR-FLIP map the view shows for a method (VSL, the VPL variants) in
+  // the FLIP display: the newest computed for the shown component and
+  // exposure (possibly of an earlier snapshot while a new one is computed);
+  // null if none yet. *fresh: it belongs to the current snapshot.
+  const Image* flipMap(Source s, bool* fresh = nullptr) const;
 
   // Screen rectangles of the images drawn in the last frame (for tests and
   // for saving the view).
@@ -253,10 +261,13 @@ class Studio {
     Component component = Component::Indirect;
     float exposure = 0;
     double mean[5] = {};  // kMetricSources, then the live path tracer
+    Image map[5];         // the per-pixel maps, in the same order
   };
   std::future<FlipNumbers> flipTask_;
   std::optional<FlipNumbers> flip_;
+  uint64_t flipVersion_ = 0, flipUploaded_ = 0;  // results received, and the one in the textures
   void updateFlip();
+  bool flipMatchesView() const;
   double referenceMean_ = 0;
   // Crop insets of the shown snapshot, rebuilt when it, the component, the
   // metric or the rectangle change.
