@@ -19,12 +19,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-Image average(const Image& a, const Image& b) {
-  Image m(a.width, a.height);
-  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
-  return m;
-}
-
 // The path depth of the live path tracer and of the references it looks up.
 const int kReferenceDepth = RenderSettings().maxDepth;
 
@@ -43,8 +37,6 @@ struct Session::Job {
   StudioSettings settings;
   ManyLightRun prep;
   std::unique_ptr<ManyLightRenderer> ml;
-  std::unique_ptr<PathTracer> pt;
-  PtCounters ptCounters;
   int batch = 0;
   double mlSeconds = 0;  // light tracing, k-NN and gathering
   double ptStart = 0;    // the reference's compute time when the job began
@@ -62,17 +54,10 @@ struct Session::Worker {
   std::unique_ptr<Accel> accel;
   std::unique_ptr<LightSampler> lights;
   std::string scenePath;
-  // The live path tracer: pass p goes to half p % 2 (reference.h).
+  // The live path tracer (seed 0): pass p goes to half p % 2 (reference.h).
   struct Reference {
     std::string key;  // scene and resolution
-    Film direct[2], indirect[2];
-    int spp = 0;
-    double seconds = 0;
-    Image meanDirect() const { return average(direct[0].image(), direct[1].image()); }
-    Image meanIndirect() const { return average(indirect[0].image(), indirect[1].image()); }
-    double noise() const {  // relMSE(A, B) / 4 of the mean's indirect layer
-      return spp >= 2 ? compareImages(indirect[0].image(), indirect[1].image()).average.relMse / 4 : -1;
-    }
+    std::unique_ptr<ReferenceRenderer> pt;
   } ref;
   // The converged reference in use, what it was chosen for, and its noise.
   std::shared_ptr<const vsl::Reference> converged;
@@ -253,16 +238,16 @@ void Session::run() {
       step(w, s, gen, fromScratch);
     } catch (const std::bad_alloc&) {
       w.job.reset();
-      w.ref = Worker::Reference();
+      w.ref = {};
       reportRunError("out of memory while rendering (" + s.many.describe() +
                      "); the render stopped and the last picture stays. Try fewer lights or a smaller width.");
     } catch (const std::exception& e) {
       w.job.reset();
-      w.ref = Worker::Reference();
+      w.ref = {};
       reportRunError(std::string("the render failed: ") + e.what());
     } catch (...) {
       w.job.reset();
-      w.ref = Worker::Reference();
+      w.ref = {};
       reportRunError("the render failed: unknown exception");
     }
   }
@@ -344,7 +329,8 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
     s.scene = w.scenePath;  // keep rendering the previous scene with the other new settings
     return true;
   }
-  w.job.reset();  // it points into the old scene
+  w.job.reset();  // it and the live path tracer point into the old scene
+  w.ref = {};
   w.scene = scene;
   w.accel = std::move(accel);
   w.lights = std::move(lights);
@@ -402,18 +388,13 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
   rs.height = job->ml->height();
   rs.seed = 0;
   std::string refKey = w.scenePath + "|" + std::to_string(rs.width) + "x" + std::to_string(rs.height);
-  if (w.ref.key != refKey) {
-    w.ref = Worker::Reference();
+  if (w.ref.key != refKey || !w.ref.pt) {
     w.ref.key = refKey;
-    for (int h = 0; h < 2; ++h) {
-      w.ref.direct[h] = Film(rs.width, rs.height);
-      w.ref.indirect[h] = Film(rs.width, rs.height);
-    }
+    w.ref.pt = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
   }
-  job->pt = std::make_unique<PathTracer>(*w.scene, *w.accel, *w.lights, rs);
   job->mlSeconds = job->prep.set.seconds + job->prep.knnSeconds;
-  job->ptStart = w.ref.seconds;
-  job->sppStart = w.ref.spp;
+  job->ptStart = w.ref.pt->seconds();
+  job->sppStart = w.ref.pt->spp();
   return job;
 }
 
@@ -425,7 +406,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
   setStage("rendering");
   // A resumed job shows its picture under the new generation at once.
   if (job.batch > 0) publish(makeSnapshot(w, job, gen));
-  Worker::Reference& ref = w.ref;
+  ReferenceRenderer& ref = *w.ref.pt;
   while (!stopped()) {
     bool progressed = false;
     if (job.batch < job.ml->batchCount()) {
@@ -444,16 +425,9 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     // The reference catches up to the many-light methods' compute time (at
     // least one pass per step), so the error-vs-time plot compares equal time.
     bool ptStep = false;
-    while (ref.spp < job.settings.maxReferenceSpp && !stopped() &&
-           (!ptStep || ref.seconds - job.ptStart < job.mlSeconds)) {
-      auto tp = Clock::now();
-      const int half = ref.spp % 2;
-      if (!job.pt->renderPass(ref.spp, ref.direct[half], ref.indirect[half], job.ptCounters, &stop_)) {
-        ++ref.spp;  // some pixels have this sample: never reuse its index
-        break;
-      }
-      ref.seconds += since(tp);
-      ++ref.spp;
+    while (ref.spp() < job.settings.maxReferenceSpp && !stopped() &&
+           (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
+      if (!ref.stepPass(&stop_)) break;
       ptStep = progressed = true;
     }
     if (stopped() || !progressed) break;
@@ -550,7 +524,7 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
 
 std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen) const {
   const ManyLightRenderer& ml = *job.ml;
-  const Worker::Reference& ref = w.ref;
+  const ReferenceRenderer& ref = *w.ref.pt;
   auto snap = std::make_shared<Snapshot>();
   snap->generation = gen;
   snap->settings = job.settings;
@@ -559,7 +533,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->many = ml.images();
   snap->ptDirect = ref.meanDirect();
   snap->ptIndirect = ref.meanIndirect();
-  snap->ptSpp = ref.spp;
+  snap->ptSpp = ref.spp();
   snap->lightsProcessed = ml.lightsProcessed();
   snap->lightsTotal = job.prep.set.lights.size();
   snap->batchesDone = job.batch;
@@ -568,7 +542,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->lightTracingSeconds = job.prep.set.seconds;
   snap->knnSeconds = job.prep.knnSeconds;
   snap->gatherSeconds = ml.stats().gatherSeconds;
-  snap->referenceSeconds = ref.seconds;
+  snap->referenceSeconds = ref.seconds();
   snap->clampBound = ml.clampBound();
   snap->sceneRadius = w.scene->boundingRadius();
   snap->radiusMin = job.radiusMin;
@@ -577,22 +551,23 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->pairs = ml.stats().pairs.load();
   snap->vslEvaluations = ml.stats().vslEvaluations.load();
   snap->pairsPerSecond = ml.stats().pairs / std::max(ml.stats().gatherSeconds, 1e-9);
-  snap->nonFinite = ml.stats().nonFinite + job.ptCounters.nonFinite + job.prep.set.nonFiniteRejected;
+  snap->nonFinite = ml.stats().nonFinite + job.prep.set.nonFiniteRejected + ref.rejected();
   // Progress: rates over compute time, remaining time at those rates.
   if (ml.stats().gatherSeconds > 0) {
     snap->lightsPerSecond = double(snap->lightsProcessed) / ml.stats().gatherSeconds;
     snap->manyRemainingSeconds =
         double(snap->lightsTotal - snap->lightsProcessed) / std::max(snap->lightsPerSecond, 1e-9);
   }
-  if (double t = ref.seconds - job.ptStart; t > 0 && ref.spp > job.sppStart) {
-    snap->referenceSppPerSecond = (ref.spp - job.sppStart) / t;
-    snap->referenceRemainingSeconds = std::max(job.settings.maxReferenceSpp - ref.spp, 0) / snap->referenceSppPerSecond;
+  if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
+    snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
+    snap->referenceRemainingSeconds =
+        std::max(job.settings.maxReferenceSpp - ref.spp(), 0) / snap->referenceSppPerSecond;
   }
   snap->vslSeconds = job.prep.set.seconds + job.prep.knnSeconds + ml.stats().vslSeconds;
   snap->vplSeconds = job.prep.set.seconds + ml.stats().vplSeconds;
   snap->backgroundSpp = job.backgroundSpp;
   // The reference in use and its own noise (session.h, ErrorSample).
-  const double liveNoise = ref.noise();
+  const double liveNoise = ref.indirectNoise();
   if (w.converged) {
     snap->convergedReference = true;
     snap->refIndirect = w.converged->indirect;
@@ -606,7 +581,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     snap->refIndirect = snap->ptIndirect;
     snap->refDirect = snap->ptDirect;
     snap->referenceSource = "live path tracer";
-    snap->referenceSpp = ref.spp;
+    snap->referenceSpp = ref.spp();
     snap->referenceNoise = liveNoise;
   }
   const double noise = std::max(snap->referenceNoise, 0.0);
@@ -614,7 +589,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   e.manySeconds = job.mlSeconds;
   e.vslSeconds = snap->vslSeconds;
   e.vplSeconds = snap->vplSeconds;
-  e.ptSeconds = ref.seconds;
+  e.ptSeconds = ref.seconds();
   e.referenceNoise = noise;
   e.vsl = compareImages(snap->many.vsl, snap->refIndirect).average.relMse - noise;
   e.vpl = compareImages(snap->many.vpl, snap->refIndirect).average.relMse - noise;
@@ -626,7 +601,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     history.push_back(e);
   snap->history = history;
   snap->manyLightDone = job.batch >= ml.batchCount();
-  snap->referenceDone = ref.spp >= job.settings.maxReferenceSpp;
+  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
   return snap;
 }
 

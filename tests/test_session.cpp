@@ -380,6 +380,14 @@ TEST(Session, UsesAMatchingCachedReference) {
   const ErrorSample& e = snap->history.back();
   EXPECT_NEAR(e.vpl, compareImages(snap->many.vpl, ref.indirect).average.relMse - ref.indirectNoise(), 1e-12);
   EXPECT_NEAR(e.pt, compareImages(snap->ptIndirect, ref.indirect).average.relMse - ref.indirectNoise(), 1e-12);
+  // The live path tracer is a ReferenceRenderer of seed 0 stepped one pass at
+  // a time: its mean is that of one made here, bit for bit.
+  RenderSettings live = rs;
+  live.seed = 0;
+  ReferenceRenderer pt(scene, **accel, lights, live);
+  while (pt.spp() < snap->ptSpp) ASSERT_TRUE(pt.stepPass());
+  EXPECT_EQ(snap->ptIndirect.rgb, pt.meanIndirect().rgb);
+  EXPECT_EQ(snap->ptDirect.rgb, pt.meanDirect().rgb);
 }
 
 // A reference file of another size is refused with its reason; the render
