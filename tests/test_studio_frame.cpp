@@ -441,6 +441,34 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
   EXPECT_TRUE(j["settings"]["vslSamples"].contains("meanPerPair"));
 }
 
+// The export records the light sets and each method's bias and noise where
+// measured (null where not).
+TEST_F(StudioFrame, ExportRecordsLightSetsAndBiasNoise) {
+  auto snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->settings.lightSets = snap->lightSets = 3;
+  snap->lightSetsDone = 3;
+  snap->referenceNoise = 0.001;
+  snap->biasNoise[int(BiasNoiseRow::Vpl)] = {3, 0.25, 0.5, 0.4};
+  studio->setSnapshotForTesting(snap);
+  renderFrames(1);
+  std::string dir = std::string(VSL_BINARY_DIR) + "/studio-export-bias-test";
+  std::filesystem::remove_all(dir);
+  std::string folder;
+  Result<void> e = studio->exportAll(dir, nullptr, &folder);
+  ASSERT_TRUE(e) << e.error();
+  std::ifstream js(folder + "/metrics.json");
+  nlohmann::json j = nlohmann::json::parse(js);
+  EXPECT_EQ(j["settings"]["lightSets"], 3);
+  EXPECT_EQ(j["samples"]["lightSetsDone"], 3);
+  const nlohmann::json& vpl = j["biasNoiseIndirect"]["methods"]["VPL (clamped)"];
+  EXPECT_EQ(vpl["renders"], 3);
+  EXPECT_DOUBLE_EQ(vpl["bias2"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(vpl["variance"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(vpl["relMSE"].get<double>(), 0.4);
+  EXPECT_DOUBLE_EQ(vpl["bias2MinusReferenceNoise"].get<double>(), 0.249);
+  EXPECT_TRUE(j["biasNoiseIndirect"]["methods"]["VSL"].is_null());
+}
+
 namespace {
 // The crop of img at (x0, y0), w x h, cut here independently of the studio.
 Image cutOut(const Image& img, int x0, int y0, int w, int h) {

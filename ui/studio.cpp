@@ -614,6 +614,12 @@ void Studio::controlsPanel() {
   errorField("width");
   track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
   errorField("batches");
+  track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
+        "mean, and from two sets on the table shows each method's bias^2 and noise. 1: one set.");
+  errorField("light sets");
   track("reference spp",
         ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("reference spp");
@@ -801,7 +807,8 @@ void Studio::statusBar() {
   std::snprintf(overlay, sizeof overlay, "VSL+VPL %.0f%%", 100 * fm);
   ImGui::ProgressBar(fm, ImVec2(130, 0), overlay);
   ImGui::SameLine();
-  std::snprintf(detail, sizeof detail, "%zu / %zu lights  %s lights/s  %s", s.lightsProcessed, s.lightsTotal,
+  std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s lights/s  %s", s.lightsProcessed,
+                s.lightsTotal, std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
                 humanCount(s.lightsPerSecond).c_str(),
                 s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
   ImGui::TextUnformatted(detail);
@@ -1187,7 +1194,42 @@ void Studio::metricsPanel() {
           "reference; computed off the UI thread%s",
           flipFresh ? "" : " (grey: from an earlier picture)");
   };
-  if (ImGui::BeginTable("metrics", 6, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(530, 0))) {
+  // Bias against noise (session.h, BiasNoise): from the completed light sets
+  // (the path tracer's halves), for the indirect component; bias^2 less the
+  // reference's own noise where it is known, as relMSE.
+  double bestBias = INFINITY, bestNoise = INFINITY;
+  for (const BiasNoise& b : s.biasNoise)
+    if (b.renders >= 2) bestBias = std::min(bestBias, b.bias2 - noise), bestNoise = std::min(bestNoise, b.variance);
+  auto biasCells = [&](BiasNoiseRow row) {
+    const BiasNoise& b = s.biasNoise[int(row)];
+    for (int k = 0; k < 2; ++k) {
+      ImGui::TableNextColumn();
+      if (!indirect) {
+        ImGui::TextDisabled("n/a");
+      } else if (b.renders < 2) {
+        ImGui::TextDisabled("-");
+      } else {
+        cell(k == 0 ? b.bias2 - noise : b.variance, k == 0 ? bestBias : bestNoise, "%.4g");
+      }
+      if (!ImGui::IsItemHovered()) continue;
+      const bool pt = row == BiasNoiseRow::Pt;
+      if (!indirect)
+        ImGui::SetTooltip("Bias and noise are measured on the indirect component");
+      else if (b.renders < 2 && pt)
+        ImGui::SetTooltip("The path tracer's two halves are measured against a converged reference only");
+      else if (b.renders < 2)
+        ImGui::SetTooltip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
+      else if (k == 0)
+        ImGui::SetTooltip(
+            "bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s",
+            b.renders, pt ? "halves" : "light sets",
+            noise > 0 ? ", less the reference's own noise" : "; it includes the reference's own noise");
+      else
+        ImGui::SetTooltip("noise = mean(w s^2): the variance of one %s (relMSE units); the mean of K has 1/K of it",
+                          pt ? "half" : "light set");
+    }
+  };
+  if (ImGui::BeginTable("metrics", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(660, 0))) {
     ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
                             ImGuiTableColumnFlags_WidthStretch);
     ImGui::TableSetupColumn("mean");
@@ -1196,6 +1238,8 @@ void Studio::metricsPanel() {
     char eqTitle[32];
     std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", budget);
     ImGui::TableSetupColumn(indirect ? eqTitle : "@equal t");
+    ImGui::TableSetupColumn(noise > 0 ? "bias^2-noise" : "bias^2");
+    ImGui::TableSetupColumn("noise");
     ImGui::TableSetupColumn("FLIP");
     ImGui::TableHeadersRow();
     for (int i = 0; i < 4; ++i) {
@@ -1214,6 +1258,7 @@ void Studio::metricsPanel() {
                           noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
       ImGui::TableNextColumn();
       cell(atEqualTime(i), best[2], "%.4g");
+      biasCells(BiasNoiseRow(i));
       ImGui::TableNextColumn();
       flipCell(i);
     }
@@ -1246,12 +1291,15 @@ void Studio::metricsPanel() {
     }
     ImGui::TableNextColumn();
     cell(ptEqual, best[2], "%.4g");
+    biasCells(BiasNoiseRow::Pt);
     ImGui::TableNextColumn();
     flipCell(4);
     ImGui::EndTable();
   }
   // Which reference, and how noisy it is.
-  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 530);
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
+  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
+                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
   char noiseText[48] = "unknown (no halves)";
   if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
   ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
@@ -1609,6 +1657,29 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
                               {"vsl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vsl, budget))},
                               {"vpl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vpl, budget))},
                               {"pt", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Pt, budget))}};
+  // Bias against noise of each method's indirect image (session.h,
+  // BiasNoise), where measured: null for a method with fewer than two
+  // independent estimates.
+  nlohmann::json biasNoise = {
+      {"definition",
+       "compare.h biasVariance over K independent estimates (light sets; the path tracer's two halves) against the "
+       "reference: bias2 = mean(w ((m - ref)^2 - s^2/K)), variance = mean(w s^2) of one estimate, relMSE of their "
+       "mean; w = 1/(ref^2 + eps), the indirect component"},
+      {"referenceNoise", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
+      {"lightSetsDone", s.lightSetsDone}};
+  const char* biasRows[] = {"VSL", "VPL (clamped)", "VPL unclamped", "VPL diffuse-only", "Path tracer (live)"};
+  for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
+    const BiasNoise& b = s.biasNoise[i];
+    biasNoise["methods"][biasRows[i]] =
+        b.renders < 2 ? nlohmann::json(nullptr)
+                      : nlohmann::json({{"renders", b.renders},
+                                        {"bias2", b.bias2},
+                                        {"variance", b.variance},
+                                        {"relMSE", b.relMse},
+                                        {"bias2MinusReferenceNoise", s.referenceNoise >= 0
+                                                                         ? nlohmann::json(b.bias2 - s.referenceNoise)
+                                                                         : nlohmann::json(nullptr)}});
+  }
   const ManyLightSettings& m = s.settings.many;
   // The clamp as resolved: its mode and the bound actually used.
   nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
@@ -1637,11 +1708,14 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
                         {"batches", m.batches},
                         {"directSamples", m.directSamples},
                         {"lightMaxDepth", m.lightMaxDepth},
-                        {"maxReferenceSpp", s.settings.maxReferenceSpp}}},
+                        {"maxReferenceSpp", s.settings.maxReferenceSpp},
+                        {"lightSets", s.settings.lightSets}}},
                       {"width", s.width},
                       {"height", s.height},
                       {"samples",
-                       {{"lightsTraced", s.lightsTotal},
+                       {{"lightSetsDone", s.lightSetsDone},
+                        {"lightSets", s.lightSets},
+                        {"lightsTraced", s.lightsTotal},
                         {"lightsGathered", s.lightsProcessed},
                         {"batchesDone", s.batchesDone},
                         {"batchCount", s.batchCount},
@@ -1672,6 +1746,7 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
                       {"reference", reference},
                       {"equalTimeIndirect", equalTime},
                       {"flip", flipJson},
+                      {"biasNoiseIndirect", biasNoise},
                       {"errorHistory", hist}};
   if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
   files.push_back(path("metrics.json"));
@@ -2037,7 +2112,8 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
                         {"diffuseOnly", m.diffuseOnly},
-                        {"maxReferenceSpp", s.maxReferenceSpp}}},
+                        {"maxReferenceSpp", s.maxReferenceSpp},
+                        {"lightSets", s.lightSets}}},
                       {"view",
                        {{"mode", int(v.mode)},
                         {"panels", {int(v.panels[0]), int(v.panels[1]), int(v.panels[2])}},
@@ -2109,6 +2185,7 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
       m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
     readField(js, "diffuseOnly", &m.diffuseOnly);
     readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
+    readField(js, "lightSets", &s.lightSets);
     if (j.contains("view")) {
       const nlohmann::json& jv = j.at("view");
       readEnum(jv, "mode", &v.mode, 4);
