@@ -128,9 +128,13 @@ struct Script {
 
   // Headless runs end at once, with exit status 1, when they cannot succeed:
   // the first scene did not load (missing, unreadable, no emitters), the
-  // settings were refused, or the render failed.
+  // reference file was refused, the settings were refused, or the render
+  // failed.
   bool fatal(const ui::Studio& studio) {
     std::string why = studio.fatalError();
+    // A reference given on the command line that cannot be used (another
+    // size, no indirect layer): the numbers asked for cannot be made.
+    if (why.empty() && !args.reference.empty()) why = studio.referenceError();
     if (why.empty() && !studio.settingsError().empty() && !studio.snapshot()) why = studio.settingsError();
     if (why.empty() && !studio.errorDialog().empty() && !studio.busy() && !studio.snapshot())
       why = studio.errorDialog();
@@ -422,7 +426,9 @@ int main(int argc, char** argv) {
                  "metrics and a crop figure");
   app.add_option("--reference", a.reference,
                  "A converged reference EXR of the render's size with an 'indirect' layer (vsl reference writes one); "
-                 "default: a matching cached reference, else the live path tracer");
+                 "default: a matching cached reference, else the live path tracer. Headless, a file that cannot be "
+                 "used (another size, no indirect layer) ends the run with exit status 1")
+      ->check(CLI::ExistingFile);
   app.add_option("--light-sets", a.lightSets,
                  "Independent light sets to render and average; from two on, each method's bias and noise are "
                  "measured (1: one set)")

@@ -568,15 +568,21 @@ void Session::chooseReference(Worker& w, Job& job) {
   if (file.empty() && w.converged && w.convergedFor == want) return;
   if (!file.empty() && w.convergedFor == want) return;
   std::shared_ptr<const vsl::Reference> chosen;
+  std::string refused;
   if (!file.empty()) {
     Result<vsl::Reference> r = readReference(file, width, height);
     if (r)
       chosen = std::make_shared<vsl::Reference>(std::move(r).value());
     else
-      reportRunError("reference not used: " + r.error() + "; errors are measured against the live path tracer");
+      refused = "reference not used: " + r.error();
   } else {
     chosen = findCachedReference(w.cacheKey, width, height);
   }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_.referenceError = refused;
+  }
+  if (!refused.empty()) reportRunError(refused + "; errors are measured against the live path tracer");
   if (chosen && !file.empty()) log::info("reference: " + file);
   if (chosen && file.empty()) log::info("reference: the cached " + referenceCachePath(w.cacheKey));
   w.convergedFor = want;

@@ -181,6 +181,10 @@ class Session {
     bool noEmitters = false;       // the last failed load was a scene without emitters
     std::string runError;          // the last refused or failed render ("out of memory ...")
     uint64_t runErrorSerial = 0;   // increases with every refused or failed render
+    // Why the settings' reference file was refused (it names the file and the
+    // reason: another size, no indirect layer, unreadable); "" when it is in
+    // use or none was given. Errors are then measured against the live path tracer.
+    std::string referenceError;
     // "idle", "loading", "tracing lights", "k-NN radii", "rendering", "done"
     std::string stage;
     std::string loading;        // the path being loaded while stage is "loading"

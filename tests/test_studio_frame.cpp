@@ -7,6 +7,7 @@
 #include <imgui.h>
 #include <imgui_impl_opengl3.h>
 #include <stb_image.h>
+#include <sys/wait.h>
 #include <thread>
 
 #include <filesystem>
@@ -603,6 +604,56 @@ TEST_F(StudioInput, ShiftDragMakesACrop) {
 
 // The last session: saved and read back field for field; a corrupt file,
 // a wrong type or an invalid value is a warning and changes nothing.
+namespace {
+struct StudioRun {
+  int code = -1;
+  std::string out;  // stdout and stderr
+};
+// Runs build/bin/vsl-studio ARGS (as the shell reads them) with a last
+// session of its own under configDir, never the user's. Hack: tests/run_vsl.h
+// runs only `vsl`, so this is its twin for the studio.
+StudioRun runStudio(const std::string& configDir, const std::string& args) {
+  std::string cmd =
+      "XDG_CONFIG_HOME='" + configDir + "' " + std::string(VSL_BINARY_DIR) + "/bin/vsl-studio " + args + " 2>&1";
+  StudioRun r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) r.out.append(buf, n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+}  // namespace
+
+// A headless run given a reference it cannot use ends at once with exit
+// status 1, naming the file and the reason (another size, no indirect
+// layer), and exports nothing; a reference file that does not exist is a bad
+// argument (exit status 2).
+TEST(StudioCli, HeadlessRunWithARefusedReferenceFails) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-reference-cli";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string wrongSize = dir + "/wrong-size.exr", noIndirect = dir + "/no-indirect.exr";
+  ASSERT_TRUE(writeExr(wrongSize, {{"indirect", Image(20, 16)}}));
+  ASSERT_TRUE(writeExr(noIndirect, {{"direct", Image(16, 16)}}));
+  // The default scene (cornell-glossy, square) at 16x16.
+  const std::string common =
+      "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " + dir + "/out";
+  StudioRun r = runStudio(dir + "/config", common + " --reference " + wrongSize);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("error: reference not used: " + wrongSize + ": 20x16, but the render is 16x16"),
+            std::string::npos)
+      << r.out;
+  r = runStudio(dir + "/config", common + " --reference " + noIndirect);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(noIndirect + ": no 'indirect' layer"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out")) << "nothing is exported";
+  r = runStudio(dir + "/config", common + " --reference " + dir + "/missing.exr");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("missing.exr"), std::string::npos) << r.out;
+}
+
 TEST(LastSession, RoundTripAndCorruptFiles) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-test";
   std::filesystem::remove_all(dir);

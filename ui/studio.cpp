@@ -311,6 +311,11 @@ std::string Studio::fatalError() const {
   return "";
 }
 
+std::string Studio::referenceError() const {
+  if (!session_ || accepted_.referencePath.empty()) return "";
+  return session_->status().referenceError;
+}
+
 bool Studio::sourceStale(Source s) const {
   if (!snap_) return false;
   const StudioSettings& a = snap_->settings;

@@ -126,6 +126,10 @@ class Studio {
   // Why the session cannot render ("" if it can): the first scene did not
   // load. The headless front end exits with it.
   std::string fatalError() const;
+  // Why the reference file in the settings was refused ("" if it is in use,
+  // or none was given): the file and the reason. The studio goes on against
+  // the live path tracer; the headless front end exits with it.
+  std::string referenceError() const;
   // The message next to a rejected control ("" if none).
   const std::string& settingsError() const { return settingsError_; }
   const std::string& errorDialog() const { return errorDialog_; }
