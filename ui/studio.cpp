@@ -1202,9 +1202,12 @@ void Studio::metricsPanel() {
   // Bias against noise (session.h, BiasNoise): from the completed light sets
   // (the path tracer's halves), for the indirect component; bias^2 less the
   // reference's own noise where it is known, as relMSE.
+  // The best bias^2 is the one nearest 0 (an unbiased method's estimate
+  // scatters around 0, so it can be slightly negative).
   double bestBias = INFINITY, bestNoise = INFINITY;
   for (const BiasNoise& b : s.biasNoise)
-    if (b.renders >= 2) bestBias = std::min(bestBias, b.bias2 - noise), bestNoise = std::min(bestNoise, b.variance);
+    if (b.renders >= 2)
+      bestBias = std::min(bestBias, std::abs(b.bias2 - noise)), bestNoise = std::min(bestNoise, b.variance);
   auto biasCells = [&](BiasNoiseRow row) {
     const BiasNoise& b = s.biasNoise[int(row)];
     for (int k = 0; k < 2; ++k) {
@@ -1214,7 +1217,8 @@ void Studio::metricsPanel() {
       } else if (b.renders < 2) {
         ImGui::TextDisabled("-");
       } else {
-        cell(k == 0 ? b.bias2 - noise : b.variance, k == 0 ? bestBias : bestNoise, "%.4g");
+        const double v = k == 0 ? b.bias2 - noise : b.variance;
+        cell(v, k == 0 ? (std::abs(v) == bestBias ? v : NAN) : bestNoise, "%.4g");
       }
       if (!ImGui::IsItemHovered()) continue;
       const bool pt = row == BiasNoiseRow::Pt;
