@@ -331,6 +331,7 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   w.job->settings.referencePath = s.referencePath;
   w.job->settings.backgroundReferenceSpp = s.backgroundReferenceSpp;
   w.job->settings.lightSets = s.lightSets;
+  if (w.job->ml && w.job->setsDone >= s.lightSets) retireSet(*w.job, false);  // beyond the new count
   chooseReference(w, *w.job);
   render(w, *w.job, gen);
 }
@@ -474,24 +475,31 @@ bool Session::prepareSet(Worker& w, Job& job) {
   return true;
 }
 
-// The set in progress is done: its images join the sums and the mean, its
-// work the totals, and its lights and renderer are freed.
-void Session::completeSet(Job& job) {
-  const ManyLightImages im = job.ml->images();
+// Retires the set in progress: a completed one's images join the sums and
+// the mean and its lights the totals; either way its work stays on the
+// methods' clocks (they never run backwards), and its lights and renderer
+// are freed. A set dropped unfinished (fewer sets asked for) keeps its
+// number, so set k always has seed + k.
+void Session::retireSet(Job& job, bool completed) {
   const ManyLightStats& st = job.ml->stats();
-  const size_t n = im.vsl.rgb.size();
-  const int K = ++job.setsDone;
-  for (int l = 0; l < kLayers; ++l) {
-    const Image& img = im.*kLayer[l];
-    std::vector<double>& sum = job.sum[l];
-    if (sum.empty()) sum.assign(n, 0.0);
-    for (size_t i = 0; i < n; ++i) sum[i] += img.rgb[i];
-    // The mean as biasVariance computes it (a double sum in set order over
-    // K), so that it equals biasVariance's mean bit for bit.
-    Image& mean = job.mean.*kLayer[l];
-    mean = Image(im.vsl.width, im.vsl.height);
-    for (size_t i = 0; i < n; ++i) mean.rgb[i] = float(sum[i] / K);
-    if (l < kIndirectLayers) job.setImages[l].push_back(img);
+  if (completed) {
+    const ManyLightImages im = job.ml->images();
+    const size_t n = im.vsl.rgb.size();
+    const int K = ++job.setsDone;
+    for (int l = 0; l < kLayers; ++l) {
+      const Image& img = im.*kLayer[l];
+      std::vector<double>& sum = job.sum[l];
+      if (sum.empty()) sum.assign(n, 0.0);
+      for (size_t i = 0; i < n; ++i) sum[i] += img.rgb[i];
+      // The mean as biasVariance computes it (a double sum in set order over
+      // K), so that it equals biasVariance's mean bit for bit.
+      Image& mean = job.mean.*kLayer[l];
+      mean = Image(im.vsl.width, im.vsl.height);
+      for (size_t i = 0; i < n; ++i) mean.rgb[i] = float(sum[i] / K);
+      if (l < kIndirectLayers) job.setImages[l].push_back(img);
+    }
+    job.done.lights += job.prep.set.lights.size();
+    ++job.set;
   }
   SetTotals& d = job.done;
   d.tracingSeconds += job.prep.set.seconds;
@@ -502,10 +510,9 @@ void Session::completeSet(Job& job) {
   d.pairs += st.pairs;
   d.vslEvaluations += st.vslEvaluations;
   d.nonFinite += st.nonFinite + job.prep.set.nonFiniteRejected;
-  d.lights += job.prep.set.lights.size();
   job.ml.reset();
   job.prep = ManyLightRun();
-  ++job.set;
+  job.batch = 0;
 }
 
 // ---- [5] Rendering and snapshots -----------------------------------------------------
@@ -528,7 +535,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
         auto tb = Clock::now();
         if (!job.ml->renderBatch(job.batch, &stop_)) break;
         job.mlSeconds += since(tb);
-        if (++job.batch >= job.ml->batchCount()) completeSet(job);
+        if (++job.batch >= job.ml->batchCount()) retireSet(job, true);
       }
       progressed = true;
     }

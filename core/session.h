@@ -214,7 +214,7 @@ class Session {
   bool ensureScene(Worker& w, StudioSettings& s);
   std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s);
   bool prepareSet(Worker& w, Job& job);
-  void completeSet(Job& job);
+  void retireSet(Job& job, bool completed);
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;
   void render(Worker& w, Job& job, uint64_t gen);
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;

@@ -440,6 +440,36 @@ TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
   EXPECT_EQ(snap->biasNoise[0].renders, 0);
 }
 
+// Asking for fewer sets while a later one renders keeps the completed ones:
+// the set in progress is dropped, the picture stays the first set's (bit for
+// bit one render with the first seed), and the methods' clocks never run
+// backwards.
+TEST(Session, FewerLightSetsKeepTheCompletedOnes) {
+  Session session;
+  StudioSettings s = small("cornell-glossy", 20000, 16);
+  s.many.batches = 16;
+  s.lightSets = 3;
+  uint64_t g = session.restart(s).value();
+  auto first = waitFor(session, g, [](const Snapshot& x) { return x.lightSetsDone == 1 && !x.manyLightDone; });
+  ASSERT_TRUE(first);
+  s.lightSets = 1;
+  auto t0 = std::chrono::steady_clock::now();
+  g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  // Resumed, not rendered again: done far sooner than a set takes.
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(seconds, 0.5 * first->seconds) << "a set takes about " << first->seconds << " s";
+  EXPECT_EQ(snap->lightSetsDone, 1);
+  EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
+  EXPECT_GE(snap->vslSeconds, first->vslSeconds);
+  EXPECT_GE(snap->vplSeconds, first->vplSeconds);
+  for (size_t i = 1; i < snap->history.size(); ++i)
+    EXPECT_GE(snap->history[i].vslSeconds, snap->history[i - 1].vslSeconds) << i;
+  Loaded l("cornell-glossy");
+  EXPECT_EQ(snap->many.vsl.rgb, l.render(s.many).vsl.rgb);
+}
+
 // A restart while a later light set is being traced or gathered stops it
 // within one step of work (generous bound: the machine is shared).
 TEST(Session, RestartDuringALaterLightSetStopsPromptly) {
