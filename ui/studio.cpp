@@ -283,25 +283,26 @@ void Studio::updateFlip() {
   std::shared_ptr<const Snapshot> snap = snap_;
   const Component c = view_.component;
   const float exposure = view_.exposure;
-  flipTask_ = std::async(std::launch::async, [snap, c, exposure] {
-    auto pick = [c](const Image& d, const Image& i) {
-      return c == Component::Direct ? d : c == Component::Indirect ? i : add(d, i);
-    };
-    const Snapshot& s = *snap;
-    const Image ref = toSrgbImage(pick(s.refDirect, s.refIndirect), exposure);
-    const Image* indirect[5] = {&s.many.vsl, &s.many.vpl, &s.many.vplUnclamped, &s.many.vplDiffuse, &s.ptIndirect};
-    FlipNumbers f;
-    f.serial = s.serial;
-    f.component = c;
-    f.exposure = exposure;
-    for (int i = 0; i < 5; ++i) {
-      const Image& direct = i == 4 ? s.ptDirect : s.many.direct;
-      FlipResult r = flipLdr(toSrgbImage(pick(direct, *indirect[i]), exposure), ref);
-      f.mean[i] = r.mean;
-      f.map[i] = std::move(r.map);
-    }
-    return f;
-  });
+  flipTask_ = std::async(std::launch::async, [snap, c, exposure] { return computeFlip(*snap, c, exposure); });
+}
+
+Studio::FlipNumbers Studio::computeFlip(const Snapshot& s, Component c, float exposure) {
+  auto pick = [c](const Image& d, const Image& i) {
+    return c == Component::Direct ? d : c == Component::Indirect ? i : add(d, i);
+  };
+  const Image ref = toSrgbImage(pick(s.refDirect, s.refIndirect), exposure);
+  const Image* indirect[5] = {&s.many.vsl, &s.many.vpl, &s.many.vplUnclamped, &s.many.vplDiffuse, &s.ptIndirect};
+  FlipNumbers f;
+  f.serial = s.serial;
+  f.component = c;
+  f.exposure = exposure;
+  for (int i = 0; i < 5; ++i) {
+    const Image& direct = i == 4 ? s.ptDirect : s.many.direct;
+    FlipResult r = flipLdr(toSrgbImage(pick(direct, *indirect[i]), exposure), ref);
+    f.mean[i] = r.mean;
+    f.map[i] = std::move(r.map);
+  }
+  return f;
 }
 
 std::string Studio::fatalError() const {
@@ -1607,24 +1608,23 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
     files.push_back(path(name));
   }
 
-  // FLIP maps through magma with a bar, when the asynchronous ones belong to
-  // this snapshot, component and exposure (an export never waits for them).
-  nlohmann::json flipJson = nullptr;
-  if (std::optional<std::vector<double>> means = flipMeans()) {
-    flipJson = {{"metric", "LDR-FLIP, mean pooled"},
-                {"component", comp},
-                {"exposure", view_.exposure},
-                {"pixelsPerDegree", kFlipPixelsPerDegree}};
-    for (size_t i = 0; i < std::size(kMetricSources); ++i) {
-      int rows = 0;
-      std::vector<uint8_t> px = magmaWithBar(flip_->map[i], &rows);
-      std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
-      if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
-      files.push_back(path(name));
-      flipJson["mean"][sourceName(kMetricSources[i])] = (*means)[i];
-    }
-    if (s.convergedReference) flipJson["mean"]["Path tracer (live)"] = (*means)[4];
+  // FLIP maps through magma with a bar: the asynchronous ones when they
+  // belong to this picture, component and exposure, else computed here (an
+  // export may take a moment; a frame never does).
+  const FlipNumbers flip = flipMeans() ? *flip_ : computeFlip(s, view_.component, view_.exposure);
+  nlohmann::json flipJson = {{"metric", "LDR-FLIP, mean pooled"},
+                             {"component", comp},
+                             {"exposure", view_.exposure},
+                             {"pixelsPerDegree", kFlipPixelsPerDegree}};
+  for (size_t i = 0; i < std::size(kMetricSources); ++i) {
+    int rows = 0;
+    std::vector<uint8_t> px = magmaWithBar(flip.map[i], &rows);
+    std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
+    if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
+    files.push_back(path(name));
+    flipJson["mean"][sourceName(kMetricSources[i])] = flip.mean[i];
   }
+  if (s.convergedReference) flipJson["mean"]["Path tracer (live)"] = flip.mean[4];
 
   nlohmann::json cropJson = nullptr;
   if (!view_.crop.empty()) {

@@ -272,6 +272,7 @@ class Studio {
   uint64_t flipVersion_ = 0, flipUploaded_ = 0;  // results received, and the one in the textures
   void updateFlip();
   bool flipMatchesView() const;
+  static FlipNumbers computeFlip(const Snapshot& s, Component c, float exposure);
   double referenceMean_ = 0;
   // Crop insets of the shown snapshot, rebuilt when it, the component, the
   // metric or the rectangle change.
