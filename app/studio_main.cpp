@@ -6,6 +6,7 @@
 //   vsl-studio [SCENE] [--headless] [--frames N] [--screenshot PATH]
 //              [--export DIR] [--after SECONDS] [--window WxH] [--lights N] [--width W]
 //              [--crop X,Y,W,H] [--fresh] [--reference REF.exr] [--background-reference SPP]
+//              [--light-sets N]
 //
 // Without a SCENE, the last session's scene, settings and view come back
 // (ui::lastSessionPath(); --fresh ignores it); every run that did not fail
@@ -48,6 +49,8 @@ struct Args {
   std::string crop;                              // X,Y,W,H in image pixels
   std::string reference;                         // a converged reference EXR
   int backgroundReference = 0;                   // spp of a reference rendered into the cache
+  int lightSets = StudioSettings().lightSets;    // independent light sets
+  bool lightSetsGiven = false;
 };
 
 // What the studio starts with: options and the initial view.
@@ -125,9 +128,13 @@ struct Script {
 
   // Headless runs end at once, with exit status 1, when they cannot succeed:
   // the first scene did not load (missing, unreadable, no emitters), the
-  // settings were refused, or the render failed.
+  // reference file was refused, the settings were refused, or the render
+  // failed.
   bool fatal(const ui::Studio& studio) {
     std::string why = studio.fatalError();
+    // A reference given on the command line that cannot be used (another
+    // size, no indirect layer): the numbers asked for cannot be made.
+    if (why.empty() && !args.reference.empty()) why = studio.referenceError();
     if (why.empty() && !studio.settingsError().empty() && !studio.snapshot()) why = studio.settingsError();
     if (why.empty() && !studio.errorDialog().empty() && !studio.busy() && !studio.snapshot())
       why = studio.errorDialog();
@@ -151,6 +158,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
+  o.settings.lightSets = a.lightSets;
   return o;
 }
 
@@ -187,6 +195,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
   }
   if (a.lightsGiven) s.many.lights = a.lights;
   if (a.widthGiven) s.many.width = a.width, s.many.height = 0;
+  if (a.lightSetsGiven) s.lightSets = a.lightSets;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
   v.crop = launch->view.crop;  // --crop applies to this run only
@@ -417,7 +426,14 @@ int main(int argc, char** argv) {
                  "metrics and a crop figure");
   app.add_option("--reference", a.reference,
                  "A converged reference EXR of the render's size with an 'indirect' layer (vsl reference writes one); "
-                 "default: a matching cached reference, else the live path tracer");
+                 "default: a matching cached reference, else the live path tracer. Headless, a file that cannot be "
+                 "used (another size, no indirect layer) ends the run with exit status 1")
+      ->check(CLI::ExistingFile);
+  app.add_option("--light-sets", a.lightSets,
+                 "Independent light sets to render and average; from two on, each method's bias and noise are "
+                 "measured (1: one set)")
+      ->default_str(std::to_string(StudioSettings().lightSets))
+      ->check(CLI::Range(1, StudioSettings::kMaxLightSets));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -437,6 +453,7 @@ int main(int argc, char** argv) {
   }
   a.lightsGiven = app.count("--lights") > 0;
   a.widthGiven = app.count("--width") > 0;
+  a.lightSetsGiven = app.count("--light-sets") > 0;
   Launch launch;
   if (!a.crop.empty()) {
     ui::CropRect& c = launch.view.crop;

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/check.h"
@@ -31,6 +32,15 @@ struct Image {
   }
 };
 
+// The per-pixel mean of two images of equal size (VSL_CHECK): 0.5 (a + b).
+inline Image average(const Image& a, const Image& b) {
+  VSL_CHECK_EQ(a.width, b.width);
+  VSL_CHECK_EQ(a.height, b.height);
+  Image m(a.width, a.height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
+  return m;
+}
+
 class Film {
  public:
   Film() = default;
@@ -47,6 +57,16 @@ class Film {
   Image image() const;
   uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
   void clear();
+  // Exchanges the contents with o without copying (neither film may be in use).
+  void swap(Film& o) noexcept {
+    std::swap(width_, o.width_);
+    std::swap(height_, o.height_);
+    sum_.swap(o.sum_);
+    weight_.swap(o.weight_);
+    const uint64_t r = rejected();
+    rejected_.store(o.rejected(), std::memory_order_relaxed);
+    o.rejected_.store(r, std::memory_order_relaxed);
+  }
 
  private:
   int width_ = 0, height_ = 0;

@@ -21,12 +21,6 @@ double noiseOf(const Image& a, const Image& b) {
   return compareImages(a, b).average.relMse / 4;
 }
 
-Image average(const Image& a, const Image& b) {
-  Image m(a.width, a.height);
-  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
-  return m;
-}
-
 Image sum(const Image& a, const Image& b) {
   Image m(a.width, a.height);
   for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = a.rgb[i] + b.rgb[i];
@@ -80,25 +74,34 @@ ReferenceRenderer::ReferenceRenderer(const Scene& scene, const Accel& accel, con
   }
 }
 
-bool ReferenceRenderer::step(const std::atomic<bool>* stop) {
+// Renders passes nextPass_ .. nextPass_ + count - 1 (count <= 2, so each
+// half gets at most one) into the scratch copies of their halves, then swaps
+// them in; on a stop the halves are untouched.
+bool ReferenceRenderer::renderPasses(int count, const std::atomic<bool>* stop) {
   auto t0 = Clock::now();
-  // Render into copies so that an interrupted pair changes nothing.
-  Film d[2] = {direct_[0], direct_[1]}, ind[2] = {indirect_[0], indirect_[1]};
-  for (int h = 0; h < 2; ++h) {
-    if (!pt_.renderPass(nextPass_ + h, d[h], ind[h], counters_, stop)) {
-      nextPass_ += 2;  // some pixels used these indices: never reuse them
-      return false;
-    }
+  const int first = nextPass_;
+  nextPass_ += count;  // whatever happens, these indices are used
+  for (int p = first; p < first + count; ++p) {
+    const int h = p % 2;
+    scratchDirect_[h] = direct_[h];  // copy-assignment reuses the scratch's storage
+    scratchIndirect_[h] = indirect_[h];
+    if (!pt_.renderPass(p, scratchDirect_[h], scratchIndirect_[h], counters_, stop)) return false;
   }
-  nextPass_ += 2;
-  for (int h = 0; h < 2; ++h) direct_[h] = std::move(d[h]), indirect_[h] = std::move(ind[h]);
-  ++pairs_;
+  for (int p = first; p < first + count; ++p) {
+    direct_[p % 2].swap(scratchDirect_[p % 2]);
+    indirect_[p % 2].swap(scratchIndirect_[p % 2]);
+  }
+  passes_ += count;
   seconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
   return true;
 }
 
+bool ReferenceRenderer::step(const std::atomic<bool>* stop) { return renderPasses(2, stop); }
+
+bool ReferenceRenderer::stepPass(const std::atomic<bool>* stop) { return renderPasses(1, stop); }
+
 double ReferenceRenderer::indirectNoise() const {
-  if (pairs_ == 0) return -1;
+  if (passes_ < 2) return -1;
   return noiseOf(indirect_[0].image(), indirect_[1].image());
 }
 

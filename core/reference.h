@@ -56,30 +56,45 @@ struct Reference {
   double fullNoise() const;
 };
 
-// Renders a reference progressively: each step adds one sample per pixel to
-// each half (pass indices 2i and 2i + 1 of the path tracer).
+// Renders a reference progressively: pass p (one sample per pixel, the path
+// tracer's sample index p) goes to half p % 2. step() adds one pass to each
+// half, stepPass() one pass to the next half in turn (the studio's live path
+// tracer). A stopped step changes nothing visible: the pass renders into
+// scratch films (reused, never reallocated) that replace the halves' films
+// only once complete, and its indices are skipped so that no sample is ever
+// reused. Not thread-safe: one thread steps it and reads it.
 class ReferenceRenderer {
  public:
   ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const RenderSettings& settings);
   int width() const { return pt_.width(); }
   int height() const { return pt_.height(); }
   // Adds two samples per pixel (one per half). Returns false, changing
-  // nothing visible, if *stop became true; the pass's indices are then
-  // skipped so that no sample is ever reused.
+  // nothing visible, if *stop became true.
   bool step(const std::atomic<bool>* stop = nullptr);
-  int spp() const { return 2 * pairs_; }
+  // Adds one sample per pixel to half nextPass % 2. Returns false, changing
+  // nothing visible, if *stop became true.
+  bool stepPass(const std::atomic<bool>* stop = nullptr);
+  int spp() const { return passes_; }  // completed passes in both halves
   double seconds() const { return seconds_; }
-  // Cheap: the indirect noise estimate alone.
+  // Cheap: the indirect noise estimate alone (negative before both halves
+  // have a sample).
   double indirectNoise() const;
+  // The mean of the halves (cheaper than result()), and one half.
+  Image meanDirect() const { return average(direct_[0].image(), direct_[1].image()); }
+  Image meanIndirect() const { return average(indirect_[0].image(), indirect_[1].image()); }
+  Image halfIndirect(int h) const { return indirect_[h].image(); }
   Reference result() const;
+  // Path and ray counts, and contributions the path tracer rejected as non-finite.
   const PtCounters& counters() const { return counters_; }
   uint64_t rejected() const;
 
  private:
+  bool renderPasses(int count, const std::atomic<bool>* stop);
   PathTracer pt_;
   Film direct_[2], indirect_[2];
+  Film scratchDirect_[2], scratchIndirect_[2];  // a step in progress, by its half
   PtCounters counters_;
-  int pairs_ = 0, nextPass_ = 0;
+  int passes_ = 0, nextPass_ = 0;
   double seconds_ = 0;
 };
 

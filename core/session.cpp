@@ -19,12 +19,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-Image average(const Image& a, const Image& b) {
-  Image m(a.width, a.height);
-  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
-  return m;
-}
-
 // The path depth of the live path tracer and of the references it looks up.
 const int kReferenceDepth = RenderSettings().maxDepth;
 
@@ -37,20 +31,50 @@ bool sameImageSettings(const StudioSettings& a, const StudioSettings& b) {
          a.many.computeVpl == b.many.computeVpl;
 }
 
-// A render in progress: its light set, renderers and bookkeeping. Heap-held
+namespace {
+
+// The work of completed light sets, summed.
+struct SetTotals {
+  double tracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0, vslSeconds = 0, vplSeconds = 0;
+  uint64_t pairs = 0, vslEvaluations = 0, nonFinite = 0;
+  size_t lights = 0;  // traced and gathered
+};
+
+// The many-light layers averaged over light sets, in the order of
+// ManyLightImages; the four indirect layers (kIndirectLayers) also keep each
+// set's image for biasVariance.
+constexpr int kLayers = 7, kIndirectLayers = 4;
+Image ManyLightImages::*const kLayer[kLayers] = {&ManyLightImages::vsl,          &ManyLightImages::vpl,
+                                                 &ManyLightImages::vplUnclamped, &ManyLightImages::vplDiffuse,
+                                                 &ManyLightImages::direct,       &ManyLightImages::lostToClamping,
+                                                 &ManyLightImages::lostToDiffuse};
+
+}  // namespace
+
+// A render in progress: its light sets, renderers and bookkeeping. Heap-held
 // so that the renderer's references into `prep` stay valid.
 struct Session::Job {
   StudioSettings settings;
+  int width = 0, height = 0, batchCount = 0;
+  float clampBound = 0;
+  // The light set in progress, number `set` (seed settings.many.seed + set);
+  // ml is null between sets and once all are done.
+  int set = 0;
   ManyLightRun prep;
   std::unique_ptr<ManyLightRenderer> ml;
-  std::unique_ptr<PathTracer> pt;
-  PtCounters ptCounters;
   int batch = 0;
-  double mlSeconds = 0;  // light tracing, k-NN and gathering
-  double ptStart = 0;    // the reference's compute time when the job began
-  int sppStart = 0;      // and its sample count
-  float radiusMin = 0, radiusMedian = 0, radiusMax = 0;
-  Clock::time_point t0;  // wall clock at the job's start
+  // The completed sets: their count, work, per-pixel sums (double, in set
+  // order) and the indirect images of each (biasVariance needs them all).
+  int setsDone = 0;
+  SetTotals done;
+  std::vector<double> sum[kLayers];
+  std::vector<Image> setImages[kIndirectLayers];
+  ManyLightImages mean;                                  // sum / setsDone, once a set is done
+  double mlSeconds = 0;                                  // light tracing, k-NN and gathering, every set
+  double ptStart = 0;                                    // the reference's compute time when the job began
+  int sppStart = 0;                                      // and its sample count
+  float radiusMin = 0, radiusMedian = 0, radiusMax = 0;  // of the newest set
+  Clock::time_point t0;                                  // wall clock at the job's start
   std::vector<ErrorSample> history;
   int backgroundSpp = 0;
 };
@@ -62,17 +86,10 @@ struct Session::Worker {
   std::unique_ptr<Accel> accel;
   std::unique_ptr<LightSampler> lights;
   std::string scenePath;
-  // The live path tracer: pass p goes to half p % 2 (reference.h).
+  // The live path tracer (seed 0): pass p goes to half p % 2 (reference.h).
   struct Reference {
     std::string key;  // scene and resolution
-    Film direct[2], indirect[2];
-    int spp = 0;
-    double seconds = 0;
-    Image meanDirect() const { return average(direct[0].image(), direct[1].image()); }
-    Image meanIndirect() const { return average(indirect[0].image(), indirect[1].image()); }
-    double noise() const {  // relMSE(A, B) / 4 of the mean's indirect layer
-      return spp >= 2 ? compareImages(indirect[0].image(), indirect[1].image()).average.relMse / 4 : -1;
-    }
+    std::unique_ptr<ReferenceRenderer> pt;
   } ref;
   // The converged reference in use, what it was chosen for, and its noise.
   std::shared_ptr<const vsl::Reference> converged;
@@ -120,6 +137,9 @@ Result<void> StudioSettings::validate() const {
   if (scene.empty()) return Error("scene: no scene path given");
   if (maxReferenceSpp < 1 || maxReferenceSpp > (1 << 20))
     return Error("reference spp: must be in [1,1048576] (got " + std::to_string(maxReferenceSpp) + ")");
+  if (lightSets < 1 || lightSets > kMaxLightSets)
+    return Error("light sets: must be in [1," + std::to_string(kMaxLightSets) + "] (got " + std::to_string(lightSets) +
+                 ")");
   if (backgroundReferenceSpp < 0 || backgroundReferenceSpp > (1 << 20))
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
@@ -144,10 +164,27 @@ bool Session::shutdown(double seconds) {
 Result<void> Session::checkMemory(const StudioSettings& s, int width, int height) const {
   uint64_t available = memoryForTesting_.load();
   if (available == 0) available = availableMemoryBytes();
-  Result<void> m = checkStudioMemory(s.many.lights, width, height, available);
-  if (m) return {};
-  return Error("memory: " + std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" +
-               std::to_string(height) + " " + m.error());
+  const std::string what =
+      std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" + std::to_string(height);
+  if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available); !m)
+    return Error("memory: " + what + " " + m.error());
+  // What checkStudioMemory does not count, per pixel: the light sets' double
+  // sums (7 layers), their mean, biasVariance's 3 temporary images, the live
+  // path tracer's scratch films, and each set's 4 indirect layers (kept for
+  // biasVariance). Checked against the same 75% of what is available.
+  const uint64_t pixels = uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0));
+  const uint64_t fixed = kLayers * 3 * sizeof(double) + (kLayers + 3) * 3 * sizeof(float) + 4 * 4 * sizeof(double);
+  const uint64_t perSet = kIndirectLayers * 3 * sizeof(float);
+  const uint64_t base = estimateStudioMemory(s.many.lights, width, height).total();
+  const uint64_t budget = uint64_t(0.75 * double(available));
+  const uint64_t need = base + pixels * (fixed + perSet * uint64_t(s.lightSets));
+  if (available == 0 || need <= budget) return {};
+  const int64_t fit =
+      budget > base + pixels * fixed ? int64_t((budget - base - pixels * fixed) / (pixels * perSet)) : 0;
+  return Error("memory: " + what + " with " + std::to_string(s.lightSets) + " light sets needs about " +
+               formatBytes(need) + " (each set keeps " + formatBytes(pixels * perSet) + " of images); " +
+               formatBytes(budget) + " may be used; " +
+               (fit >= 1 ? "at most " + std::to_string(fit) + " light sets fit" : "fewer lights or a smaller width"));
 }
 
 Result<uint64_t> Session::restart(const StudioSettings& settings, bool fromScratch) {
@@ -253,16 +290,16 @@ void Session::run() {
       step(w, s, gen, fromScratch);
     } catch (const std::bad_alloc&) {
       w.job.reset();
-      w.ref = Worker::Reference();
+      w.ref = {};
       reportRunError("out of memory while rendering (" + s.many.describe() +
                      "); the render stopped and the last picture stays. Try fewer lights or a smaller width.");
     } catch (const std::exception& e) {
       w.job.reset();
-      w.ref = Worker::Reference();
+      w.ref = {};
       reportRunError(std::string("the render failed: ") + e.what());
     } catch (...) {
       w.job.reset();
-      w.ref = Worker::Reference();
+      w.ref = {};
       reportRunError("the render failed: unknown exception");
     }
   }
@@ -285,12 +322,16 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
     if (!w.job) return;
     s = w.job->settings;  // keep the render that fits
   }
-  if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s))) w.job.reset();
+  // A job with more completed light sets than now asked for starts over;
+  // fewer, and it goes on to the new count.
+  if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s) || w.job->setsDone > s.lightSets)) w.job.reset();
   if (!w.job) w.job = prepare(w, s);
   if (!w.job) return;  // stopped while preparing
-  // Settings that change no image (the reference) apply to a resumed job.
+  // Settings that change no image (the reference, the set count) apply to a resumed job.
   w.job->settings.referencePath = s.referencePath;
   w.job->settings.backgroundReferenceSpp = s.backgroundReferenceSpp;
+  w.job->settings.lightSets = s.lightSets;
+  if (w.job->ml && w.job->setsDone >= s.lightSets) retireSet(*w.job, false);  // beyond the new count
   chooseReference(w, *w.job);
   render(w, *w.job, gen);
 }
@@ -344,7 +385,8 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
     s.scene = w.scenePath;  // keep rendering the previous scene with the other new settings
     return true;
   }
-  w.job.reset();  // it points into the old scene
+  w.job.reset();  // it and the live path tracer point into the old scene
+  w.ref = {};
   w.scene = scene;
   w.accel = std::move(accel);
   w.lights = std::move(lights);
@@ -363,76 +405,138 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
 
 // ---- [4] Preparing a job -------------------------------------------------------------
 
-// Light tracing and radii, as prepareManyLights does, but with the stop flag
-// reaching the k-NN step too. Null if stopped.
+// A new job: its first light set and the live path tracer for its
+// resolution. Null if stopped.
 std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& s) {
   auto job = std::make_unique<Job>();
   job->settings = s;
   job->t0 = Clock::now();
-  setStage("tracing lights", s.many.lights);
-  LightTracingSettings lt;
-  lt.count = s.many.lights;
-  lt.seed = s.many.seed;
-  lt.maxDepth = s.many.lightMaxDepth;
-  job->prep.set = traceVirtualLights(*w.scene, *w.accel, *w.lights, lt, &stop_);
-  if (stopped()) return nullptr;
-  setStage("k-NN radii", s.many.lights);
-  auto tk = Clock::now();
-  const float R = std::max(w.scene->boundingRadius(), 1e-6f);
-  if (s.many.globalRadius > 0)
-    job->prep.radii.assign(job->prep.set.lights.size(), s.many.globalRadius * R);
-  else
-    job->prep.radii = knnRadii(job->prep.set.lights, s.many.knn, s.many.radiusScale, 0.1f * R, 1e-9f * R, &stop_);
-  if (stopped()) return nullptr;
-  job->prep.knnSeconds = since(tk);
-  if (!job->prep.radii.empty()) {
-    std::vector<float> r = job->prep.radii;
-    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
-    job->radiusMedian = r[r.size() / 2];
-    auto [lo, hi] = std::minmax_element(r.begin(), r.end());
-    job->radiusMin = *lo;
-    job->radiusMax = *hi;
-  }
-  job->ml = std::make_unique<ManyLightRenderer>(*w.scene, *w.accel, *w.lights, job->prep.set, job->prep.radii, s.many);
+  if (!prepareSet(w, *job)) return nullptr;
+  job->width = job->ml->width();
+  job->height = job->ml->height();
+  job->batchCount = job->ml->batchCount();
+  job->clampBound = job->ml->clampBound();
 
   // The reference depends only on the scene and the resolution: it keeps
   // converging across restarts that change the many-light settings.
-  RenderSettings rs;
-  rs.width = job->ml->width();
-  rs.height = job->ml->height();
-  rs.seed = 0;
-  std::string refKey = w.scenePath + "|" + std::to_string(rs.width) + "x" + std::to_string(rs.height);
-  if (w.ref.key != refKey) {
-    w.ref = Worker::Reference();
+  std::string refKey = w.scenePath + "|" + std::to_string(job->width) + "x" + std::to_string(job->height);
+  if (w.ref.key != refKey || !w.ref.pt) {
+    RenderSettings rs;
+    rs.width = job->width;
+    rs.height = job->height;
+    rs.seed = 0;
     w.ref.key = refKey;
-    for (int h = 0; h < 2; ++h) {
-      w.ref.direct[h] = Film(rs.width, rs.height);
-      w.ref.indirect[h] = Film(rs.width, rs.height);
-    }
+    w.ref.pt = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
   }
-  job->pt = std::make_unique<PathTracer>(*w.scene, *w.accel, *w.lights, rs);
-  job->mlSeconds = job->prep.set.seconds + job->prep.knnSeconds;
-  job->ptStart = w.ref.seconds;
-  job->sppStart = w.ref.spp;
+  job->ptStart = w.ref.pt->seconds();
+  job->sppStart = w.ref.pt->spp();
   return job;
+}
+
+// Light set number job.set (seed settings.many.seed + set): light tracing
+// and radii, as prepareManyLights does but with the stage shown between
+// them, then its renderer. False, with no set in the job, if stopped.
+bool Session::prepareSet(Worker& w, Job& job) {
+  const StudioSettings& s = job.settings;
+  job.ml.reset();  // the previous set's renderer points into prep
+  job.prep = ManyLightRun();
+  job.batch = 0;
+  ManyLightSettings many = s.many;
+  many.seed = s.many.seed + uint64_t(job.set);
+  setStage("tracing lights", many.lights);
+  LightTracingSettings lt;
+  lt.count = many.lights;
+  lt.seed = many.seed;
+  lt.maxDepth = many.lightMaxDepth;
+  ManyLightRun prep;
+  prep.set = traceVirtualLights(*w.scene, *w.accel, *w.lights, lt, &stop_);
+  if (stopped()) return false;
+  setStage("k-NN radii", many.lights);
+  auto tk = Clock::now();
+  const float R = std::max(w.scene->boundingRadius(), 1e-6f);
+  if (many.globalRadius > 0)
+    prep.radii.assign(prep.set.lights.size(), many.globalRadius * R);
+  else
+    prep.radii = knnRadii(prep.set.lights, many.knn, many.radiusScale, 0.1f * R, 1e-9f * R, &stop_);
+  if (stopped()) return false;
+  prep.knnSeconds = since(tk);
+  if (!prep.radii.empty()) {
+    std::vector<float> r = prep.radii;
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    job.radiusMedian = r[r.size() / 2];
+    auto [lo, hi] = std::minmax_element(r.begin(), r.end());
+    job.radiusMin = *lo;
+    job.radiusMax = *hi;
+  }
+  job.prep = std::move(prep);
+  job.ml = std::make_unique<ManyLightRenderer>(*w.scene, *w.accel, *w.lights, job.prep.set, job.prep.radii, many);
+  job.mlSeconds += job.prep.set.seconds + job.prep.knnSeconds;
+  setStage("rendering");
+  return true;
+}
+
+// Retires the set in progress: a completed one's images join the sums and
+// the mean and its lights the totals; either way its work stays on the
+// methods' clocks (they never run backwards), and its lights and renderer
+// are freed. A set dropped unfinished (fewer sets asked for) keeps its
+// number, so set k always has seed + k.
+void Session::retireSet(Job& job, bool completed) {
+  const ManyLightStats& st = job.ml->stats();
+  if (completed) {
+    const ManyLightImages im = job.ml->images();
+    const size_t n = im.vsl.rgb.size();
+    const int K = ++job.setsDone;
+    for (int l = 0; l < kLayers; ++l) {
+      const Image& img = im.*kLayer[l];
+      std::vector<double>& sum = job.sum[l];
+      if (sum.empty()) sum.assign(n, 0.0);
+      for (size_t i = 0; i < n; ++i) sum[i] += img.rgb[i];
+      // The mean as biasVariance computes it (a double sum in set order over
+      // K), so that it equals biasVariance's mean bit for bit.
+      Image& mean = job.mean.*kLayer[l];
+      mean = Image(im.vsl.width, im.vsl.height);
+      for (size_t i = 0; i < n; ++i) mean.rgb[i] = float(sum[i] / K);
+      if (l < kIndirectLayers) job.setImages[l].push_back(img);
+    }
+    job.done.lights += job.prep.set.lights.size();
+    ++job.set;
+  }
+  SetTotals& d = job.done;
+  d.tracingSeconds += job.prep.set.seconds;
+  d.knnSeconds += job.prep.knnSeconds;
+  d.gatherSeconds += st.gatherSeconds;
+  d.vslSeconds += st.vslSeconds;
+  d.vplSeconds += st.vplSeconds;
+  d.pairs += st.pairs;
+  d.vslEvaluations += st.vslEvaluations;
+  d.nonFinite += st.nonFinite + job.prep.set.nonFiniteRejected;
+  job.ml.reset();
+  job.prep = ManyLightRun();
+  job.batch = 0;
 }
 
 // ---- [5] Rendering and snapshots -----------------------------------------------------
 
-// Interleaves equal compute time for the many-light methods and the
-// reference, publishing after each step, until both are done or stopped.
+// Interleaves equal compute time for the many-light methods (one batch, or
+// the next light set's preparation, per step) and the reference, publishing
+// after each step, until all are done or stopped.
 void Session::render(Worker& w, Job& job, uint64_t gen) {
   setStage("rendering");
   // A resumed job shows its picture under the new generation at once.
-  if (job.batch > 0) publish(makeSnapshot(w, job, gen));
-  Worker::Reference& ref = w.ref;
+  if (job.batch > 0 || job.setsDone > 0) publish(makeSnapshot(w, job, gen));
+  ReferenceRenderer& ref = *w.ref.pt;
   while (!stopped()) {
     bool progressed = false;
-    if (job.batch < job.ml->batchCount()) {
-      auto tb = Clock::now();
-      if (!job.ml->renderBatch(job.batch, &stop_)) break;
-      job.mlSeconds += since(tb);
-      ++job.batch;
+    if (job.setsDone < job.settings.lightSets) {
+      if (!job.ml) {
+        // The next independent light set (its preparation is many-light time).
+        if (!prepareSet(w, job)) break;
+      } else {
+        auto tb = Clock::now();
+        if (!job.ml->renderBatch(job.batch, &stop_)) break;
+        job.mlSeconds += since(tb);
+        if (++job.batch >= job.ml->batchCount()) retireSet(job, true);
+      }
       progressed = true;
     }
     // Once the many-light methods are done, a requested background reference
@@ -444,16 +548,9 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     // The reference catches up to the many-light methods' compute time (at
     // least one pass per step), so the error-vs-time plot compares equal time.
     bool ptStep = false;
-    while (ref.spp < job.settings.maxReferenceSpp && !stopped() &&
-           (!ptStep || ref.seconds - job.ptStart < job.mlSeconds)) {
-      auto tp = Clock::now();
-      const int half = ref.spp % 2;
-      if (!job.pt->renderPass(ref.spp, ref.direct[half], ref.indirect[half], job.ptCounters, &stop_)) {
-        ++ref.spp;  // some pixels have this sample: never reuse its index
-        break;
-      }
-      ref.seconds += since(tp);
-      ++ref.spp;
+    while (ref.spp() < job.settings.maxReferenceSpp && !stopped() &&
+           (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
+      if (!ref.stepPass(&stop_)) break;
       ptStep = progressed = true;
     }
     if (stopped() || !progressed) break;
@@ -467,7 +564,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
 // cache entry, else none (the live path tracer). A file that cannot be used
 // is reported and the render goes on against the live path tracer.
 void Session::chooseReference(Worker& w, Job& job) {
-  const int width = job.ml->width(), height = job.ml->height();
+  const int width = job.width, height = job.height;
   const std::string size = std::to_string(width) + "x" + std::to_string(height);
   if (w.cacheKeyFor != w.scenePath + "|" + size) {
     w.cacheKey = referenceKey(*w.scene, width, height, kReferenceDepth);
@@ -478,15 +575,21 @@ void Session::chooseReference(Worker& w, Job& job) {
   if (file.empty() && w.converged && w.convergedFor == want) return;
   if (!file.empty() && w.convergedFor == want) return;
   std::shared_ptr<const vsl::Reference> chosen;
+  std::string refused;
   if (!file.empty()) {
     Result<vsl::Reference> r = readReference(file, width, height);
     if (r)
       chosen = std::make_shared<vsl::Reference>(std::move(r).value());
     else
-      reportRunError("reference not used: " + r.error() + "; errors are measured against the live path tracer");
+      refused = "reference not used: " + r.error();
   } else {
     chosen = findCachedReference(w.cacheKey, width, height);
   }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_.referenceError = refused;
+  }
+  if (!refused.empty()) reportRunError(refused + "; errors are measured against the live path tracer");
   if (chosen && !file.empty()) log::info("reference: " + file);
   if (chosen && file.empty()) log::info("reference: the cached " + referenceCachePath(w.cacheKey));
   w.convergedFor = want;
@@ -506,8 +609,8 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
   if (!job.settings.referencePath.empty()) return false;  // the user chose a reference
   if (!w.background || w.backgroundKey != w.cacheKey) {
     RenderSettings rs;
-    rs.width = job.ml->width();
-    rs.height = job.ml->height();
+    rs.width = job.width;
+    rs.height = job.height;
     rs.seed = kReferenceSeed;
     w.background = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
     w.backgroundKey = w.cacheKey;
@@ -549,50 +652,65 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
 }
 
 std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen) const {
-  const ManyLightRenderer& ml = *job.ml;
-  const Worker::Reference& ref = w.ref;
+  const ManyLightRenderer* ml = job.ml.get();  // the set in progress, if any
+  const ReferenceRenderer& ref = *w.ref.pt;
+  const SetTotals& d = job.done;
   auto snap = std::make_shared<Snapshot>();
   snap->generation = gen;
   snap->settings = job.settings;
-  snap->width = ml.width();
-  snap->height = ml.height();
-  snap->many = ml.images();
+  snap->width = job.width;
+  snap->height = job.height;
+  // The mean of the completed sets; the first set's progressive estimate
+  // until it completes.
+  snap->many = job.setsDone > 0 ? job.mean : ml->images();
+  snap->lightSets = job.settings.lightSets;
+  snap->lightSetsDone = job.setsDone;
   snap->ptDirect = ref.meanDirect();
   snap->ptIndirect = ref.meanIndirect();
-  snap->ptSpp = ref.spp;
-  snap->lightsProcessed = ml.lightsProcessed();
-  snap->lightsTotal = job.prep.set.lights.size();
-  snap->batchesDone = job.batch;
-  snap->batchCount = ml.batchCount();
+  snap->ptSpp = ref.spp();
+  // Work over every set: the completed ones and the one in progress.
+  ManyLightStats none;
+  const ManyLightStats& st = ml ? ml->stats() : none;
+  const size_t setSize = ml ? job.prep.set.lights.size() : job.setsDone > 0 ? d.lights / job.setsDone : 0;
+  const int untraced = std::max(job.settings.lightSets - job.setsDone - (ml ? 1 : 0), 0);
+  snap->lightsProcessed = d.lights + (ml ? ml->lightsProcessed() : 0);
+  snap->lightsTotal = d.lights + (ml ? setSize : 0) + size_t(untraced) * setSize;
+  snap->batchesDone = ml ? job.batch : job.batchCount;
+  snap->batchCount = job.batchCount;
   snap->seconds = since(job.t0);
-  snap->lightTracingSeconds = job.prep.set.seconds;
-  snap->knnSeconds = job.prep.knnSeconds;
-  snap->gatherSeconds = ml.stats().gatherSeconds;
-  snap->referenceSeconds = ref.seconds;
-  snap->clampBound = ml.clampBound();
+  snap->lightTracingSeconds = d.tracingSeconds + job.prep.set.seconds;
+  snap->knnSeconds = d.knnSeconds + job.prep.knnSeconds;
+  snap->gatherSeconds = d.gatherSeconds + st.gatherSeconds;
+  snap->referenceSeconds = ref.seconds();
+  snap->clampBound = job.clampBound;
   snap->sceneRadius = w.scene->boundingRadius();
   snap->radiusMin = job.radiusMin;
   snap->radiusMedian = job.radiusMedian;
   snap->radiusMax = job.radiusMax;
-  snap->pairs = ml.stats().pairs.load();
-  snap->vslEvaluations = ml.stats().vslEvaluations.load();
-  snap->pairsPerSecond = ml.stats().pairs / std::max(ml.stats().gatherSeconds, 1e-9);
-  snap->nonFinite = ml.stats().nonFinite + job.ptCounters.nonFinite + job.prep.set.nonFiniteRejected;
-  // Progress: rates over compute time, remaining time at those rates.
-  if (ml.stats().gatherSeconds > 0) {
-    snap->lightsPerSecond = double(snap->lightsProcessed) / ml.stats().gatherSeconds;
+  snap->pairs = d.pairs + st.pairs.load();
+  snap->vslEvaluations = d.vslEvaluations + st.vslEvaluations.load();
+  snap->pairsPerSecond = double(snap->pairs) / std::max(snap->gatherSeconds, 1e-9);
+  snap->nonFinite = d.nonFinite + st.nonFinite + job.prep.set.nonFiniteRejected + ref.rejected();
+  // Progress: rates over compute time, remaining time at those rates (the
+  // sets not yet traced at the mean preparation time of those that were).
+  if (snap->gatherSeconds > 0) {
+    snap->lightsPerSecond = double(snap->lightsProcessed) / snap->gatherSeconds;
+    const int prepared = job.setsDone + (ml ? 1 : 0);
+    const double prepSeconds = prepared > 0 ? (snap->lightTracingSeconds + snap->knnSeconds) / prepared : 0;
     snap->manyRemainingSeconds =
-        double(snap->lightsTotal - snap->lightsProcessed) / std::max(snap->lightsPerSecond, 1e-9);
+        double(snap->lightsTotal - snap->lightsProcessed) / std::max(snap->lightsPerSecond, 1e-9) +
+        untraced * prepSeconds;
   }
-  if (double t = ref.seconds - job.ptStart; t > 0 && ref.spp > job.sppStart) {
-    snap->referenceSppPerSecond = (ref.spp - job.sppStart) / t;
-    snap->referenceRemainingSeconds = std::max(job.settings.maxReferenceSpp - ref.spp, 0) / snap->referenceSppPerSecond;
+  if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
+    snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
+    snap->referenceRemainingSeconds =
+        std::max(job.settings.maxReferenceSpp - ref.spp(), 0) / snap->referenceSppPerSecond;
   }
-  snap->vslSeconds = job.prep.set.seconds + job.prep.knnSeconds + ml.stats().vslSeconds;
-  snap->vplSeconds = job.prep.set.seconds + ml.stats().vplSeconds;
+  snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
+  snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
   snap->backgroundSpp = job.backgroundSpp;
   // The reference in use and its own noise (session.h, ErrorSample).
-  const double liveNoise = ref.noise();
+  const double liveNoise = ref.indirectNoise();
   if (w.converged) {
     snap->convergedReference = true;
     snap->refIndirect = w.converged->indirect;
@@ -606,15 +724,16 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     snap->refIndirect = snap->ptIndirect;
     snap->refDirect = snap->ptDirect;
     snap->referenceSource = "live path tracer";
-    snap->referenceSpp = ref.spp;
+    snap->referenceSpp = ref.spp();
     snap->referenceNoise = liveNoise;
   }
+  biasNoise(w, job, *snap);
   const double noise = std::max(snap->referenceNoise, 0.0);
   ErrorSample e;
   e.manySeconds = job.mlSeconds;
   e.vslSeconds = snap->vslSeconds;
   e.vplSeconds = snap->vplSeconds;
-  e.ptSeconds = ref.seconds;
+  e.ptSeconds = ref.seconds();
   e.referenceNoise = noise;
   e.vsl = compareImages(snap->many.vsl, snap->refIndirect).average.relMse - noise;
   e.vpl = compareImages(snap->many.vpl, snap->refIndirect).average.relMse - noise;
@@ -625,9 +744,30 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)
     history.push_back(e);
   snap->history = history;
-  snap->manyLightDone = job.batch >= ml.batchCount();
-  snap->referenceDone = ref.spp >= job.settings.maxReferenceSpp;
+  snap->manyLightDone = job.setsDone >= job.settings.lightSets;
+  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
   return snap;
+}
+
+// Bias and noise of each method's indirect image (session.h, BiasNoise):
+// the many-light methods from their completed sets once there are two, the
+// live path tracer from its two halves against a converged reference (as
+// the reference itself it would be measured against itself).
+void Session::biasNoise(const Worker& w, const Job& job, Snapshot& snap) const {
+  auto summary = [](const BiasVarianceResult& r) {
+    return BiasNoise{r.renders, r.average.bias2, r.average.variance, r.average.relMse};
+  };
+  if (job.setsDone >= 2) {
+    for (int l = 0; l < kIndirectLayers; ++l) {
+      std::vector<const Image*> sets;
+      for (const Image& img : job.setImages[l]) sets.push_back(&img);
+      snap.biasNoise[l] = summary(biasVariance(sets, snap.refIndirect));
+    }
+  }
+  if (w.converged && w.ref.pt->spp() >= 2) {
+    const Image a = w.ref.pt->halfIndirect(0), b = w.ref.pt->halfIndirect(1);
+    snap.biasNoise[int(BiasNoiseRow::Pt)] = summary(biasVariance({&a, &b}, snap.refIndirect));
+  }
 }
 
 }  // namespace vsl

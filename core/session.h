@@ -50,11 +50,18 @@ struct StudioSettings {
   // many samples per pixel into the cache (saved as it doubles), then measure
   // every error against it.
   int backgroundReferenceSpp = 0;
+  // Independent light sets (seeds many.seed, many.seed + 1, ...), rendered
+  // one after another: the many-light images are the mean over the
+  // completed sets, and from two on each method's bias and noise are
+  // measured (BiasNoise). In [1, kMaxLightSets]; 1 renders one set.
+  int lightSets = 8;
+  static constexpr int kMaxLightSets = 64;
   Result<void> validate() const;
 };
 
 // True when a and b produce the same images (the same scene and every
-// setting that changes a pixel).
+// setting that changes a pixel). The light-set count is not one of them: a
+// render with more sets goes on from the sets it has.
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b);
 
 // Error of each method's indirect image at one moment, as relMSE (compare.h)
@@ -86,13 +93,31 @@ double equalTimeBudget(const std::vector<ErrorSample>& history);
 // between the history's points; NaN outside the times it has reached.
 double errorAtOwnTime(const std::vector<ErrorSample>& history, StudioMethod m, double t);
 
+// Bias against noise of one method's indirect image: compare.h's
+// biasVariance over the method's independent estimates (the completed light
+// sets; the path tracer's two halves) against the reference in use, averaged
+// over the channels. "One render" is one light set, or one half of the path
+// tracer. The reference's own noise is not subtracted here (it adds to
+// bias2; the studio subtracts Snapshot::referenceNoise where it is known).
+struct BiasNoise {
+  int renders = 0;  // independent estimates; < 2: not measured
+  double bias2 = 0, variance = 0, relMse = 0;
+};
+// Rows of Snapshot::biasNoise.
+enum class BiasNoiseRow : int { Vsl, Vpl, VplUnclamped, VplDiffuse, Pt, Count };
+
 struct Snapshot {
   uint64_t generation = 0;
   uint64_t serial = 0;  // increases with every publish
   StudioSettings settings;
   int width = 0, height = 0;
+  // The mean over the completed light sets (the first set's progressive
+  // estimate until it completes; a set in progress after that is not in it).
   ManyLightImages many;
-  Image ptDirect, ptIndirect;  // the live path tracer (mean of its two halves)
+  int lightSets = 1;                              // asked for (settings.lightSets)
+  int lightSetsDone = 0;                          // completed: `many` is their mean
+  BiasNoise biasNoise[int(BiasNoiseRow::Count)];  // the path tracer's against a converged reference only
+  Image ptDirect, ptIndirect;                     // the live path tracer (mean of its two halves)
   int ptSpp = 0;
   // The reference every error is measured against: a converged one (file or
   // cache) when there is one, else the live path tracer.
@@ -103,11 +128,13 @@ struct Snapshot {
   double referenceNoise = -1;             // its estimated relMSE against the truth; < 0: unknown
   int backgroundSpp = 0;                  // the background reference's progress (0: none)
   double vslSeconds = 0, vplSeconds = 0;  // each method's own time (ErrorSample)
+  // Lights gathered and to gather over all sets (the sets not yet traced
+  // counted at the size of the last one); batches of the set in progress.
   size_t lightsProcessed = 0, lightsTotal = 0;
   int batchesDone = 0, batchCount = 0;
   double seconds = 0;  // wall time since the job started (a resumed job keeps its clock)
-  double lightTracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0;
-  double referenceSeconds = 0;  // compute time in the reference, across restarts
+  double lightTracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0;  // summed over the sets
+  double referenceSeconds = 0;                                        // compute time in the reference, across restarts
   // Resolved settings: the VPL clamp bound in use, radii of the VSLs, and
   // the VSL samples actually drawn (auto grows with the cone angle).
   float clampBound = 0;
@@ -124,7 +151,8 @@ struct Snapshot {
   double referenceRemainingSeconds = 0;  // if it had the machine to itself
   uint64_t nonFinite = 0;
   std::vector<ErrorSample> history;
-  bool manyLightDone = false, referenceDone = false;
+  bool manyLightDone = false;  // every light set is done
+  bool referenceDone = false;
 };
 
 class Session {
@@ -153,6 +181,10 @@ class Session {
     bool noEmitters = false;       // the last failed load was a scene without emitters
     std::string runError;          // the last refused or failed render ("out of memory ...")
     uint64_t runErrorSerial = 0;   // increases with every refused or failed render
+    // Why the settings' reference file was refused (it names the file and the
+    // reason: another size, no indirect layer, unreadable); "" when it is in
+    // use or none was given. Errors are then measured against the live path tracer.
+    std::string referenceError;
     // "idle", "loading", "tracing lights", "k-NN radii", "rendering", "done"
     std::string stage;
     std::string loading;        // the path being loaded while stage is "loading"
@@ -181,6 +213,9 @@ class Session {
   void step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch);
   bool ensureScene(Worker& w, StudioSettings& s);
   std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s);
+  bool prepareSet(Worker& w, Job& job);
+  void retireSet(Job& job, bool completed);
+  void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;
   void render(Worker& w, Job& job, uint64_t gen);
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;
   void chooseReference(Worker& w, Job& job);

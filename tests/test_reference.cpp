@@ -49,6 +49,35 @@ TEST(Reference, MeanOfHalvesIsThePathTracersImage) {
   EXPECT_TRUE(r.hasHalves());
 }
 
+// Single passes alternate between the halves with the same sample indices
+// as pairs (so the images are bit-identical), and a stopped step changes
+// nothing visible but uses up its indices.
+TEST(Reference, SinglePassesMatchPairsAndAStoppedStepChangesNothing) {
+  test::Loaded l = test::loadAsset("cornell-glossy", 16);
+  RenderSettings rs;
+  rs.width = 16, rs.height = 16, rs.seed = 5;
+  ReferenceRenderer pairs(*l.scene, *l.accel, *l.lights, rs), singles(*l.scene, *l.accel, *l.lights, rs);
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(pairs.step());
+  for (int i = 0; i < 6; ++i) ASSERT_TRUE(singles.stepPass());
+  EXPECT_EQ(singles.spp(), 6);
+  EXPECT_EQ(pairs.result().indirectA.rgb, singles.result().indirectA.rgb);
+  EXPECT_EQ(pairs.result().indirectB.rgb, singles.result().indirectB.rgb);
+  EXPECT_EQ(pairs.meanIndirect().rgb, singles.result().indirect.rgb);
+  EXPECT_GT(pairs.counters().paths.load(), 0u);
+
+  const std::atomic<bool> stop{true};
+  const Image before = singles.meanIndirect();
+  EXPECT_FALSE(singles.stepPass(&stop));
+  EXPECT_FALSE(singles.step(&stop));
+  EXPECT_EQ(singles.spp(), 6);
+  EXPECT_EQ(singles.meanIndirect().rgb, before.rgb);
+  // The next pass has index 9 (6, 7 and 8 were used up): half B.
+  ASSERT_TRUE(singles.stepPass());
+  EXPECT_EQ(singles.spp(), 7);
+  EXPECT_EQ(singles.result().indirectA.rgb, pairs.result().indirectA.rgb);
+  EXPECT_NE(singles.result().indirectB.rgb, pairs.result().indirectB.rgb);
+}
+
 // The halves' estimate of the reference's own relMSE against the truth,
 // relMSE(A, B) / 4, agrees with what an independent second reference sees:
 // relMSE(R1, R2) / 2 estimates the same quantity. Averaged over four seed

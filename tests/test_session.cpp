@@ -36,6 +36,20 @@ StudioSettings small(const char* scene, uint32_t lights, int size) {
   return s;
 }
 
+// Points the reference cache at a fresh folder for one test.
+struct TempCache {
+  std::string dir;
+  TempCache() {
+    dir = (std::filesystem::temp_directory_path() / ("vsl-session-cache-" + std::to_string(getpid()))).string();
+    std::filesystem::remove_all(dir);
+    setenv("VSL_REFERENCE_CACHE", dir.c_str(), 1);
+  }
+  ~TempCache() {
+    unsetenv("VSL_REFERENCE_CACHE");
+    std::filesystem::remove_all(dir);
+  }
+};
+
 // Polls until pred(snapshot) holds for a snapshot of generation g (bounded).
 std::shared_ptr<const Snapshot> waitFor(const Session& session, uint64_t g,
                                         const std::function<bool(const Snapshot&)>& pred) {
@@ -168,6 +182,13 @@ TEST(Session, InvalidSettingsAreRejected) {
   r = session.restart(s);
   EXPECT_FALSE(r);
   EXPECT_NE(r.error().find("radius-scale"), std::string::npos) << r.error();
+  for (int sets : {0, StudioSettings::kMaxLightSets + 1}) {
+    s = small("furnace", 10, 8);
+    s.lightSets = sets;
+    r = session.restart(s);
+    EXPECT_FALSE(r);
+    EXPECT_EQ(r.error(), "light sets: must be in [1,64] (got " + std::to_string(sets) + ")");
+  }
   EXPECT_EQ(session.generation(), 0u);
 }
 
@@ -201,6 +222,15 @@ TEST(Session, RefusesSettingsThatDoNotFitInMemory) {
   Result<uint64_t> r2 = session.restart(many);
   ASSERT_FALSE(r2);
   EXPECT_NE(r2.error().find("lights fit"), std::string::npos) << r2.error();
+  // Each light set keeps its indirect images: a count that does not fit is
+  // refused with the count that does (at 256x256, 400 MB: about 10).
+  StudioSettings sets = small("furnace", 50, 256);
+  sets.lightSets = StudioSettings::kMaxLightSets;
+  Result<uint64_t> r3 = session.restart(sets);
+  ASSERT_FALSE(r3);
+  EXPECT_NE(r3.error().find("light sets fit"), std::string::npos) << r3.error();
+  sets.lightSets = 2;
+  EXPECT_TRUE(session.restart(sets)) << "two sets fit";
 }
 
 TEST(Session, MemoryEstimateIsItemised) {
@@ -306,26 +336,163 @@ TEST(Session, ProgressCountsLightsAndTime) {
   EXPECT_GT(snap->sceneRadius, 0);
 }
 
-// ---- References (reference.h): the live path tracer's halves, a converged
-// reference from the cache or a file, and one rendered in the background.
+// ---- Light sets: independent estimates, their mean, bias and noise.
 
 namespace {
 
-// Points the reference cache at a fresh folder for one test.
-struct TempCache {
-  std::string dir;
-  TempCache() {
-    dir = (std::filesystem::temp_directory_path() / ("vsl-session-cache-" + std::to_string(getpid()))).string();
-    std::filesystem::remove_all(dir);
-    setenv("VSL_REFERENCE_CACHE", dir.c_str(), 1);
+// A scene loaded for rendering directly, outside the session.
+struct Loaded {
+  std::shared_ptr<const Scene> scene;
+  std::unique_ptr<Accel> accel;
+  std::unique_ptr<LightSampler> lights;
+  explicit Loaded(const char* name) {
+    SceneResult lr = loadScene(asset(name));
+    EXPECT_TRUE(lr) << lr.error();
+    scene = lr.valueOr(nullptr);
+    Result<std::unique_ptr<Accel>> a = Accel::build(*scene);
+    EXPECT_TRUE(a) << a.error();
+    accel = std::move(a).value();
+    lights = std::make_unique<LightSampler>(*scene);
   }
-  ~TempCache() {
-    unsetenv("VSL_REFERENCE_CACHE");
-    std::filesystem::remove_all(dir);
+  // One light set rendered to completion with ManyLightRenderer.
+  ManyLightImages render(ManyLightSettings m) const {
+    ManyLightRun run = prepareManyLights(*scene, *accel, *lights, m);
+    ManyLightRenderer r(*scene, *accel, *lights, run.set, run.radii, m);
+    for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
+    return r.images();
   }
 };
 
+// The mean of images as biasVariance computes it: a double sum in order, over K.
+Image meanOf(const std::vector<const Image*>& images) {
+  Image m(images[0]->width, images[0]->height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) {
+    double sum = 0;
+    for (const Image* img : images) sum += img->rgb[i];
+    m.rgb[i] = float(sum / double(images.size()));
+  }
+  return m;
+}
+
 }  // namespace
+
+// With lightSets = 3 the session renders three independent light sets (seeds
+// s, s + 1, s + 2) and shows their mean: bit for bit the mean of three renders
+// made with ManyLightRenderer directly. Each method's bias and noise are
+// compare.h's biasVariance of those renders against the snapshot's reference
+// (equal to the last bit of a double). lightSets = 1 is one set, as before.
+TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
+  TempCache cache;  // no cached reference: the live path tracer
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 11;
+  s.lightSets = 3;
+  Session session;
+  uint64_t g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone && x.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(snap->lightSets, 3);
+  EXPECT_EQ(snap->lightSetsDone, 3);
+  EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
+
+  Loaded l("cornell-glossy");
+  std::vector<ManyLightImages> renders;
+  for (uint64_t k = 0; k < 3; ++k) {
+    ManyLightSettings m = s.many;
+    m.seed = s.many.seed + k;
+    renders.push_back(l.render(m));
+  }
+  EXPECT_NE(renders[0].vsl.rgb, renders[1].vsl.rgb) << "independent sets";
+  auto layer = [&](Image ManyLightImages::*which) {
+    return std::vector<const Image*>{&(renders[0].*which), &(renders[1].*which), &(renders[2].*which)};
+  };
+  EXPECT_EQ(snap->many.vsl.rgb, meanOf(layer(&ManyLightImages::vsl)).rgb);
+  EXPECT_EQ(snap->many.vpl.rgb, meanOf(layer(&ManyLightImages::vpl)).rgb);
+  EXPECT_EQ(snap->many.vplUnclamped.rgb, meanOf(layer(&ManyLightImages::vplUnclamped)).rgb);
+  EXPECT_EQ(snap->many.direct.rgb, meanOf(layer(&ManyLightImages::direct)).rgb);
+  EXPECT_EQ(snap->many.lostToClamping.rgb, meanOf(layer(&ManyLightImages::lostToClamping)).rgb);
+  Image ManyLightImages::*rows[4] = {&ManyLightImages::vsl, &ManyLightImages::vpl, &ManyLightImages::vplUnclamped,
+                                     &ManyLightImages::vplDiffuse};
+  for (int i = 0; i < 4; ++i) {
+    BiasVarianceResult want = biasVariance(layer(rows[i]), snap->refIndirect);
+    const BiasNoise& got = snap->biasNoise[i];
+    EXPECT_EQ(got.renders, 3) << i;
+    EXPECT_DOUBLE_EQ(got.bias2, want.average.bias2) << i;
+    EXPECT_DOUBLE_EQ(got.variance, want.average.variance) << i;
+    EXPECT_DOUBLE_EQ(got.relMse, want.average.relMse) << i;
+    EXPECT_GT(got.variance, 0) << i;
+  }
+  EXPECT_EQ(snap->biasNoise[int(BiasNoiseRow::Pt)].renders, 0) << "the path tracer is the reference here";
+  // Each method's own time grows over the sets, and the history's clocks only move forward.
+  EXPECT_GE(snap->vslSeconds, snap->lightTracingSeconds + snap->knnSeconds);
+  for (size_t i = 1; i < snap->history.size(); ++i) {
+    EXPECT_GE(snap->history[i].vslSeconds, snap->history[i - 1].vslSeconds);
+    EXPECT_GE(snap->history[i].vplSeconds, snap->history[i - 1].vplSeconds);
+  }
+
+  // One set: the first render itself, and no bias or noise.
+  s.lightSets = 1;
+  g = session.restart(s).value();
+  snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(snap->lightSetsDone, 1);
+  EXPECT_EQ(snap->many.vsl.rgb, renders[0].vsl.rgb);
+  EXPECT_EQ(snap->many.vpl.rgb, renders[0].vpl.rgb);
+  EXPECT_EQ(snap->biasNoise[0].renders, 0);
+}
+
+// Asking for fewer sets while a later one renders keeps the completed ones:
+// the set in progress is dropped, the picture stays the first set's (bit for
+// bit one render with the first seed), and the methods' clocks never run
+// backwards.
+TEST(Session, FewerLightSetsKeepTheCompletedOnes) {
+  Session session;
+  StudioSettings s = small("cornell-glossy", 20000, 16);
+  s.many.batches = 16;
+  s.lightSets = 3;
+  uint64_t g = session.restart(s).value();
+  auto first = waitFor(session, g, [](const Snapshot& x) { return x.lightSetsDone == 1 && !x.manyLightDone; });
+  ASSERT_TRUE(first);
+  s.lightSets = 1;
+  auto t0 = std::chrono::steady_clock::now();
+  g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  // Resumed, not rendered again: done far sooner than a set takes.
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(seconds, 0.5 * first->seconds) << "a set takes about " << first->seconds << " s";
+  EXPECT_EQ(snap->lightSetsDone, 1);
+  EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
+  EXPECT_GE(snap->vslSeconds, first->vslSeconds);
+  EXPECT_GE(snap->vplSeconds, first->vplSeconds);
+  for (size_t i = 1; i < snap->history.size(); ++i)
+    EXPECT_GE(snap->history[i].vslSeconds, snap->history[i - 1].vslSeconds) << i;
+  Loaded l("cornell-glossy");
+  EXPECT_EQ(snap->many.vsl.rgb, l.render(s.many).vsl.rgb);
+}
+
+// A restart while a later light set is being traced or gathered stops it
+// within one step of work (generous bound: the machine is shared).
+TEST(Session, RestartDuringALaterLightSetStopsPromptly) {
+  Session session;
+  StudioSettings s = small("cornell-glossy", 20000, 24);
+  s.many.batches = 16;
+  s.lightSets = 4;
+  for (int delayMs : {0, 300}) {
+    uint64_t g = session.restart(s, true).value();
+    ASSERT_TRUE(waitFor(session, g, [](const Snapshot& x) { return x.lightSetsDone >= 1; }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+    Session::Status st = session.status();
+    auto t0 = std::chrono::steady_clock::now();
+    uint64_t g2 = session.restart(small("furnace", 30, 8)).value();
+    auto snap = waitFor(session, g2, [](const Snapshot& x) { return x.batchesDone > 0; });
+    ASSERT_TRUE(snap);
+    double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_LT(seconds, 5.0) << "stage when restarted: " << st.stage;
+  }
+}
+
+// ---- References (reference.h): the live path tracer's halves, a converged
+// reference from the cache or a file, and one rendered in the background.
 
 // Without a converged reference every error is measured against the live
 // path tracer with its own noise, relMSE(A, B) / 4, subtracted; the path
@@ -380,6 +547,20 @@ TEST(Session, UsesAMatchingCachedReference) {
   const ErrorSample& e = snap->history.back();
   EXPECT_NEAR(e.vpl, compareImages(snap->many.vpl, ref.indirect).average.relMse - ref.indirectNoise(), 1e-12);
   EXPECT_NEAR(e.pt, compareImages(snap->ptIndirect, ref.indirect).average.relMse - ref.indirectNoise(), 1e-12);
+  // The live path tracer is a ReferenceRenderer of seed 0 stepped one pass at
+  // a time: its mean, and its bias and noise from its two halves against the
+  // converged reference, are those of one made here.
+  RenderSettings live = rs;
+  live.seed = 0;
+  ReferenceRenderer pt(scene, **accel, lights, live);
+  while (pt.spp() < snap->ptSpp) ASSERT_TRUE(pt.stepPass());
+  EXPECT_EQ(snap->ptIndirect.rgb, pt.meanIndirect().rgb);
+  const Image a = pt.halfIndirect(0), b = pt.halfIndirect(1);
+  BiasVarianceResult want = biasVariance({&a, &b}, ref.indirect);
+  const BiasNoise& got = snap->biasNoise[int(BiasNoiseRow::Pt)];
+  EXPECT_EQ(got.renders, 2);
+  EXPECT_DOUBLE_EQ(got.bias2, want.average.bias2);
+  EXPECT_DOUBLE_EQ(got.variance, want.average.variance);
 }
 
 // A reference file of another size is refused with its reason; the render

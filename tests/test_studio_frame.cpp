@@ -7,6 +7,7 @@
 #include <imgui.h>
 #include <imgui_impl_opengl3.h>
 #include <stb_image.h>
+#include <sys/wait.h>
 #include <thread>
 
 #include <filesystem>
@@ -185,6 +186,44 @@ TEST_F(StudioFrame, FlipColumnMatchesFlipOfTheShownImages) {
   ASSERT_TRUE(g);
   EXPECT_DOUBLE_EQ((*g)[0], flipLdr(toSrgbImage(s.many.vsl, 2), toSrgbImage(s.refIndirect, 2)).mean);
   EXPECT_NE((*g)[0], (*f)[0]);
+}
+
+// The FLIP display: the first frame shows no map (the UI never waits for
+// FLIP); once the asynchronous task is done, the panel shows core/flip's
+// LDR-FLIP map of the same tone-mapped images, through magma on [0, 1].
+TEST_F(StudioFrame, FlipMapShowsCoreFlipsMap) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::Single;
+  v.panels[0] = ui::Source::Vsl;
+  v.component = Component::Indirect;
+  v.display = ui::Display::Flip;
+  v.exposure = 0;
+  v.errorScale = 0;
+  renderFrames(1);
+  EXPECT_EQ(studio->flipMap(ui::Source::Vsl), nullptr) << "the first frame does not wait for FLIP";
+  const Image* shown = nullptr;
+  for (int i = 0; i < 200 && !shown; ++i) {  // bounded: the task takes milliseconds here
+    renderFrames(1);
+    shown = studio->flipMap(ui::Source::Vsl);
+    if (!shown) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(shown);
+  const Snapshot& s = *studio->snapshot();
+  const FlipResult want = flipLdr(toSrgbImage(s.many.vsl), toSrgbImage(s.refIndirect));
+  EXPECT_EQ(shown->rgb, want.map.rgb) << "the map is core/flip's, bit for bit";
+  float lo = 1, hi = 0;
+  for (float x : want.map.rgb) lo = std::min(lo, x), hi = std::max(hi, x);
+  EXPECT_LT(lo + 0.1f, hi) << "a map with some contrast, so the colours below mean something";
+  auto px = renderFrames();
+  ASSERT_EQ(studio->drawnImages().size(), 1u);
+  EXPECT_EQ(compareGrid(
+                px, studio->drawnImages()[0],
+                [&](int x, int y) {
+                  Vec3 c = magma(want.map.at(x, y).x);
+                  return Vec3(c.x * 255, c.y * 255, c.z * 255);
+                },
+                3),
+            0);
 }
 
 TEST_F(StudioFrame, WipeSplitIsHonoured) {
@@ -393,7 +432,8 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
     int w = 0, h = 0, n = 0;
     ASSERT_TRUE(stbi_info(f.c_str(), &w, &h, &n)) << f;
     EXPECT_EQ(w, 64) << f;
-    EXPECT_EQ(h, f.find("/error-") != std::string::npos ? 32 + 16 : 32) << f;
+    const bool map = f.find("/error-") != std::string::npos || f.find("/flip-") != std::string::npos;
+    EXPECT_EQ(h, map ? 32 + 16 : 32) << f << ": maps have a colour bar below them";
   }
   EXPECT_GE(pngs, 11);
   std::ifstream js(f1 + "/metrics.json");
@@ -401,6 +441,39 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
   EXPECT_TRUE(j["settings"]["clamp"].contains("bound"));
   EXPECT_TRUE(j["machine"].contains("renderThreads"));
   EXPECT_TRUE(j["settings"]["vslSamples"].contains("meanPerPair"));
+}
+
+// The export records the light sets and each method's bias and noise where
+// measured (null where not).
+TEST_F(StudioFrame, ExportRecordsLightSetsAndBiasNoise) {
+  auto snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->settings.lightSets = snap->lightSets = 3;
+  snap->lightSetsDone = 3;
+  snap->referenceNoise = 0.001;
+  snap->biasNoise[int(BiasNoiseRow::Vpl)] = {3, 0.25, 0.5, 0.4};
+  studio->setSnapshotForTesting(snap);
+  renderFrames(1);
+  std::string dir = std::string(VSL_BINARY_DIR) + "/studio-export-bias-test";
+  std::filesystem::remove_all(dir);
+  std::string folder;
+  Result<void> e = studio->exportAll(dir, nullptr, &folder);
+  ASSERT_TRUE(e) << e.error();
+  std::ifstream js(folder + "/metrics.json");
+  nlohmann::json j = nlohmann::json::parse(js);
+  EXPECT_EQ(j["settings"]["lightSets"], 3);
+  EXPECT_EQ(j["samples"]["lightSetsDone"], 3);
+  const nlohmann::json& vpl = j["biasNoiseIndirect"]["methods"]["VPL (clamped)"];
+  EXPECT_EQ(vpl["renders"], 3);
+  EXPECT_DOUBLE_EQ(vpl["bias2"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(vpl["variance"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(vpl["relMSE"].get<double>(), 0.4);
+  EXPECT_DOUBLE_EQ(vpl["bias2MinusReferenceNoise"].get<double>(), 0.249);
+  EXPECT_TRUE(j["biasNoiseIndirect"]["methods"]["VSL"].is_null());
+  // FLIP is in every export, computed there if the asynchronous task has not
+  // caught up with the picture.
+  EXPECT_DOUBLE_EQ(j["flip"]["mean"]["VSL"].get<double>(),
+                   flipLdr(toSrgbImage(snap->many.vsl), toSrgbImage(snap->refIndirect)).mean);
+  EXPECT_TRUE(std::filesystem::exists(folder + "/flip-vsl-indirect.png"));
 }
 
 namespace {
@@ -537,6 +610,56 @@ TEST_F(StudioInput, ShiftDragMakesACrop) {
 
 // The last session: saved and read back field for field; a corrupt file,
 // a wrong type or an invalid value is a warning and changes nothing.
+namespace {
+struct StudioRun {
+  int code = -1;
+  std::string out;  // stdout and stderr
+};
+// Runs build/bin/vsl-studio ARGS (as the shell reads them) with a last
+// session of its own under configDir, never the user's. Hack: tests/run_vsl.h
+// runs only `vsl`, so this is its twin for the studio.
+StudioRun runStudio(const std::string& configDir, const std::string& args) {
+  std::string cmd =
+      "XDG_CONFIG_HOME='" + configDir + "' " + std::string(VSL_BINARY_DIR) + "/bin/vsl-studio " + args + " 2>&1";
+  StudioRun r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) r.out.append(buf, n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+}  // namespace
+
+// A headless run given a reference it cannot use ends at once with exit
+// status 1, naming the file and the reason (another size, no indirect
+// layer), and exports nothing; a reference file that does not exist is a bad
+// argument (exit status 2).
+TEST(StudioCli, HeadlessRunWithARefusedReferenceFails) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-reference-cli";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string wrongSize = dir + "/wrong-size.exr", noIndirect = dir + "/no-indirect.exr";
+  ASSERT_TRUE(writeExr(wrongSize, {{"indirect", Image(20, 16)}}));
+  ASSERT_TRUE(writeExr(noIndirect, {{"direct", Image(16, 16)}}));
+  // The default scene (cornell-glossy, square) at 16x16.
+  const std::string common =
+      "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " + dir + "/out";
+  StudioRun r = runStudio(dir + "/config", common + " --reference " + wrongSize);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("error: reference not used: " + wrongSize + ": 20x16, but the render is 16x16"),
+            std::string::npos)
+      << r.out;
+  r = runStudio(dir + "/config", common + " --reference " + noIndirect);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(noIndirect + ": no 'indirect' layer"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out")) << "nothing is exported";
+  r = runStudio(dir + "/config", common + " --reference " + dir + "/missing.exr");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("missing.exr"), std::string::npos) << r.out;
+}
+
 TEST(LastSession, RoundTripAndCorruptFiles) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-test";
   std::filesystem::remove_all(dir);

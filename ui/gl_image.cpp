@@ -53,6 +53,21 @@ vec3 falseColour(float t) {
   if (x < 3.0) return mix(s2, s3, x - 2.0);
   return mix(s3, s4, min(x - 3.0, 1.0));
 }
+vec3 magma(float t) {
+  // Must match core/flip.cpp magma(): every 16th entry (and the last) of
+  // matplotlib's 256-entry table, linear in between.
+  const vec3 stops[17] = vec3[17](
+      vec3(0.001462, 0.000466, 0.013866), vec3(0.039608, 0.031090, 0.133515), vec3(0.113094, 0.065492, 0.276784),
+      vec3(0.211718, 0.061992, 0.418647), vec3(0.316654, 0.071690, 0.485380), vec3(0.414709, 0.110431, 0.504662),
+      vec3(0.512831, 0.148179, 0.507648), vec3(0.613617, 0.181811, 0.498536), vec3(0.716387, 0.214982, 0.475290),
+      vec3(0.816914, 0.255895, 0.436461), vec3(0.904281, 0.319610, 0.388137), vec3(0.960949, 0.418323, 0.359630),
+      vec3(0.986700, 0.535582, 0.382210), vec3(0.996096, 0.653659, 0.446213), vec3(0.996898, 0.769591, 0.534892),
+      vec3(0.992440, 0.884330, 0.640099), vec3(0.987053, 0.991438, 0.749504));
+  float x = clamp(t, 0.0, 1.0) * 255.0;
+  int i = min(int(x / 16.0), 15);
+  float x0 = 16.0 * float(i), x1 = i == 15 ? 255.0 : 16.0 * float(i + 1);
+  return mix(stops[i], stops[i + 1], (x - x0) / (x1 - x0));
+}
 float srgb(float v) {
   v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
@@ -65,6 +80,9 @@ void main() {
   } else if (Mode == 1) {
     float v = (c.r + c.g + c.b) / 3.0 * Scale;
     Out_Color = vec4(falseColour(v), 1.0);
+  } else if (Mode == 3) {
+    float v = (c.r + c.g + c.b) / 3.0 * Scale;
+    Out_Color = vec4(magma(v), 1.0);
   } else {
     float v = clamp((c.r + c.g + c.b) / 3.0 * Scale, -1.0, 1.0);
     vec3 col = v < 0.0 ? mix(vec3(1.0), vec3(0.15, 0.35, 1.0), -v) : mix(vec3(1.0), vec3(1.0, 0.2, 0.1), v);

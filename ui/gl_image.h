@@ -31,6 +31,7 @@ enum class DisplayMode : int {
   Tonemap = 0,      // rgb * scale, clamped, sRGB-encoded
   FalseColour = 1,  // channel mean * scale in [0,1] through falseColour()
   Signed = 2,       // channel mean * scale in [-1,1]: blue (negative), white, red (positive)
+  Magma = 3,        // channel mean * scale in [0,1] through magma() (core/flip.h): FLIP maps
 };
 
 struct DisplayParams {

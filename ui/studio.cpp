@@ -77,6 +77,8 @@ std::string panelTitle(Source s, Component c) {
 }
 
 namespace {
+// The methods of the metrics table, the FLIP maps and the exported error maps.
+constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
 const char* kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)", "squared (t-r)^2",
                               "relative squared (t-r)^2/(r^2+eps)"};
 const char* kComponentNames[] = {"full", "direct", "indirect"};
@@ -249,10 +251,21 @@ bool Studio::wantsFrame() const {
 }
 
 std::optional<std::vector<double>> Studio::flipMeans() const {
-  if (!flip_ || !snap_ || flip_->serial != snap_->serial || flip_->component != view_.component ||
-      flip_->exposure != view_.exposure)
-    return std::nullopt;
+  if (!flipMatchesView() || !snap_ || flip_->serial != snap_->serial) return std::nullopt;
   return std::vector<double>(std::begin(flip_->mean), std::end(flip_->mean));
+}
+
+bool Studio::flipMatchesView() const {
+  return flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
+}
+
+const Image* Studio::flipMap(Source s, bool* fresh) const {
+  const Source* it = std::find(std::begin(kMetricSources), std::end(kMetricSources), s);
+  if (!flipMatchesView() || it == std::end(kMetricSources)) return nullptr;
+  const Image& map = flip_->map[it - std::begin(kMetricSources)];
+  if (map.rgb.empty()) return nullptr;
+  if (fresh) *fresh = snap_ && flip_->serial == snap_->serial;
+  return &map;
 }
 
 // One FLIP task at a time, on its own thread: a new one starts when the
@@ -261,6 +274,7 @@ void Studio::updateFlip() {
   if (flipTask_.valid()) {
     if (flipTask_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
     flip_ = flipTask_.get();
+    ++flipVersion_;
   }
   if (!snap_ || snap_->width == 0 || snap_->refIndirect.rgb.empty()) return;
   if (flip_ && flip_->serial == snap_->serial && flip_->component == view_.component &&
@@ -269,23 +283,26 @@ void Studio::updateFlip() {
   std::shared_ptr<const Snapshot> snap = snap_;
   const Component c = view_.component;
   const float exposure = view_.exposure;
-  flipTask_ = std::async(std::launch::async, [snap, c, exposure] {
-    auto pick = [c](const Image& d, const Image& i) {
-      return c == Component::Direct ? d : c == Component::Indirect ? i : add(d, i);
-    };
-    const Snapshot& s = *snap;
-    const Image ref = toSrgbImage(pick(s.refDirect, s.refIndirect), exposure);
-    const Image* indirect[5] = {&s.many.vsl, &s.many.vpl, &s.many.vplUnclamped, &s.many.vplDiffuse, &s.ptIndirect};
-    FlipNumbers f;
-    f.serial = s.serial;
-    f.component = c;
-    f.exposure = exposure;
-    for (int i = 0; i < 5; ++i) {
-      const Image& direct = i == 4 ? s.ptDirect : s.many.direct;
-      f.mean[i] = flipLdr(toSrgbImage(pick(direct, *indirect[i]), exposure), ref).mean;
-    }
-    return f;
-  });
+  flipTask_ = std::async(std::launch::async, [snap, c, exposure] { return computeFlip(*snap, c, exposure); });
+}
+
+Studio::FlipNumbers Studio::computeFlip(const Snapshot& s, Component c, float exposure) {
+  auto pick = [c](const Image& d, const Image& i) {
+    return c == Component::Direct ? d : c == Component::Indirect ? i : add(d, i);
+  };
+  const Image ref = toSrgbImage(pick(s.refDirect, s.refIndirect), exposure);
+  const Image* indirect[5] = {&s.many.vsl, &s.many.vpl, &s.many.vplUnclamped, &s.many.vplDiffuse, &s.ptIndirect};
+  FlipNumbers f;
+  f.serial = s.serial;
+  f.component = c;
+  f.exposure = exposure;
+  for (int i = 0; i < 5; ++i) {
+    const Image& direct = i == 4 ? s.ptDirect : s.many.direct;
+    FlipResult r = flipLdr(toSrgbImage(pick(direct, *indirect[i]), exposure), ref);
+    f.mean[i] = r.mean;
+    f.map[i] = std::move(r.map);
+  }
+  return f;
 }
 
 std::string Studio::fatalError() const {
@@ -293,6 +310,11 @@ std::string Studio::fatalError() const {
   Session::Status st = session_->status();
   if (st.scene.empty() && st.loadErrorSerial > 0) return st.loadError;
   return "";
+}
+
+std::string Studio::referenceError() const {
+  if (!session_ || accepted_.referencePath.empty()) return "";
+  return session_->status().referenceError;
 }
 
 bool Studio::sourceStale(Source s) const {
@@ -356,9 +378,12 @@ const Image* Studio::componentImage(Source src, Component c, Image& scratch) con
 }
 
 void Studio::updateTextures() {
-  bool viewChanged =
-      uploaded_.display != view_.display || uploaded_.metric != view_.metric || uploaded_.component != view_.component;
+  const bool flipView = view_.display == Display::Flip;
+  bool viewChanged = uploaded_.display != view_.display || uploaded_.metric != view_.metric ||
+                     uploaded_.component != view_.component ||
+                     (flipView && (flipUploaded_ != flipVersion_ || uploaded_.exposure != view_.exposure));
   if (!snap_ || (!texturesDirty_ && !viewChanged)) return;
+  flipUploaded_ = flipVersion_;
   Image refScratch;
   const Image* ref = referenceImage(view_.component, refScratch);
   mapEps_ = mapEpsilon(*ref);
@@ -371,6 +396,11 @@ void Studio::updateTextures() {
     if (view_.display == Display::Image || !isMethod) {
       textures_[i].upload(*img);
       autoScale_[i] = percentile99(*img);
+      continue;
+    }
+    if (flipView) {  // the newest FLIP map, if any (viewsPanel says when there is none)
+      if (const Image* f = flipMap(src)) textures_[i].upload(*f);
+      autoScale_[i] = 1;  // FLIP lies in [0, 1]
       continue;
     }
     // Per-pixel error map or signed difference against the reference.
@@ -590,6 +620,12 @@ void Studio::controlsPanel() {
   errorField("width");
   track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
   errorField("batches");
+  track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
+        "mean, and from two sets on the table shows each method's bias^2 and noise. 1: one set.");
+  errorField("light sets");
   track("reference spp",
         ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("reference spp");
@@ -654,8 +690,12 @@ void Studio::controlsPanel() {
   int comp = int(view_.component);
   if (ImGui::Combo("component", &comp, kComponentNames, 3)) view_.component = Component(comp);
   int disp = int(view_.display);
-  const char* displays[] = {"image", "error map", "signed difference"};
-  if (ImGui::Combo("display", &disp, displays, 3)) view_.display = Display(disp);
+  const char* displays[] = {"image", "error map", "signed difference", "FLIP map"};
+  if (ImGui::Combo("display", &disp, displays, 4)) view_.display = Display(disp);
+  if (ImGui::IsItemHovered() && view_.display == Display::Flip)
+    ImGui::SetTooltip(
+        "LDR-FLIP (HPG 2020) of each method against the reference, both tone-mapped at this exposure, per pixel "
+        "in [0,1]; computed off the UI thread with the table's FLIP column. Colours: magma.");
   if (view_.display == Display::Error) {
     int metric = int(view_.metric);
     if (ImGui::Combo("metric", &metric, kMetricNames, 4)) view_.metric = ErrorMetric(metric);
@@ -665,10 +705,12 @@ void Studio::controlsPanel() {
           "square root for the absolute metric).\nColours: black 0 -> blue -> magenta -> yellow -> white max.",
           mapEps_);
   }
-  if (view_.display == Display::Image) {
+  // FLIP compares the tone-mapped images: the exposure matters for its map too.
+  if (view_.display == Display::Image || view_.display == Display::Flip)
     ImGui::SliderFloat("exposure", &view_.exposure, -10, 10, "%.1f stops");
-  } else {
-    ImGui::SliderFloat("map max", &view_.errorScale, 0, 10, view_.errorScale > 0 ? "%.4g" : "auto (99th pct)",
+  if (view_.display != Display::Image) {
+    const char* autoText = view_.display == Display::Flip ? "auto (1)" : "auto (99th pct)";
+    ImGui::SliderFloat("map max", &view_.errorScale, 0, 10, view_.errorScale > 0 ? "%.4g" : autoText,
                        ImGuiSliderFlags_Logarithmic);
   }
   if (ImGui::Button("Fit")) view_.zoom = 1, view_.center = ImVec2(0.5f, 0.5f);
@@ -771,7 +813,8 @@ void Studio::statusBar() {
   std::snprintf(overlay, sizeof overlay, "VSL+VPL %.0f%%", 100 * fm);
   ImGui::ProgressBar(fm, ImVec2(130, 0), overlay);
   ImGui::SameLine();
-  std::snprintf(detail, sizeof detail, "%zu / %zu lights  %s lights/s  %s", s.lightsProcessed, s.lightsTotal,
+  std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s lights/s  %s", s.lightsProcessed,
+                s.lightsTotal, std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
                 humanCount(s.lightsPerSecond).c_str(),
                 s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
   ImGui::TextUnformatted(detail);
@@ -819,13 +862,17 @@ void Studio::viewsPanel() {
   for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
     if (isMethod(view_.panels[i])) sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
   const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
+  // The FLIP display shows a method only once a map for this view exists.
+  auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
   auto params = [&](Source s) {
     DisplayParams p;
     if (!maps || !isMethod(s)) {
       p.mode = DisplayMode::Tonemap;
       p.scale = std::exp2(view_.exposure);
     } else {
-      p.mode = view_.display == Display::Error ? DisplayMode::FalseColour : DisplayMode::Signed;
+      p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
+               : view_.display == Display::Flip ? DisplayMode::Magma
+                                                : DisplayMode::Signed;
       p.scale = 1.0f / std::max(mapMax, 1e-12f);
     }
     return p;
@@ -845,8 +892,8 @@ void Studio::viewsPanel() {
     if (view_.mode == ViewMode::Wipe) {
       Source a = view_.panels[0], b = view_.panels[1];
       float sx = p0.x + view_.wipe * w, su = uv0.x + view_.wipe * (uv1.x - uv0.x);
-      drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
-      drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
+      if (!flipPending(a)) drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
+      if (!flipPending(b)) drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
       drawn_.push_back({ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, b});
       if (sourceStale(a)) staleMark(p0, ImVec2(sx, p1.y));
@@ -856,7 +903,12 @@ void Studio::viewsPanel() {
                   (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
     } else {
       Source s = view_.panels[i];
-      drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
+      if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
+        dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
+        dl->AddText(ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), "computing FLIP ...");
+      } else {
+        drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
+      }
       drawn_.push_back({p0, p1, uv0, uv1, s});
       bool stale = sourceStale(s);
       if (stale) staleMark(p0, p1);
@@ -1001,6 +1053,10 @@ void Studio::probe(const ImVec2& mouse) {
       float e = metricError(dd, r, view_.metric, mapEps_);
       ImGui::SameLine();
       ImGui::TextDisabled("  error %.3g (%s), signed %+.3g", e, kMetricNames[int(view_.metric)], dd);
+      if (const Image* f = view_.display == Display::Flip ? flipMap(src) : nullptr) {
+        ImGui::SameLine();
+        ImGui::TextDisabled("  FLIP %.3f", f->at(x, y).x);
+      }
     }
     ImGui::EndTooltip();
     return;
@@ -1012,7 +1068,7 @@ void Studio::legend(float vmax) {
   ImVec2 p = ImGui::GetCursorScreenPos();
   const float W = 240, H = 12;
   const int steps = 48;
-  bool signedMap = view_.display == Display::Signed;
+  bool signedMap = view_.display == Display::Signed, flipView = view_.display == Display::Flip;
   for (int i = 0; i < steps; ++i) {
     float t = (i + 0.5f) / steps;
     Vec3 c;
@@ -1020,28 +1076,35 @@ void Studio::legend(float vmax) {
       float v = 2 * t - 1;
       c = v < 0 ? lerp(-v, Vec3(1.0f), Vec3(0.15f, 0.35f, 1.0f)) : lerp(v, Vec3(1.0f), Vec3(1.0f, 0.2f, 0.1f));
     } else {
-      c = falseColour(t);
+      c = flipView ? magma(t) : falseColour(t);
     }
     dl->AddRectFilled(ImVec2(p.x + W * i / steps, p.y), ImVec2(p.x + W * (i + 1) / steps, p.y + H),
                       IM_COL32(int(c.x * 255), int(c.y * 255), int(c.z * 255), 255));
   }
   char buf[128];
-  if (signedMap)
+  if (signedMap) {
     std::snprintf(buf, sizeof buf, "%.3g   0   +%.3g   (method - reference)", -vmax, vmax);
-  else
+  } else if (flipView) {
+    bool fresh = true;
+    const bool any = flipMap(Source::Vsl, &fresh) != nullptr;
+    std::snprintf(buf, sizeof buf, "0 ... %.3g   LDR-FLIP at %+.1f stops%s", vmax, view_.exposure,
+                  !any    ? "  (computing ...)"
+                  : fresh ? ""
+                          : "  (updating: from an earlier picture)");
+  } else {
     std::snprintf(buf, sizeof buf, "0 ... %.3g   %s", vmax, kMetricNames[int(view_.metric)]);
+  }
   dl->AddText(ImVec2(p.x + W + 8, p.y - 2), IM_COL32_WHITE, buf);
   ImGui::Dummy(ImVec2(W, H));
-  if (ImGui::IsItemHovered())
+  if (ImGui::IsItemHovered() && flipView)
+    ImGui::SetTooltip("LDR-FLIP per pixel, mean-pooled in the table's FLIP column; the maximum is %s",
+                      view_.errorScale > 0 ? "set by hand" : "1, FLIP's largest value");
+  else if (ImGui::IsItemHovered())
     ImGui::SetTooltip("eps = %.2g (squared; 0.01 x the reference's mean luminance^2); the maximum is %s", mapEps_,
                       view_.errorScale > 0 ? "set by hand" : "the 99th percentile");
 }
 
 // ---- [5] Metrics and plot -------------------------------------------------------------
-
-namespace {
-constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
-}
 
 void Studio::updateMetrics() {
   if (metricsFor_ == snap_.get() && metricsComponent_ == view_.component) return;
@@ -1137,7 +1200,46 @@ void Studio::metricsPanel() {
           "reference; computed off the UI thread%s",
           flipFresh ? "" : " (grey: from an earlier picture)");
   };
-  if (ImGui::BeginTable("metrics", 6, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(530, 0))) {
+  // Bias against noise (session.h, BiasNoise): from the completed light sets
+  // (the path tracer's halves), for the indirect component; bias^2 less the
+  // reference's own noise where it is known, as relMSE.
+  // The best bias^2 is the one nearest 0 (an unbiased method's estimate
+  // scatters around 0, so it can be slightly negative).
+  double bestBias = INFINITY, bestNoise = INFINITY;
+  for (const BiasNoise& b : s.biasNoise)
+    if (b.renders >= 2)
+      bestBias = std::min(bestBias, std::abs(b.bias2 - noise)), bestNoise = std::min(bestNoise, b.variance);
+  auto biasCells = [&](BiasNoiseRow row) {
+    const BiasNoise& b = s.biasNoise[int(row)];
+    for (int k = 0; k < 2; ++k) {
+      ImGui::TableNextColumn();
+      if (!indirect) {
+        ImGui::TextDisabled("n/a");
+      } else if (b.renders < 2) {
+        ImGui::TextDisabled("-");
+      } else {
+        const double v = k == 0 ? b.bias2 - noise : b.variance;
+        cell(v, k == 0 ? (std::abs(v) == bestBias ? v : NAN) : bestNoise, "%.4g");
+      }
+      if (!ImGui::IsItemHovered()) continue;
+      const bool pt = row == BiasNoiseRow::Pt;
+      if (!indirect)
+        ImGui::SetTooltip("Bias and noise are measured on the indirect component");
+      else if (b.renders < 2 && pt)
+        ImGui::SetTooltip("The path tracer's two halves are measured against a converged reference only");
+      else if (b.renders < 2)
+        ImGui::SetTooltip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
+      else if (k == 0)
+        ImGui::SetTooltip(
+            "bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s",
+            b.renders, pt ? "halves" : "light sets",
+            noise > 0 ? ", less the reference's own noise" : "; it includes the reference's own noise");
+      else
+        ImGui::SetTooltip("noise = mean(w s^2): the variance of one %s (relMSE units); the mean of K has 1/K of it",
+                          pt ? "half" : "light set");
+    }
+  };
+  if (ImGui::BeginTable("metrics", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(660, 0))) {
     ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
                             ImGuiTableColumnFlags_WidthStretch);
     ImGui::TableSetupColumn("mean");
@@ -1146,6 +1248,8 @@ void Studio::metricsPanel() {
     char eqTitle[32];
     std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", budget);
     ImGui::TableSetupColumn(indirect ? eqTitle : "@equal t");
+    ImGui::TableSetupColumn(noise > 0 ? "bias^2-noise" : "bias^2");
+    ImGui::TableSetupColumn("noise");
     ImGui::TableSetupColumn("FLIP");
     ImGui::TableHeadersRow();
     for (int i = 0; i < 4; ++i) {
@@ -1164,6 +1268,7 @@ void Studio::metricsPanel() {
                           noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
       ImGui::TableNextColumn();
       cell(atEqualTime(i), best[2], "%.4g");
+      biasCells(BiasNoiseRow(i));
       ImGui::TableNextColumn();
       flipCell(i);
     }
@@ -1196,12 +1301,15 @@ void Studio::metricsPanel() {
     }
     ImGui::TableNextColumn();
     cell(ptEqual, best[2], "%.4g");
+    biasCells(BiasNoiseRow::Pt);
     ImGui::TableNextColumn();
     flipCell(4);
     ImGui::EndTable();
   }
   // Which reference, and how noisy it is.
-  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 530);
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
+  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
+                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
   char noiseText[48] = "unknown (no halves)";
   if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
   ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
@@ -1500,6 +1608,24 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
     files.push_back(path(name));
   }
 
+  // FLIP maps through magma with a bar: the asynchronous ones when they
+  // belong to this picture, component and exposure, else computed here (an
+  // export may take a moment; a frame never does).
+  const FlipNumbers flip = flipMeans() ? *flip_ : computeFlip(s, view_.component, view_.exposure);
+  nlohmann::json flipJson = {{"metric", "LDR-FLIP, mean pooled"},
+                             {"component", comp},
+                             {"exposure", view_.exposure},
+                             {"pixelsPerDegree", kFlipPixelsPerDegree}};
+  for (size_t i = 0; i < std::size(kMetricSources); ++i) {
+    int rows = 0;
+    std::vector<uint8_t> px = magmaWithBar(flip.map[i], &rows);
+    std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
+    if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
+    files.push_back(path(name));
+    flipJson["mean"][sourceName(kMetricSources[i])] = flip.mean[i];
+  }
+  if (s.convergedReference) flipJson["mean"]["Path tracer (live)"] = flip.mean[4];
+
   nlohmann::json cropJson = nullptr;
   if (!view_.crop.empty()) {
     Image full;
@@ -1540,6 +1666,29 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
                               {"vsl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vsl, budget))},
                               {"vpl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vpl, budget))},
                               {"pt", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Pt, budget))}};
+  // Bias against noise of each method's indirect image (session.h,
+  // BiasNoise), where measured: null for a method with fewer than two
+  // independent estimates.
+  nlohmann::json biasNoise = {
+      {"definition",
+       "compare.h biasVariance over K independent estimates (light sets; the path tracer's two halves) against the "
+       "reference: bias2 = mean(w ((m - ref)^2 - s^2/K)), variance = mean(w s^2) of one estimate, relMSE of their "
+       "mean; w = 1/(ref^2 + eps), the indirect component"},
+      {"referenceNoise", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
+      {"lightSetsDone", s.lightSetsDone}};
+  const char* biasRows[] = {"VSL", "VPL (clamped)", "VPL unclamped", "VPL diffuse-only", "Path tracer (live)"};
+  for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
+    const BiasNoise& b = s.biasNoise[i];
+    biasNoise["methods"][biasRows[i]] =
+        b.renders < 2 ? nlohmann::json(nullptr)
+                      : nlohmann::json({{"renders", b.renders},
+                                        {"bias2", b.bias2},
+                                        {"variance", b.variance},
+                                        {"relMSE", b.relMse},
+                                        {"bias2MinusReferenceNoise", s.referenceNoise >= 0
+                                                                         ? nlohmann::json(b.bias2 - s.referenceNoise)
+                                                                         : nlohmann::json(nullptr)}});
+  }
   const ManyLightSettings& m = s.settings.many;
   // The clamp as resolved: its mode and the bound actually used.
   nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
@@ -1568,11 +1717,14 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
                         {"batches", m.batches},
                         {"directSamples", m.directSamples},
                         {"lightMaxDepth", m.lightMaxDepth},
-                        {"maxReferenceSpp", s.settings.maxReferenceSpp}}},
+                        {"maxReferenceSpp", s.settings.maxReferenceSpp},
+                        {"lightSets", s.settings.lightSets}}},
                       {"width", s.width},
                       {"height", s.height},
                       {"samples",
-                       {{"lightsTraced", s.lightsTotal},
+                       {{"lightSetsDone", s.lightSetsDone},
+                        {"lightSets", s.lightSets},
+                        {"lightsTraced", s.lightsTotal},
                         {"lightsGathered", s.lightsProcessed},
                         {"batchesDone", s.batchesDone},
                         {"batchCount", s.batchCount},
@@ -1602,6 +1754,8 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
                       {"crop", cropJson},
                       {"reference", reference},
                       {"equalTimeIndirect", equalTime},
+                      {"flip", flipJson},
+                      {"biasNoiseIndirect", biasNoise},
                       {"errorHistory", hist}};
   if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
   files.push_back(path("metrics.json"));
@@ -1967,7 +2121,8 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
                         {"diffuseOnly", m.diffuseOnly},
-                        {"maxReferenceSpp", s.maxReferenceSpp}}},
+                        {"maxReferenceSpp", s.maxReferenceSpp},
+                        {"lightSets", s.lightSets}}},
                       {"view",
                        {{"mode", int(v.mode)},
                         {"panels", {int(v.panels[0]), int(v.panels[1]), int(v.panels[2])}},
@@ -2039,11 +2194,12 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
       m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
     readField(js, "diffuseOnly", &m.diffuseOnly);
     readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
+    readField(js, "lightSets", &s.lightSets);
     if (j.contains("view")) {
       const nlohmann::json& jv = j.at("view");
       readEnum(jv, "mode", &v.mode, 4);
       readEnum(jv, "component", &v.component, 3);
-      readEnum(jv, "display", &v.display, 3);
+      readEnum(jv, "display", &v.display, 4);
       readEnum(jv, "metric", &v.metric, 4);
       readField(jv, "exposure", &v.exposure);
       readField(jv, "errorScale", &v.errorScale);

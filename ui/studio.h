@@ -24,7 +24,10 @@ namespace vsl::ui {
 
 // What a view panel shows.
 enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostClamping, LostDiffuse, Count };
-enum class Display : int { Image, Error, Signed };
+// Flip: each method's LDR-FLIP map against the reference (core/flip.h) for
+// the shown component and exposure, computed off the UI thread with the
+// table's FLIP column, through magma on [0, map max] (auto: [0, 1]).
+enum class Display : int { Image, Error, Signed, Flip };
 enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSquared };
 enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
 
@@ -123,6 +126,10 @@ class Studio {
   // Why the session cannot render ("" if it can): the first scene did not
   // load. The headless front end exits with it.
   std::string fatalError() const;
+  // Why the reference file in the settings was refused ("" if it is in use,
+  // or none was given): the file and the reason. The studio goes on against
+  // the live path tracer; the headless front end exits with it.
+  std::string referenceError() const;
   // The message next to a rejected control ("" if none).
   const std::string& settingsError() const { return settingsError_; }
   const std::string& errorDialog() const { return errorDialog_; }
@@ -160,6 +167,11 @@ class Studio {
   // tracer) for the shown component and exposure, if one has been computed
   // for the current snapshot.
   std::optional<std::vector<double>> flipMeans() const;
+  // The LDR-FLIP map the view shows for a method (VSL, the VPL variants) in
+  // the FLIP display: the newest computed for the shown component and
+  // exposure (possibly of an earlier snapshot while a new one is computed);
+  // null if none yet. *fresh: it belongs to the current snapshot.
+  const Image* flipMap(Source s, bool* fresh = nullptr) const;
 
   // Screen rectangles of the images drawn in the last frame (for tests and
   // for saving the view).
@@ -253,10 +265,14 @@ class Studio {
     Component component = Component::Indirect;
     float exposure = 0;
     double mean[5] = {};  // kMetricSources, then the live path tracer
+    Image map[5];         // the per-pixel maps, in the same order
   };
   std::future<FlipNumbers> flipTask_;
   std::optional<FlipNumbers> flip_;
+  uint64_t flipVersion_ = 0, flipUploaded_ = 0;  // results received, and the one in the textures
   void updateFlip();
+  bool flipMatchesView() const;
+  static FlipNumbers computeFlip(const Snapshot& s, Component c, float exposure);
   double referenceMean_ = 0;
   // Crop insets of the shown snapshot, rebuilt when it, the component, the
   // metric or the rectangle change.
