@@ -7,9 +7,10 @@
 // the squared error (summary.csv), the LDR-FLIP of the final images, and the
 // split of their error into bias2 and variance over the independent runs.
 // relMSE uses the reference-relative eps (core/compare.h), stated in the JSON.
-// Output: sweep.csv, sweep.json, error_vs_time.png, pareto.png and
-// flip_vs_time.png (gnuplot, from Debian's gnuplot-nox, when installed; the
-// .gp scripts are written either way).
+// Output: sweep.csv (every point), summary.csv, sweep.json (both), a table
+// on stdout, and error_vs_time.png, pareto.png and flip_vs_time.png
+// (gnuplot, from Debian's gnuplot-nox, when installed; the .gp scripts are
+// written either way).
 // Fan-out: --shard I/N runs the configurations whose index in the grid is I
 // mod N; --merge joins shard directories into the outputs of one run.
 #include "app/sweep.h"
@@ -184,7 +185,10 @@ std::vector<size_t> paretoFront(const std::vector<T>& pts, const std::vector<siz
   std::vector<size_t> front;
   double best = 1e300;
   for (size_t i : sorted)
-    if (pts[i].relMse < best) best = pts[i].relMse, front.push_back(i);
+    if (pts[i].relMse < best) {
+      best = pts[i].relMse;
+      front.push_back(i);
+    }
   return front;
 }
 
@@ -225,7 +229,10 @@ struct SweepContext {
       std::vector<const Image*> imgs;
       for (const Image& f : finals) imgs.push_back(&f);
       BiasVarianceResult bv = biasVariance(imgs, ref);
-      for (size_t i : finalIndices) pts[i].bias2 = bv.average.bias2, pts[i].variance = bv.average.variance;
+      for (size_t i : finalIndices) {
+        pts[i].bias2 = bv.average.bias2;
+        pts[i].variance = bv.average.variance;
+      }
     }
     finals.clear();
     finalIndices.clear();
@@ -355,26 +362,24 @@ std::vector<Summary> summarise(const std::vector<Point>& pts) {
   return out;
 }
 
-// Runs this shard's part of the grid; fills the points and what the outputs need.
-int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
-  SceneResult lr = loadScene(a.scene);
-  if (!lr) return fail(kExitBadInput, lr.error());
-  const Scene& scene = **lr;
-  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
-  if (!built) return fail(kExitBadInput, built.error());
-  std::unique_ptr<Accel> accel = std::move(built).value();
-  LightSampler lights(scene);
-  // The reference (reference.h): the file given, else the cached one for
-  // this scene at --width. Its own noise comes from its halves
-  // (relMSE(A, B) / 4) or from a second, independent reference B
-  // (relMSE(B, A) / 2); every measured relMSE carries it on top of the
-  // method's error, and the "minus reference noise" columns subtract it.
-  Reference reference;
-  std::string referenceName = a.reference;
+// The reference a sweep measures against, and its own noise.
+struct SweepReference {
+  Reference ref;
+  std::string name;  // the file, or "cache: PATH"
+  double noise = 0;  // relMSE the reference's own noise adds to every measurement
+};
+
+// The reference (reference.h): the file given, else the cached one for this
+// scene at --width. Its own noise comes from its halves (relMSE(A, B) / 4) or
+// from a second, independent reference B (relMSE(B, A) / 2); every measured
+// relMSE carries it on top of the method's error, and the "minus reference
+// noise" columns subtract it. Returns 0, or the exit code after reporting.
+int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& out) {
+  out.name = a.reference;
   if (!a.reference.empty()) {
     Result<Reference> read = readReference(a.reference, 0, 0);
     if (!read) return fail(kExitBadInput, read.error());
-    reference = std::move(read).value();
+    out.ref = std::move(read).value();
   } else {
     int w = a.width, h = 0;
     resolveResolution(scene, w, h);
@@ -385,28 +390,28 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
                    "%s: no --reference given and no cached reference at %dx%d (%s); render one with\n"
                    "  vsl reference %s --width %d --spp 4096",
                    a.scene.c_str(), w, h, referenceCachePath(key).c_str(), a.scene.c_str(), w);
-    reference = std::move(*cached);
-    referenceName = "cache: " + referenceCachePath(key);
+    out.ref = std::move(*cached);
+    out.name = "cache: " + referenceCachePath(key);
   }
-  const Image* ref = &reference.indirect;
-  double refNoise = std::max(reference.indirectNoise(), 0.0);
-  std::fprintf(stderr, "sweep: reference %s (%dx%d, %d spp), own noise %s\n", referenceName.c_str(), ref->width,
-               ref->height, reference.spp,
-               reference.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(refNoise)).c_str() : "unknown");
-  Image refB;
+  const Image& ref = out.ref.indirect;
+  out.noise = std::max(out.ref.indirectNoise(), 0.0);
+  std::fprintf(stderr, "sweep: reference %s (%dx%d, %d spp), own noise %s\n", out.name.c_str(), ref.width, ref.height,
+               out.ref.spp,
+               out.ref.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(out.noise)).c_str() : "unknown");
   if (!a.referenceB.empty()) {
-    Result<Reference> b = readReference(a.referenceB, ref->width, ref->height);
+    Result<Reference> b = readReference(a.referenceB, ref.width, ref.height);
     if (!b) return fail(kExitBadInput, b.error());
-    refNoise = 0.5 * compareImages(b->indirect, *ref).average.relMse;
+    out.noise = 0.5 * compareImages(b->indirect, ref).average.relMse;
     std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
-                 refNoise);
+                 out.noise);
   }
-  std::error_code ec;
-  std::filesystem::create_directories(a.outDir, ec);
-  if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
-  const int W = ref->width, H = ref->height;
-  const CompareResult self = compareImages(*ref, *ref);
-  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  return 0;
+}
+
+// Runs every configuration of the grid in this shard, each with --sets
+// independent runs.
+void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
+  const SweepArgs& a = ctx.a;
   const std::vector<Config> grid = gridOf(a.methods, a.lights, a.radiusScales);
   for (size_t i = 0; i < grid.size(); ++i) {
     if (int(i % size_t(shardCount)) != shardIndex) continue;
@@ -416,14 +421,36 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
     for (int set = 0; set < a.sets; ++set) {
       if (g.method == "pt")
         ctx.runPt(set);
+      else if (passes)
+        ctx.runPasses(g.method, g.lights, g.radiusScale, set);
       else
-        passes ? ctx.runPasses(g.method, g.lights, g.radiusScale, set)
-               : ctx.runBatches(g.method, g.lights, g.radiusScale, set);
+        ctx.runBatches(g.method, g.lights, g.radiusScale, set);
     }
     ctx.endConfiguration();
   }
+}
+
+// Runs this shard's part of the grid; fills the points and what the outputs need.
+int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
+  SceneResult lr = loadScene(a.scene);
+  if (!lr) return fail(kExitBadInput, lr.error());
+  const Scene& scene = **lr;
+  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
+  if (!built) return fail(kExitBadInput, built.error());
+  std::unique_ptr<Accel> accel = std::move(built).value();
+  LightSampler lights(scene);
+  SweepReference reference;
+  if (int rc = loadSweepReference(a, scene, reference); rc != 0) return rc;
+  const Image* ref = &reference.ref.indirect;
+  std::error_code ec;
+  std::filesystem::create_directories(a.outDir, ec);
+  if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
+  const int W = ref->width, H = ref->height;
+  const CompareResult self = compareImages(*ref, *ref);
+  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  runConfigurations(ctx, shardIndex, shardCount);
   meta = {a.scene,
-          referenceName,
+          reference.name,
           a.referenceB,
           a.many.describe(),
           W,
@@ -431,7 +458,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
           a.sets,
           self.epsilon,
           self.average.meanRef,
-          refNoise,
+          reference.noise,
           self.epsilonSpec,
           a.methods,
           a.lights,
@@ -441,7 +468,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   // Summaries are taken from the points as the CSV holds them, so a merged
   // run reproduces them exactly.
   std::vector<Point> exact;
-  if (Result<void> parsed = parsePoints(pointsCsv(pts, refNoise), exact); !parsed)
+  if (Result<void> parsed = parsePoints(pointsCsv(pts, reference.noise), exact); !parsed)
     return fail(kExitBadInput, parsed.error());
   pts = std::move(exact);
   return 0;
@@ -526,17 +553,11 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
   return 0;
 }
 
-// sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
-int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
-  std::error_code ec;
-  std::filesystem::create_directories(outDir, ec);
-  if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", outDir.c_str(), ec.message().c_str());
-  const double refNoise = meta.refNoise, refMean = meta.refMean;
-  const std::vector<Summary> summary = summarise(pts);
+// NaN (no value) as JSON null.
+nlohmann::json jsonNumber(double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); }
 
-  // ---- CSV and JSON: every point, and the summary of the finals per configuration.
-  std::ostringstream sumCsv;
-  auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
+// sweep.json without its summary and Pareto fronts: the metadata and every point.
+nlohmann::json pointsJson(const SweepMeta& meta, const std::vector<Point>& pts) {
   nlohmann::json js = {
       {"scene", meta.scene},
       {"reference", meta.reference},
@@ -547,12 +568,12 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
       {"relMseEpsilonMode", meta.epsilonSpec.modeName()},
       {"relMseEpsilonFactor", meta.epsilonSpec.value},
       {"flipPixelsPerDegree", kFlipPixelsPerDegree},
-      {"referenceIndirectMean", refMean},
+      {"referenceIndirectMean", meta.refMean},
       {"settings", meta.settings},
       {"grid", {{"methods", meta.methods}, {"lights", meta.lights}, {"radiusScales", meta.radiusScales}}},
       {"points", nlohmann::json::array()},
       {"summary", nlohmann::json::array()}};
-  js["referenceNoiseRelMSE"] = refNoise;  // 0 without --reference-b
+  js["referenceNoiseRelMSE"] = meta.refNoise;  // 0 without --reference-b
   if (!meta.referenceB.empty()) js["referenceB"] = meta.referenceB;
   if (meta.shardCount > 1) js["shard"] = {{"index", meta.shardIndex}, {"count", meta.shardCount}};
   for (const Point& p : pts) {
@@ -567,10 +588,17 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
                             {"mean", p.mean},
                             {"worst1Share", p.worst1},
                             {"final", p.final},
-                            {"flipLdr", num(p.flip)},
-                            {"bias2", num(p.bias2)},
-                            {"variance", num(p.variance)}});
+                            {"flipLdr", jsonNumber(p.flip)},
+                            {"bias2", jsonNumber(p.bias2)},
+                            {"variance", jsonNumber(p.variance)}});
   }
+  return js;
+}
+
+// summary.csv, and the same rows appended to js["summary"].
+std::string summaryCsv(const SweepMeta& meta, const std::vector<Summary>& summary, nlohmann::json& js) {
+  const double refNoise = meta.refNoise, refMean = meta.refMean;
+  std::ostringstream sumCsv;
   sumCsv << "method,lights,radius_scale,sets,seconds_median,relmse_median,relmse_q1,relmse_q3,"
             "relmse_median_minus_ref_noise,mean_median,mean_vs_reference,worst1_share_median,flip_ldr_median,bias2,"
             "variance\n";
@@ -592,9 +620,35 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
                              {"meanVsReference", meanRatio},
                              {"worst1ShareMedian", m.worst1},
                              {"flipLdrMedian", m.flip},
-                             {"bias2", num(m.bias2)},
-                             {"variance", num(m.variance)}});
+                             {"bias2", jsonNumber(m.bias2)},
+                             {"variance", jsonNumber(m.variance)}});
   }
+  return sumCsv.str();
+}
+
+// The summary as a table on stdout.
+void printSummary(const SweepMeta& meta, const std::vector<Summary>& summary) {
+  const double refNoise = meta.refNoise, refMean = meta.refMean;
+  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %s = %.3g\n", meta.sets,
+              refMean, meta.epsilonSpec.describe().c_str(), meta.epsilon);
+  std::printf("%-30s %9s %10s %21s %10s %9s %7s %7s %10s %10s\n", "configuration", "seconds", "relMSE", "quartiles",
+              "-ref noise", "mean", "worst1%", "FLIP", "bias2", "variance");
+  for (const Summary& m : summary)
+    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f %7.4f %10.5f %10.5f\n", m.series.c_str(),
+                m.seconds, m.relMse, m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0,
+                m.worst1, m.flip, m.bias2, m.variance);
+}
+
+// sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
+int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
+  std::error_code ec;
+  std::filesystem::create_directories(outDir, ec);
+  if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", outDir.c_str(), ec.message().c_str());
+  const std::vector<Summary> summary = summarise(pts);
+
+  // CSV and JSON: every point, and the summary of the finals per configuration.
+  nlohmann::json js = pointsJson(meta, pts);
+  const std::string sumCsv = summaryCsv(meta, summary, js);
   // Pareto fronts of the configurations' medians, per method.
   std::map<std::string, std::vector<size_t>> finals;
   for (size_t i = 0; i < summary.size(); ++i) finals[summary[i].method].push_back(i);
@@ -608,21 +662,14 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
                                  {"relMSE", summary[i].relMse}});
   }
   std::filesystem::path dir(outDir);
-  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, refNoise)},
-                            {"summary.csv", sumCsv.str()},
+  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, meta.refNoise)},
+                            {"summary.csv", sumCsv},
                             {"sweep.json", js.dump(2) + "\n"}})
     if (Result<void> written = writeTextFile((dir / name).string(), text); !written)
       return fail(kExitBadInput, written.error());
 
   if (int rc = writePlots(meta, pts, summary, finals, fronts, dir); rc != 0) return rc;
-  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %s = %.3g\n", meta.sets,
-              refMean, meta.epsilonSpec.describe().c_str(), meta.epsilon);
-  std::printf("%-30s %9s %10s %21s %10s %9s %7s %7s %10s %10s\n", "configuration", "seconds", "relMSE", "quartiles",
-              "-ref noise", "mean", "worst1%", "FLIP", "bias2", "variance");
-  for (const Summary& m : summary)
-    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f %7.4f %10.5f %10.5f\n", m.series.c_str(),
-                m.seconds, m.relMse, m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0,
-                m.worst1, m.flip, m.bias2, m.variance);
+  printSummary(meta, summary);
   std::fprintf(stderr,
                "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png, flip_vs_time.png}\n",
                outDir.c_str());
