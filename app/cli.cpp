@@ -85,8 +85,10 @@ Image addImages(const Image& a, const Image& b) {
 
 float percentile(std::vector<float> values, double q) {
   if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  return values[size_t(q * double(values.size() - 1))];
+  // The k-th smallest value is what sorting would put at k.
+  const size_t k = size_t(q * double(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
 }
 
 }  // namespace vsl
