@@ -1,15 +1,18 @@
 // `vsl bench SCENE`: measures, in one run and on the same scene and threads,
 //   raw Embree occlusion throughput for incoherent rays (camera-visible points
-//   toward area-uniform random surface points), single and batched, and
-//   the path tracer's paths/s and rays/s.
-// The ratio of the path tracer's rays/s to raw occlusion rays/s is the number
-// to quote: absolute timings on a shared machine are noise.
-#include "app/bench.h"
-
-#include <chrono>
+//   toward area-uniform random surface points), single and batched;
+//   the path tracer's paths/s and rays/s;
+//   the VPL and VSL gathers' pairs/s and shadow rays/s at a few light counts
+//   and image sizes, each against raw occlusion measured around it; and
+//   light tracing, k-NN radii and MRCS for 100,000 lights.
+// The ratios to raw occlusion rays/s are the numbers to quote: absolute
+// timings on a shared machine are noise.
+#include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "app/cli.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
 #include "core/mrcs.h"
@@ -17,22 +20,30 @@
 #include "core/pathtracer.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
 namespace {
-using Clock = std::chrono::steady_clock;
+
+using json = nlohmann::json;
+
+struct BenchArgs {
+  std::string scene, jsonPath;
+  double seconds = 3;  // per measurement
+  int size = 256;      // of the path tracer's image
+};
 
 // Runs fn() repeatedly for at least `seconds`; returns (calls, elapsed).
 template <typename F>
 std::pair<uint64_t, double> timeLoop(double seconds, F&& fn) {
-  auto t0 = Clock::now();
+  Stopwatch clock;
   uint64_t calls = 0;
   double el = 0;
   do {
     fn();
     ++calls;
-    el = std::chrono::duration<double>(Clock::now() - t0).count();
+    el = clock.seconds();
   } while (el < seconds);
   return {calls, el};
 }
@@ -68,83 +79,82 @@ std::vector<Ray> makeOcclusionRays(const Scene& scene, const Accel& accel, size_
   }
   return rays;
 }
-}  // namespace
 
-int runBench(const std::string& scenePath, double seconds, int size, const std::string& jsonPath) {
-  SceneResult loaded = loadScene(scenePath);
-  if (!loaded) {
-    std::fprintf(stderr, "error: %s\n", loaded.error().c_str());
-    return 1;
-  }
-  const Scene& scene = **loaded;
-  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
-  if (!built) {
-    std::fprintf(stderr, "error: %s\n", built.error().c_str());
-    return 1;
-  }
-  const std::unique_ptr<Accel>& accel = *built;
-  std::vector<Ray> rays = makeOcclusionRays(scene, *accel, 1 << 20);
-  if (rays.empty()) {
-    std::fprintf(stderr, "error: %s: the camera sees no geometry; nothing to benchmark\n", scenePath.c_str());
-    return 1;
-  }
-  std::fprintf(stderr, "bench %s: %zu triangles, %zu occlusion rays, %.1f s per measurement\n", scenePath.c_str(),
-               scene.triangleCount(), rays.size(), seconds);
+// Raw Embree occlusion over a fixed set of incoherent rays, all threads.
+class OcclusionBench {
+ public:
+  OcclusionBench(const Accel& accel, std::vector<Ray> rays) : accel_(accel), rays_(std::move(rays)) {}
+  size_t rays() const { return rays_.size(); }
 
-  constexpr size_t kChunk = 4096;
-  // Raw Embree: one rtcOccluded1 per ray, all threads.
-  std::atomic<uint64_t> blocked{0};
-  auto measureRaw = [&](double sec) {
-    auto [calls, el] = timeLoop(sec, [&] {
-      parallelFor((rays.size() + kChunk - 1) / kChunk, [&](size_t c) {
+  // One rtcOccluded1 per ray, for at least `seconds`: rays/s, and how many
+  // passes over the rays that took.
+  std::pair<double, uint64_t> single(double seconds) {
+    auto [calls, el] = timeLoop(seconds, [&] {
+      parallelFor(chunks(), [&](size_t c) {
         uint64_t b = 0;
-        for (size_t i = c * kChunk; i < std::min(rays.size(), (c + 1) * kChunk); ++i) b += accel->occluded(rays[i]);
-        blocked += b;
+        for (size_t i = c * kChunk; i < std::min(rays_.size(), (c + 1) * kChunk); ++i) b += accel_.occluded(rays_[i]);
+        blocked_ += b;
       });
     });
-    return std::pair<double, uint64_t>(double(calls) * rays.size() / el, calls);
-  };
-  auto [rawRate, rawCalls] = measureRaw(seconds);
-  // Raw Embree through the batched entry point (stream API), all threads.
-  auto [batchCalls, batchSec] = timeLoop(seconds, [&] {
-    parallelFor((rays.size() + kChunk - 1) / kChunk, [&](size_t c) {
-      size_t begin = c * kChunk, n = std::min(rays.size(), begin + kChunk) - begin;
-      std::vector<uint8_t> out(n);
-      accel->occluded(std::span<const Ray>(rays.data() + begin, n), out);
+    return {double(calls) * rays_.size() / el, calls};
+  }
+  // The batched entry point (stream API), for at least `seconds`: rays/s.
+  double batched(double seconds) {
+    auto [calls, el] = timeLoop(seconds, [&] {
+      parallelFor(chunks(), [&](size_t c) {
+        size_t begin = c * kChunk, n = std::min(rays_.size(), begin + kChunk) - begin;
+        std::vector<uint8_t> out(n);
+        accel_.occluded(std::span<const Ray>(rays_.data() + begin, n), out);
+      });
     });
-  });
-  double batchRate = double(batchCalls) * rays.size() / batchSec;
+    return double(calls) * rays_.size() / el;
+  }
+  // Blocked rays over all single() calls so far.
+  uint64_t blocked() const { return blocked_; }
 
-  // Path tracer.
-  LightSampler lights(scene);
+ private:
+  static constexpr size_t kChunk = 4096;
+  size_t chunks() const { return (rays_.size() + kChunk - 1) / kChunk; }
+  const Accel& accel_;
+  std::vector<Ray> rays_;
+  std::atomic<uint64_t> blocked_{0};
+};
+
+// The path tracer's throughput at size x size.
+struct PtBench {
+  int passes = 0;
+  double pathsRate = 0, raysRate = 0, raysPerPath = 0;
+};
+
+PtBench benchPathTracer(const Scene& scene, const Accel& accel, const LightSampler& lights, const BenchArgs& a) {
   RenderSettings s;
-  s.width = size;
-  s.height = size;
-  PathTracer pt(scene, *accel, lights, s);
-  Film d(size, size), ind(size, size);
+  s.width = a.size;
+  s.height = a.size;
+  PathTracer pt(scene, accel, lights, s);
+  Film d(a.size, a.size), ind(a.size, a.size);
   PtCounters c;
-  int pass = 0;
-  auto [ptCalls, ptSec] = timeLoop(seconds, [&] { pt.renderPass(pass++, d, ind, c); });
-  double pathsRate = c.paths / ptSec, raysRate = c.rays / ptSec;
+  PtBench r;
+  double seconds = timeLoop(a.seconds, [&] { pt.renderPass(r.passes++, d, ind, c); }).second;
+  r.pathsRate = c.paths / seconds;
+  r.raysRate = c.rays / seconds;
+  r.raysPerPath = double(c.rays) / c.paths;
+  return r;
+}
 
-  std::printf("scene                      %s\n", scenePath.c_str());
-  std::printf("raw Embree occluded rays/s %.3f M  (single calls; %.1f%% blocked)\n", rawRate * 1e-6,
-              100.0 * blocked / (double(rawCalls) * rays.size()));
-  std::printf("raw Embree batched rays/s  %.3f M  (%.2fx single)\n", batchRate * 1e-6, batchRate / rawRate);
-  std::printf("path tracer paths/s        %.3f M  (%d passes at %dx%d)\n", pathsRate * 1e-6, pass, size, size);
-  std::printf("path tracer rays/s         %.3f M  (%.2f rays/path)\n", raysRate * 1e-6, double(c.rays) / c.paths);
-  std::printf("ratio PT rays/s : raw      %.3f\n", raysRate / rawRate);
-  (void)ptCalls;
+// One many-light gather, with raw occlusion measured around it.
+struct GatherBench {
+  std::string name;
+  uint32_t lights;
+  int width, height;
+  double pairsPerSecond, raysPerSecond, seconds, raw;
+};
 
-  // Many-light gather: VPL only and VSL only, one light set, one batch each.
-  struct GatherResult {
-    std::string name;
-    uint32_t lights;
-    int width, height;
-    double pairsPerSecond, raysPerSecond, seconds, raw;
-  };
-  std::vector<GatherResult> gathers;
-  double rawBefore = rawRate;
+// Many-light gather: VPL only and VSL only, one light set, one batch each.
+// The machine is shared: raw Embree is measured again right after each
+// gather, and the ratio uses the mean of the two measurements around it.
+std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                      OcclusionBench& occlusion, double rawBefore, const BenchArgs& a) {
+  std::vector<GatherBench> gathers;
   auto gather = [&](const std::string& name, bool vsl, uint32_t n, int sz, int szY = 0) {
     ManyLightSettings m;
     m.lights = n;
@@ -154,14 +164,12 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
     m.directSamples = 1;
     m.computeVsl = vsl;
     m.computeVpl = !vsl;
-    ManyLightRun run = prepareManyLights(scene, *accel, lights, m);
-    ManyLightRenderer r(scene, *accel, lights, run.set, run.radii, m);
-    auto t0 = Clock::now();
+    ManyLightRun run = prepareManyLights(scene, accel, lights, m);
+    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+    Stopwatch clock;
     r.renderBatch(0);
-    double sec = std::chrono::duration<double>(Clock::now() - t0).count();
-    // The machine is shared: raw Embree is measured again right after each
-    // gather, and the ratio uses the mean of the two measurements around it.
-    double rawAfter = measureRaw(std::min(seconds, 1.0)).first;
+    double sec = clock.seconds();
+    double rawAfter = occlusion.single(std::min(a.seconds, 1.0)).first;
     double raw = 0.5 * (rawBefore + rawAfter);
     rawBefore = rawAfter;
     const ManyLightStats& st = r.stats();
@@ -178,21 +186,24 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
   // (eight 16x16 tiles, so that two threads share the work evenly).
   for (bool vsl : {false, true}) {
     const char* name = vsl ? "VSL" : "VPL";
-    gather(name, vsl, 1000, size / 2);
-    gather(name, vsl, 4000, size / 2);
-    gather(name, vsl, 1000, size);
+    gather(name, vsl, 1000, a.size / 2);
+    gather(name, vsl, 4000, a.size / 2);
+    gather(name, vsl, 1000, a.size);
     gather(name, vsl, 100000, 64, 32);
   }
+  return gathers;
+}
 
-  // Stages: light tracing and k-NN radii for 100,000 lights; MRCS over them.
+// Stages: light tracing and k-NN radii for 100,000 lights; MRCS over them.
+json benchStages(const Scene& scene, const Accel& accel, const LightSampler& lights, const BenchArgs& a) {
   ManyLightSettings big;
   big.lights = 100000;
-  big.width = big.height = size / 2;
+  big.width = big.height = a.size / 2;
   big.directSamples = 1;
-  ManyLightRun bigRun = prepareManyLights(scene, *accel, lights, big);
+  ManyLightRun bigRun = prepareManyLights(scene, accel, lights, big);
   double traceRate = bigRun.set.lights.size() / std::max(bigRun.set.seconds, 1e-9);
   double knnRate = bigRun.set.lights.size() / std::max(bigRun.knnSeconds, 1e-9);
-  MrcsResult mr = renderMrcs(scene, *accel, lights, bigRun.set, bigRun.radii, big, MrcsSettings{300, 900, 0});
+  MrcsResult mr = renderMrcs(scene, accel, lights, bigRun.set, bigRun.radii, big, MrcsSettings{300, 900, 0});
   double mrcsSeconds = mr.rowSeconds + mr.clusterSeconds + mr.columnSeconds;
   double brutePairs = double(bigRun.set.lights.size()) * big.width * big.height * 2;  // VSL and VPL
   std::printf("light tracing              %.3f M lights/s (%zu lights in %.2f s)\n", traceRate * 1e-6,
@@ -203,42 +214,90 @@ int runBench(const std::string& scenePath, double seconds, int size, const std::
       "pairs than brute force\n",
       mrcsSeconds, big.width, big.height, mr.rowSeconds, mr.clusterSeconds, mr.columnSeconds,
       brutePairs / std::max(double(mr.pairs), 1.0));
-  if (!jsonPath.empty()) {
-    nlohmann::json j = {{"scene", scenePath},
-                        {"triangles", scene.triangleCount()},
-                        {"rawOccludedRaysPerSecond", rawRate},
-                        {"rawBatchedOccludedRaysPerSecond", batchRate},
-                        {"ptPathsPerSecond", pathsRate},
-                        {"ptRaysPerSecond", raysRate},
-                        {"ptRaysPerPath", double(c.rays) / c.paths},
-                        {"ratioPtRaysToRawOccluded", raysRate / rawRate}};
-    j["lightTracingLightsPerSecond"] = traceRate;
-    j["knnLightsPerSecond"] = knnRate;
-    j["mrcs"] = {{"lights", bigRun.set.lights.size()},
-                 {"size", big.width},
-                 {"seconds", mrcsSeconds},
-                 {"rowSeconds", mr.rowSeconds},
-                 {"clusterSeconds", mr.clusterSeconds},
-                 {"columnSeconds", mr.columnSeconds},
-                 {"pairs", mr.pairs},
-                 {"bruteForcePairs", brutePairs}};
-    for (const auto& g : gathers)
-      j["gather"].push_back({{"method", g.name},
-                             {"lights", g.lights},
-                             {"width", g.width},
-                             {"height", g.height},
-                             {"pairsPerSecond", g.pairsPerSecond},
-                             {"shadowRaysPerSecond", g.raysPerSecond},
-                             {"rawOccludedRaysPerSecond", g.raw},
-                             {"ratioPairsToRawOccluded", g.pairsPerSecond / g.raw},
-                             {"ratioShadowRaysToRawOccluded", g.raysPerSecond / g.raw},
-                             {"secondsPerBatch", g.seconds}});
-    if (Result<void> written = writeTextFile(jsonPath, j.dump(2) + "\n"); !written) {
-      std::fprintf(stderr, "error: %s\n", written.error().c_str());
-      return 1;
-    }
-  }
+  return {{"lightTracingLightsPerSecond", traceRate},
+          {"knnLightsPerSecond", knnRate},
+          {"mrcs",
+           {{"lights", bigRun.set.lights.size()},
+            {"size", big.width},
+            {"seconds", mrcsSeconds},
+            {"rowSeconds", mr.rowSeconds},
+            {"clusterSeconds", mr.clusterSeconds},
+            {"columnSeconds", mr.columnSeconds},
+            {"pairs", mr.pairs},
+            {"bruteForcePairs", brutePairs}}}};
+}
+
+int runBench(const BenchArgs& a) {
+  SceneResult loaded = loadScene(a.scene);
+  if (!loaded) return fail(kExitBadInput, loaded.error());
+  const Scene& scene = **loaded;
+  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
+  if (!built) return fail(kExitBadInput, built.error());
+  const Accel& accel = **built;
+  OcclusionBench occlusion(accel, makeOcclusionRays(scene, accel, 1 << 20));
+  if (occlusion.rays() == 0)
+    return failf(kExitBadInput, "%s: the camera sees no geometry; nothing to benchmark", a.scene.c_str());
+  std::fprintf(stderr, "bench %s: %zu triangles, %zu occlusion rays, %.1f s per measurement\n", a.scene.c_str(),
+               scene.triangleCount(), occlusion.rays(), a.seconds);
+
+  // Raw Embree, single and batched; then the path tracer.
+  auto [rawRate, rawCalls] = occlusion.single(a.seconds);
+  const uint64_t blocked = occlusion.blocked();
+  double batchRate = occlusion.batched(a.seconds);
+  LightSampler lights(scene);
+  PtBench pt = benchPathTracer(scene, accel, lights, a);
+  std::printf("scene                      %s\n", a.scene.c_str());
+  std::printf("raw Embree occluded rays/s %.3f M  (single calls; %.1f%% blocked)\n", rawRate * 1e-6,
+              100.0 * blocked / (double(rawCalls) * occlusion.rays()));
+  std::printf("raw Embree batched rays/s  %.3f M  (%.2fx single)\n", batchRate * 1e-6, batchRate / rawRate);
+  std::printf("path tracer paths/s        %.3f M  (%d passes at %dx%d)\n", pt.pathsRate * 1e-6, pt.passes, a.size,
+              a.size);
+  std::printf("path tracer rays/s         %.3f M  (%.2f rays/path)\n", pt.raysRate * 1e-6, pt.raysPerPath);
+  std::printf("ratio PT rays/s : raw      %.3f\n", pt.raysRate / rawRate);
+
+  // The many-light gathers and stages.
+  std::vector<GatherBench> gathers = benchGathers(scene, accel, lights, occlusion, rawRate, a);
+  json stages = benchStages(scene, accel, lights, a);
+  if (a.jsonPath.empty()) return 0;
+  json j = {{"scene", a.scene},
+            {"triangles", scene.triangleCount()},
+            {"rawOccludedRaysPerSecond", rawRate},
+            {"rawBatchedOccludedRaysPerSecond", batchRate},
+            {"ptPathsPerSecond", pt.pathsRate},
+            {"ptRaysPerSecond", pt.raysRate},
+            {"ptRaysPerPath", pt.raysPerPath},
+            {"ratioPtRaysToRawOccluded", pt.raysRate / rawRate}};
+  j.update(stages);
+  for (const GatherBench& g : gathers)
+    j["gather"].push_back({{"method", g.name},
+                           {"lights", g.lights},
+                           {"width", g.width},
+                           {"height", g.height},
+                           {"pairsPerSecond", g.pairsPerSecond},
+                           {"shadowRaysPerSecond", g.raysPerSecond},
+                           {"rawOccludedRaysPerSecond", g.raw},
+                           {"ratioPairsToRawOccluded", g.pairsPerSecond / g.raw},
+                           {"ratioShadowRaysToRawOccluded", g.raysPerSecond / g.raw},
+                           {"secondsPerBatch", g.seconds}});
+  if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written)
+    return fail(kExitBadInput, written.error());
   return 0;
+}
+
+}  // namespace
+
+Subcommand addBenchCommand(CLI::App& app) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* bench = app.add_subcommand("bench", "Path-tracer throughput against raw Embree occlusion on one scene");
+  bench->add_option("scene", args->scene, "Scene file")->required();
+  bench->add_option("--seconds", args->seconds, "Seconds per measurement")
+      ->default_str("3")
+      ->check(CLI::Range(0.1, 600.0));
+  bench->add_option("--size", args->size, "Image size for the path tracer")
+      ->default_str("256")
+      ->check(CLI::Range(8, 4096));
+  bench->add_option("--json", args->jsonPath, "Write results as JSON");
+  return {bench, [args] { return runBench(*args); }};
 }
 
 }  // namespace vsl

@@ -7,15 +7,17 @@
 // the squared error (summary.csv), the LDR-FLIP of the final images, and the
 // split of their error into bias2 and variance over the independent runs.
 // relMSE uses the reference-relative eps (core/compare.h), stated in the JSON.
-// Output: sweep.csv, sweep.json, error_vs_time.png, pareto.png and
-// flip_vs_time.png (gnuplot, from Debian's gnuplot-nox, when installed; the
-// .gp scripts are written either way).
+// Output: sweep.csv (every point), summary.csv, sweep.json (both), a table
+// on stdout, and error_vs_time.png, pareto.png and flip_vs_time.png
+// (gnuplot, from Debian's gnuplot-nox, when installed; the .gp scripts are
+// written either way).
 // Fan-out: --shard I/N runs the configurations whose index in the grid is I
 // mod N; --merge joins shard directories into the outputs of one run.
 #include "app/sweep.h"
 
+#include "app/cli.h"
+
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -30,13 +32,11 @@
 #include "core/many_light.h"
 #include "core/mrcs.h"
 #include "core/reference.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 struct Point {
   std::string method;
@@ -185,7 +185,10 @@ std::vector<size_t> paretoFront(const std::vector<T>& pts, const std::vector<siz
   std::vector<size_t> front;
   double best = 1e300;
   for (size_t i : sorted)
-    if (pts[i].relMse < best) best = pts[i].relMse, front.push_back(i);
+    if (pts[i].relMse < best) {
+      best = pts[i].relMse;
+      front.push_back(i);
+    }
   return front;
 }
 
@@ -226,7 +229,10 @@ struct SweepContext {
       std::vector<const Image*> imgs;
       for (const Image& f : finals) imgs.push_back(&f);
       BiasVarianceResult bv = biasVariance(imgs, ref);
-      for (size_t i : finalIndices) pts[i].bias2 = bv.average.bias2, pts[i].variance = bv.average.variance;
+      for (size_t i : finalIndices) {
+        pts[i].bias2 = bv.average.bias2;
+        pts[i].variance = bv.average.variance;
+      }
     }
     finals.clear();
     finalIndices.clear();
@@ -260,9 +266,9 @@ struct SweepContext {
     double el = 0;
     int next = 1;
     for (int pass = 0;; ++pass) {
-      auto t0 = Clock::now();
+      Stopwatch passTime;
       pt.renderPass(pass, d, ind, c);
-      el += since(t0);
+      el += passTime.seconds();
       bool last = el >= a.time;
       if (pass + 1 == next || last) {
         record("pt", 0, 0, set, pass + 1, el, ind.image());
@@ -280,7 +286,7 @@ struct SweepContext {
   void runPasses(const std::string& method, uint32_t n, float sc, int set) {
     const bool mrcs = method.find("-mrcs") != std::string::npos;
     const bool progressive = method.find("progressive") != std::string::npos;
-    auto t0 = Clock::now();
+    Stopwatch clock;
     Image sum(W, H);
     for (int pass = 0;; ++pass) {
       ManyLightSettings m = manySettings(method, n, sc, seedOf(set, pass));
@@ -301,7 +307,7 @@ struct SweepContext {
       for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i];
       Image mean = sum;
       for (float& x : mean.rgb) x /= float(pass + 1);
-      double el = since(t0);
+      double el = clock.seconds();
       record(method, n, sc, set, pass + 1, el, mean);
       if (el >= a.time) break;
     }
@@ -314,13 +320,13 @@ struct SweepContext {
   void runBatches(const std::string& method, uint32_t n, float sc, int set) {
     ManyLightSettings m = manySettings(method, n, sc, seedOf(set));
     m.batches = a.batches;
-    auto t0 = Clock::now();
+    Stopwatch clock;
     ManyLightRun run = prepareManyLights(scene, accel, lights, m);
     ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
     for (int b = 0; b < r.batchCount(); ++b) {
       r.renderBatch(b);
       ManyLightImages im = r.images();
-      double el = since(t0);
+      double el = clock.seconds();
       record(method, n, sc, set, b + 1, el, m.computeVsl ? im.vsl : im.vpl);
       if (a.time > 0 && el >= a.time) break;
     }
@@ -356,75 +362,56 @@ std::vector<Summary> summarise(const std::vector<Point>& pts) {
   return out;
 }
 
-// Runs this shard's part of the grid; fills the points and what the outputs need.
-int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
-  SceneResult lr = loadScene(a.scene);
-  if (!lr) {
-    std::fprintf(stderr, "error: %s\n", lr.error().c_str());
-    return 1;
-  }
-  const Scene& scene = **lr;
-  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
-  if (!built) {
-    std::fprintf(stderr, "error: %s\n", built.error().c_str());
-    return 1;
-  }
-  std::unique_ptr<Accel> accel = std::move(built).value();
-  LightSampler lights(scene);
-  // The reference (reference.h): the file given, else the cached one for
-  // this scene at --width. Its own noise comes from its halves
-  // (relMSE(A, B) / 4) or from a second, independent reference B
-  // (relMSE(B, A) / 2); every measured relMSE carries it on top of the
-  // method's error, and the "minus reference noise" columns subtract it.
-  Reference reference;
-  std::string referenceName = a.reference;
+// The reference a sweep measures against, and its own noise.
+struct SweepReference {
+  Reference ref;
+  std::string name;  // the file, or "cache: PATH"
+  double noise = 0;  // relMSE the reference's own noise adds to every measurement
+};
+
+// The reference (reference.h): the file given, else the cached one for this
+// scene at --width. Its own noise comes from its halves (relMSE(A, B) / 4) or
+// from a second, independent reference B (relMSE(B, A) / 2); every measured
+// relMSE carries it on top of the method's error, and the "minus reference
+// noise" columns subtract it. Returns 0, or the exit code after reporting.
+int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& out) {
+  out.name = a.reference;
   if (!a.reference.empty()) {
     Result<Reference> read = readReference(a.reference, 0, 0);
-    if (!read) {
-      std::fprintf(stderr, "error: %s\n", read.error().c_str());
-      return 1;
-    }
-    reference = std::move(read).value();
+    if (!read) return fail(kExitBadInput, read.error());
+    out.ref = std::move(read).value();
   } else {
     int w = a.width, h = 0;
     resolveResolution(scene, w, h);
     const std::string key = referenceKey(scene, w, h, RenderSettings().maxDepth);
     auto cached = findCachedReference(key, w, h);
-    if (!cached) {
-      std::fprintf(stderr,
-                   "error: %s: no --reference given and no cached reference at %dx%d (%s); render one with\n"
-                   "  vsl reference %s --width %d --spp 4096\n",
+    if (!cached)
+      return failf(kExitBadInput,
+                   "%s: no --reference given and no cached reference at %dx%d (%s); render one with\n"
+                   "  vsl reference %s --width %d --spp 4096",
                    a.scene.c_str(), w, h, referenceCachePath(key).c_str(), a.scene.c_str(), w);
-      return 1;
-    }
-    reference = std::move(*cached);
-    referenceName = "cache: " + referenceCachePath(key);
+    out.ref = std::move(*cached);
+    out.name = "cache: " + referenceCachePath(key);
   }
-  const Image* ref = &reference.indirect;
-  double refNoise = std::max(reference.indirectNoise(), 0.0);
-  std::fprintf(stderr, "sweep: reference %s (%dx%d, %d spp), own noise %s\n", referenceName.c_str(), ref->width,
-               ref->height, reference.spp,
-               reference.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(refNoise)).c_str() : "unknown");
-  Image refB;
+  const Image& ref = out.ref.indirect;
+  out.noise = std::max(out.ref.indirectNoise(), 0.0);
+  std::fprintf(stderr, "sweep: reference %s (%dx%d, %d spp), own noise %s\n", out.name.c_str(), ref.width, ref.height,
+               out.ref.spp,
+               out.ref.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(out.noise)).c_str() : "unknown");
   if (!a.referenceB.empty()) {
-    Result<Reference> b = readReference(a.referenceB, ref->width, ref->height);
-    if (!b) {
-      std::fprintf(stderr, "error: %s\n", b.error().c_str());
-      return 1;
-    }
-    refNoise = 0.5 * compareImages(b->indirect, *ref).average.relMse;
+    Result<Reference> b = readReference(a.referenceB, ref.width, ref.height);
+    if (!b) return fail(kExitBadInput, b.error());
+    out.noise = 0.5 * compareImages(b->indirect, ref).average.relMse;
     std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
-                 refNoise);
+                 out.noise);
   }
-  std::error_code ec;
-  std::filesystem::create_directories(a.outDir, ec);
-  if (ec) {
-    std::fprintf(stderr, "error: %s: cannot create the directory (%s)\n", a.outDir.c_str(), ec.message().c_str());
-    return 1;
-  }
-  const int W = ref->width, H = ref->height;
-  const CompareResult self = compareImages(*ref, *ref);
-  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  return 0;
+}
+
+// Runs every configuration of the grid in this shard, each with --sets
+// independent runs.
+void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
+  const SweepArgs& a = ctx.a;
   const std::vector<Config> grid = gridOf(a.methods, a.lights, a.radiusScales);
   for (size_t i = 0; i < grid.size(); ++i) {
     if (int(i % size_t(shardCount)) != shardIndex) continue;
@@ -434,14 +421,36 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
     for (int set = 0; set < a.sets; ++set) {
       if (g.method == "pt")
         ctx.runPt(set);
+      else if (passes)
+        ctx.runPasses(g.method, g.lights, g.radiusScale, set);
       else
-        passes ? ctx.runPasses(g.method, g.lights, g.radiusScale, set)
-               : ctx.runBatches(g.method, g.lights, g.radiusScale, set);
+        ctx.runBatches(g.method, g.lights, g.radiusScale, set);
     }
     ctx.endConfiguration();
   }
+}
+
+// Runs this shard's part of the grid; fills the points and what the outputs need.
+int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
+  SceneResult lr = loadScene(a.scene);
+  if (!lr) return fail(kExitBadInput, lr.error());
+  const Scene& scene = **lr;
+  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
+  if (!built) return fail(kExitBadInput, built.error());
+  std::unique_ptr<Accel> accel = std::move(built).value();
+  LightSampler lights(scene);
+  SweepReference reference;
+  if (int rc = loadSweepReference(a, scene, reference); rc != 0) return rc;
+  const Image* ref = &reference.ref.indirect;
+  std::error_code ec;
+  std::filesystem::create_directories(a.outDir, ec);
+  if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
+  const int W = ref->width, H = ref->height;
+  const CompareResult self = compareImages(*ref, *ref);
+  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  runConfigurations(ctx, shardIndex, shardCount);
   meta = {a.scene,
-          referenceName,
+          reference.name,
           a.referenceB,
           a.many.describe(),
           W,
@@ -449,7 +458,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
           a.sets,
           self.epsilon,
           self.average.meanRef,
-          refNoise,
+          reference.noise,
           self.epsilonSpec,
           a.methods,
           a.lights,
@@ -459,10 +468,8 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   // Summaries are taken from the points as the CSV holds them, so a merged
   // run reproduces them exactly.
   std::vector<Point> exact;
-  if (Result<void> parsed = parsePoints(pointsCsv(pts, refNoise), exact); !parsed) {
-    std::fprintf(stderr, "error: %s\n", parsed.error().c_str());
-    return 1;
-  }
+  if (Result<void> parsed = parsePoints(pointsCsv(pts, reference.noise), exact); !parsed)
+    return fail(kExitBadInput, parsed.error());
   pts = std::move(exact);
   return 0;
 }
@@ -534,10 +541,7 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
                             {"pareto.gp", gp2.str()},
                             {"flip_vs_time.gp", gp3.str()}}) {
     std::string path = (dir / name).string();
-    if (Result<void> written = writeTextFile(path, text); !written) {
-      std::fprintf(stderr, "error: %s\n", written.error().c_str());
-      return 1;
-    }
+    if (Result<void> written = writeTextFile(path, text); !written) return fail(kExitBadInput, written.error());
     if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
       std::string cmd = "gnuplot '" + path + "'";
       if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "warning: gnuplot failed on %s\n", path.c_str());
@@ -549,20 +553,11 @@ int writePlots(const SweepMeta& meta, const std::vector<Point>& pts, const std::
   return 0;
 }
 
-// sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
-int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
-  std::error_code ec;
-  std::filesystem::create_directories(outDir, ec);
-  if (ec) {
-    std::fprintf(stderr, "error: %s: cannot create the directory (%s)\n", outDir.c_str(), ec.message().c_str());
-    return 1;
-  }
-  const double refNoise = meta.refNoise, refMean = meta.refMean;
-  const std::vector<Summary> summary = summarise(pts);
+// NaN (no value) as JSON null.
+nlohmann::json jsonNumber(double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); }
 
-  // ---- CSV and JSON: every point, and the summary of the finals per configuration.
-  std::ostringstream sumCsv;
-  auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
+// sweep.json without its summary and Pareto fronts: the metadata and every point.
+nlohmann::json pointsJson(const SweepMeta& meta, const std::vector<Point>& pts) {
   nlohmann::json js = {
       {"scene", meta.scene},
       {"reference", meta.reference},
@@ -573,12 +568,12 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
       {"relMseEpsilonMode", meta.epsilonSpec.modeName()},
       {"relMseEpsilonFactor", meta.epsilonSpec.value},
       {"flipPixelsPerDegree", kFlipPixelsPerDegree},
-      {"referenceIndirectMean", refMean},
+      {"referenceIndirectMean", meta.refMean},
       {"settings", meta.settings},
       {"grid", {{"methods", meta.methods}, {"lights", meta.lights}, {"radiusScales", meta.radiusScales}}},
       {"points", nlohmann::json::array()},
       {"summary", nlohmann::json::array()}};
-  js["referenceNoiseRelMSE"] = refNoise;  // 0 without --reference-b
+  js["referenceNoiseRelMSE"] = meta.refNoise;  // 0 without --reference-b
   if (!meta.referenceB.empty()) js["referenceB"] = meta.referenceB;
   if (meta.shardCount > 1) js["shard"] = {{"index", meta.shardIndex}, {"count", meta.shardCount}};
   for (const Point& p : pts) {
@@ -593,10 +588,17 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
                             {"mean", p.mean},
                             {"worst1Share", p.worst1},
                             {"final", p.final},
-                            {"flipLdr", num(p.flip)},
-                            {"bias2", num(p.bias2)},
-                            {"variance", num(p.variance)}});
+                            {"flipLdr", jsonNumber(p.flip)},
+                            {"bias2", jsonNumber(p.bias2)},
+                            {"variance", jsonNumber(p.variance)}});
   }
+  return js;
+}
+
+// summary.csv, and the same rows appended to js["summary"].
+std::string summaryCsv(const SweepMeta& meta, const std::vector<Summary>& summary, nlohmann::json& js) {
+  const double refNoise = meta.refNoise, refMean = meta.refMean;
+  std::ostringstream sumCsv;
   sumCsv << "method,lights,radius_scale,sets,seconds_median,relmse_median,relmse_q1,relmse_q3,"
             "relmse_median_minus_ref_noise,mean_median,mean_vs_reference,worst1_share_median,flip_ldr_median,bias2,"
             "variance\n";
@@ -618,9 +620,35 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
                              {"meanVsReference", meanRatio},
                              {"worst1ShareMedian", m.worst1},
                              {"flipLdrMedian", m.flip},
-                             {"bias2", num(m.bias2)},
-                             {"variance", num(m.variance)}});
+                             {"bias2", jsonNumber(m.bias2)},
+                             {"variance", jsonNumber(m.variance)}});
   }
+  return sumCsv.str();
+}
+
+// The summary as a table on stdout.
+void printSummary(const SweepMeta& meta, const std::vector<Summary>& summary) {
+  const double refNoise = meta.refNoise, refMean = meta.refMean;
+  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %s = %.3g\n", meta.sets,
+              refMean, meta.epsilonSpec.describe().c_str(), meta.epsilon);
+  std::printf("%-30s %9s %10s %21s %10s %9s %7s %7s %10s %10s\n", "configuration", "seconds", "relMSE", "quartiles",
+              "-ref noise", "mean", "worst1%", "FLIP", "bias2", "variance");
+  for (const Summary& m : summary)
+    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f %7.4f %10.5f %10.5f\n", m.series.c_str(),
+                m.seconds, m.relMse, m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0,
+                m.worst1, m.flip, m.bias2, m.variance);
+}
+
+// sweep.csv, summary.csv, sweep.json, the plots and the table, from the points.
+int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std::string& outDir) {
+  std::error_code ec;
+  std::filesystem::create_directories(outDir, ec);
+  if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", outDir.c_str(), ec.message().c_str());
+  const std::vector<Summary> summary = summarise(pts);
+
+  // CSV and JSON: every point, and the summary of the finals per configuration.
+  nlohmann::json js = pointsJson(meta, pts);
+  const std::string sumCsv = summaryCsv(meta, summary, js);
   // Pareto fronts of the configurations' medians, per method.
   std::map<std::string, std::vector<size_t>> finals;
   for (size_t i = 0; i < summary.size(); ++i) finals[summary[i].method].push_back(i);
@@ -634,23 +662,14 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
                                  {"relMSE", summary[i].relMse}});
   }
   std::filesystem::path dir(outDir);
-  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, refNoise)},
-                            {"summary.csv", sumCsv.str()},
+  for (auto [name, text] : {std::pair<std::string, std::string>{"sweep.csv", pointsCsv(pts, meta.refNoise)},
+                            {"summary.csv", sumCsv},
                             {"sweep.json", js.dump(2) + "\n"}})
-    if (Result<void> written = writeTextFile((dir / name).string(), text); !written) {
-      std::fprintf(stderr, "error: %s\n", written.error().c_str());
-      return 1;
-    }
+    if (Result<void> written = writeTextFile((dir / name).string(), text); !written)
+      return fail(kExitBadInput, written.error());
 
   if (int rc = writePlots(meta, pts, summary, finals, fronts, dir); rc != 0) return rc;
-  std::printf("%d independent runs per configuration; reference indirect mean %.5g; eps = %s = %.3g\n", meta.sets,
-              refMean, meta.epsilonSpec.describe().c_str(), meta.epsilon);
-  std::printf("%-30s %9s %10s %21s %10s %9s %7s %7s %10s %10s\n", "configuration", "seconds", "relMSE", "quartiles",
-              "-ref noise", "mean", "worst1%", "FLIP", "bias2", "variance");
-  for (const Summary& m : summary)
-    std::printf("%-30s %9.2f %10.5f   [%8.5f, %8.5f] %10.5f %+8.1f%% %7.2f %7.4f %10.5f %10.5f\n", m.series.c_str(),
-                m.seconds, m.relMse, m.q1, m.q3, m.relMse - refNoise, refMean > 0 ? 100 * (m.mean / refMean - 1) : 0.0,
-                m.worst1, m.flip, m.bias2, m.variance);
+  printSummary(meta, summary);
   std::fprintf(stderr,
                "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png, flip_vs_time.png}\n",
                outDir.c_str());
@@ -707,10 +726,7 @@ int mergeShards(const SweepArgs& a) {
   for (const std::string& dir : a.merge) {
     SweepMeta m;
     std::vector<Point> pts;
-    if (Result<void> read = readShard(dir, m, pts); !read) {
-      std::fprintf(stderr, "error: %s\n", read.error().c_str());
-      return 1;
-    }
+    if (Result<void> read = readShard(dir, m, pts); !read) return fail(kExitBadInput, read.error());
     if (seen.empty()) {
       meta = m;
       seen.assign(size_t(m.shardCount), 0);
@@ -718,23 +734,16 @@ int mergeShards(const SweepArgs& a) {
                m.height != meta.height || m.sets != meta.sets || m.settings != meta.settings ||
                m.methods != meta.methods || m.lights != meta.lights || m.radiusScales != meta.radiusScales ||
                m.shardCount != meta.shardCount || m.epsilon != meta.epsilon) {
-      std::fprintf(stderr,
-                   "error: %s: another sweep (scene, reference, grid, settings or shard count differ from %s)\n",
+      return failf(kExitBadInput, "%s: another sweep (scene, reference, grid, settings or shard count differ from %s)",
                    dir.c_str(), a.merge[0].c_str());
-      return 1;
     }
-    if (m.shardIndex < 0 || m.shardIndex >= int(seen.size()) || seen[size_t(m.shardIndex)]++) {
-      std::fprintf(stderr, "error: %s: shard %d/%d given twice or out of range\n", dir.c_str(), m.shardIndex,
+    if (m.shardIndex < 0 || m.shardIndex >= int(seen.size()) || seen[size_t(m.shardIndex)]++)
+      return failf(kExitBadInput, "%s: shard %d/%d given twice or out of range", dir.c_str(), m.shardIndex,
                    m.shardCount);
-      return 1;
-    }
     shardPts.push_back(std::move(pts));
   }
   for (size_t i = 0; i < seen.size(); ++i)
-    if (!seen[i]) {
-      std::fprintf(stderr, "error: shard %zu/%d is missing\n", i, meta.shardCount);
-      return 1;
-    }
+    if (!seen[i]) return failf(kExitBadInput, "shard %zu/%d is missing", i, meta.shardCount);
   // Configuration by configuration, in grid order (a configuration lives in one shard).
   auto key = [](const std::string& m, uint32_t n, float sc) {
     std::ostringstream s;
@@ -761,25 +770,86 @@ int mergeShards(const SweepArgs& a) {
 
 int runSweep(const SweepArgs& a) {
   if (!a.merge.empty()) return mergeShards(a);
-  if (a.scene.empty()) {
-    std::fprintf(stderr,
-                 "error: sweep needs a scene (or --merge DIR...)\n\nUsage: vsl sweep SCENE [--reference REF.exr] -o "
-                 "DIR [--shard I/N] ...\n       vsl sweep --merge DIR... -o DIR\n");
-    return 2;
-  }
+  if (a.scene.empty())
+    return fail(kExitBadArguments,
+                "sweep needs a scene (or --merge DIR...)\n\nUsage: vsl sweep SCENE [--reference REF.exr] -o DIR "
+                "[--shard I/N] ...\n       vsl sweep --merge DIR... -o DIR");
   int shardIndex = 0, shardCount = 1;
   if (!a.shard.empty()) {
     char tail = 0;
     if (std::sscanf(a.shard.c_str(), "%d/%d%c", &shardIndex, &shardCount, &tail) != 2 || shardCount < 1 ||
-        shardIndex < 0 || shardIndex >= shardCount) {
-      std::fprintf(stderr, "error: --shard must be I/N with 0 <= I < N (got '%s')\n", a.shard.c_str());
-      return 2;
-    }
+        shardIndex < 0 || shardIndex >= shardCount)
+      return failf(kExitBadArguments, "--shard must be I/N with 0 <= I < N (got '%s')", a.shard.c_str());
   }
   SweepMeta meta;
   std::vector<Point> pts;
   if (int rc = runGrid(a, shardIndex, shardCount, meta, pts); rc != 0) return rc;
   return writeOutputs(meta, pts, a.outDir);
+}
+
+// The command line of `vsl sweep`: the grid's arguments and the -mrcs settings,
+// parsed once the command line is.
+struct SweepCommandArgs {
+  SweepArgs sweep;
+  std::string mrcs;
+  bool spread = false;
+};
+
+Subcommand addSweepCommand(CLI::App& app) {
+  auto args = std::make_shared<SweepCommandArgs>();
+  SweepArgs& sw = args->sweep;
+  CLI::App* sweep = app.add_subcommand("sweep", "Error against time for a grid of methods, light counts and radii");
+  sweep->add_option("scene", sw.scene, "Scene file (not with --merge)");
+  sweep
+      ->add_option("--methods", sw.methods,
+                   "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
+                   "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
+                   "vsl-mrcs-progressive (both)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"pt", "vpl", "vsl", "vsl-progressive", "vsl-mrcs", "vpl-mrcs", "vsl-mrcs-progressive"}))
+      ->default_str("pt,vpl,vsl");
+  sweep->add_option("--lights", sw.lights, "Light counts, comma separated")
+      ->delimiter(',')
+      ->check(CLI::Range(1u, 50000000u))
+      ->default_str("1000,10000");
+  sweep->add_option("--radius-scale", sw.radiusScales, "VSL radius scales, comma separated")
+      ->delimiter(',')
+      ->check(CLI::Range(1e-6, 1e6))
+      ->default_str("1");
+  sweep->add_option("--time", sw.time, "Path-tracer budget and cap per run, seconds")
+      ->default_str("30")
+      ->check(CLI::Range(0.01, 1e6));
+  sweep->add_option("--alpha", sw.alpha, "vsl-progressive: r^2 shrinks by (i+alpha)/(i+1) per pass")
+      ->default_str("0.7")
+      ->check(CLI::Range(0.01, 0.99));
+  sweep->add_option("--batches", sw.batches, "Progressive batches per many-light run")
+      ->default_str("8")
+      ->check(CLI::Range(1, 64));
+  sweep->add_option("--mrcs", args->mrcs, "ROWS,CLUSTERS[,MIX] for the -mrcs methods")->default_str("300,900");
+  sweep->add_flag("--mrcs-spread", args->spread, "-mrcs methods: VSL representatives get radius r sqrt(weight)");
+  sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
+  sweep->add_option("--reference", sw.reference,
+                    "Reference EXR with an 'indirect' layer (vsl reference writes one with halves that measure its "
+                    "noise); default: the cached reference at --width");
+  sweep->add_option("--width", sw.width, "Without --reference: the width of the cached reference to use")
+      ->default_str("256")
+      ->check(CLI::Range(8, 16384));
+  sweep->add_option("--shard", sw.shard, "I/N: run only the configurations whose grid index is I mod N");
+  sweep->add_option("--merge", sw.merge, "Join these shard output directories into -o (no scene needed)");
+  sweep->add_option("--reference-b", sw.referenceB,
+                    "A second reference with another seed: relMSE(B, A)/2 estimates the reference's own noise, "
+                    "reported and subtracted in the column relmse_minus_ref_noise");
+  sweep->add_option("-o,--output", sw.outDir, "Output directory")->required();
+  sweep->add_option("--sets", sw.sets, "Independent light sets (or path-tracer seeds) per configuration")
+      ->default_str("5")
+      ->check(CLI::Range(1, 1000));
+  sweep->add_option("--knn", sw.many.knn, "k for the VSL radius")->default_str("10")->check(CLI::Range(1, 1000));
+  addVslOptions(sweep, sw.many);
+  return {sweep, [args] {
+            if (!args->mrcs.empty() && !parseMrcsSpec(args->mrcs, args->sweep.mrcs)) return kExitBadArguments;
+            args->sweep.mrcs.spreadVslRadius = args->spread;
+            return runSweep(args->sweep);
+          }};
 }
 
 }  // namespace vsl

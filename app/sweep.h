@@ -39,6 +39,9 @@ struct SweepArgs {
   std::vector<std::string> merge;
 };
 
+// Runs the sweep (or merges shards) and writes its outputs to args.outDir;
+// returns the exit code (cli.h), having reported any error. The command line
+// reaches it through addSweepCommand (cli.h).
 int runSweep(const SweepArgs& args);
 
 }  // namespace vsl

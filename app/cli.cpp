@@ -1,0 +1,94 @@
+// What the `vsl` subcommands share (cli.h): errors, progress, scene loading
+// and small image helpers.
+#include "app/cli.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdarg>
+#include <cstdio>
+
+namespace vsl {
+
+int fail(int exitCode, const std::string& message) {
+  std::fprintf(stderr, "error: %s\n", message.c_str());
+  return exitCode;
+}
+
+int failf(int exitCode, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  std::fprintf(stderr, "error: ");
+  std::vfprintf(stderr, format, args);
+  std::fprintf(stderr, "\n");
+  va_end(args);
+  return exitCode;
+}
+
+Progress::Progress(const char* label) : label_(label), tty_(isatty(STDERR_FILENO)) {}
+
+void Progress::update(double fraction, const std::string& detail) {
+  fraction = std::min(std::max(fraction, 0.0), 1.0);
+  if (tty_) {
+    if (drawn_ && fraction < 1 && sinceDraw_.seconds() < 0.1) return;
+    drawn_ = true;
+    sinceDraw_.reset();
+    int filled = int(fraction * 30);
+    std::fprintf(stderr, "\r%s [%s%s] %3d%% %s   ", label_, std::string(filled, '#').c_str(),
+                 std::string(30 - filled, ' ').c_str(), int(fraction * 100), detail.c_str());
+  } else {
+    int decile = int(fraction * 10);
+    if (decile <= lastDecile_) return;
+    lastDecile_ = decile;
+    std::fprintf(stderr, "%s %3d%% %s\n", label_, decile * 10, detail.c_str());
+  }
+  std::fflush(stderr);
+}
+
+void Progress::finish() {
+  if (tty_) std::fprintf(stderr, "\n");
+}
+
+std::shared_ptr<const Scene> loadOrReport(const std::string& path, const std::string& camera) {
+  LoadOptions opts;
+  opts.cameraName = camera;
+  SceneResult r = loadScene(path, opts);
+  if (!r) {
+    fail(kExitBadInput, r.error());
+    return nullptr;
+  }
+  for (const std::string& w : (*r)->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  return *r;
+}
+
+const Image* findLayer(const std::vector<Layer>& layers, const std::string& name, bool explicitName) {
+  for (const Layer& l : layers)
+    if (l.name == name) return &l.image;
+  if (!explicitName)  // no default layer: fall back to "full"
+    for (const Layer& l : layers)
+      if (l.name == "full") return &l.image;
+  return nullptr;
+}
+
+Vec3 imageMean(const Image& img) {
+  double s[3] = {0, 0, 0};
+  for (size_t i = 0; i < img.rgb.size(); ++i) s[i % 3] += img.rgb[i];
+  double n = std::max<size_t>(1, img.rgb.size() / 3);
+  return {float(s[0] / n), float(s[1] / n), float(s[2] / n)};
+}
+
+Image addImages(const Image& a, const Image& b) {
+  Image sum(a.width, a.height);
+  for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] = a.rgb[i] + b.rgb[i];
+  return sum;
+}
+
+float percentile(std::vector<float> values, double q) {
+  if (values.empty()) return 0;
+  // The k-th smallest value is what sorting would put at k.
+  const size_t k = size_t(q * double(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
+}
+
+}  // namespace vsl

@@ -1,0 +1,281 @@
+// `vsl render SCENE -o OUT.exr`: one image, as a multi-layer EXR (full,
+// direct, indirect, or the many-light layers), optionally a tone-mapped PNG
+// and statistics as JSON. This file holds the options, their validation,
+// scene loading and the path tracer (--method pt: progressive passes of one
+// sample per pixel until --spp or --time); the many-light methods are in
+// render_many_lights.cpp.
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "app/cli.h"
+#include "app/render.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/pathtracer.h"
+
+namespace vsl {
+
+namespace {
+
+using json = nlohmann::json;
+
+// ---- Options and their validation ---------------------------------------------
+
+void addRenderOptions(CLI::App* render, RenderArgs& ra) {
+  render->add_option("scene", ra.scene, "Scene file (.gltf or .glb)")->required();
+  render
+      ->add_option("--method", ra.settings.method,
+                   "pt (path-traced reference), vsl, vpl, or all (VSL, clamped VPL and the missing-energy layers "
+                   "from one light set)")
+      ->check(CLI::IsMember({"pt", "vsl", "vpl", "all"}))
+      ->default_str("pt");
+  render->add_option("--lights", ra.many.lights, "Virtual lights (many-light methods)")->default_str("10000");
+  render->add_option("--radius-scale", ra.many.radiusScale, "VSL radius = scale x distance to the k-th nearest light")
+      ->default_str("1");
+  render->add_option("--knn", ra.many.knn, "k for the VSL radius")->default_str("10");
+  render->add_option("--radius", ra.many.globalRadius,
+                     "One global VSL radius, as a fraction of the scene's bounding radius (replaces k-NN radii)");
+  render->add_option("--vsl-samples", ra.vslSamples, "VSL cone-integral samples per strategy: auto or N")
+      ->default_str("auto");
+  render
+      ->add_option("--clamp", ra.clamp,
+                   "VPL clamp: bound on the luminance of f_x cos f_p cos / d^2 per light; auto (scene-relative) or "
+                   "off")
+      ->default_str("auto");
+  render->add_flag("--diffuse-vpl", ra.many.diffuseOnly, "VPLs emit with their diffuse lobe only");
+  addVslOptions(render, ra.many);
+  render->add_option("--mrcs", ra.mrcsSpec,
+                     "Matrix row-column sampling: ROWS,CLUSTERS[,MIX] (e.g. 300,900; MIX: uniform share of the "
+                     "representative choice)");
+  render->add_flag(
+      "--mrcs-spread", ra.mrcsSpread,
+      "MRCS: a VSL representative of weight w gets radius r sqrt(w) (fewer blobs; about 10% darker, slower)");
+  render->add_option("--batches", ra.many.batches, "Progressive light batches (growing sizes)")->default_str("8");
+  render->add_option("--direct-samples", ra.many.directSamples, "Direct-light samples per pixel (many-light methods)")
+      ->default_str("64");
+  auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel (pt)")->default_str("64");
+  render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
+      ->excludes(sppOpt);
+  render->add_option("--width", ra.settings.width, "Image width (default: from the scene, or 512)");
+  render->add_option("--height", ra.settings.height, "Image height (default: from the scene, or 512)");
+  render->add_option("--seed", ra.settings.seed, "Random seed")->default_str("0");
+  render->add_option("--max-depth", ra.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
+  render->add_option("--component", ra.component, "Component for the default EXR layer and the PNG")
+      ->check(CLI::IsMember({"full", "direct", "indirect"}))
+      ->default_str("full");
+  render->add_option("--camera", ra.camera, "Camera name (default: the first perspective camera)");
+  render->add_option("-o,--output", ra.out, "Output EXR")->required();
+  render->add_option("--png", ra.png, "Also write a tone-mapped sRGB PNG");
+  render->add_option("--exposure", ra.exposure, "PNG exposure in stops")->default_str("0");
+  render->add_option("--json", ra.jsonPath, "Write statistics as JSON");
+}
+
+// --clamp: a positive number, auto (-1: scene-relative) or off (infinity).
+// Returns 0, or the exit code after reporting.
+int parseClamp(const std::string& text, float& clamp) {
+  if (text == "off") {
+    clamp = INFINITY;
+    return 0;
+  }
+  if (text == "auto") {
+    clamp = -1;
+    return 0;
+  }
+  char* end = nullptr;
+  double c = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != 0 || !(c > 0))
+    return failf(kExitBadArguments, "--clamp must be a positive number, 'auto' or 'off' (got '%s')", text.c_str());
+  clamp = float(c);
+  return 0;
+}
+
+// --vsl-samples: auto (0) or a count in [1, 4096]. Returns 0, or the exit
+// code after reporting.
+int parseVslSamples(const std::string& text, int& samples) {
+  if (text == "auto") {
+    samples = 0;
+    return 0;
+  }
+  char* end = nullptr;
+  long n = std::strtol(text.c_str(), &end, 10);
+  if (end == text.c_str() || *end != 0 || n < 1 || n > 4096)
+    return failf(kExitBadArguments, "--vsl-samples must be 'auto' or in [1,4096] (got '%s')", text.c_str());
+  samples = int(n);
+  return 0;
+}
+
+// Fills a.many and a.mrcs for the many-light methods from the command line.
+// Returns 0, or the exit code after reporting.
+int resolveManyLightArgs(RenderArgs& a) {
+  ManyLightSettings& m = a.many;
+  m.seed = a.settings.seed;
+  m.computeVsl = a.settings.method != "vpl";
+  m.computeVpl = a.settings.method != "vsl";
+  m.width = a.settings.width;
+  m.height = a.settings.height;
+  if (int rc = parseClamp(a.clamp, m.clamp); rc != 0) return rc;
+  if (int rc = parseVslSamples(a.vslSamples, m.vslSamples); rc != 0) return rc;
+  if (Result<void> v = m.validate(); !v) return fail(kExitBadArguments, v.error());
+  if (!a.mrcsSpec.empty() && !parseMrcsSpec(a.mrcsSpec, a.mrcs)) return kExitBadArguments;
+  a.mrcs.spreadVslRadius = a.mrcsSpread;
+  return 0;
+}
+
+// ---- The path tracer --------------------------------------------------------------
+
+// Progressive passes, one sample per pixel each, until spp or the time limit;
+// returns the number of passes.
+int renderPasses(PathTracer& pt, const RenderSettings& s, Film& direct, Film& indirect, PtCounters& counters) {
+  Progress progress("render");
+  Stopwatch clock;
+  int passes = 0;
+  while (true) {
+    // At least one pass: a time budget too short for one still renders one.
+    if (passes > 0 && (s.timeLimit > 0 ? clock.seconds() >= s.timeLimit : passes >= s.spp)) break;
+    pt.renderPass(passes, direct, indirect, counters);
+    ++passes;
+    double el = clock.seconds();
+    double frac = s.timeLimit > 0 ? el / s.timeLimit : double(passes) / s.spp;
+    char detail[128];
+    std::snprintf(detail, sizeof detail, "%d spp, %.2f Mpaths/s, %.1f s", passes, counters.paths / el * 1e-6, el);
+    progress.update(frac, detail);
+  }
+  progress.finish();
+  return passes;
+}
+
+// The layers of a path-traced render.
+struct PtImages {
+  Image direct, indirect, full;
+  const Image& chosen(Component c) const {
+    return c == Component::Direct ? direct : c == Component::Indirect ? indirect : full;
+  }
+};
+
+// The EXR (default layer = the chosen component) and the optional PNG.
+int writePtImages(const RenderArgs& a, const PtImages& im, int passes) {
+  const RenderSettings& s = a.settings;
+  const Image& chosen = im.chosen(s.component);
+  std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
+                                              {"vsl.scene", a.scene},
+                                              {"vsl.settings", s.describe()},
+                                              {"vsl.component", componentName(s.component)}};
+  if (Result<void> written =
+          writeExr(a.out, {{"", chosen}, {"full", im.full}, {"direct", im.direct}, {"indirect", im.indirect}}, attrs);
+      !written)
+    return fail(kExitBadInput, written.error());
+  std::fprintf(stderr, "wrote %s (%dx%d, %d spp, layers: default=%s, full, direct, indirect)\n", a.out.c_str(),
+               im.full.width, im.full.height, passes, componentName(s.component));
+  if (!a.png.empty()) {
+    if (Result<void> written = writePng(a.png, chosen, a.exposure); !written)
+      return fail(kExitBadInput, written.error());
+    std::fprintf(stderr, "wrote %s\n", a.png.c_str());
+  }
+  return 0;
+}
+
+// Everything --json reports about a path-traced render.
+struct PtStats {
+  int passes = 0;
+  double loadSeconds = 0, renderSeconds = 0;
+  uint64_t paths = 0, rays = 0, rejected = 0;
+};
+
+int writePtJson(const RenderArgs& a, const Scene& scene, const PtImages& im, const PtStats& st) {
+  const RenderSettings& s = a.settings;
+  json j = {{"version", VSL_VERSION},
+            {"scene", a.scene},
+            {"camera", scene.camera.name},
+            {"method", s.method},
+            {"settings", s.describe()},
+            {"width", im.full.width},
+            {"height", im.full.height},
+            {"spp", st.passes},
+            {"seed", s.seed},
+            {"maxDepth", s.maxDepth},
+            {"component", componentName(s.component)},
+            {"seconds", {{"load", st.loadSeconds}, {"render", st.renderSeconds}}},
+            {"paths", st.paths},
+            {"rays", st.rays},
+            {"pathsPerSecond", st.paths / std::max(st.renderSeconds, 1e-9)},
+            {"raysPerSecond", st.rays / std::max(st.renderSeconds, 1e-9)},
+            {"nonFiniteRejected", st.rejected},
+            {"mean",
+             {{"full", imageMeanJson(im.full)},
+              {"direct", imageMeanJson(im.direct)},
+              {"indirect", imageMeanJson(im.indirect)}}},
+            {"warnings", scene.warnings}};
+  if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written)
+    return fail(kExitBadInput, written.error());
+  std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
+  return 0;
+}
+
+int renderPathTraced(const RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds) {
+  LightSampler lights(scene);
+  PathTracer pt(scene, accel, lights, a.settings);
+  int w = pt.width(), h = pt.height();
+  Film direct(w, h), indirect(w, h);
+  PtCounters counters;
+  Stopwatch clock;
+  PtStats st;
+  st.passes = renderPasses(pt, a.settings, direct, indirect, counters);
+  st.renderSeconds = clock.seconds();
+  st.loadSeconds = loadSeconds;
+
+  PtImages im{direct.image(), indirect.image(), {}};
+  im.full = addImages(im.direct, im.indirect);
+  if (int rc = writePtImages(a, im, st.passes); rc != 0) return rc;
+  st.rejected = counters.nonFinite + direct.rejected() + indirect.rejected();
+  if (st.rejected > 0) log::warning("rejected " + std::to_string(st.rejected) + " non-finite contributions");
+  st.paths = counters.paths.load();
+  st.rays = counters.rays.load();
+  if (!a.jsonPath.empty()) return writePtJson(a, scene, im, st);
+  return 0;
+}
+
+// ---- The command ----------------------------------------------------------------
+
+int cmdRender(RenderArgs& a) {
+  if (!parseComponent(a.component, &a.settings.component))
+    return failf(kExitBadArguments, "--component must be full, direct or indirect (got '%s')", a.component.c_str());
+  if (Result<void> v = a.settings.validate(); !v) return fail(kExitBadArguments, v.error());
+  const bool many = a.settings.method != "pt";
+  if (many)
+    if (int rc = resolveManyLightArgs(a); rc != 0) return rc;
+  Stopwatch clock;
+  auto scene = loadOrReport(a.scene, a.camera);
+  if (!scene) return kExitBadInput;
+  // The camera's aspect ratio fills in a missing side: the result must still
+  // be within the resolution cap.
+  int w0 = a.settings.width, h0 = a.settings.height;
+  resolveResolution(*scene, w0, h0);
+  if (w0 > RenderSettings::kMaxResolution || h0 > RenderSettings::kMaxResolution)
+    return failf(kExitBadArguments,
+                 "%s: the camera's aspect ratio %g turns the requested size into %dx%d, over the limit of %d "
+                 "a side; give both --width and --height",
+                 a.scene.c_str(), scene->camera.aspect, w0, h0, RenderSettings::kMaxResolution);
+  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
+  if (!built) return fail(kExitBadInput, built.error());
+  const std::unique_ptr<Accel>& accel = *built;
+  double loadSeconds = clock.seconds();
+  if (many) return renderManyLights(a, *scene, *accel, loadSeconds);
+  return renderPathTraced(a, *scene, *accel, loadSeconds);
+}
+
+}  // namespace
+
+json imageMeanJson(const Image& img) {
+  Vec3 m = imageMean(img);
+  return json::array({m.x, m.y, m.z});
+}
+
+Subcommand addRenderCommand(CLI::App& app) {
+  auto args = std::make_shared<RenderArgs>();
+  CLI::App* render = app.add_subcommand("render", "Render a glTF scene to a multi-layer EXR (full, direct, indirect)");
+  addRenderOptions(render, *args);
+  return {render, [args] { return cmdRender(*args); }};
+}
+
+}  // namespace vsl

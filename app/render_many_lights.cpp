@@ -1,0 +1,207 @@
+// `vsl render --method vsl|vpl|all`: traces one virtual light set, gathers it
+// either in progressive light batches (brute force) or with matrix row-column
+// sampling (--mrcs), and writes the EXR layers of the chosen method(s), the
+// optional PNG and --json statistics.
+#include <algorithm>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "app/cli.h"
+#include "app/render.h"
+#include "core/image_io.h"
+#include "core/log.h"
+
+namespace vsl {
+
+namespace {
+
+using json = nlohmann::json;
+
+// What a gather produced, whichever way it ran.
+struct Gathered {
+  ManyLightImages im;
+  int w = 0, h = 0, batches = 0;
+  size_t lightsProcessed = 0;
+  uint64_t pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
+  double seconds = 0;
+  json mrcs;  // MRCS statistics; null for the brute-force gather
+};
+
+// Matrix row-column sampling: rows, clustering, representative columns.
+void gatherMrcs(const RenderArgs& a, const Scene& scene, const Accel& accel, const LightSampler& lights,
+                const ManyLightRun& run, Gathered& g) {
+  std::fprintf(stderr, "render: MRCS with %d rows and %d clusters (uniform mix %g) over %zu lights\n", a.mrcs.rows,
+               a.mrcs.clusters, a.mrcs.uniformMix, run.set.lights.size());
+  MrcsResult mr = renderMrcs(scene, accel, lights, run.set, run.radii, a.many, a.mrcs);
+  g.im = std::move(mr.images);
+  g.w = g.im.direct.width;
+  g.h = g.im.direct.height;
+  g.pairs = mr.pairs;
+  g.lightsProcessed = run.set.lights.size();
+  g.batches = 1;
+  g.mrcs = {{"rows", a.mrcs.rows},
+            {"clusters", a.mrcs.clusters},
+            {"uniformMix", a.mrcs.uniformMix},
+            {"spreadVslRadius", a.mrcs.spreadVslRadius},
+            {"rowSeconds", mr.rowSeconds},
+            {"clusterSeconds", mr.clusterSeconds},
+            {"columnSeconds", mr.columnSeconds},
+            {"zeroColumnsVsl", mr.zeroColumnsVsl},
+            {"zeroColumnsVpl", mr.zeroColumnsVpl}};
+  std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s\n", mr.rowSeconds, mr.clusterSeconds,
+               mr.columnSeconds);
+}
+
+// Brute force: progressive light batches until all are gathered or the time
+// limit is reached.
+void gatherBatches(const RenderArgs& a, const Scene& scene, const Accel& accel, const LightSampler& lights,
+                   const ManyLightRun& run, Gathered& g) {
+  ManyLightRenderer r(scene, accel, lights, run.set, run.radii, a.many);
+  Progress progress("render");
+  Stopwatch clock;
+  for (int b = 0; b < r.batchCount(); ++b) {
+    r.renderBatch(b);
+    ++g.batches;
+    double el = clock.seconds();
+    char detail[160];
+    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", g.batches, r.batchCount(),
+                  r.lightsProcessed(), r.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
+    progress.update(double(r.lightsProcessed()) / std::max<size_t>(run.set.lights.size(), 1), detail);
+    if (a.settings.timeLimit > 0 && el >= a.settings.timeLimit) break;
+  }
+  progress.finish();
+  g.im = r.images();
+  g.w = r.width();
+  g.h = r.height();
+  g.lightsProcessed = r.lightsProcessed();
+  g.pairs = r.stats().pairs;
+  g.shadowRays = r.stats().shadowRays;
+  g.vslEvaluations = r.stats().vslEvaluations;
+  g.nonFinite = r.stats().nonFinite;
+}
+
+// The EXR layers of the method(s), the default layer (index 0) being the
+// chosen component.
+std::vector<Layer> manyLightLayers(const RenderArgs& a, const ManyLightImages& im) {
+  const RenderSettings& s = a.settings;
+  auto pick = [&](const Image& ind, const Image& full) -> const Image& {
+    return s.component == Component::Direct ? im.direct : s.component == Component::Indirect ? ind : full;
+  };
+  Image vslFull = addImages(im.direct, im.vsl), vplFull = addImages(im.direct, im.vpl);
+  if (s.method == "all") {
+    std::vector<Layer> layers = {{"", pick(im.vsl, vslFull)}, {"vsl-full", vslFull},    {"vsl-indirect", im.vsl},
+                                 {"vpl-full", vplFull},       {"vpl-indirect", im.vpl}, {"direct", im.direct}};
+    if (a.mrcs.rows == 0)  // MRCS renders the two methods only
+      layers.insert(layers.end(), {{"vpl-unclamped-indirect", im.vplUnclamped},
+                                   {"vpl-diffuse-indirect", im.vplDiffuse},
+                                   {"lost-to-clamping", im.lostToClamping},
+                                   {"lost-to-diffuse", im.lostToDiffuse}});
+    return layers;
+  }
+  const Image& ind = s.method == "vsl" ? im.vsl : im.vpl;
+  const Image& full = s.method == "vsl" ? vslFull : vplFull;
+  return {{"", pick(ind, full)}, {"full", full}, {"direct", im.direct}, {"indirect", ind}};
+}
+
+// The EXR and the optional PNG (of the default layer).
+int writeManyLightImages(const RenderArgs& a, const Gathered& g) {
+  const RenderSettings& s = a.settings;
+  const std::vector<Layer> layers = manyLightLayers(a, g.im);
+  std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
+                                              {"vsl.scene", a.scene},
+                                              {"vsl.method", s.method},
+                                              {"vsl.settings", a.many.describe()},
+                                              {"vsl.component", componentName(s.component)}};
+  if (Result<void> written = writeExr(a.out, layers, attrs); !written) return fail(kExitBadInput, written.error());
+  std::string names;
+  for (const Layer& l : layers)
+    names += (names.empty() ? "" : ", ") + (l.name.empty() ? std::string("default") : l.name);
+  std::fprintf(stderr, "wrote %s (%dx%d, %s, layers: %s)\n", a.out.c_str(), g.w, g.h, s.method.c_str(), names.c_str());
+  if (!a.png.empty()) {
+    if (Result<void> written = writePng(a.png, layers[0].image, a.exposure); !written)
+      return fail(kExitBadInput, written.error());
+    std::fprintf(stderr, "wrote %s\n", a.png.c_str());
+  }
+  return 0;
+}
+
+// Timings of the stages before and around the gather.
+struct ManyLightTimes {
+  double load = 0, total = 0;
+};
+
+int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightRun& run, const Gathered& g,
+                       ManyLightTimes t, uint64_t rejected) {
+  const ManyLightImages& im = g.im;
+  auto q = [&](double f) { return double(percentile(run.radii, f)); };
+  json j = {{"version", VSL_VERSION},
+            {"scene", a.scene},
+            {"method", a.settings.method},
+            {"settings", a.many.describe()},
+            {"width", g.w},
+            {"height", g.h},
+            {"component", componentName(a.settings.component)},
+            {"lights", run.set.lights.size()},
+            {"lightsProcessed", g.lightsProcessed},
+            {"batches", g.batches},
+            {"lightPaths", run.set.paths},
+            {"bytesPerLight", sizeof(VirtualLight)},
+            {"clampBound", manyLightClampBound(scene, a.many)},
+            {"radius", {{"min", q(0)}, {"median", q(0.5)}, {"max", q(1)}}},
+            {"seconds",
+             {{"load", t.load},
+              {"lightTracing", run.set.seconds},
+              {"knn", run.knnSeconds},
+              {"gather", g.seconds},
+              {"total", t.total}}},
+            {"pairs", g.pairs},
+            {"pairsPerSecond", g.pairs / std::max(g.seconds, 1e-9)},
+            {"shadowRays", g.shadowRays},
+            {"vslEvaluations", g.vslEvaluations},
+            {"nonFiniteRejected", rejected},
+            {"mean",
+             {{"direct", imageMeanJson(im.direct)},
+              {"vslIndirect", imageMeanJson(im.vsl)},
+              {"vplIndirect", imageMeanJson(im.vpl)},
+              {"vplUnclampedIndirect", imageMeanJson(im.vplUnclamped)},
+              {"vplDiffuseIndirect", imageMeanJson(im.vplDiffuse)},
+              {"lostToClamping", imageMeanJson(im.lostToClamping)},
+              {"lostToDiffuse", imageMeanJson(im.lostToDiffuse)}}},
+            {"warnings", scene.warnings}};
+  if (!g.mrcs.is_null()) j["mrcs"] = g.mrcs;
+  if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written)
+    return fail(kExitBadInput, written.error());
+  std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds) {
+  LightSampler lights(scene);
+  if (lights.empty())
+    return failf(kExitBadInput, "%s: the scene has no lights, so there is nothing to trace virtual lights from",
+                 a.scene.c_str());
+  // Trace the virtual lights and their radii.
+  Stopwatch total;
+  ManyLightRun run = prepareManyLights(scene, accel, lights, a.many);
+  std::fprintf(stderr,
+               "traced %zu virtual lights from %llu paths in %.2f s (%zu bytes each, %.1f MB); radii in %.2f s\n",
+               run.set.lights.size(), (unsigned long long)run.set.paths, run.set.seconds, sizeof(VirtualLight),
+               run.set.bytes() / 1e6, run.knnSeconds);
+  // Gather them, and write what came out.
+  Gathered g;
+  Stopwatch gather;
+  if (a.mrcs.rows > 0)
+    gatherMrcs(a, scene, accel, lights, run, g);
+  else
+    gatherBatches(a, scene, accel, lights, run, g);
+  g.seconds = gather.seconds();
+  if (int rc = writeManyLightImages(a, g); rc != 0) return rc;
+  uint64_t rejected = g.nonFinite + run.set.nonFiniteRejected;
+  if (rejected > 0) log::warning("rejected " + std::to_string(rejected) + " non-finite contributions");
+  if (!a.jsonPath.empty()) return writeManyLightJson(a, scene, run, g, {loadSeconds, total.seconds()}, rejected);
+  return 0;
+}
+
+}  // namespace vsl
