@@ -1,5 +1,7 @@
 #include "core/gather.h"
 
+#include "core/path.h"
+
 namespace vsl {
 
 GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
@@ -33,6 +35,16 @@ namespace {
 constexpr int kMaxSpecularChain = 8;
 }
 
+Vec3 directLight(const PathTracer& direct, int x, int y, int sBegin, int sEnd, GatherCounters& c) {
+  Vec3 sum(0.0f);
+  for (int s = sBegin; s < sEnd; ++s) {
+    Vec3 Ld, Lind;
+    direct.samplePixel(x, y, s, Ld, Lind, c.rays, c.nonFinite);
+    sum += Ld;
+  }
+  return sum / float(sEnd - sBegin);
+}
+
 EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const {
   EyeSample es;
   es.count = 1;
@@ -56,13 +68,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     if (!last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f))) {
       // Punctual lights reflected here are never hit by the continued ray.
       if (j >= 1) gp.shared += beta * nextEvent(BrdfAt(brdf, woL), sh, true, rng, c);
-      auto bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
-      if (!bs) return es;
-      Vec3 wi = sh.shading.toWorld(bs->wi);
-      if (dot(wi, sh.ng) <= 0) return es;
-      beta *= bs->f * (bs->wi.z / bs->pdf);
-      ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
-      ray.d = wi;
+      if (!continuePath(BrdfAt(brdf, woL), sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
       continue;
     }
     // The gather point: the whole BRDF, or its diffuse lobe if the specular
@@ -85,13 +91,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     const BrdfAt specular = full.specularLobe();
     if (j >= 1) gp.shared += beta * nextEvent(specular, sh, true, rng, c);
     es.count = ++cur + 1;
-    auto bs = specular.sample(rng.uniform(), {rng.uniform(), rng.uniform()});
-    if (!bs) return es;
-    Vec3 wi = sh.shading.toWorld(bs->wi);
-    if (dot(wi, sh.ng) <= 0) return es;
-    beta *= bs->f * (bs->wi.z / bs->pdf);
-    ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
-    ray.d = wi;
+    if (!continuePath(specular, sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
   }
   return es;
 }

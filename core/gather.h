@@ -10,9 +10,6 @@
 
 namespace vsl {
 
-// Layers the gather accumulates, per pair.
-enum GatherLayer { kVslLayer, kVplFull, kVplFullClamped, kVplDiffuse, kVplDiffuseClamped, kGatherLayers };
-
 // A virtual light decoded for gathering.
 struct GatherLight {
   Vec3 p, Phi, n, ng;
@@ -54,6 +51,10 @@ inline uint64_t gatherStream(uint64_t pixel, int k) { return k == 0 ? pixel : pi
 struct GatherCounters {
   uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
 };
+
+// Pixel (x, y)'s direct light: the mean of the direct estimator's samples
+// [sBegin, sEnd) (emission plus one scattering event, as in the reference).
+Vec3 directLight(const PathTracer& direct, int x, int y, int sBegin, int sEnd, GatherCounters& c);
 
 // A pair that passed the orientation and visibility tests: the direction
 // from the gather point to the light's centre and the cosines along it.

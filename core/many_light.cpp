@@ -1,4 +1,4 @@
-// Sections: [1] settings  [2] set-up and batches  [3] eye paths  [4] gather
+// Sections: [1] settings  [2] set-up and batches  [3] one batch  [4] gather
 //           [5] images  [6] prepareManyLights
 #include "core/many_light.h"
 
@@ -11,13 +11,9 @@
 #include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
-
-namespace {
-using Clock = std::chrono::steady_clock;
-double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
-}  // namespace
 
 // ---- [1] Settings -----------------------------------------------------------------
 
@@ -143,144 +139,155 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
   for (Film& f : gather_) f = Film(width_, height_);
 }
 
-// ---- [3] Eye paths -----------------------------------------------------------------
+// ---- [3] One batch: its lights, per-batch buffers, tiles --------------------------
 
-// ---- [4] Gather -------------------------------------------------------------------
-
-bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
-  if (b != batchesDone_ || b >= batchCount()) return false;
-  auto t0 = Clock::now();
-  const size_t begin = b == 0 ? 0 : batchEnd_[b - 1], end = batchEnd_[b];
-  const size_t nb = end - begin, N = set_.lights.size();
-  const int dBegin = b == 0 ? 0 : directEnd_[b - 1], dEnd = directEnd_[b];
-
-  // Decode this batch's lights once.
-  std::vector<GatherLight> batch(nb);
-  parallelFor((nb + 4095) / 4096, [&](size_t c) {
-    for (size_t i = c * 4096; i < std::min(nb, (c + 1) * 4096); ++i) {
-      batch[i] = decodeGatherLight(set_.lights[order_[begin + i]], radii_[order_[begin + i]]);
-    }
-  });
-
-  const uint64_t seed = settings_.seed;
-  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), settings_, clamp_, settings_.computeVsl,
-                    settings_.computeVpl);
-
-  // Per-batch buffers, merged into the films only if the batch completes.
-  const size_t np = size_t(width_) * height_;
-  std::vector<Vec3> direct(np), shared(np), layers[kLayers];
-  for (auto& l : layers) l.assign(np, Vec3(0.0f));
-  // Pixels of a tile against blocks of lights: a block (kLightBlock x ~200
-  // bytes) stays in cache while every gather point of the tile visits it, so
-  // large batches are not streamed from memory once per pixel.
-  constexpr size_t kLightBlock = 256;
+// Everything one batch's tiles share. The buffers are merged into the films
+// only if the batch completes.
+struct ManyLightRenderer::Batch {
+  int b = 0;
+  size_t begin = 0, end = 0;  // this batch's range of order_
+  int dBegin = 0, dEnd = 0;   // this batch's range of direct samples
+  std::vector<GatherLight> lights;
+  std::vector<Vec3> direct, shared, layers[kGatherLayers];
   std::atomic<bool> abandoned{false};
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
+};
+
+bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
+  if (b != batchesDone_ || b >= batchCount()) return false;
+  Stopwatch wallClock;
+  Batch batch;
+  batch.b = b;
+  batch.begin = b == 0 ? 0 : batchEnd_[b - 1];
+  batch.end = batchEnd_[b];
+  batch.dBegin = b == 0 ? 0 : directEnd_[b - 1];
+  batch.dEnd = directEnd_[b];
+  const size_t nb = batch.end - batch.begin;
+
+  // Decode this batch's lights once.
+  batch.lights.resize(nb);
+  parallelForChunks(nb, 4096, [&](size_t i0, size_t i1) {
+    for (size_t i = i0; i < i1; ++i)
+      batch.lights[i] = decodeGatherLight(set_.lights[order_[batch.begin + i]], radii_[order_[batch.begin + i]]);
+  });
+  Gatherer gatherer(scene_, accel_, direct_.lightSampler(), settings_, clamp_, settings_.computeVsl,
+                    settings_.computeVpl);
+  const size_t np = size_t(width_) * height_;
+  batch.direct.resize(np);
+  batch.shared.resize(np);
+  for (auto& l : batch.layers) l.assign(np, Vec3(0.0f));
   const bool complete = parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
-    const auto tileStart = Clock::now();
-    GatherCounters c;
-    const int tw = x1 - x0, n = tw * (y1 - y0);
-    std::vector<EyeSample> gps(static_cast<size_t>(n));
-    struct Sums {
-      double v[kGatherLayers][3] = {};
-    };
-    std::vector<Sums> acc(static_cast<size_t>(n));
-    for (int i = 0; i < n; ++i) {
-      const int x = x0 + i % tw, y = y0 + i / tw;
-      const size_t pix = size_t(y) * width_ + x;
-      // Direct light: the reference's estimator, this batch's share of samples.
-      Vec3 dsum(0.0f);
-      for (int s = dBegin; s < dEnd; ++s) {
-        Vec3 Ld, Lind;
-        direct_.samplePixel(x, y, s, Ld, Lind, c.rays, c.nonFinite);
-        dsum += Ld;
-      }
-      direct[pix] = dsum / float(dEnd - dBegin);
-      Rng rng = Rng::forItem(pix, uint64_t(b), 2, seed);
-      gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
-      shared[pix] = gps[size_t(i)].shared();
+    gatherTile(batch, gatherer, stop, x0, y0, x1, y1);
+  });
+  if (batch.abandoned || !complete) return false;
+  mergeBatch(batch, wallClock.seconds());
+  return true;
+}
+
+// ---- [4] Gather ---------------------------------------------------------------------
+
+// Pixels of a tile against blocks of lights: a block (kLightBlock x ~200
+// bytes) stays in cache while every gather point of the tile visits it, so
+// large batches are not streamed from memory once per pixel.
+void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, int x0,
+                                   int y0, int x1, int y1) {
+  constexpr size_t kLightBlock = 256;
+  Stopwatch tileClock;
+  GatherCounters c;
+  const int tw = x1 - x0, n = tw * (y1 - y0);
+  const size_t nb = batch.lights.size();
+  std::vector<EyeSample> gps(static_cast<size_t>(n));
+  struct Sums {
+    double v[kGatherLayers][3] = {};
+  };
+  std::vector<Sums> acc(static_cast<size_t>(n));
+  auto pixelOf = [&](int i) { return size_t(y0 + i / tw) * width_ + (x0 + i % tw); };
+  for (int i = 0; i < n; ++i) {
+    const int x = x0 + i % tw, y = y0 + i / tw;
+    const size_t pix = pixelOf(i);
+    // Direct light: the reference's estimator, this batch's share of samples.
+    batch.direct[pix] = directLight(direct_, x, y, batch.dBegin, batch.dEnd, c);
+    Rng rng = Rng::forItem(pix, uint64_t(batch.b), 2, settings_.seed);
+    gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
+    batch.shared[pix] = gps[size_t(i)].shared();
+  }
+  // Each gather point against each block in three timed parts: the shared
+  // connection (orientation, shadow ray), then VPL's and VSL's own
+  // transfers, so that each method is charged its own time (four clock
+  // reads per gather point and block of lights).
+  PairGeometry geo[kLightBlock];
+  uint32_t visible[kLightBlock];
+  double vplOwn = 0, vslOwn = 0;
+  for (size_t l0 = 0; l0 < nb; l0 += kLightBlock) {
+    if (stop && stop->load(std::memory_order_relaxed)) {
+      batch.abandoned = true;
+      return;
     }
-    // Each pixel against each block in three timed parts: the shared
-    // connection (orientation, shadow ray), then VPL's and VSL's own
-    // transfers, so that each method is charged its own time (four clock
-    // reads per pixel and block of lights).
-    PairGeometry geo[kLightBlock];
-    uint32_t visible[kLightBlock];
-    double vplOwn = 0, vslOwn = 0;
-    for (size_t l0 = 0; l0 < nb; l0 += kLightBlock) {
-      if (stop && stop->load(std::memory_order_relaxed)) {
-        abandoned = true;
-        return;
-      }
-      const size_t l1 = std::min(nb, l0 + kLightBlock);
-      for (int i = 0; i < n; ++i) {
-        const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
-        for (int k = 0; k < gps[size_t(i)].count; ++k) {
-          const GatherPoint& gp = gps[size_t(i)].points[k];
-          if (!gp.valid) continue;
-          size_t nv = 0;
-          for (size_t l = l0; l < l1; ++l)
-            if (gatherer.connect(gp, batch[l], geo[nv], c)) visible[nv++] = uint32_t(l);
-          auto t1 = Clock::now();
-          if (settings_.computeVpl) {
-            for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch[visible[v]], geo[v], acc[size_t(i)].v, c);
-            auto t2 = Clock::now();
-            vplOwn += seconds(t2 - t1);
-            t1 = t2;
-          }
-          if (settings_.computeVsl) {
-            const uint64_t stream = gatherStream(pix, k);
-            for (size_t v = 0; v < nv; ++v)
-              gatherer.addVsl(gp, batch[visible[v]], geo[v], order_[begin + visible[v]], stream, acc[size_t(i)].v, c);
-            vslOwn += seconds(Clock::now() - t1);
-          }
+    const size_t l1 = std::min(nb, l0 + kLightBlock);
+    for (int i = 0; i < n; ++i) {
+      for (int k = 0; k < gps[size_t(i)].count; ++k) {
+        const GatherPoint& gp = gps[size_t(i)].points[k];
+        if (!gp.valid) continue;
+        size_t nv = 0;
+        for (size_t l = l0; l < l1; ++l)
+          if (gatherer.connect(gp, batch.lights[l], geo[nv], c)) visible[nv++] = uint32_t(l);
+        Stopwatch own;
+        if (settings_.computeVpl) {
+          for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch.lights[visible[v]], geo[v], acc[size_t(i)].v, c);
+          vplOwn += own.lap();
+        }
+        if (settings_.computeVsl) {
+          const uint64_t stream = gatherStream(pixelOf(i), k);
+          for (size_t v = 0; v < nv; ++v)
+            gatherer.addVsl(gp, batch.lights[visible[v]], geo[v], order_[batch.begin + visible[v]], stream,
+                            acc[size_t(i)].v, c);
+          vslOwn += own.seconds();
         }
       }
     }
-    for (int i = 0; i < n; ++i) {
-      const size_t pix = size_t(y0 + i / tw) * width_ + (x0 + i % tw);
-      const auto& a = acc[size_t(i)].v;
-      for (int k = 0; k < kLayers; ++k) layers[k][pix] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
-    }
-    {
-      std::lock_guard<std::mutex> lock(timeMutex);
-      threadTime += seconds(Clock::now() - tileStart);
-      vplTime += vplOwn;
-      vslTime += vslOwn;
-    }
-    stats_.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
-    stats_.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
-    stats_.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
-    stats_.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
-  });
-  if (abandoned) return false;
-  if (!complete) return false;
+  }
+  for (int i = 0; i < n; ++i) {
+    const auto& a = acc[size_t(i)].v;
+    for (int k = 0; k < kGatherLayers; ++k)
+      batch.layers[k][pixelOf(i)] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
+  }
+  {
+    std::lock_guard<std::mutex> lock(batch.timeMutex);
+    batch.threadTime += tileClock.seconds();
+    batch.vplTime += vplOwn;
+    batch.vslTime += vslOwn;
+  }
+  stats_.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
+  stats_.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
+  stats_.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
+  stats_.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
+}
 
-  // Merge: each batch estimates the all-N image as (N / nb) x its sum, with
-  // weight nb / N, so the films hold the running unbiased estimate.
+// Merge: each batch estimates the all-N image as (N / nb) x its sum, with
+// weight nb / N, so the films hold the running unbiased estimate.
+void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
+  const size_t nb = batch.end - batch.begin, N = set_.lights.size();
   const float scale = nb ? float(double(N) / double(nb)) : 0.0f;
   const double weight = N ? double(nb) / double(N) : 0.0;
-  const int dCount = dEnd - dBegin;
+  const int dCount = batch.dEnd - batch.dBegin;
   for (int y = 0; y < height_; ++y)
     for (int x = 0; x < width_; ++x) {
       size_t pix = size_t(y) * width_ + x;
-      directFilm_.add(x, y, direct[pix], double(dCount));
-      sharedFilm_.add(x, y, shared[pix], 1.0);
-      for (int k = 0; k < kLayers; ++k) gather_[k].add(x, y, layers[k][pix] * scale, weight);
+      directFilm_.add(x, y, batch.direct[pix], double(dCount));
+      sharedFilm_.add(x, y, batch.shared[pix], 1.0);
+      for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
     }
-  processed_ = end;
+  processed_ = batch.end;
   ++batchesDone_;
   // Each method's own time: the batch's wall time less the share of thread
   // time spent in the other method's own transfer (what it would have taken
   // alone; the shared eye paths, direct light and shadow rays go to both).
-  const double wall = seconds(Clock::now() - t0);
   stats_.gatherSeconds += wall;
-  if (threadTime > 0) {
-    stats_.vslSeconds += wall * std::max(0.0, 1.0 - vplTime / threadTime);
-    stats_.vplSeconds += wall * std::max(0.0, 1.0 - vslTime / threadTime);
+  if (batch.threadTime > 0) {
+    stats_.vslSeconds += wall * std::max(0.0, 1.0 - batch.vplTime / batch.threadTime);
+    stats_.vplSeconds += wall * std::max(0.0, 1.0 - batch.vslTime / batch.threadTime);
   }
-  return true;
 }
 
 // ---- [5] Images -------------------------------------------------------------------
@@ -321,14 +328,14 @@ ManyLightRun prepareManyLights(const Scene& scene, const Accel& accel, const Lig
   lt.seed = settings.seed;
   lt.maxDepth = settings.lightMaxDepth;
   run.set = traceVirtualLights(scene, accel, lights, lt, stop);
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch knnClock;
   float R = std::max(scene.boundingRadius(), 1e-6f);
   if (settings.globalRadius > 0) {
     run.radii.assign(run.set.lights.size(), settings.globalRadius * R);
   } else {
     run.radii = knnRadii(run.set.lights, settings.knn, settings.radiusScale, 0.1f * R, 1e-9f * R, stop);
   }
-  run.knnSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.knnSeconds = knnClock.seconds();
   return run;
 }
 

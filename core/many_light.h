@@ -52,6 +52,8 @@
 
 namespace vsl {
 
+class Gatherer;
+
 struct ManyLightSettings {
   uint32_t lights = 10000;  // target number of virtual lights
   uint64_t seed = 0;
@@ -100,6 +102,9 @@ struct ManyLightSettings {
   std::string describe() const;
 };
 
+// Layers the gather accumulates, per pair.
+enum GatherLayer { kVslLayer, kVplFull, kVplFullClamped, kVplDiffuse, kVplDiffuseClamped, kGatherLayers };
+
 // Layers, all linear RGB. Indirect layers exclude direct light.
 struct ManyLightImages {
   Image direct;
@@ -141,6 +146,11 @@ class ManyLightRenderer {
   const ManyLightStats& stats() const { return stats_; }
 
  private:
+  struct Batch;
+  void gatherTile(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, int x0, int y0, int x1,
+                  int y1);
+  void mergeBatch(const Batch& batch, double wallSeconds);
+
   const Scene& scene_;
   const Accel& accel_;
   const VirtualLightSet& set_;
@@ -154,9 +164,8 @@ class ManyLightRenderer {
   std::vector<int> directEnd_;    // cumulative direct samples
   size_t processed_ = 0;
   int batchesDone_ = 0;
-  static constexpr int kLayers = 5;  // GatherLayer
-  Film directFilm_, sharedFilm_;     // per-pass averages
-  Film gather_[kLayers];             // batch estimates weighted by batch share
+  Film directFilm_, sharedFilm_;  // per-pass averages
+  Film gather_[kGatherLayers];    // batch estimates weighted by batch share
   ManyLightStats stats_;
 };
 

@@ -1,6 +1,6 @@
 #include "core/mrcs.h"
 
-#include <chrono>
+#include <memory>
 #include <numeric>
 #include <queue>
 
@@ -8,6 +8,7 @@
 #include "core/gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
@@ -258,61 +259,54 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
   return pickRepresentatives(cs, cl, uniformMix, rng);
 }
 
-MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
-                      const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
-                      const std::atomic<bool>* stop) {
-  using Clock = std::chrono::steady_clock;
-  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
-  MrcsResult res;
-  int W = settings.width, H = settings.height;
-  resolveResolution(scene, W, H);
-  const size_t P = size_t(W) * H, N = set.lights.size();
-  VSL_CHECK_EQ(radii.size(), N);
-  auto stopped = [&] { return stop && stop->load(std::memory_order_relaxed); };
-  const float clampBound = manyLightClampBound(scene, settings);
-  const int vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
-  const bool doVsl = settings.computeVsl, doVpl = settings.computeVpl;
-  Gatherer both(scene, accel, lights, settings, clampBound, doVsl, doVpl);
-  Gatherer vslOnly(scene, accel, lights, settings, clampBound, true, false);
-  Gatherer vplOnly(scene, accel, lights, settings, clampBound, false, true);
+namespace {
 
-  // Gather points (one per pixel) and direct light.
+// What the MRCS stages share: the image, the light set decoded for
+// gathering, one gather point set per pixel, and the three gatherers (both
+// estimators for the rows, each alone for its own columns).
+struct MrcsJob {
+  int W = 0, H = 0;
+  size_t N = 0;
+  int vplLayer = kVplFullClamped;
+  bool doVsl = true, doVpl = true;
+  const std::atomic<bool>* stop = nullptr;
+  std::unique_ptr<Gatherer> both, vslOnly, vplOnly;
+  std::vector<EyeSample> gps;  // per pixel
+  std::vector<GatherLight> gl;
+  std::atomic<uint64_t> pairs{0};
+  bool stopped() const { return stop && stop->load(std::memory_order_relaxed); }
+};
+
+// Gather points (one eye sample per pixel) and direct light.
+void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                       const ManyLightSettings& settings, MrcsJob& job, Image& directOut) {
   RenderSettings rs;
-  rs.width = W;
-  rs.height = H;
+  rs.width = job.W;
+  rs.height = job.H;
   rs.seed = settings.seed;
   rs.maxDepth = 1;
   PathTracer direct(scene, accel, lights, rs);
-  std::vector<EyeSample> gps(P);
-  res.images.direct = Image(W, H);
-  std::atomic<uint64_t> pairs{0};
-  parallelFor(size_t(H), [&](size_t y) {
+  job.gps.resize(size_t(job.W) * job.H);
+  directOut = Image(job.W, job.H);
+  parallelFor(size_t(job.H), [&](size_t y) {
     GatherCounters c;
-    for (int x = 0; x < W; ++x) {
-      size_t pix = y * W + x;
+    for (int x = 0; x < job.W; ++x) {
+      size_t pix = y * job.W + x;
       Rng rng = Rng::forItem(pix, 0, 2, settings.seed);
-      gps[pix] = both.eyePath(x, int(y), W, H, rng, c);
-      Vec3 sum(0.0f);
-      for (int s = 0; s < settings.directSamples; ++s) {
-        Vec3 Ld, Li;
-        direct.samplePixel(x, int(y), s, Ld, Li, c.rays, c.nonFinite);
-        sum += Ld;
-      }
-      res.images.direct.set(x, int(y), sum / float(settings.directSamples));
+      job.gps[pix] = job.both->eyePath(x, int(y), job.W, job.H, rng, c);
+      directOut.set(x, int(y), directLight(direct, x, int(y), 0, settings.directSamples, c));
     }
   });
-  std::vector<GatherLight> gl(N);
-  parallelFor((N + 4095) / 4096, [&](size_t c) {
-    for (size_t i = c * 4096; i < std::min(N, (c + 1) * 4096); ++i) gl[i] = decodeGatherLight(set.lights[i], radii[i]);
-  });
+}
 
-  // 1. Rows: one random pixel per block (a valid gather point where possible).
-  auto t0 = Clock::now();
-  Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
-  int bx = std::max(1, int(std::lround(std::sqrt(double(mrcs.rows) * W / H)))), by = (mrcs.rows + bx - 1) / bx;
+// 1. Rows: one random pixel per block (a valid gather point where possible),
+//    every light's reduced column (luminance at the rows) per estimator.
+std::vector<size_t> pickRows(const MrcsJob& job, int rows, Rng& rng) {
+  const int W = job.W, H = job.H;
+  int bx = std::max(1, int(std::lround(std::sqrt(double(rows) * W / H)))), by = (rows + bx - 1) / bx;
   std::vector<size_t> rowPix;
   for (int j = 0; j < by; ++j)
-    for (int i = 0; i < bx && int(rowPix.size()) < mrcs.rows; ++i) {
+    for (int i = 0; i < bx && int(rowPix.size()) < rows; ++i) {
       int x0 = i * W / bx, x1 = std::max(x0 + 1, (i + 1) * W / bx), y0 = j * H / by,
           y1 = std::max(y0 + 1, (j + 1) * H / by);
       size_t pick = size_t(y0) * W + x0;
@@ -320,62 +314,52 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
         size_t p = size_t(y0 + int(rng.uniformInt(uint32_t(y1 - y0)))) * W +
                    size_t(x0 + int(rng.uniformInt(uint32_t(x1 - x0))));
         pick = p;
-        if (gps[p].anyValid()) break;
+        if (job.gps[p].anyValid()) break;
       }
       rowPix.push_back(pick);
     }
+  return rowPix;
+}
+
+void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector<float>& colVsl,
+                    std::vector<float>& colVpl) {
   const int R = int(rowPix.size());
-  std::vector<float> colVsl(doVsl ? N * R : 0), colVpl(doVpl ? N * R : 0);
-  parallelFor((N + 255) / 256, [&](size_t c) {
+  colVsl.assign(job.doVsl ? job.N * R : 0, 0.0f);
+  colVpl.assign(job.doVpl ? job.N * R : 0, 0.0f);
+  parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
     GatherCounters cnt;
-    for (size_t j = c * 256; j < std::min(N, (c + 1) * 256); ++j) {
-      if (stopped()) return;
+    for (size_t j = j0; j < j1; ++j) {
+      if (job.stopped()) return;
       for (int r = 0; r < R; ++r) {
-        const EyeSample& es = gps[rowPix[r]];
+        const EyeSample& es = job.gps[rowPix[r]];
         if (!es.anyValid()) continue;
         double acc[kGatherLayers][3] = {};
         for (int k = 0; k < es.count; ++k)
-          if (es.points[k].valid) both.evaluate(es.points[k], gl[j], j, gatherStream(rowPix[r], k), acc, cnt);
+          if (es.points[k].valid) job.both->evaluate(es.points[k], job.gl[j], j, gatherStream(rowPix[r], k), acc, cnt);
         auto lum = [&](int layer) {
           return float(0.2126 * acc[layer][0] + 0.7152 * acc[layer][1] + 0.0722 * acc[layer][2]);
         };
-        if (doVsl) colVsl[j * R + r] = lum(kVslLayer);
-        if (doVpl) colVpl[j * R + r] = lum(vplLayer);
+        if (job.doVsl) colVsl[j * R + r] = lum(kVslLayer);
+        if (job.doVpl) colVpl[j * R + r] = lum(job.vplLayer);
       }
     }
-    pairs.fetch_add(cnt.pairs);
+    job.pairs.fetch_add(cnt.pairs);
   });
-  res.rowSeconds = since(t0);
-  if (stopped()) {
-    res.stopped = true;
-    return res;
-  }
+}
 
-  // 2-3. Clustering and representatives.
-  auto t1 = Clock::now();
-  std::vector<Representative> repVsl, repVpl;
-  const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
-  if (doVsl) repVsl = clusterColumns(colVsl, N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
-  if (doVpl) repVpl = clusterColumns(colVpl, N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
-  colVsl = {};
-  colVpl = {};
-  res.clusterSeconds = since(t1);
-
-  // 4. Full columns for the representatives.
-  auto t2 = Clock::now();
-  std::vector<GatherLight> repGl;
-  for (const Representative& r : repVsl) {
-    repGl.push_back(gl[r.light]);
-    if (mrcs.spreadVslRadius) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
-  }
-  res.images.vsl = Image(W, H);
-  res.images.vpl = Image(W, H);
-  parallelFor(size_t(H), [&](size_t y) {
-    if (stopped()) return;
+// 4. Full columns for the representatives: every pixel's estimate is its
+//    shared light plus the weighted representatives' contributions.
+void representativeColumns(MrcsJob& job, const std::vector<Representative>& repVsl,
+                           const std::vector<GatherLight>& repGl, const std::vector<Representative>& repVpl,
+                           ManyLightImages& images) {
+  images.vsl = Image(job.W, job.H);
+  images.vpl = Image(job.W, job.H);
+  parallelFor(size_t(job.H), [&](size_t y) {
+    if (job.stopped()) return;
     GatherCounters cnt;
-    for (int x = 0; x < W; ++x) {
-      size_t pix = y * W + x;
-      const EyeSample& es = gps[pix];
+    for (int x = 0; x < job.W; ++x) {
+      size_t pix = y * job.W + x;
+      const EyeSample& es = job.gps[pix];
       Vec3 vsl = es.shared(), vpl = es.shared();
       for (int g = 0; g < es.count; ++g) {
         const GatherPoint& gp = es.points[g];
@@ -385,28 +369,87 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
         for (size_t q = 0; q < repVsl.size(); ++q) {
           const Representative& r = repVsl[q];
           double acc[kGatherLayers][3] = {};
-          vslOnly.evaluate(gp, repGl[q], r.light, stream, acc, cnt);
+          job.vslOnly->evaluate(gp, repGl[q], r.light, stream, acc, cnt);
           for (int k = 0; k < 3; ++k) sv[k] += r.weight * acc[kVslLayer][k];
         }
         for (const Representative& r : repVpl) {
           double acc[kGatherLayers][3] = {};
-          vplOnly.evaluate(gp, gl[r.light], r.light, stream, acc, cnt);
-          for (int k = 0; k < 3; ++k) sp[k] += r.weight * acc[vplLayer][k];
+          job.vplOnly->evaluate(gp, job.gl[r.light], r.light, stream, acc, cnt);
+          for (int k = 0; k < 3; ++k) sp[k] += r.weight * acc[job.vplLayer][k];
         }
         vsl += Vec3(float(sv[0]), float(sv[1]), float(sv[2]));
         vpl += Vec3(float(sp[0]), float(sp[1]), float(sp[2]));
       }
-      res.images.vsl.set(x, int(y), isFinite(vsl) ? vsl : Vec3(0.0f));
-      res.images.vpl.set(x, int(y), isFinite(vpl) ? vpl : Vec3(0.0f));
+      images.vsl.set(x, int(y), isFinite(vsl) ? vsl : Vec3(0.0f));
+      images.vpl.set(x, int(y), isFinite(vpl) ? vpl : Vec3(0.0f));
     }
-    pairs.fetch_add(cnt.pairs);
+    job.pairs.fetch_add(cnt.pairs);
   });
-  res.columnSeconds = since(t2);
-  res.stopped = stopped();
-  res.pairs = pairs.load();
+}
+
+}  // namespace
+
+MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
+                      const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
+                      const std::atomic<bool>* stop) {
+  MrcsResult res;
+  MrcsJob job;
+  job.W = settings.width;
+  job.H = settings.height;
+  resolveResolution(scene, job.W, job.H);
+  job.N = set.lights.size();
+  VSL_CHECK_EQ(radii.size(), job.N);
+  job.stop = stop;
+  const float clampBound = manyLightClampBound(scene, settings);
+  job.vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
+  job.doVsl = settings.computeVsl;
+  job.doVpl = settings.computeVpl;
+  job.both = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl);
+  job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
+  job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
+
+  eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
+  job.gl.resize(job.N);
+  parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {
+    for (size_t i = i0; i < i1; ++i) job.gl[i] = decodeGatherLight(set.lights[i], radii[i]);
+  });
+
+  // 1. Rows.
+  Stopwatch clock;
+  Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
+  const std::vector<size_t> rowPix = pickRows(job, mrcs.rows, rng);
+  const int R = int(rowPix.size());
+  std::vector<float> colVsl, colVpl;
+  reducedColumns(job, rowPix, colVsl, colVpl);
+  res.rowSeconds = clock.lap();
+  if (job.stopped()) {
+    res.stopped = true;
+    return res;
+  }
+
+  // 2-3. Clustering and representatives.
+  std::vector<Representative> repVsl, repVpl;
+  const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
+  if (job.doVsl) repVsl = clusterColumns(colVsl, job.N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
+  if (job.doVpl)
+    repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
+  colVsl = {};
+  colVpl = {};
+  res.clusterSeconds = clock.lap();
+
+  // 4. Full columns for the representatives.
+  std::vector<GatherLight> repGl;
+  for (const Representative& r : repVsl) {
+    repGl.push_back(job.gl[r.light]);
+    if (mrcs.spreadVslRadius) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
+  }
+  representativeColumns(job, repVsl, repGl, repVpl, res.images);
+  res.columnSeconds = clock.lap();
+  res.stopped = job.stopped();
+  res.pairs = job.pairs.load();
   for (Image* img :
        {&res.images.vplUnclamped, &res.images.vplDiffuse, &res.images.lostToClamping, &res.images.lostToDiffuse})
-    *img = Image(W, H);
+    *img = Image(job.W, job.H);
   return res;
 }
 

@@ -24,6 +24,13 @@ void setThreadCount(int n);
 // and that exception is rethrown here, on the calling thread. Which items ran
 // is then unspecified.
 void parallelFor(size_t count, const std::function<void(size_t)>& body);
+// The items [0, count) in chunks of `chunk` items (the last may be shorter):
+// one body(begin, end) call per chunk, in parallel (pbrt-v4's ParallelFor
+// over a range).
+inline void parallelForChunks(size_t count, size_t chunk, const std::function<void(size_t, size_t)>& body) {
+  parallelFor((count + chunk - 1) / chunk,
+              [&](size_t c) { body(c * chunk, count < (c + 1) * chunk ? count : (c + 1) * chunk); });
+}
 
 // Tests: the next parallelFor (or parallelForTiles) call, from any thread,
 // throws std::runtime_error(message) on a worker at `item` (the last item if

@@ -1,5 +1,7 @@
 #include "core/pathtracer.h"
 
+#include "core/path.h"
+
 #include "core/check.h"
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -88,11 +90,8 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
     }
 
     // Continue the path by sampling the BRDF.
-    std::optional<BrdfSample> bs = brdf.sample(woL, rng.uniform(), u2(rng));
+    std::optional<BrdfSample> bs = continuePath(BrdfAt(brdf, woL), sh, rng.uniform(), u2(rng), beta, ray);
     if (!bs) break;
-    Vec3 wi = frame.toWorld(bs->wi);
-    if (dot(wi, sh.ng) <= 0) break;  // shading normal sent us through the surface
-    beta *= bs->f * (bs->wi.z / bs->pdf);
     if (!isFinite(beta)) {
       ++nonFinite;
       break;
@@ -104,10 +103,6 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
       if (rng.uniform() >= q) break;
       beta /= q;
     }
-    ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
-    ray.d = wi;
-    ray.tMin = 0;
-    ray.tMax = kInf;
   }
 }
 

@@ -1,5 +1,7 @@
 #include "core/virtual_lights.h"
 
+#include "core/path.h"
+
 #include <nanoflann.hpp>
 
 #include <chrono>
@@ -117,20 +119,12 @@ void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& li
     out.lights.push_back(v);
 
     // Continue by BRDF sampling (the adjoint of a reciprocal BRDF is itself).
-    std::optional<BrdfSample> bs = brdf.sample(woL, rng.uniform(), {rng.uniform(), rng.uniform()});
-    if (!bs) break;
-    Vec3 wi = sh.shading.toWorld(bs->wi);
-    if (dot(wi, sh.ng) <= 0) break;
-    beta *= bs->f * (bs->wi.z / bs->pdf);
+    if (!continuePath(BrdfAt(brdf, woL), sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) break;
     if (depth >= settings.rrDepth) {
       float q = std::min(0.95f, maxComponent(beta) / std::max(maxComponent(e->beta), 1e-30f));
       if (rng.uniform() >= q) break;
       beta /= q;
     }
-    ray.o = offsetRayOrigin(sh.p, sh.ng, wi);
-    ray.d = wi;
-    ray.tMin = 0;
-    ray.tMax = kInf;
   }
 }
 
