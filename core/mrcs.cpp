@@ -87,8 +87,8 @@ void projectColumns(const std::vector<float>& columns, int rows, Rng& rng, Colum
   std::vector<float> M(size_t(rows) * kDims);
   for (float& m : M) m = gaussian(rng);
   cs.u.assign(n * kDims, 0.0f);
-  parallelFor((n + 1023) / 1024, [&](size_t c) {
-    for (size_t i = c * 1024; i < std::min(n, (c + 1) * 1024); ++i) {
+  parallelForChunks(n, 1024, [&](size_t i0, size_t i1) {
+    for (size_t i = i0; i < i1; ++i) {
       const float* col = &columns[size_t(cs.nz[i]) * rows];
       float* ui = &cs.u[i * kDims];
       double len = 0;
@@ -122,8 +122,8 @@ std::vector<Cluster> seedClusters(const ColumnSpace& cs, int clusters, Rng& rng)
     }
   }
   std::vector<uint32_t> assign(n);
-  parallelFor((n + 511) / 512, [&](size_t c) {
-    for (size_t i = c * 512; i < std::min(n, (c + 1) * 512); ++i) {
+  parallelForChunks(n, 512, [&](size_t i0, size_t i1) {
+    for (size_t i = i0; i < i1; ++i) {
       double best = 1e300;
       uint32_t bk = 0;
       for (size_t k = 0; k < seeds.size(); ++k) {

@@ -9,6 +9,7 @@
 
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
@@ -132,7 +133,7 @@ void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& li
 
 VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                    const LightTracingSettings& settings, const std::atomic<bool>* stop) {
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch clock;
   VirtualLightSet set;
   if (lights.empty()) return set;
   // Trace chunks of paths in parallel; append whole paths in path order until
@@ -161,7 +162,7 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
   }
   const float inv = set.paths ? 1.0f / float(set.paths) : 0.0f;
   for (VirtualLight& v : set.lights) v.Phi *= inv;
-  set.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  set.seconds = clock.seconds();
   return set;
 }
 
@@ -187,11 +188,11 @@ std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, floa
   LightCloud cloud{lights};
   KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   const size_t want = std::min<size_t>(size_t(k) + 1, lights.size());  // the light itself is its own 0th neighbour
-  parallelFor((lights.size() + 1023) / 1024, [&](size_t c) {
+  parallelForChunks(lights.size(), 1024, [&](size_t i0, size_t i1) {
     if (stop && stop->load(std::memory_order_relaxed)) return;
     std::vector<uint32_t> idx(want);
     std::vector<float> d2(want);
-    for (size_t i = c * 1024; i < std::min(lights.size(), (c + 1) * 1024); ++i) {
+    for (size_t i = i0; i < i1; ++i) {
       float q[3] = {lights[i].p.x, lights[i].p.y, lights[i].p.z};
       size_t found = tree.knnSearch(q, want, idx.data(), d2.data());
       float r = found > 0 ? scale * std::sqrt(d2[found - 1]) : scale * fallback;
