@@ -54,7 +54,7 @@ bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
 
 int main(int argc, char** argv) {
   using namespace vsl;
-  CLI::App app{"vsl: many-light rendering of glossy scenes (render, compare, inspect, benchmark)"};
+  CLI::App app{"vsl: many-light rendering of glossy scenes (render, reference, compare, tonemap, info, sweep, bench)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(VSL_VERSION));
   // The table of subcommands, in the order --help lists them.

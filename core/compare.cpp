@@ -16,7 +16,10 @@ double RelMseEpsilon::resolve(const Image& ref) const {
   size_t n = 0;
   for (size_t i = 0; i + 2 < ref.rgb.size(); i += 3) {
     double y = 0.2126 * ref.rgb[i] + 0.7152 * ref.rgb[i + 1] + 0.0722 * ref.rgb[i + 2];
-    if (std::isfinite(y)) sum += y, ++n;
+    if (std::isfinite(y)) {
+      sum += y;
+      ++n;
+    }
   }
   double mean = n ? sum / double(n) : 0.0;
   return std::max(value * mean * mean, 1e-30);

@@ -28,7 +28,9 @@ struct Image {
   void set(int x, int y, const Vec3& v) {
     VSL_DCHECK(x >= 0 && x < width && y >= 0 && y < height);
     float* p = &rgb[(size_t(y) * width + x) * 3];
-    p[0] = v.x, p[1] = v.y, p[2] = v.z;
+    p[0] = v.x;
+    p[1] = v.y;
+    p[2] = v.z;
   }
 };
 

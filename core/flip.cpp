@@ -211,7 +211,10 @@ void features(const Plane& y, int w, int h, const FeatureKernels& k, Plane& edge
   Plane px = separable(y, w, h, k.point, k.gauss), py = separable(y, w, h, k.gauss, k.point);
   edges.resize(y.size());
   points.resize(y.size());
-  for (size_t i = 0; i < y.size(); ++i) edges[i] = std::hypot(ex[i], ey[i]), points[i] = std::hypot(px[i], py[i]);
+  for (size_t i = 0; i < y.size(); ++i) {
+    edges[i] = std::hypot(ex[i], ey[i]);
+    points[i] = std::hypot(px[i], py[i]);
+  }
 }
 
 // ---- [SECTION] LDR-FLIP on linear RGB in [0,1] ----------------------------------------
@@ -266,7 +269,10 @@ std::vector<double> flipLinear(const Image& test, const Image& ref, double ppd) 
   // Features on the achromatic channel, normalised by 116: (Y* + 16) / 116 = Y / Yw.
   const FeatureKernels fk = makeFeatureKernels(ppd);
   Plane ry(n), ty(n), re, rpnt, te, tpnt;
-  for (size_t i = 0; i < n; ++i) ry[i] = (rp[0][i] + 16) / 116, ty[i] = (tp[0][i] + 16) / 116;
+  for (size_t i = 0; i < n; ++i) {
+    ry[i] = (rp[0][i] + 16) / 116;
+    ty[i] = (tp[0][i] + 16) / 116;
+  }
   features(ry, w, h, fk, re, rpnt);
   features(ty, w, h, fk, te, tpnt);
 

@@ -91,10 +91,13 @@ Result<void> writeAndRename(const std::string& path, const char* data, size_t si
   }
   const char* step = "cannot write";
   int e = writeAll(fd, data, size);
-  if (e == 0 && ::fsync(fd) != 0) e = errno, step = "cannot flush to disk";
-  if (::close(fd) != 0 && e == 0 && errno != EINTR) e = errno, step = "cannot close";
-  if (e == 0 && ::rename(tmp.c_str(), path.c_str()) != 0)
-    e = errno, step = "cannot rename the finished file into place";
+  auto failed = [&](const char* what) {
+    e = errno;
+    step = what;
+  };
+  if (e == 0 && ::fsync(fd) != 0) failed("cannot flush to disk");
+  if (::close(fd) != 0 && e == 0 && errno != EINTR) failed("cannot close");
+  if (e == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) failed("cannot rename the finished file into place");
   if (e != 0) {
     ::unlink(tmp.c_str());
     return Error(path + ": " + step + " (" + errnoText(e) + "); any existing file is unchanged");

@@ -410,7 +410,10 @@ struct Loader {
         double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
         double len = std::sqrt(x * x + y * y + z * z + w * w);
         if (!(len > 0)) throw LoadError{where + ": rotation quaternion has zero length"};
-        x /= len, y /= len, z /= len, w /= len;
+        x /= len;
+        y /= len;
+        z /= len;
+        w /= len;
         r.at(0, 0) = 1 - 2 * (y * y + z * z);
         r.at(0, 1) = 2 * (x * y - z * w);
         r.at(0, 2) = 2 * (x * z + y * w);
@@ -1089,7 +1092,10 @@ void checkInstancedSize(const tinygltf::Model& model, const std::vector<int>& ro
           continue;
         }
         uint64_t v = 1, t = declaredTriangles(model, model.nodes[node].mesh);
-        for (int c : children) v = add(v, visits[c]), t = add(t, tris[c]);
+        for (int c : children) {
+          v = add(v, visits[c]);
+          t = add(t, tris[c]);
+        }
         visits[node] = v;
         tris[node] = t;
         state[node] = 2;

@@ -67,7 +67,10 @@ std::string formatBytes(uint64_t bytes) {
   const char* units[] = {"B", "KB", "MB", "GB", "TB"};
   double v = double(bytes);
   int u = 0;
-  while (v >= 1000 && u < 4) v /= 1000, ++u;
+  while (v >= 1000 && u < 4) {
+    v /= 1000;
+    ++u;
+  }
   char buf[32];
   std::snprintf(buf, sizeof buf, v < 10 && u > 0 ? "%.1f %s" : "%.0f %s", v, units[u]);
   return buf;

@@ -95,8 +95,12 @@ struct Domain {
 inline Domain lineDomain(double a, double b, int bins) {
   Domain d;
   d.name = "line";
-  d.x0 = a, d.x1 = b, d.resX = bins;
-  d.y0 = -0.5, d.y1 = 0.5, d.resY = 1;
+  d.x0 = a;
+  d.x1 = b;
+  d.resX = bins;
+  d.y0 = -0.5;
+  d.y1 = 0.5;
+  d.resY = 1;
   d.forward = [](double x, double) { return Vec3(float(x), 0, 0); };
   d.backward = [](const Vec3& p) { return std::array<double, 2>{p.x, 0.0}; };
   return d;
@@ -106,7 +110,10 @@ inline Domain lineDomain(double a, double b, int bins) {
 inline Domain planeDomain(Vec2 lo, Vec2 hi, int resX, int resY) {
   Domain d;
   d.name = "plane";
-  d.x0 = lo.x, d.x1 = hi.x, d.y0 = lo.y, d.y1 = hi.y;
+  d.x0 = lo.x;
+  d.x1 = hi.x;
+  d.y0 = lo.y;
+  d.y1 = hi.y;
   d.resX = resX, d.resY = resY;
   d.forward = [](double x, double y) { return Vec3(float(x), float(y), 0); };
   d.backward = [](const Vec3& p) { return std::array<double, 2>{p.x, p.y}; };

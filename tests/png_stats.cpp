@@ -19,7 +19,10 @@ int main(int argc, char** argv) {
   }
   double s = 0, s2 = 0;
   size_t count = size_t(w) * h * 3;
-  for (size_t i = 0; i < count; ++i) s += px[i], s2 += double(px[i]) * px[i];
+  for (size_t i = 0; i < count; ++i) {
+    s += px[i];
+    s2 += double(px[i]) * px[i];
+  }
   stbi_image_free(px);
   double mean = s / count, sd = std::sqrt(std::max(s2 / count - mean * mean, 0.0));
   std::printf("%s: %dx%d mean %.2f stddev %.2f\n", argv[1], w, h, mean, sd);

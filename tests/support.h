@@ -151,7 +151,10 @@ inline Reference ptIndirect(const Loaded& l, int w, int h, int spp, uint64_t see
     }
   });
   double varSum = 0;
-  for (size_t i = 0; i < n; ++i) ref.mean += pixelMean[i] / double(n), varSum += pixelVar[i];
+  for (size_t i = 0; i < n; ++i) {
+    ref.mean += pixelMean[i] / double(n);
+    varSum += pixelVar[i];
+  }
   ref.se = std::sqrt(varSum) / double(n);
   return ref;
 }

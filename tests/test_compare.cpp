@@ -23,7 +23,10 @@ using namespace vsl::test;
 // number stays an absolute eps.
 TEST(Compare, RelativeEpsilonScalesWithTheReference) {
   Image ref(4, 4), test(4, 4);
-  for (int i = 0; i < 16; ++i) ref.set(i % 4, i / 4, Vec3(0.5f, 1.0f, 2.0f)), test.set(i % 4, i / 4, Vec3(1.0f));
+  for (int i = 0; i < 16; ++i) {
+    ref.set(i % 4, i / 4, Vec3(0.5f, 1.0f, 2.0f));
+    test.set(i % 4, i / 4, Vec3(1.0f));
+  }
   const double lum = 0.2126 * 0.5 + 0.7152 * 1.0 + 0.0722 * 2.0;
   CompareResult r = compareImages(test, ref);
   EXPECT_EQ(r.epsilonSpec.mode, RelMseEpsilon::Mode::Relative);
@@ -126,7 +129,10 @@ TEST(Compare, ClampedVplIsBiasedAndFewSamplePathTracingIsNoisy) {
     pt.push_back(ptIndirect(l, W, H, 4, 900 + k).indirect);
   }
   std::vector<const Image*> pv, pp;
-  for (int k = 0; k < K; ++k) pv.push_back(&vpl[size_t(k)]), pp.push_back(&pt[size_t(k)]);
+  for (int k = 0; k < K; ++k) {
+    pv.push_back(&vpl[size_t(k)]);
+    pp.push_back(&pt[size_t(k)]);
+  }
   BiasVarianceResult v = biasVariance(pv, ref.indirect), p = biasVariance(pp, ref.indirect);
   std::printf("clamped VPL: bias2 %.4g variance %.4g relMSE(mean) %.4g, mean %.4g (reference %.4g)\n", v.average.bias2,
               v.average.variance, v.average.relMse, v.average.meanTest, v.average.meanRef);
@@ -208,7 +214,12 @@ TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
 TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
   fs::path d = scratch("bv");
   Image ref(8, 8), a(8, 8), b(8, 8), c(8, 8);
-  for (size_t i = 0; i < ref.rgb.size(); ++i) ref.rgb[i] = 1, a.rgb[i] = 1.1f, b.rgb[i] = 1.2f, c.rgb[i] = 1.3f;
+  for (size_t i = 0; i < ref.rgb.size(); ++i) {
+    ref.rgb[i] = 1;
+    a.rgb[i] = 1.1f;
+    b.rgb[i] = 1.2f;
+    c.rgb[i] = 1.3f;
+  }
   for (auto [name, img] : {std::pair{"ref", &ref}, {"a", &a}, {"b", &b}, {"c", &c}}) {
     Result<void> w = writeExr((d / (std::string(name) + ".exr")).string(), {{"", *img}});
     ASSERT_TRUE(w) << w.error();

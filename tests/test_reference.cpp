@@ -23,7 +23,9 @@ std::string tempDir(const std::string& name) {
 
 vsl::Reference renderReference(const test::Loaded& l, int w, int h, int spp, uint64_t seed) {
   RenderSettings rs;
-  rs.width = w, rs.height = h, rs.seed = seed;
+  rs.width = w;
+  rs.height = h;
+  rs.seed = seed;
   ReferenceRenderer rr(*l.scene, *l.accel, *l.lights, rs);
   while (rr.spp() < spp) EXPECT_TRUE(rr.step());
   return rr.result();
@@ -37,7 +39,9 @@ TEST(Reference, MeanOfHalvesIsThePathTracersImage) {
   test::Loaded l = test::loadAsset("cornell-glossy", 24);
   vsl::Reference r = renderReference(l, 24, 24, 8, 3);
   RenderSettings rs;
-  rs.width = 24, rs.height = 24, rs.seed = 3;
+  rs.width = 24;
+  rs.height = 24;
+  rs.seed = 3;
   PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
   Film d(24, 24), ind(24, 24);
   PtCounters c;

@@ -32,7 +32,10 @@ PixelStats sampleImage(const PathTracer& pt, int spp) {
   s.h = pt.height();
   s.spp = spp;
   size_t n = size_t(s.w) * s.h;
-  for (int c = 0; c < 2; ++c) s.sum[c].assign(n, 0), s.sum2[c].assign(n, 0);
+  for (int c = 0; c < 2; ++c) {
+    s.sum[c].assign(n, 0);
+    s.sum2[c].assign(n, 0);
+  }
   s.fullSum.assign(n, 0);
   s.fullSum2.assign(n, 0);
   uint64_t rays = 0, nonFinite = 0;
@@ -276,7 +279,10 @@ TEST(Film, RejectsNonFiniteAndCountsThem) {
 
 TEST(ImageIO, ExrRoundTripAndAtomicFailure) {
   Image a(3, 2), b(3, 2);
-  for (size_t i = 0; i < a.rgb.size(); ++i) a.rgb[i] = float(i) * 0.5f, b.rgb[i] = -float(i);
+  for (size_t i = 0; i < a.rgb.size(); ++i) {
+    a.rgb[i] = float(i) * 0.5f;
+    b.rgb[i] = -float(i);
+  }
   std::string path = testing::TempDir() + "vsl_io_test.exr";
   Result<void> w = writeExr(path, {{"", a}, {"second", b}});
   ASSERT_TRUE(w) << w.error();

@@ -81,8 +81,10 @@ VplMeans vplMeans(const Loaded& l, uint32_t lights, std::initializer_list<uint64
     onMetal.paths = run.set.paths;
     std::vector<float> radii;
     for (size_t i = 0; i < run.set.lights.size(); ++i)
-      if (run.set.lights[i].brdf().metallic >= 1.0f)
-        onMetal.lights.push_back(run.set.lights[i]), radii.push_back(run.radii[i]);
+      if (run.set.lights[i].brdf().metallic >= 1.0f) {
+        onMetal.lights.push_back(run.set.lights[i]);
+        radii.push_back(run.radii[i]);
+      }
     EXPECT_GT(onMetal.lights.size(), run.set.lights.size() / 4) << "the light must reach the metal walls";
     ManyLightImages mi = gather(l, onMetal, radii, s);
     m.metalUnclamped += w * channelMean(mi.vplUnclamped);

@@ -609,7 +609,12 @@ TEST(Session, BackgroundReferenceFillsTheCacheAndIsUsed) {
 TEST(Session, ErrorsAtEqualOwnTime) {
   auto sample = [](double tv, double ev, double tp, double ep, double tt, double et) {
     ErrorSample e{};
-    e.vslSeconds = tv, e.vsl = ev, e.vplSeconds = tp, e.vpl = ep, e.ptSeconds = tt, e.pt = et;
+    e.vslSeconds = tv;
+    e.vsl = ev;
+    e.vplSeconds = tp;
+    e.vpl = ep;
+    e.ptSeconds = tt;
+    e.pt = et;
     return e;
   };
   std::vector<ErrorSample> h = {sample(1, 0.4, 0.5, 0.3, 1, 0.8), sample(3, 0.2, 1.5, 0.1, 2, 0.4)};
