@@ -37,6 +37,27 @@ bool allFinite(const Image& img) {
 
 double greyMean(const Image& img) { return channelMean(img); }
 
+// The mean of independent estimates and its standard error (from their
+// sample variance).
+std::pair<double, double> meanAndError(const std::vector<double>& x) {
+  double m = 0, v = 0;
+  for (double e : x) m += e / double(x.size());
+  for (double e : x) v += (e - m) * (e - m) / double(x.size() - 1);
+  return {m, std::sqrt(v / double(x.size()))};
+}
+
+// A small VPL-only render of one light set in one batch.
+ManyLightSettings vplOnly(int width, int height, uint32_t lights, uint64_t seed) {
+  ManyLightSettings s;
+  s.lights = lights;
+  s.width = width;
+  s.height = height;
+  s.batches = 1;
+  s.seed = seed;
+  s.computeVsl = false;
+  return s;
+}
+
 }  // namespace
 
 // ---- Encoding and light tracing ------------------------------------------------------
@@ -378,21 +399,11 @@ TEST(ManyLightStats, UnclampedVplConvergesToPathTracedIndirect) {
   std::vector<double> means;
   Image avg(W, H);
   for (int k = 0; k < sets; ++k) {
-    ManyLightSettings s;
-    s.lights = 1500;
-    s.width = W;
-    s.height = H;
-    s.batches = 1;
-    s.seed = 1000 + k;
-    s.computeVsl = false;
-    ManyLightImages im = renderMany(l, s);
+    ManyLightImages im = renderMany(l, vplOnly(W, H, 1500, 1000 + k));
     means.push_back(greyMean(im.vplUnclamped));
     for (size_t i = 0; i < avg.rgb.size(); ++i) avg.rgb[i] += im.vplUnclamped.rgb[i] / sets;
   }
-  double m = 0, v = 0;
-  for (double x : means) m += x / sets;
-  for (double x : means) v += (x - m) * (x - m) / (sets - 1);
-  double se = std::sqrt(v / sets);
+  auto [m, se] = meanAndError(means);
   double z = (m - ref.mean) / std::sqrt(se * se + ref.se * ref.se);
   std::printf("unclamped VPL %.6f +- %.6f vs PT indirect %.6f +- %.6f (z = %.2f)\n", m, se, ref.mean, ref.se, z);
   EXPECT_LT(std::abs(z), 4.0);
@@ -406,13 +417,7 @@ TEST(ManyLightStats, ClampedVplIsNeverBrighterAndLosesLessAsTheBoundRises) {
   std::vector<double> means[3], lostMeans[3];
   float autoBound = 0;
   for (int k = 0; k < sets; ++k) {
-    ManyLightSettings s;
-    s.lights = 2000;
-    s.width = W;
-    s.height = H;
-    s.batches = 1;
-    s.seed = 21 + k;
-    s.computeVsl = false;
+    ManyLightSettings s = vplOnly(W, H, 2000, 21 + k);
     ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
     autoBound = ManyLightRenderer(*l.scene, *l.accel, *l.lights, run.set, run.radii, s).clampBound();
     std::vector<Image> lost;
@@ -434,12 +439,7 @@ TEST(ManyLightStats, ClampedVplIsNeverBrighterAndLosesLessAsTheBoundRises) {
       ASSERT_GE(lost[1].rgb[i] + 1e-6f, lost[2].rgb[i]);
     }
   }
-  auto meanSe = [](const std::vector<double>& v) {
-    double m = 0, q = 0;
-    for (double x : v) m += x / v.size();
-    for (double x : v) q += (x - m) * (x - m) / (v.size() - 1);
-    return std::make_pair(m, std::sqrt(q / v.size()));
-  };
+  const auto& meanSe = meanAndError;
   for (int f = 0; f < 3; ++f) {
     auto [m, se] = meanSe(means[f]);
     std::printf("clamped VPL at %gx the auto bound %.4g: %.5f +- %.5f (PT %.5f +- %.5f), lost %.5f\n", factors[f],
@@ -470,14 +470,8 @@ TEST(ManyLightStats, FurnaceIndirectMatchesAnalyticValue) {
     vsl.push_back(greyMean(im.vsl));
     EXPECT_NEAR(greyMean(im.direct), 1.5, 0.02);
   }
-  auto stats = [&](const std::vector<double>& v) {
-    double m = 0, q = 0;
-    for (double x : v) m += x / v.size();
-    for (double x : v) q += (x - m) * (x - m) / (v.size() - 1);
-    return std::make_pair(m, std::sqrt(q / v.size()));
-  };
-  auto [mp, sp] = stats(vpl);
-  auto [ms, ss] = stats(vsl);
+  auto [mp, sp] = meanAndError(vpl);
+  auto [ms, ss] = meanAndError(vsl);
   std::printf("furnace indirect: VPL %.5f +- %.5f, VSL %.5f +- %.5f (analytic 0.5)\n", mp, sp, ms, ss);
   EXPECT_NEAR(mp, 0.5, 4 * sp);
   EXPECT_NEAR(ms, 0.5, 0.02 * 0.5 + 4 * ss);
@@ -817,13 +811,7 @@ void expectSplitUnbiased(const Loaded& l, uint64_t seed) {
   std::vector<double> means, diffs;
   int splitPixels = 0;
   for (int k = 0; k < sets; ++k) {
-    ManyLightSettings s;
-    s.lights = 1500;
-    s.width = W;
-    s.height = H;
-    s.batches = 1;
-    s.seed = seed + k;
-    s.computeVsl = false;
+    ManyLightSettings s = vplOnly(W, H, 1500, seed + k);
     s.splitAlpha = 0.5f;  // glossy dielectrics split, the metal box continues whole
     ManyLightImages im = renderMany(l, s);
     s.splitAlpha = 0;
@@ -833,12 +821,6 @@ void expectSplitUnbiased(const Loaded& l, uint64_t seed) {
     means.push_back(greyMean(im.vplUnclamped));
     diffs.push_back(means.back() - greyMean(plain.vplUnclamped));
   }
-  auto meanAndError = [&](const std::vector<double>& x) {
-    double m = 0, v = 0;
-    for (double e : x) m += e / double(x.size());
-    for (double e : x) v += (e - m) * (e - m) / double(x.size() - 1);
-    return std::pair<double, double>(m, std::sqrt(v / double(x.size())));
-  };
   auto [m, se] = meanAndError(means);
   auto [dm, dse] = meanAndError(diffs);
   double z = (m - ref.mean) / std::sqrt(se * se + ref.se * ref.se), zd = dm / dse;
