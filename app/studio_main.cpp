@@ -26,6 +26,7 @@
 
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/stopwatch.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
@@ -71,17 +72,17 @@ std::vector<std::string> bundledScenes() {
 // Drives the frame loop's scripted exits: export, screenshot, frame count.
 struct Script {
   const Args& args;
-  Clock::time_point start = Clock::now();
+  Stopwatch elapsed = {};
   bool exported = false, failed = false;
   std::string exportFolder = {};
-  Clock::time_point lastProgress = Clock::now();
+  Stopwatch sinceProgress = {};
 
   // Returns true when the loop should end after this frame.
   bool afterFrame(ui::Studio& studio, int frame, int fbw, int fbh, bool headlessProgress) {
-    double el = std::chrono::duration<double>(Clock::now() - start).count();
+    double el = elapsed.seconds();
     auto snap = studio.snapshot();
-    if (headlessProgress && std::chrono::duration<double>(Clock::now() - lastProgress).count() > 5 && snap) {
-      lastProgress = Clock::now();
+    if (headlessProgress && sinceProgress.seconds() > 5 && snap) {
+      sinceProgress.reset();
       std::fprintf(stderr, "rendering: %zu/%zu lights (%.0f%%), reference %d/%d spp, %.0f s\n", snap->lightsProcessed,
                    snap->lightsTotal,
                    100.0 * double(snap->lightsProcessed) / double(std::max<size_t>(snap->lightsTotal, 1)), snap->ptSpp,
@@ -292,10 +293,9 @@ void onRefresh(GLFWwindow*) { gInput = true; }
 // nothing to save.
 void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
   glfwHideWindow(win);
-  auto t0 = Clock::now();
+  Stopwatch sinceQuit;
   if (studio.session() && studio.session()->shutdown(1.0)) {
-    std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n",
-                 std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n", 1000 * sinceQuit.seconds());
   } else if (studio.session()) {
     std::fprintf(stderr, "vsl-studio: the renderer did not stop within 1 s (%s); exiting without waiting\n",
                  studio.session()->status().stage.c_str());
@@ -346,7 +346,7 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
     double busyMs = 0;
     int frames = 0, settle = 3;  // frames still owed after input
     const bool scripted = a.frames > 0 || !a.exportDir.empty();
-    auto lastDraw = Clock::now();
+    Stopwatch sinceDraw;
     for (int frame = 0; !glfwWindowShouldClose(win);) {
       // Idle when idle: sleep in the event queue; draw after input (a few
       // frames, so a click's press and release both land), for news from the
@@ -361,14 +361,14 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
         glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
       holdShortKeyPresses();
       if (gInput) gInput = false, settle = 3;
-      const double since = std::chrono::duration<double>(Clock::now() - lastDraw).count();
+      const double since = sinceDraw.seconds();
       const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
       const bool tick = focused && studio.busy() && since >= 1.0;
       if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
       if (settle > 0) --settle;
       if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
-      auto t0 = Clock::now();
-      lastDraw = t0;
+      sinceDraw.reset();
+      const Clock::time_point frameEnd = Clock::now() + std::chrono::milliseconds(16);
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
@@ -383,11 +383,11 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
       studio.afterRender(fbw, fbh);
       if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
       glfwSwapBuffers(win);
-      busyMs += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      busyMs += 1000 * sinceDraw.seconds();
       ++frames;
       ++frame;
       // Cap the UI at ~60 frames per second so the renderer keeps the cores.
-      std::this_thread::sleep_until(t0 + std::chrono::milliseconds(16));
+      std::this_thread::sleep_until(frameEnd);
     }
     if (!script.failed) rememberSession(studio);
     quitPromptly(win, studio);

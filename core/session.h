@@ -25,7 +25,6 @@
 #pragma once
 
 #include <atomic>
-#include <chrono>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -35,6 +34,7 @@
 
 #include "core/many_light.h"
 #include "core/reference.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
@@ -233,7 +233,7 @@ class Session {
   bool pending_ = false, pendingFromScratch_ = false;
   StudioSettings next_;
   std::atomic<uint64_t> version_{0}, memoryForTesting_{0};
-  std::chrono::steady_clock::time_point stageStart_ = std::chrono::steady_clock::now();
+  Stopwatch stageClock_;  // since the stage began
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};
   std::shared_ptr<const Snapshot> latest_;

@@ -165,7 +165,7 @@ void Studio::restart(bool fromScratch) {
     log::warning("settings rejected: " + err);
     return;
   }
-  restartedAt_ = std::chrono::steady_clock::now();
+  sinceRestart_.reset();
   restartGeneration_ = *started;
   accepted_ = settings_;
   settingsError_.clear();
@@ -206,10 +206,9 @@ void Studio::pullSnapshot() {
     if (s->generation != firstPictureGeneration_ && s->generation == restartGeneration_) {
       // The first picture of this generation: how long the user waited.
       firstPictureGeneration_ = s->generation;
-      auto now = std::chrono::steady_clock::now();
-      restartToPictureMs_ = std::chrono::duration<double, std::milli>(now - restartedAt_).count();
+      restartToPictureMs_ = 1000 * sinceRestart_.seconds();
       if (launchToPictureMs_ < 0) {
-        launchToPictureMs_ = std::chrono::duration<double, std::milli>(now - created_).count();
+        launchToPictureMs_ = 1000 * sinceLaunch_.seconds();
         log::info("first picture " + std::to_string(int(launchToPictureMs_)) + " ms after launch");
       }
       log::info("generation " + std::to_string(s->generation) + ": first picture " +
@@ -420,7 +419,7 @@ void Studio::updateTextures() {
 // ---- Frame ---------------------------------------------------------------------------
 
 void Studio::frame() {
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch frameClock;
   beginFrame();
   pullSnapshot();
   updateFlip();
@@ -486,7 +485,7 @@ void Studio::frame() {
     ImGui::EndPopup();
   }
   ImGui::End();
-  lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  lastFrameMs_ = 1000 * frameClock.seconds();
 }
 
 // ---- [3] Controls --------------------------------------------------------------------

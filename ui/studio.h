@@ -18,6 +18,7 @@
 #include "core/compare.h"
 #include "core/math.h"
 #include "core/session.h"
+#include "core/stopwatch.h"
 #include "ui/gl_image.h"
 
 namespace vsl::ui {
@@ -282,7 +283,7 @@ class Studio {
   const Snapshot* cropsFor_ = nullptr;
   ViewState cropsView_;
   // Responsiveness, measured on the UI thread.
-  std::chrono::steady_clock::time_point created_ = std::chrono::steady_clock::now(), restartedAt_ = created_;
+  Stopwatch sinceLaunch_, sinceRestart_ = sinceLaunch_;
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
   double launchToPictureMs_ = -1, restartToPictureMs_ = -1;
 };
