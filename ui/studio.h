@@ -195,6 +195,12 @@ class Studio {
   void drawCropOutline(ImDrawList* dl);
   Result<void> exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
                            std::vector<std::string>* files) const;
+  // exportAll's parts (studio_export.cpp): the PNGs and error maps (returns
+  // the error maps' scale), the FLIP maps (returns their JSON), metrics.json.
+  Result<float> exportPictures(const std::string& folder, std::vector<std::string>* files) const;
+  Result<nlohmann::json> exportFlipMaps(const std::string& folder, std::vector<std::string>* files) const;
+  nlohmann::json exportMetricsJson(float errorMapMax, const nlohmann::json& flipJson,
+                                   const nlohmann::json& cropJson) const;
   void plotErrors(const ImVec2& size);
   void restart(bool fromScratch = false);
   void pullSnapshot();
