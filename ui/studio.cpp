@@ -508,12 +508,14 @@ void warningText(const char* text) {
 }
 }  // namespace
 
-void Studio::controlsPanel() {
-  bool changed = false;
-  // Records which control changed, so that a refusal is shown beside it.
-  auto track = [&](const char* key, bool c) {
-    if (c) lastControl_ = key, changed = true;
-  };
+// Records which control changed, so that a refusal is shown beside it;
+// returns c.
+bool Studio::track(const char* key, bool c) {
+  if (c) lastControl_ = key;
+  return c;
+}
+
+void Studio::sceneControls() {
   ImGui::TextUnformatted("Scene");
   ImGui::SetNextItemWidth(-60);
   bool enter = ImGui::InputText("##path", &scenePath_, ImGuiInputTextFlags_EnterReturnsTrue);
@@ -532,25 +534,29 @@ void Studio::controlsPanel() {
     }
   }
   errorField("scene");
+}
 
+// The controls below return whether a setting changed.
+bool Studio::virtualLightControls() {
+  bool changed = false;
   sectionTitle("Virtual lights");
   ManyLightSettings& m = settings_.many;
   int lights = int(m.lights);
   if (ImGui::SliderInt("lights", &lights, 100, 1000000, "%d", ImGuiSliderFlags_Logarithmic)) {
     m.lights = uint32_t(std::max(lights, 1));
-    track("lights", true);
+    changed |= track("lights", true);
   }
   errorField("lights");
-  track("global radius", ImGui::Checkbox("global radius", &globalRadius_));
+  changed |= track("global radius", ImGui::Checkbox("global radius", &globalRadius_));
   if (globalRadius_) {
-    track("radius",
-          ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene", ImGuiSliderFlags_Logarithmic));
+    changed |= track("radius", ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene",
+                                                  ImGuiSliderFlags_Logarithmic));
     errorField("radius");
   } else {
-    track("radius-scale",
-          ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f", ImGuiSliderFlags_Logarithmic));
+    changed |= track("radius-scale", ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f",
+                                                        ImGuiSliderFlags_Logarithmic));
     errorField("radius-scale");
-    track("knn", ImGui::SliderInt("k (nearest)", &m.knn, 1, 64));
+    changed |= track("knn", ImGui::SliderInt("k (nearest)", &m.knn, 1, 64));
     errorField("knn");
   }
   // Values that make VSL meaningless: spheres as large as the scene blur
@@ -565,39 +571,50 @@ void Studio::controlsPanel() {
   } else if (!globalRadius_ && m.radiusScale > 20) {
     warningText("A radius scale this large makes VSL spheres larger than most scenes: VSL goes dark or black.");
   }
-  track("vsl-samples", ImGui::Checkbox("auto VSL samples", &vslAuto_));
+  changed |= track("vsl-samples", ImGui::Checkbox("auto VSL samples", &vslAuto_));
   if (!vslAuto_)
-    track("vsl-samples", ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
+    changed |= track("vsl-samples",
+                     ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("vsl-samples");
-  track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
+  changed |= track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Spread each light's flux over the part of its disk on the receiver's side of the receiver's "
         "tangent plane (less darkening near corners).");
-  track("lobe-radius", ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
+  changed |= track("lobe-radius",
+                   ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
   errorField("lobe-radius");
+  return changed;
+}
+
+// Gather (VSL and VPL), then VPL clamping.
+bool Studio::gatherControls() {
+  bool changed = false;
   sectionTitle("Gather (VSL and VPL)");
-  track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
+  ManyLightSettings& m = settings_.many;
+  changed |= track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Eye paths continue through pure metals with GGX alpha below this instead of gathering "
         "there (near-mirrors reflect the gather at the next surface).");
   errorField("continue-alpha");
-  track("split-alpha", ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
+  changed |= track("split-alpha",
+                   ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
         "continue the eye path with the specular lobe (glossy floors reflect the gather at the next surface).");
   errorField("split-alpha");
   sectionTitle("VPL");
-  track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
+  changed |= track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
   if (!clampOff_) {
     ImGui::SameLine();
-    track("clamp", ImGui::Checkbox("auto bound", &clampAuto_));
+    changed |= track("clamp", ImGui::Checkbox("auto bound", &clampAuto_));
     if (!clampAuto_)
-      track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
+      changed |=
+          track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
@@ -605,40 +622,50 @@ void Studio::controlsPanel() {
         "scene's bounding radius.");
   if (snap_ && !clampOff_ && clampAuto_) ImGui::TextDisabled("auto bound = %.4g", snap_->clampBound);
   errorField("clamp");
-  track("diffuse", ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly));
+  changed |= track("diffuse", ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly));
+  return changed;
+}
 
+bool Studio::renderControls() {
+  bool changed = false;
   sectionTitle("Render");
+  ManyLightSettings& m = settings_.many;
   int seed = int(m.seed);
   if (ImGui::InputInt("seed", &seed)) {
     m.seed = uint64_t(std::max(seed, 0));
-    track("seed", true);
+    changed |= track("seed", true);
   }
   int width = m.width > 0 ? m.width : 256;
   if (ImGui::SliderInt("width", &width, 32, 2048, "%d px", ImGuiSliderFlags_Logarithmic)) {
     m.width = width;
     m.height = 0;  // from the camera's aspect
-    track("width", true);
+    changed |= track("width", true);
   }
   errorField("width");
-  track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
+  changed |= track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
   errorField("batches");
-  track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
+  changed |=
+      track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
         "mean, and from two sets on the table shows each method's bias^2 and noise. 1: one set.");
   errorField("light sets");
-  track("reference spp",
-        ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
+  changed |= track("reference spp", ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d",
+                                                     ImGuiSliderFlags_Logarithmic));
   errorField("reference spp");
+  return changed;
+}
 
+bool Studio::referenceControls() {
+  bool changed = false;
   sectionTitle("Reference");
   ImGui::SetNextItemWidth(-110);
   bool refEnter = ImGui::InputText("##reference", &referencePathInput_, ImGuiInputTextFlags_EnterReturnsTrue);
   ImGui::SameLine();
   if (ImGui::Button("Load reference") || refEnter) {
     settings_.referencePath = referencePathInput_;
-    track("reference", true);
+    changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
@@ -647,12 +674,12 @@ void Studio::controlsPanel() {
   if (!settings_.referencePath.empty() && ImGui::Button("Use cache / live path tracer")) {
     settings_.referencePath.clear();
     referencePathInput_.clear();
-    track("reference", true);
+    changed |= track("reference", true);
   }
   bool background = settings_.backgroundReferenceSpp > 0;
   if (ImGui::Checkbox("render reference in background", &background)) {
     settings_.backgroundReferenceSpp = background ? backgroundSpp_ : 0;
-    track("reference", true);
+    changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
@@ -661,22 +688,13 @@ void Studio::controlsPanel() {
   if (ImGui::SliderInt("background spp", &backgroundSpp_, 64, 65536, "%d", ImGuiSliderFlags_Logarithmic) &&
       background) {
     settings_.backgroundReferenceSpp = backgroundSpp_;
-    track("reference", true);
+    changed |= track("reference", true);
   }
   errorField("reference");
-  // Restarts wait until the controls rest for a moment (a drag pauses, or
-  // typed text is entered): each restart throws away the light set.
-  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
-  if (ImGui::Button("Restart")) restart(true);
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
-  ImGui::SameLine();
-  if (ImGui::Button("Reset to defaults")) {
-    StudioSettings d = options_.defaults ? *options_.defaults : options_.settings;
-    d.scene = settings_.scene;
-    applySettings(d);
-  }
-  for (const char* k : {"seed", "global radius", "diffuse"}) errorField(k);
+  return changed;
+}
 
+void Studio::viewControls() {
   sectionTitle("View");
   int mode = int(view_.mode);
   if (ImGui::Combo("layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
@@ -727,7 +745,9 @@ void Studio::controlsPanel() {
     ImGui::SameLine();
     if (ImGui::SmallButton("clear")) view_.crop = {};
   }
+}
 
+void Studio::exportControls() {
   sectionTitle("Export");
   ImGui::SetNextItemWidth(-1);
   ImGui::InputText("##dir", &exportDir_);
@@ -750,6 +770,29 @@ void Studio::controlsPanel() {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
   if (!message_.empty()) ImGui::TextWrapped("%s", message_.c_str());
+}
+
+void Studio::controlsPanel() {
+  sceneControls();
+  bool changed = virtualLightControls();
+  changed |= gatherControls();
+  changed |= renderControls();
+  changed |= referenceControls();
+  // Restarts wait until the controls rest for a moment (a drag pauses, or
+  // typed text is entered): each restart throws away the light set.
+  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  if (ImGui::Button("Restart")) restart(true);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
+  ImGui::SameLine();
+  if (ImGui::Button("Reset to defaults")) {
+    StudioSettings d = options_.defaults ? *options_.defaults : options_.settings;
+    d.scene = settings_.scene;
+    applySettings(d);
+  }
+  for (const char* k : {"seed", "global radius", "diffuse"}) errorField(k);
+
+  viewControls();
+  exportControls();
 }
 
 // ---- [4] Views -----------------------------------------------------------------------

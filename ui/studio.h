@@ -187,6 +187,16 @@ class Studio {
 
  private:
   void controlsPanel();
+  // controlsPanel's sections, top to bottom; those returning bool return
+  // whether a setting changed (a restart follows once the controls rest).
+  void sceneControls();
+  bool virtualLightControls();
+  bool gatherControls();
+  bool renderControls();
+  bool referenceControls();
+  void viewControls();
+  void exportControls();
+  bool track(const char* key, bool c);
   void viewsPanel();
   void metricsPanel();
   void logPanel();
