@@ -305,20 +305,18 @@ void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
 }
 void onGlfwError(int code, const char* msg) { log::warning("GLFW error " + std::to_string(code) + ": " + msg); }
 
-int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
+// A GL 3.3 window with ImGui on it and our input callbacks; null (GLFW
+// terminated) if there is no window system or it refuses.
+GLFWwindow* openWindow(int w, int h) {
   glfwSetErrorCallback(onGlfwError);
-  if (!glfwInit()) {
-    *fellBack = true;
-    return 0;
-  }
+  if (!glfwInit()) return nullptr;
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   GLFWwindow* win = glfwCreateWindow(w, h, "vsl-studio", nullptr, nullptr);
   if (!win) {
     glfwTerminate();
-    *fellBack = true;
-    return 0;
+    return nullptr;
   }
   glfwMakeContextCurrent(win);
   glfwSwapInterval(1);
@@ -336,73 +334,89 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
   glfwSetWindowRefreshCallback(win, onRefresh);
   ImGui_ImplGlfw_InitForOpenGL(win, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
-  int rc = 0;
-  {
-    ui::Studio studio(launch.options);
-    studio.view() = launch.view;
-    gStudio = &studio;
-    glfwSetDropCallback(win, onDrop);
-    Script script{a};
-    double busyMs = 0;
-    int frames = 0, settle = 3;  // frames still owed after input
-    const bool scripted = a.frames > 0 || !a.exportDir.empty();
-    Stopwatch sinceDraw;
-    for (int frame = 0; !glfwWindowShouldClose(win);) {
-      // Idle when idle: sleep in the event queue; draw after input (a few
-      // frames, so a click's press and release both land), for news from the
-      // renderer (at most 4 per second focused, 1 unfocused), and once a
-      // second while busy and focused for the busy mark. Minimised: never.
-      // A frame costs ~50-60 ms of a core under software GL.
-      const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
-      const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
-      if (scripted || settle > 0)
-        glfwPollEvents();
-      else
-        glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
-      holdShortKeyPresses();
-      if (gInput) gInput = false, settle = 3;
-      const double since = sinceDraw.seconds();
-      const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
-      const bool tick = focused && studio.busy() && since >= 1.0;
-      if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
-      if (settle > 0) --settle;
-      if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
-      sinceDraw.reset();
-      const Clock::time_point frameEnd = Clock::now() + std::chrono::milliseconds(16);
-      ImGui_ImplOpenGL3_NewFrame();
-      ImGui_ImplGlfw_NewFrame();
-      ImGui::NewFrame();
-      studio.frame();
-      ImGui::Render();
-      int fbw, fbh;
-      glfwGetFramebufferSize(win, &fbw, &fbh);
-      glViewport(0, 0, fbw, fbh);
-      glClearColor(0.08f, 0.08f, 0.09f, 1);
-      glClear(GL_COLOR_BUFFER_BIT);
-      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-      studio.afterRender(fbw, fbh);
-      if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
-      glfwSwapBuffers(win);
-      busyMs += 1000 * sinceDraw.seconds();
-      ++frames;
-      ++frame;
-      // Cap the UI at ~60 frames per second so the renderer keeps the cores.
-      std::this_thread::sleep_until(frameEnd);
-    }
-    if (!script.failed) rememberSession(studio);
-    quitPromptly(win, studio);
-    rc = script.failed ? 1 : 0;
-    gStudio = nullptr;
-    if (frames > 0)
-      std::fprintf(stderr, "vsl-studio: %d frames, mean UI frame time %.1f ms (events, UI, GL render, swap)\n", frames,
-                   busyMs / frames);
+  return win;
+}
+
+// The studio's frame loop until the window closes or the script ends it.
+// Returns the exit code.
+int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
+  ui::Studio studio(launch.options);
+  studio.view() = launch.view;
+  gStudio = &studio;
+  glfwSetDropCallback(win, onDrop);
+  Script script{a};
+  double busyMs = 0;
+  int frames = 0, settle = 3;  // frames still owed after input
+  const bool scripted = a.frames > 0 || !a.exportDir.empty();
+  Stopwatch sinceDraw;
+  for (int frame = 0; !glfwWindowShouldClose(win);) {
+    // Idle when idle: sleep in the event queue; draw after input (a few
+    // frames, so a click's press and release both land), for news from the
+    // renderer (at most 4 per second focused, 1 unfocused), and once a
+    // second while busy and focused for the busy mark. Minimised: never.
+    // A frame costs ~50-60 ms of a core under software GL.
+    const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
+    const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
+    if (scripted || settle > 0)
+      glfwPollEvents();
+    else
+      glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
+    holdShortKeyPresses();
+    if (gInput) gInput = false, settle = 3;
+    const double since = sinceDraw.seconds();
+    const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
+    const bool tick = focused && studio.busy() && since >= 1.0;
+    if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
+    if (settle > 0) --settle;
+    if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
+    sinceDraw.reset();
+    const Clock::time_point frameEnd = Clock::now() + std::chrono::milliseconds(16);
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    studio.frame();
+    ImGui::Render();
+    int fbw, fbh;
+    glfwGetFramebufferSize(win, &fbw, &fbh);
+    glViewport(0, 0, fbw, fbh);
+    glClearColor(0.08f, 0.08f, 0.09f, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    studio.afterRender(fbw, fbh);
+    if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
+    glfwSwapBuffers(win);
+    busyMs += 1000 * sinceDraw.seconds();
+    ++frames;
+    ++frame;
+    // Cap the UI at ~60 frames per second so the renderer keeps the cores.
+    std::this_thread::sleep_until(frameEnd);
   }
+  if (!script.failed) rememberSession(studio);
+  quitPromptly(win, studio);
+  gStudio = nullptr;
+  if (frames > 0)
+    std::fprintf(stderr, "vsl-studio: %d frames, mean UI frame time %.1f ms (events, UI, GL render, swap)\n", frames,
+                 busyMs / frames);
+  return script.failed ? 1 : 0;
+}
+
+void closeWindow(GLFWwindow* win) {
   ui::shutdown();
   ImGui_ImplOpenGL3_Shutdown();
   ImGui_ImplGlfw_Shutdown();
   ImGui::DestroyContext();
   glfwDestroyWindow(win);
   glfwTerminate();
+}
+
+int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
+  GLFWwindow* win = openWindow(w, h);
+  if (!win) {
+    *fellBack = true;
+    return 0;
+  }
+  const int rc = windowedLoop(win, a, launch);
+  closeWindow(win);
   return rc;
 }
 
