@@ -706,44 +706,56 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
   snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
   snap->backgroundSpp = job.backgroundSpp;
-  // The reference in use and its own noise (session.h, ErrorSample).
   const double liveNoise = ref.indirectNoise();
+  useReference(w, liveNoise, *snap);
+  biasNoise(w, job, *snap);
+  recordError(w, job, liveNoise, *snap);
+  snap->manyLightDone = job.setsDone >= job.settings.lightSets;
+  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
+  return snap;
+}
+
+// The reference in use and its own noise (session.h, ErrorSample): the
+// converged one if the worker has it, else the live path tracer (whose noise
+// is liveNoise).
+void Session::useReference(const Worker& w, double liveNoise, Snapshot& snap) {
   if (w.converged) {
-    snap->convergedReference = true;
-    snap->refIndirect = w.converged->indirect;
-    snap->refDirect = w.converged->direct.rgb.empty() ? snap->ptDirect : w.converged->direct;
+    snap.convergedReference = true;
+    snap.refIndirect = w.converged->indirect;
+    snap.refDirect = w.converged->direct.rgb.empty() ? snap.ptDirect : w.converged->direct;
     const bool cached = w.convergedFor.rfind("cache:", 0) == 0;
     const std::string& src = w.converged->source.empty() ? referenceCachePath(w.converged->key) : w.converged->source;
-    snap->referenceSource = cached ? "cache: " + src : src;
-    snap->referenceSpp = w.converged->spp;
-    snap->referenceNoise = w.convergedNoise;
+    snap.referenceSource = cached ? "cache: " + src : src;
+    snap.referenceSpp = w.converged->spp;
+    snap.referenceNoise = w.convergedNoise;
   } else {
-    snap->refIndirect = snap->ptIndirect;
-    snap->refDirect = snap->ptDirect;
-    snap->referenceSource = "live path tracer";
-    snap->referenceSpp = ref.spp();
-    snap->referenceNoise = liveNoise;
+    snap.refIndirect = snap.ptIndirect;
+    snap.refDirect = snap.ptDirect;
+    snap.referenceSource = "live path tracer";
+    snap.referenceSpp = w.ref.pt->spp();
+    snap.referenceNoise = liveNoise;
   }
-  biasNoise(w, job, *snap);
-  const double noise = std::max(snap->referenceNoise, 0.0);
+}
+
+// The snapshot's point of the error history (relMSE less the reference's
+// noise), appended to the job's history unless a resumed job republishes.
+void Session::recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap) {
+  const double noise = std::max(snap.referenceNoise, 0.0);
   ErrorSample e;
   e.manySeconds = job.mlSeconds;
-  e.vslSeconds = snap->vslSeconds;
-  e.vplSeconds = snap->vplSeconds;
-  e.ptSeconds = ref.seconds();
+  e.vslSeconds = snap.vslSeconds;
+  e.vplSeconds = snap.vplSeconds;
+  e.ptSeconds = w.ref.pt->seconds();
   e.referenceNoise = noise;
-  e.vsl = compareImages(snap->many.vsl, snap->refIndirect).average.relMse - noise;
-  e.vpl = compareImages(snap->many.vpl, snap->refIndirect).average.relMse - noise;
-  e.pt = w.converged ? compareImages(snap->ptIndirect, snap->refIndirect).average.relMse - noise
-                     : std::max(liveNoise, 0.0);
+  e.vsl = compareImages(snap.many.vsl, snap.refIndirect).average.relMse - noise;
+  e.vpl = compareImages(snap.many.vpl, snap.refIndirect).average.relMse - noise;
+  e.pt =
+      w.converged ? compareImages(snap.ptIndirect, snap.refIndirect).average.relMse - noise : std::max(liveNoise, 0.0);
   // The history is the job's; a resumed job republishes without a new point.
   std::vector<ErrorSample>& history = job.history;
   if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)
     history.push_back(e);
-  snap->history = history;
-  snap->manyLightDone = job.setsDone >= job.settings.lightSets;
-  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
-  return snap;
+  snap.history = history;
 }
 
 // Bias and noise of each method's indirect image (session.h, BiasNoise):

@@ -218,6 +218,8 @@ class Session {
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;
   void render(Worker& w, Job& job, uint64_t gen);
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;
+  static void useReference(const Worker& w, double liveNoise, Snapshot& snap);
+  static void recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap);
   void chooseReference(Worker& w, Job& job);
   bool renderBackgroundReference(Worker& w, Job& job, uint64_t gen);
   bool publish(std::shared_ptr<Snapshot> s);
