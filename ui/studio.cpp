@@ -878,6 +878,37 @@ void Studio::statusBar() {
         "many-light methods until they finish.");
 }
 
+namespace {
+// The sources whose maps show an error (the methods), as opposed to the
+// reference and the lost-energy images.
+bool isMethod(Source s) { return s != Source::Reference && s != Source::LostClamping && s != Source::LostDiffuse; }
+
+// A stale image is dimmed and badged until its first new picture.
+void staleMark(ImDrawList* dl, ImVec2 p0, ImVec2 p1) {
+  dl->AddRectFilled(p0, p1, IM_COL32(0, 0, 0, 150));
+  const char* badge = "STALE - previous settings";
+  ImVec2 ts = ImGui::CalcTextSize(badge);
+  dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(120, 80, 0, 230));
+  dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
+}
+}  // namespace
+
+// How a panel draws a source: tone-mapped at the exposure, or (a method under
+// a map display) through the map's colours scaled to mapMax.
+DisplayParams Studio::displayParams(Source s, float mapMax) const {
+  DisplayParams p;
+  if (view_.display == Display::Image || !isMethod(s)) {
+    p.mode = DisplayMode::Tonemap;
+    p.scale = std::exp2(view_.exposure);
+  } else {
+    p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
+             : view_.display == Display::Flip ? DisplayMode::Magma
+                                              : DisplayMode::Signed;
+    p.scale = 1.0f / std::max(mapMax, 1e-12f);
+  }
+  return p;
+}
+
 void Studio::viewsPanel() {
   statusBar();
   ImVec2 origin = ImGui::GetCursorScreenPos(), avail = ImGui::GetContentRegionAvail();
@@ -900,36 +931,13 @@ void Studio::viewsPanel() {
   ImVec2 uv0(view_.center.x - half, view_.center.y - half), uv1(view_.center.x + half, view_.center.y + half);
 
   // One colour scale for every map on screen, so panels compare fairly.
-  auto isMethod = [](Source s) {
-    return s != Source::Reference && s != Source::LostClamping && s != Source::LostDiffuse;
-  };
   float sharedMax = 0;
   for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
     if (isMethod(view_.panels[i])) sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
   const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
-  auto params = [&](Source s) {
-    DisplayParams p;
-    if (!maps || !isMethod(s)) {
-      p.mode = DisplayMode::Tonemap;
-      p.scale = std::exp2(view_.exposure);
-    } else {
-      p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
-               : view_.display == Display::Flip ? DisplayMode::Magma
-                                                : DisplayMode::Signed;
-      p.scale = 1.0f / std::max(mapMax, 1e-12f);
-    }
-    return p;
-  };
-  // A stale image is dimmed and badged until its first new picture.
-  auto staleMark = [&](ImVec2 p0, ImVec2 p1) {
-    dl->AddRectFilled(p0, p1, IM_COL32(0, 0, 0, 150));
-    const char* badge = "STALE - previous settings";
-    ImVec2 ts = ImGui::CalcTextSize(badge);
-    dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(120, 80, 0, 230));
-    dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
-  };
+  auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
   for (int i = 0; i < n; ++i) {
     ImVec2 p0(origin.x + i * (panelW + 8) + (panelW - w) / 2, origin.y + labelH);
@@ -941,8 +949,8 @@ void Studio::viewsPanel() {
       if (!flipPending(b)) drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
       drawn_.push_back({ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, b});
-      if (sourceStale(a)) staleMark(p0, ImVec2(sx, p1.y));
-      if (sourceStale(b)) staleMark(ImVec2(sx, p0.y), p1);
+      if (sourceStale(a)) staleMark(dl, p0, ImVec2(sx, p1.y));
+      if (sourceStale(b)) staleMark(dl, ImVec2(sx, p0.y), p1);
       dl->AddLine(ImVec2(sx, p0.y), ImVec2(sx, p1.y), IM_COL32(255, 255, 255, 200), 1.5f);
       dl->AddText(ImVec2(p0.x, origin.y), panelStale(0) ? staleTitle : IM_COL32_WHITE,
                   (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
@@ -956,7 +964,7 @@ void Studio::viewsPanel() {
       }
       drawn_.push_back({p0, p1, uv0, uv1, s});
       bool stale = sourceStale(s);
-      if (stale) staleMark(p0, p1);
+      if (stale) staleMark(dl, p0, p1);
       dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
                   (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
     }
@@ -1040,6 +1048,13 @@ void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float pa
   view_.center.x = std::clamp(view_.center.x, half, 1 - half);
   view_.center.y = std::clamp(view_.center.y, half, 1 - half);
 
+  handleViewKeys();
+}
+
+// Keys over the views: T swaps VSL and VPL (or the first two panels), 1-7 put
+// that image in panel 1. Not while text is typed or a popup is open.
+void Studio::handleViewKeys() {
+  ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput || ImGui::IsPopupOpen("", ImGuiPopupFlags_AnyPopupId)) return;
   Source* p = view_.panels;
   const int shown = view_.mode == ViewMode::SideBySide3 ? 3 : view_.mode == ViewMode::Single ? 1 : 2;
@@ -1384,6 +1399,78 @@ std::vector<double> logTicks(double lo, double hi) {
 }
 }  // namespace
 
+namespace {
+// The error plot's log-log axes: time along x, error along y, over the plot
+// area [a, b] on screen.
+struct LogAxes {
+  ImVec2 a, b;
+  double tMin, tMax, eMin, eMax;
+  float X(double t) const {
+    return a.x + float((std::log(t) - std::log(tMin)) / (std::log(tMax) - std::log(tMin))) * (b.x - a.x);
+  }
+  float Y(double e) const {
+    return b.y - float((std::log(e) - std::log(eMin)) / (std::log(eMax) - std::log(eMin))) * (b.y - a.y);
+  }
+};
+
+void drawLogTicks(ImDrawList* dl, const LogAxes& ax) {
+  // Labelled ticks with faint grid lines.
+  char buf[32];
+  float lastLabelY = 1e9f;
+  for (double v : logTicks(ax.eMin, ax.eMax)) {
+    float y = ax.Y(v);
+    if (y > lastLabelY - 13) continue;
+    lastLabelY = y;
+    dl->AddLine(ImVec2(ax.a.x, y), ImVec2(ax.b.x, y), IM_COL32(70, 70, 70, 255));
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    dl->AddText(ImVec2(ax.a.x - 6 - ImGui::CalcTextSize(buf).x, y - 7), IM_COL32_WHITE, buf);
+  }
+  float lastLabelEnd = -1e9f;
+  for (double v : logTicks(ax.tMin, ax.tMax)) {
+    float x = ax.X(v);
+    dl->AddLine(ImVec2(x, ax.a.y), ImVec2(x, ax.b.y), IM_COL32(70, 70, 70, 255));
+    std::snprintf(buf, sizeof buf, "%.3g s", v);
+    float tw = ImGui::CalcTextSize(buf).x;
+    if (x - tw / 2 < lastLabelEnd + 6) continue;  // labels never overlap: skip this one
+    dl->AddText(ImVec2(x - tw / 2, ax.b.y + 2), IM_COL32_WHITE, buf);
+    lastLabelEnd = x + tw / 2;
+  }
+}
+
+// Each method's error against its own time, and the legend in the right margin.
+void drawErrorSeries(ImDrawList* dl, const LogAxes& ax, const std::vector<ErrorSample>& h) {
+  struct Series {
+    const char* name;
+    ImU32 colour;
+    double (*t)(const ErrorSample&);
+    double (*v)(const ErrorSample&);
+  };
+  const Series series[] = {
+      {"VSL", IM_COL32(255, 120, 80, 255), [](const ErrorSample& e) { return e.vslSeconds; },
+       [](const ErrorSample& e) { return e.vsl; }},
+      {"VPL", IM_COL32(90, 160, 255, 255), [](const ErrorSample& e) { return e.vplSeconds; },
+       [](const ErrorSample& e) { return e.vpl; }},
+      {"PT", IM_COL32(120, 220, 120, 255), [](const ErrorSample& e) { return e.ptSeconds; },
+       [](const ErrorSample& e) { return e.pt; }},
+  };
+  float ly = ax.a.y + 2;
+  dl->PushClipRect(ax.a, ax.b, true);
+  for (const Series& sr : series) {
+    std::vector<ImVec2> pts;
+    for (const ErrorSample& e : h)
+      if (sr.t(e) > 0 && sr.v(e) > 0) pts.push_back(ImVec2(ax.X(sr.t(e)), ax.Y(sr.v(e))));
+    if (pts.size() >= 2) dl->AddPolyline(pts.data(), int(pts.size()), sr.colour, 0, 2.0f);
+    for (const ImVec2& q : pts) dl->AddCircleFilled(q, 2.5f, sr.colour);
+  }
+  dl->PopClipRect();
+  // The legend sits in the right margin, outside the curves.
+  for (const Series& sr : series) {
+    dl->AddText(ImVec2(ax.b.x + 8, ly), sr.colour, sr.name);
+    ly += 14;
+  }
+}
+}  // namespace
+
 void Studio::plotErrors(const ImVec2& size) {
   const auto& h = snap_->history;
   ImDrawList* dl = ImGui::GetWindowDrawList();
@@ -1406,67 +1493,14 @@ void Studio::plotErrors(const ImVec2& size) {
   if (tMin > tMax || eMin > eMax) return;
   if (!(tMax > tMin * 1.5)) tMin /= 1.5, tMax *= 1.5;
   if (!(eMax > eMin * 1.5)) eMin /= 1.5, eMax *= 1.5;
-  auto X = [&](double t) {
-    return a.x + float((std::log(t) - std::log(tMin)) / (std::log(tMax) - std::log(tMin))) * (b.x - a.x);
-  };
-  auto Y = [&](double e) {
-    return b.y - float((std::log(e) - std::log(eMin)) / (std::log(eMax) - std::log(eMin))) * (b.y - a.y);
-  };
-  // Labelled ticks with faint grid lines.
-  char buf[32];
-  float lastLabelY = 1e9f;
-  for (double v : logTicks(eMin, eMax)) {
-    float y = Y(v);
-    if (y > lastLabelY - 13) continue;
-    lastLabelY = y;
-    dl->AddLine(ImVec2(a.x, y), ImVec2(b.x, y), IM_COL32(70, 70, 70, 255));
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-    dl->AddText(ImVec2(a.x - 6 - ImGui::CalcTextSize(buf).x, y - 7), IM_COL32_WHITE, buf);
-  }
-  float lastLabelEnd = -1e9f;
-  for (double v : logTicks(tMin, tMax)) {
-    float x = X(v);
-    dl->AddLine(ImVec2(x, a.y), ImVec2(x, b.y), IM_COL32(70, 70, 70, 255));
-    std::snprintf(buf, sizeof buf, "%.3g s", v);
-    float tw = ImGui::CalcTextSize(buf).x;
-    if (x - tw / 2 < lastLabelEnd + 6) continue;  // labels never overlap: skip this one
-    dl->AddText(ImVec2(x - tw / 2, b.y + 2), IM_COL32_WHITE, buf);
-    lastLabelEnd = x + tw / 2;
-  }
+  const LogAxes ax{a, b, tMin, tMax, eMin, eMax};
+  drawLogTicks(dl, ax);
   // Equal time: the budget every method has reached.
   if (double tb = equalTimeBudget(h); tb > tMin && tb < tMax) {
-    float x = X(tb);
+    float x = ax.X(tb);
     for (float y = a.y; y < b.y; y += 8) dl->AddLine(ImVec2(x, y), ImVec2(x, std::min(y + 4, b.y)), IM_COL32_WHITE);
   }
-  struct Series {
-    const char* name;
-    ImU32 colour;
-    double (*t)(const ErrorSample&);
-    double (*v)(const ErrorSample&);
-  };
-  const Series series[] = {
-      {"VSL", IM_COL32(255, 120, 80, 255), [](const ErrorSample& e) { return e.vslSeconds; },
-       [](const ErrorSample& e) { return e.vsl; }},
-      {"VPL", IM_COL32(90, 160, 255, 255), [](const ErrorSample& e) { return e.vplSeconds; },
-       [](const ErrorSample& e) { return e.vpl; }},
-      {"PT", IM_COL32(120, 220, 120, 255), [](const ErrorSample& e) { return e.ptSeconds; },
-       [](const ErrorSample& e) { return e.pt; }},
-  };
-  float ly = a.y + 2;
-  dl->PushClipRect(a, b, true);
-  for (const Series& sr : series) {
-    std::vector<ImVec2> pts;
-    for (const ErrorSample& e : h)
-      if (sr.t(e) > 0 && sr.v(e) > 0) pts.push_back(ImVec2(X(sr.t(e)), Y(sr.v(e))));
-    if (pts.size() >= 2) dl->AddPolyline(pts.data(), int(pts.size()), sr.colour, 0, 2.0f);
-    for (const ImVec2& q : pts) dl->AddCircleFilled(q, 2.5f, sr.colour);
-  }
-  dl->PopClipRect();
-  // The legend sits in the right margin, outside the curves.
-  for (const Series& sr : series) {
-    dl->AddText(ImVec2(b.x + 8, ly), sr.colour, sr.name);
-    ly += 14;
-  }
+  drawErrorSeries(dl, ax, h);
 }
 
 // ---- [6] Log ---------------------------------------------------------------------------

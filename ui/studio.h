@@ -198,6 +198,7 @@ class Studio {
   void exportControls();
   bool track(const char* key, bool c);
   void viewsPanel();
+  DisplayParams displayParams(Source s, float mapMax) const;
   void metricsPanel();
   void logPanel();
   void cropsPanel();
@@ -218,6 +219,7 @@ class Studio {
   void statusBar();
   void probe(const ImVec2& mouse);
   void handleViewInput(const ImVec2& origin, const ImVec2& avail, float panelW, float w, float h, int n);
+  void handleViewKeys();
   void errorField(const char* key);
   bool pixelValue(Source s, Component c, int x, int y, Vec3* out) const;
   std::string exportStem() const;  // <scene>-<UTC timestamp>
