@@ -1184,15 +1184,9 @@ void Studio::updateMetrics() {
   livePtMetrics_ = compareImages(live, *ref);
 }
 
-void Studio::metricsPanel() {
-  if (!snap_ || snap_->width == 0) {
-    ImGui::TextUnformatted("No picture yet.");
-    return;
-  }
-  const Snapshot& s = *snap_;
-  updateMetrics();
-  const bool stale = sourceStale(Source::Vsl);
-  ImGui::BeginGroup();
+// The metrics panel's first lines: scene, size and component, throughput,
+// and the UI's own responsiveness.
+void Studio::metricsSummary(const Snapshot& s, bool stale) {
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 480);
   ImGui::Text("%s  |  %dx%d  |  %s component", std::filesystem::path(s.settings.scene).filename().c_str(), s.width,
               s.height, kComponentNames[int(view_.component)]);
@@ -1206,6 +1200,25 @@ void Studio::metricsPanel() {
   ImGui::TextWrapped("UI frame %.1f ms  change -> picture %.0f ms  launch -> picture %.0f ms", lastFrameMs_,
                      restartToPictureMs_, launchToPictureMs_);
   ImGui::PopTextWrapPos();
+}
+
+// Which reference, and how noisy it is.
+void Studio::metricsReferenceNotes(const Snapshot& s) {
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
+  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
+                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
+  char noiseText[48] = "unknown (no halves)";
+  if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
+  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
+                     s.referenceSpp, noiseText);
+  if (s.backgroundSpp > 0 && !s.convergedReference)
+    ImGui::TextWrapped("background reference: %d / %d spp", s.backgroundSpp, s.settings.backgroundReferenceSpp);
+  ImGui::PopTextWrapPos();
+}
+
+// The table of each method's error against the reference: mean, RMSE,
+// relMSE, relMSE at equal time, bias^2 and noise, FLIP.
+void Studio::metricsTable(const Snapshot& s) {
   // A fixed outer width: the table's row lines end at the table, not under the plot.
   // relMSE as compare.h computes it, less the reference's own noise where
   // it is known (the indirect component: relMSE(A, B) / 4 from the
@@ -1366,17 +1379,20 @@ void Studio::metricsPanel() {
     flipCell(4);
     ImGui::EndTable();
   }
-  // Which reference, and how noisy it is.
-  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
-  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
-                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
-  char noiseText[48] = "unknown (no halves)";
-  if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
-  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
-                     s.referenceSpp, noiseText);
-  if (s.backgroundSpp > 0 && !s.convergedReference)
-    ImGui::TextWrapped("background reference: %d / %d spp", s.backgroundSpp, s.settings.backgroundReferenceSpp);
-  ImGui::PopTextWrapPos();
+}
+
+void Studio::metricsPanel() {
+  if (!snap_ || snap_->width == 0) {
+    ImGui::TextUnformatted("No picture yet.");
+    return;
+  }
+  const Snapshot& s = *snap_;
+  updateMetrics();
+  const bool stale = sourceStale(Source::Vsl);
+  ImGui::BeginGroup();
+  metricsSummary(s, stale);
+  metricsTable(s);
+  metricsReferenceNotes(s);
   ImGui::EndGroup();
   ImGui::SameLine(0, 12);
   plotErrors(

@@ -200,6 +200,10 @@ class Studio {
   void viewsPanel();
   DisplayParams displayParams(Source s, float mapMax) const;
   void metricsPanel();
+  // metricsPanel's parts, top to bottom.
+  void metricsSummary(const Snapshot& s, bool stale);
+  void metricsTable(const Snapshot& s);
+  void metricsReferenceNotes(const Snapshot& s);
   void logPanel();
   void cropsPanel();
   void updateCrops();
