@@ -420,11 +420,8 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
   return rc;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"vsl-studio: VSL, clamped VPL and a path-traced reference, side by side"};
-  Args a;
+// The command line, into a.
+void addOptions(CLI::App& app, Args& a) {
   app.add_option("scene", a.scene, "Scene to open (default: the bundled cornell-glossy)");
   app.add_flag("--headless", a.headless, "Render the UI off-screen through EGL (no window)");
   app.add_option("--frames", a.frames, "Exit after this many frames")->check(CLI::Range(1, 10000000));
@@ -452,6 +449,14 @@ int main(int argc, char** argv) {
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"vsl-studio: VSL, clamped VPL and a path-traced reference, side by side"};
+  Args a;
+  addOptions(app, a);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
