@@ -26,6 +26,7 @@
 
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/stopwatch.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
@@ -71,17 +72,17 @@ std::vector<std::string> bundledScenes() {
 // Drives the frame loop's scripted exits: export, screenshot, frame count.
 struct Script {
   const Args& args;
-  Clock::time_point start = Clock::now();
+  Stopwatch elapsed = {};
   bool exported = false, failed = false;
   std::string exportFolder = {};
-  Clock::time_point lastProgress = Clock::now();
+  Stopwatch sinceProgress = {};
 
   // Returns true when the loop should end after this frame.
   bool afterFrame(ui::Studio& studio, int frame, int fbw, int fbh, bool headlessProgress) {
-    double el = std::chrono::duration<double>(Clock::now() - start).count();
+    double el = elapsed.seconds();
     auto snap = studio.snapshot();
-    if (headlessProgress && std::chrono::duration<double>(Clock::now() - lastProgress).count() > 5 && snap) {
-      lastProgress = Clock::now();
+    if (headlessProgress && sinceProgress.seconds() > 5 && snap) {
+      sinceProgress.reset();
       std::fprintf(stderr, "rendering: %zu/%zu lights (%.0f%%), reference %d/%d spp, %.0f s\n", snap->lightsProcessed,
                    snap->lightsTotal,
                    100.0 * double(snap->lightsProcessed) / double(std::max<size_t>(snap->lightsTotal, 1)), snap->ptSpp,
@@ -292,10 +293,9 @@ void onRefresh(GLFWwindow*) { gInput = true; }
 // nothing to save.
 void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
   glfwHideWindow(win);
-  auto t0 = Clock::now();
+  Stopwatch sinceQuit;
   if (studio.session() && studio.session()->shutdown(1.0)) {
-    std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n",
-                 std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n", 1000 * sinceQuit.seconds());
   } else if (studio.session()) {
     std::fprintf(stderr, "vsl-studio: the renderer did not stop within 1 s (%s); exiting without waiting\n",
                  studio.session()->status().stage.c_str());
@@ -305,20 +305,18 @@ void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
 }
 void onGlfwError(int code, const char* msg) { log::warning("GLFW error " + std::to_string(code) + ": " + msg); }
 
-int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
+// A GL 3.3 window with ImGui on it and our input callbacks; null (GLFW
+// terminated) if there is no window system or it refuses.
+GLFWwindow* openWindow(int w, int h) {
   glfwSetErrorCallback(onGlfwError);
-  if (!glfwInit()) {
-    *fellBack = true;
-    return 0;
-  }
+  if (!glfwInit()) return nullptr;
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   GLFWwindow* win = glfwCreateWindow(w, h, "vsl-studio", nullptr, nullptr);
   if (!win) {
     glfwTerminate();
-    *fellBack = true;
-    return 0;
+    return nullptr;
   }
   glfwMakeContextCurrent(win);
   glfwSwapInterval(1);
@@ -336,81 +334,94 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
   glfwSetWindowRefreshCallback(win, onRefresh);
   ImGui_ImplGlfw_InitForOpenGL(win, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
-  int rc = 0;
-  {
-    ui::Studio studio(launch.options);
-    studio.view() = launch.view;
-    gStudio = &studio;
-    glfwSetDropCallback(win, onDrop);
-    Script script{a};
-    double busyMs = 0;
-    int frames = 0, settle = 3;  // frames still owed after input
-    const bool scripted = a.frames > 0 || !a.exportDir.empty();
-    auto lastDraw = Clock::now();
-    for (int frame = 0; !glfwWindowShouldClose(win);) {
-      // Idle when idle: sleep in the event queue; draw after input (a few
-      // frames, so a click's press and release both land), for news from the
-      // renderer (at most 4 per second focused, 1 unfocused), and once a
-      // second while busy and focused for the busy mark. Minimised: never.
-      // A frame costs ~50-60 ms of a core under software GL.
-      const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
-      const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
-      if (scripted || settle > 0)
-        glfwPollEvents();
-      else
-        glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
-      holdShortKeyPresses();
-      if (gInput) gInput = false, settle = 3;
-      const double since = std::chrono::duration<double>(Clock::now() - lastDraw).count();
-      const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
-      const bool tick = focused && studio.busy() && since >= 1.0;
-      if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
-      if (settle > 0) --settle;
-      if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
-      auto t0 = Clock::now();
-      lastDraw = t0;
-      ImGui_ImplOpenGL3_NewFrame();
-      ImGui_ImplGlfw_NewFrame();
-      ImGui::NewFrame();
-      studio.frame();
-      ImGui::Render();
-      int fbw, fbh;
-      glfwGetFramebufferSize(win, &fbw, &fbh);
-      glViewport(0, 0, fbw, fbh);
-      glClearColor(0.08f, 0.08f, 0.09f, 1);
-      glClear(GL_COLOR_BUFFER_BIT);
-      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-      studio.afterRender(fbw, fbh);
-      if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
-      glfwSwapBuffers(win);
-      busyMs += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-      ++frames;
-      ++frame;
-      // Cap the UI at ~60 frames per second so the renderer keeps the cores.
-      std::this_thread::sleep_until(t0 + std::chrono::milliseconds(16));
-    }
-    if (!script.failed) rememberSession(studio);
-    quitPromptly(win, studio);
-    rc = script.failed ? 1 : 0;
-    gStudio = nullptr;
-    if (frames > 0)
-      std::fprintf(stderr, "vsl-studio: %d frames, mean UI frame time %.1f ms (events, UI, GL render, swap)\n", frames,
-                   busyMs / frames);
+  return win;
+}
+
+// The studio's frame loop until the window closes or the script ends it.
+// Returns the exit code.
+int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
+  ui::Studio studio(launch.options);
+  studio.view() = launch.view;
+  gStudio = &studio;
+  glfwSetDropCallback(win, onDrop);
+  Script script{a};
+  double busyMs = 0;
+  int frames = 0, settle = 3;  // frames still owed after input
+  const bool scripted = a.frames > 0 || !a.exportDir.empty();
+  Stopwatch sinceDraw;
+  for (int frame = 0; !glfwWindowShouldClose(win);) {
+    // Idle when idle: sleep in the event queue; draw after input (a few
+    // frames, so a click's press and release both land), for news from the
+    // renderer (at most 4 per second focused, 1 unfocused), and once a
+    // second while busy and focused for the busy mark. Minimised: never.
+    // A frame costs ~50-60 ms of a core under software GL.
+    const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
+    const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
+    if (scripted || settle > 0)
+      glfwPollEvents();
+    else
+      glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
+    holdShortKeyPresses();
+    if (gInput) gInput = false, settle = 3;
+    const double since = sinceDraw.seconds();
+    const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
+    const bool tick = focused && studio.busy() && since >= 1.0;
+    if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
+    if (settle > 0) --settle;
+    if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
+    sinceDraw.reset();
+    const Clock::time_point frameEnd = Clock::now() + std::chrono::milliseconds(16);
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    studio.frame();
+    ImGui::Render();
+    int fbw, fbh;
+    glfwGetFramebufferSize(win, &fbw, &fbh);
+    glViewport(0, 0, fbw, fbh);
+    glClearColor(0.08f, 0.08f, 0.09f, 1);
+    glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    studio.afterRender(fbw, fbh);
+    if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
+    glfwSwapBuffers(win);
+    busyMs += 1000 * sinceDraw.seconds();
+    ++frames;
+    ++frame;
+    // Cap the UI at ~60 frames per second so the renderer keeps the cores.
+    std::this_thread::sleep_until(frameEnd);
   }
+  if (!script.failed) rememberSession(studio);
+  quitPromptly(win, studio);
+  gStudio = nullptr;
+  if (frames > 0)
+    std::fprintf(stderr, "vsl-studio: %d frames, mean UI frame time %.1f ms (events, UI, GL render, swap)\n", frames,
+                 busyMs / frames);
+  return script.failed ? 1 : 0;
+}
+
+void closeWindow(GLFWwindow* win) {
   ui::shutdown();
   ImGui_ImplOpenGL3_Shutdown();
   ImGui_ImplGlfw_Shutdown();
   ImGui::DestroyContext();
   glfwDestroyWindow(win);
   glfwTerminate();
+}
+
+int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
+  GLFWwindow* win = openWindow(w, h);
+  if (!win) {
+    *fellBack = true;
+    return 0;
+  }
+  const int rc = windowedLoop(win, a, launch);
+  closeWindow(win);
   return rc;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"vsl-studio: VSL, clamped VPL and a path-traced reference, side by side"};
-  Args a;
+// The command line, into a.
+void addOptions(CLI::App& app, Args& a) {
   app.add_option("scene", a.scene, "Scene to open (default: the bundled cornell-glossy)");
   app.add_flag("--headless", a.headless, "Render the UI off-screen through EGL (no window)");
   app.add_option("--frames", a.frames, "Exit after this many frames")->check(CLI::Range(1, 10000000));
@@ -438,6 +449,14 @@ int main(int argc, char** argv) {
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"vsl-studio: VSL, clamped VPL and a path-traced reference, side by side"};
+  Args a;
+  addOptions(app, a);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,6 +1,5 @@
 #include "core/reference.h"
 
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -9,12 +8,11 @@
 
 #include "core/compare.h"
 #include "core/image_io.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 double noiseOf(const Image& a, const Image& b) {
   if (a.rgb.empty() || b.rgb.empty() || a.width != b.width || a.height != b.height) return -1;
@@ -78,7 +76,7 @@ ReferenceRenderer::ReferenceRenderer(const Scene& scene, const Accel& accel, con
 // half gets at most one) into the scratch copies of their halves, then swaps
 // them in; on a stop the halves are untouched.
 bool ReferenceRenderer::renderPasses(int count, const std::atomic<bool>* stop) {
-  auto t0 = Clock::now();
+  Stopwatch clock;
   const int first = nextPass_;
   nextPass_ += count;  // whatever happens, these indices are used
   for (int p = first; p < first + count; ++p) {
@@ -92,7 +90,7 @@ bool ReferenceRenderer::renderPasses(int count, const std::atomic<bool>* stop) {
     indirect_[p % 2].swap(scratchIndirect_[p % 2]);
   }
   passes_ += count;
-  seconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  seconds_ += clock.seconds();
   return true;
 }
 

@@ -16,9 +16,6 @@ namespace vsl {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
 // The path depth of the live path tracer and of the references it looks up.
 const int kReferenceDepth = RenderSettings().maxDepth;
 
@@ -74,7 +71,7 @@ struct Session::Job {
   double ptStart = 0;                                    // the reference's compute time when the job began
   int sppStart = 0;                                      // and its sample count
   float radiusMin = 0, radiusMedian = 0, radiusMax = 0;  // of the newest set
-  Clock::time_point t0;                                  // wall clock at the job's start
+  Stopwatch clock;                                       // wall clock since the job's start
   std::vector<ErrorSample> history;
   int backgroundSpp = 0;
 };
@@ -225,14 +222,14 @@ std::shared_ptr<const Snapshot> Session::latest(uint64_t haveSerial) const {
 Session::Status Session::status() const {
   std::lock_guard<std::mutex> lock(mutex_);
   Status s = status_;
-  s.stageSeconds = since(stageStart_);
+  s.stageSeconds = stageClock_.seconds();
   return s;
 }
 
 void Session::setStage(const std::string& stage, uint32_t lightsTarget) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (status_.stage != stage) stageStart_ = Clock::now();
+    if (status_.stage != stage) stageClock_.reset();
     status_.stage = stage;
     status_.lightsTarget = lightsTarget;
   }
@@ -273,7 +270,7 @@ void Session::run() {
       std::unique_lock<std::mutex> lock(mutex_);
       if (!pending_ && !quit_) {
         std::string idle = w.scene ? "done" : "idle";
-        if (status_.stage != idle) stageStart_ = Clock::now(), ++version_;
+        if (status_.stage != idle) stageClock_.reset(), ++version_;
         status_.stage = idle;
       }
       wake_.wait(lock, [&] { return quit_ || pending_; });
@@ -410,7 +407,7 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
 std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& s) {
   auto job = std::make_unique<Job>();
   job->settings = s;
-  job->t0 = Clock::now();
+  job->clock.reset();
   if (!prepareSet(w, *job)) return nullptr;
   job->width = job->ml->width();
   job->height = job->ml->height();
@@ -452,14 +449,14 @@ bool Session::prepareSet(Worker& w, Job& job) {
   prep.set = traceVirtualLights(*w.scene, *w.accel, *w.lights, lt, &stop_);
   if (stopped()) return false;
   setStage("k-NN radii", many.lights);
-  auto tk = Clock::now();
+  Stopwatch knnClock;
   const float R = std::max(w.scene->boundingRadius(), 1e-6f);
   if (many.globalRadius > 0)
     prep.radii.assign(prep.set.lights.size(), many.globalRadius * R);
   else
     prep.radii = knnRadii(prep.set.lights, many.knn, many.radiusScale, 0.1f * R, 1e-9f * R, &stop_);
   if (stopped()) return false;
-  prep.knnSeconds = since(tk);
+  prep.knnSeconds = knnClock.seconds();
   if (!prep.radii.empty()) {
     std::vector<float> r = prep.radii;
     std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
@@ -532,9 +529,9 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
         // The next independent light set (its preparation is many-light time).
         if (!prepareSet(w, job)) break;
       } else {
-        auto tb = Clock::now();
+        Stopwatch batchClock;
         if (!job.ml->renderBatch(job.batch, &stop_)) break;
-        job.mlSeconds += since(tb);
+        job.mlSeconds += batchClock.seconds();
         if (++job.batch >= job.ml->batchCount()) retireSet(job, true);
       }
       progressed = true;
@@ -624,7 +621,7 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
       reportRunError("reference cache: " + stored.error());
     return r;
   };
-  auto lastPublish = Clock::now();
+  Stopwatch sincePublish;
   int saveAt = 64;
   while (!stopped() && bg.spp() < target) {
     if (!bg.step(&stop_)) break;
@@ -632,8 +629,8 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
       save();
       saveAt *= 2;
     }
-    if (since(lastPublish) > 1.0) {
-      lastPublish = Clock::now();
+    if (sincePublish.seconds() > 1.0) {
+      sincePublish.reset();
       job.backgroundSpp = bg.spp();
       publish(makeSnapshot(w, job, gen));
     }
@@ -677,7 +674,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->lightsTotal = d.lights + (ml ? setSize : 0) + size_t(untraced) * setSize;
   snap->batchesDone = ml ? job.batch : job.batchCount;
   snap->batchCount = job.batchCount;
-  snap->seconds = since(job.t0);
+  snap->seconds = job.clock.seconds();
   snap->lightTracingSeconds = d.tracingSeconds + job.prep.set.seconds;
   snap->knnSeconds = d.knnSeconds + job.prep.knnSeconds;
   snap->gatherSeconds = d.gatherSeconds + st.gatherSeconds;
@@ -709,44 +706,56 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
   snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
   snap->backgroundSpp = job.backgroundSpp;
-  // The reference in use and its own noise (session.h, ErrorSample).
   const double liveNoise = ref.indirectNoise();
+  useReference(w, liveNoise, *snap);
+  biasNoise(w, job, *snap);
+  recordError(w, job, liveNoise, *snap);
+  snap->manyLightDone = job.setsDone >= job.settings.lightSets;
+  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
+  return snap;
+}
+
+// The reference in use and its own noise (session.h, ErrorSample): the
+// converged one if the worker has it, else the live path tracer (whose noise
+// is liveNoise).
+void Session::useReference(const Worker& w, double liveNoise, Snapshot& snap) {
   if (w.converged) {
-    snap->convergedReference = true;
-    snap->refIndirect = w.converged->indirect;
-    snap->refDirect = w.converged->direct.rgb.empty() ? snap->ptDirect : w.converged->direct;
+    snap.convergedReference = true;
+    snap.refIndirect = w.converged->indirect;
+    snap.refDirect = w.converged->direct.rgb.empty() ? snap.ptDirect : w.converged->direct;
     const bool cached = w.convergedFor.rfind("cache:", 0) == 0;
     const std::string& src = w.converged->source.empty() ? referenceCachePath(w.converged->key) : w.converged->source;
-    snap->referenceSource = cached ? "cache: " + src : src;
-    snap->referenceSpp = w.converged->spp;
-    snap->referenceNoise = w.convergedNoise;
+    snap.referenceSource = cached ? "cache: " + src : src;
+    snap.referenceSpp = w.converged->spp;
+    snap.referenceNoise = w.convergedNoise;
   } else {
-    snap->refIndirect = snap->ptIndirect;
-    snap->refDirect = snap->ptDirect;
-    snap->referenceSource = "live path tracer";
-    snap->referenceSpp = ref.spp();
-    snap->referenceNoise = liveNoise;
+    snap.refIndirect = snap.ptIndirect;
+    snap.refDirect = snap.ptDirect;
+    snap.referenceSource = "live path tracer";
+    snap.referenceSpp = w.ref.pt->spp();
+    snap.referenceNoise = liveNoise;
   }
-  biasNoise(w, job, *snap);
-  const double noise = std::max(snap->referenceNoise, 0.0);
+}
+
+// The snapshot's point of the error history (relMSE less the reference's
+// noise), appended to the job's history unless a resumed job republishes.
+void Session::recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap) {
+  const double noise = std::max(snap.referenceNoise, 0.0);
   ErrorSample e;
   e.manySeconds = job.mlSeconds;
-  e.vslSeconds = snap->vslSeconds;
-  e.vplSeconds = snap->vplSeconds;
-  e.ptSeconds = ref.seconds();
+  e.vslSeconds = snap.vslSeconds;
+  e.vplSeconds = snap.vplSeconds;
+  e.ptSeconds = w.ref.pt->seconds();
   e.referenceNoise = noise;
-  e.vsl = compareImages(snap->many.vsl, snap->refIndirect).average.relMse - noise;
-  e.vpl = compareImages(snap->many.vpl, snap->refIndirect).average.relMse - noise;
-  e.pt = w.converged ? compareImages(snap->ptIndirect, snap->refIndirect).average.relMse - noise
-                     : std::max(liveNoise, 0.0);
+  e.vsl = compareImages(snap.many.vsl, snap.refIndirect).average.relMse - noise;
+  e.vpl = compareImages(snap.many.vpl, snap.refIndirect).average.relMse - noise;
+  e.pt =
+      w.converged ? compareImages(snap.ptIndirect, snap.refIndirect).average.relMse - noise : std::max(liveNoise, 0.0);
   // The history is the job's; a resumed job republishes without a new point.
   std::vector<ErrorSample>& history = job.history;
   if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)
     history.push_back(e);
-  snap->history = history;
-  snap->manyLightDone = job.setsDone >= job.settings.lightSets;
-  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
-  return snap;
+  snap.history = history;
 }
 
 // Bias and noise of each method's indirect image (session.h, BiasNoise):

@@ -25,7 +25,6 @@
 #pragma once
 
 #include <atomic>
-#include <chrono>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -35,6 +34,7 @@
 
 #include "core/many_light.h"
 #include "core/reference.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
@@ -218,6 +218,8 @@ class Session {
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;
   void render(Worker& w, Job& job, uint64_t gen);
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;
+  static void useReference(const Worker& w, double liveNoise, Snapshot& snap);
+  static void recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap);
   void chooseReference(Worker& w, Job& job);
   bool renderBackgroundReference(Worker& w, Job& job, uint64_t gen);
   bool publish(std::shared_ptr<Snapshot> s);
@@ -233,7 +235,7 @@ class Session {
   bool pending_ = false, pendingFromScratch_ = false;
   StudioSettings next_;
   std::atomic<uint64_t> version_{0}, memoryForTesting_{0};
-  std::chrono::steady_clock::time_point stageStart_ = std::chrono::steady_clock::now();
+  Stopwatch stageClock_;  // since the stage began
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};
   std::shared_ptr<const Snapshot> latest_;

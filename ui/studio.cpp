@@ -1,6 +1,6 @@
 // Sections: [1] set-up  [2] snapshots and textures  [3] controls  [4] views
-//           [5] metrics and plot  [6] log  [7] export  [8] crop insets
-//           [9] the last session
+//           [5] metrics and plot  [6] log  [7] (export: studio_export.cpp)
+//           [8] crop insets  [9] the last session
 #include "ui/studio.h"
 
 #include <imgui_stdlib.h>
@@ -23,8 +23,11 @@
 #include "core/parallel.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
+#include "ui/studio_internal.h"
 
 namespace vsl::ui {
+
+using namespace studio_detail;
 
 const char* sourceName(Source s) {
   switch (s) {
@@ -77,12 +80,17 @@ std::string panelTitle(Source s, Component c) {
 }
 
 namespace {
-// The methods of the metrics table, the FLIP maps and the exported error maps.
-constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
-const char* kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)", "squared (t-r)^2",
-                              "relative squared (t-r)^2/(r^2+eps)"};
 const char* kComponentNames[] = {"full", "direct", "indirect"};
 const char* kModeNames[] = {"Single", "Side by side (2)", "Side by side (3)", "Wipe"};
+
+void sectionTitle(const char* title) {
+  ImGui::Spacing();
+  ImGui::Separator();
+  ImGui::TextUnformatted(title);
+}
+}  // namespace
+
+namespace studio_detail {
 
 // One pixel's error under a metric. eps follows the reference as relMSE's
 // does (compare.h: 0.01 x the reference's mean luminance squared) for the
@@ -103,12 +111,6 @@ float metricError(float d, float r, ErrorMetric metric, float eps) {
 
 float mapEpsilon(const Image& ref) { return float(RelMseEpsilon().resolve(ref)); }
 
-void sectionTitle(const char* title) {
-  ImGui::Spacing();
-  ImGui::Separator();
-  ImGui::TextUnformatted(title);
-}
-
 Image add(const Image& a, const Image& b) {
   Image r = a;
   for (size_t i = 0; i < r.rgb.size() && i < b.rgb.size(); ++i) r.rgb[i] += b.rgb[i];
@@ -127,7 +129,8 @@ float percentile99(const Image& img) {
   std::nth_element(v.begin(), v.begin() + k, v.end());
   return std::max(v[k], 1e-12f);
 }
-}  // namespace
+
+}  // namespace studio_detail
 
 // ---- [1] Set-up --------------------------------------------------------------------
 
@@ -165,7 +168,7 @@ void Studio::restart(bool fromScratch) {
     log::warning("settings rejected: " + err);
     return;
   }
-  restartedAt_ = std::chrono::steady_clock::now();
+  sinceRestart_.reset();
   restartGeneration_ = *started;
   accepted_ = settings_;
   settingsError_.clear();
@@ -206,10 +209,9 @@ void Studio::pullSnapshot() {
     if (s->generation != firstPictureGeneration_ && s->generation == restartGeneration_) {
       // The first picture of this generation: how long the user waited.
       firstPictureGeneration_ = s->generation;
-      auto now = std::chrono::steady_clock::now();
-      restartToPictureMs_ = std::chrono::duration<double, std::milli>(now - restartedAt_).count();
+      restartToPictureMs_ = 1000 * sinceRestart_.seconds();
       if (launchToPictureMs_ < 0) {
-        launchToPictureMs_ = std::chrono::duration<double, std::milli>(now - created_).count();
+        launchToPictureMs_ = 1000 * sinceLaunch_.seconds();
         log::info("first picture " + std::to_string(int(launchToPictureMs_)) + " ms after launch");
       }
       log::info("generation " + std::to_string(s->generation) + ": first picture " +
@@ -420,7 +422,7 @@ void Studio::updateTextures() {
 // ---- Frame ---------------------------------------------------------------------------
 
 void Studio::frame() {
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch frameClock;
   beginFrame();
   pullSnapshot();
   updateFlip();
@@ -486,7 +488,7 @@ void Studio::frame() {
     ImGui::EndPopup();
   }
   ImGui::End();
-  lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  lastFrameMs_ = 1000 * frameClock.seconds();
 }
 
 // ---- [3] Controls --------------------------------------------------------------------
@@ -506,12 +508,14 @@ void warningText(const char* text) {
 }
 }  // namespace
 
-void Studio::controlsPanel() {
-  bool changed = false;
-  // Records which control changed, so that a refusal is shown beside it.
-  auto track = [&](const char* key, bool c) {
-    if (c) lastControl_ = key, changed = true;
-  };
+// Records which control changed, so that a refusal is shown beside it;
+// returns c.
+bool Studio::track(const char* key, bool c) {
+  if (c) lastControl_ = key;
+  return c;
+}
+
+void Studio::sceneControls() {
   ImGui::TextUnformatted("Scene");
   ImGui::SetNextItemWidth(-60);
   bool enter = ImGui::InputText("##path", &scenePath_, ImGuiInputTextFlags_EnterReturnsTrue);
@@ -530,25 +534,29 @@ void Studio::controlsPanel() {
     }
   }
   errorField("scene");
+}
 
+// The controls below return whether a setting changed.
+bool Studio::virtualLightControls() {
+  bool changed = false;
   sectionTitle("Virtual lights");
   ManyLightSettings& m = settings_.many;
   int lights = int(m.lights);
   if (ImGui::SliderInt("lights", &lights, 100, 1000000, "%d", ImGuiSliderFlags_Logarithmic)) {
     m.lights = uint32_t(std::max(lights, 1));
-    track("lights", true);
+    changed |= track("lights", true);
   }
   errorField("lights");
-  track("global radius", ImGui::Checkbox("global radius", &globalRadius_));
+  changed |= track("global radius", ImGui::Checkbox("global radius", &globalRadius_));
   if (globalRadius_) {
-    track("radius",
-          ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene", ImGuiSliderFlags_Logarithmic));
+    changed |= track("radius", ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene",
+                                                  ImGuiSliderFlags_Logarithmic));
     errorField("radius");
   } else {
-    track("radius-scale",
-          ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f", ImGuiSliderFlags_Logarithmic));
+    changed |= track("radius-scale", ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f",
+                                                        ImGuiSliderFlags_Logarithmic));
     errorField("radius-scale");
-    track("knn", ImGui::SliderInt("k (nearest)", &m.knn, 1, 64));
+    changed |= track("knn", ImGui::SliderInt("k (nearest)", &m.knn, 1, 64));
     errorField("knn");
   }
   // Values that make VSL meaningless: spheres as large as the scene blur
@@ -563,39 +571,50 @@ void Studio::controlsPanel() {
   } else if (!globalRadius_ && m.radiusScale > 20) {
     warningText("A radius scale this large makes VSL spheres larger than most scenes: VSL goes dark or black.");
   }
-  track("vsl-samples", ImGui::Checkbox("auto VSL samples", &vslAuto_));
+  changed |= track("vsl-samples", ImGui::Checkbox("auto VSL samples", &vslAuto_));
   if (!vslAuto_)
-    track("vsl-samples", ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
+    changed |= track("vsl-samples",
+                     ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
   errorField("vsl-samples");
-  track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
+  changed |= track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Spread each light's flux over the part of its disk on the receiver's side of the receiver's "
         "tangent plane (less darkening near corners).");
-  track("lobe-radius", ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
+  changed |= track("lobe-radius",
+                   ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
   errorField("lobe-radius");
+  return changed;
+}
+
+// Gather (VSL and VPL), then VPL clamping.
+bool Studio::gatherControls() {
+  bool changed = false;
   sectionTitle("Gather (VSL and VPL)");
-  track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
+  ManyLightSettings& m = settings_.many;
+  changed |= track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Eye paths continue through pure metals with GGX alpha below this instead of gathering "
         "there (near-mirrors reflect the gather at the next surface).");
   errorField("continue-alpha");
-  track("split-alpha", ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
+  changed |= track("split-alpha",
+                   ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
         "continue the eye path with the specular lobe (glossy floors reflect the gather at the next surface).");
   errorField("split-alpha");
   sectionTitle("VPL");
-  track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
+  changed |= track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
   if (!clampOff_) {
     ImGui::SameLine();
-    track("clamp", ImGui::Checkbox("auto bound", &clampAuto_));
+    changed |= track("clamp", ImGui::Checkbox("auto bound", &clampAuto_));
     if (!clampAuto_)
-      track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
+      changed |=
+          track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
@@ -603,40 +622,50 @@ void Studio::controlsPanel() {
         "scene's bounding radius.");
   if (snap_ && !clampOff_ && clampAuto_) ImGui::TextDisabled("auto bound = %.4g", snap_->clampBound);
   errorField("clamp");
-  track("diffuse", ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly));
+  changed |= track("diffuse", ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly));
+  return changed;
+}
 
+bool Studio::renderControls() {
+  bool changed = false;
   sectionTitle("Render");
+  ManyLightSettings& m = settings_.many;
   int seed = int(m.seed);
   if (ImGui::InputInt("seed", &seed)) {
     m.seed = uint64_t(std::max(seed, 0));
-    track("seed", true);
+    changed |= track("seed", true);
   }
   int width = m.width > 0 ? m.width : 256;
   if (ImGui::SliderInt("width", &width, 32, 2048, "%d px", ImGuiSliderFlags_Logarithmic)) {
     m.width = width;
     m.height = 0;  // from the camera's aspect
-    track("width", true);
+    changed |= track("width", true);
   }
   errorField("width");
-  track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
+  changed |= track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
   errorField("batches");
-  track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
+  changed |=
+      track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
         "mean, and from two sets on the table shows each method's bias^2 and noise. 1: one set.");
   errorField("light sets");
-  track("reference spp",
-        ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d", ImGuiSliderFlags_Logarithmic));
+  changed |= track("reference spp", ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d",
+                                                     ImGuiSliderFlags_Logarithmic));
   errorField("reference spp");
+  return changed;
+}
 
+bool Studio::referenceControls() {
+  bool changed = false;
   sectionTitle("Reference");
   ImGui::SetNextItemWidth(-110);
   bool refEnter = ImGui::InputText("##reference", &referencePathInput_, ImGuiInputTextFlags_EnterReturnsTrue);
   ImGui::SameLine();
   if (ImGui::Button("Load reference") || refEnter) {
     settings_.referencePath = referencePathInput_;
-    track("reference", true);
+    changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
@@ -645,12 +674,12 @@ void Studio::controlsPanel() {
   if (!settings_.referencePath.empty() && ImGui::Button("Use cache / live path tracer")) {
     settings_.referencePath.clear();
     referencePathInput_.clear();
-    track("reference", true);
+    changed |= track("reference", true);
   }
   bool background = settings_.backgroundReferenceSpp > 0;
   if (ImGui::Checkbox("render reference in background", &background)) {
     settings_.backgroundReferenceSpp = background ? backgroundSpp_ : 0;
-    track("reference", true);
+    changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
@@ -659,22 +688,13 @@ void Studio::controlsPanel() {
   if (ImGui::SliderInt("background spp", &backgroundSpp_, 64, 65536, "%d", ImGuiSliderFlags_Logarithmic) &&
       background) {
     settings_.backgroundReferenceSpp = backgroundSpp_;
-    track("reference", true);
+    changed |= track("reference", true);
   }
   errorField("reference");
-  // Restarts wait until the controls rest for a moment (a drag pauses, or
-  // typed text is entered): each restart throws away the light set.
-  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
-  if (ImGui::Button("Restart")) restart(true);
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
-  ImGui::SameLine();
-  if (ImGui::Button("Reset to defaults")) {
-    StudioSettings d = options_.defaults ? *options_.defaults : options_.settings;
-    d.scene = settings_.scene;
-    applySettings(d);
-  }
-  for (const char* k : {"seed", "global radius", "diffuse"}) errorField(k);
+  return changed;
+}
 
+void Studio::viewControls() {
   sectionTitle("View");
   int mode = int(view_.mode);
   if (ImGui::Combo("layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
@@ -725,7 +745,9 @@ void Studio::controlsPanel() {
     ImGui::SameLine();
     if (ImGui::SmallButton("clear")) view_.crop = {};
   }
+}
 
+void Studio::exportControls() {
   sectionTitle("Export");
   ImGui::SetNextItemWidth(-1);
   ImGui::InputText("##dir", &exportDir_);
@@ -748,6 +770,29 @@ void Studio::controlsPanel() {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
   if (!message_.empty()) ImGui::TextWrapped("%s", message_.c_str());
+}
+
+void Studio::controlsPanel() {
+  sceneControls();
+  bool changed = virtualLightControls();
+  changed |= gatherControls();
+  changed |= renderControls();
+  changed |= referenceControls();
+  // Restarts wait until the controls rest for a moment (a drag pauses, or
+  // typed text is entered): each restart throws away the light set.
+  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  if (ImGui::Button("Restart")) restart(true);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
+  ImGui::SameLine();
+  if (ImGui::Button("Reset to defaults")) {
+    StudioSettings d = options_.defaults ? *options_.defaults : options_.settings;
+    d.scene = settings_.scene;
+    applySettings(d);
+  }
+  for (const char* k : {"seed", "global radius", "diffuse"}) errorField(k);
+
+  viewControls();
+  exportControls();
 }
 
 // ---- [4] Views -----------------------------------------------------------------------
@@ -833,6 +878,37 @@ void Studio::statusBar() {
         "many-light methods until they finish.");
 }
 
+namespace {
+// The sources whose maps show an error (the methods), as opposed to the
+// reference and the lost-energy images.
+bool isMethod(Source s) { return s != Source::Reference && s != Source::LostClamping && s != Source::LostDiffuse; }
+
+// A stale image is dimmed and badged until its first new picture.
+void staleMark(ImDrawList* dl, ImVec2 p0, ImVec2 p1) {
+  dl->AddRectFilled(p0, p1, IM_COL32(0, 0, 0, 150));
+  const char* badge = "STALE - previous settings";
+  ImVec2 ts = ImGui::CalcTextSize(badge);
+  dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(120, 80, 0, 230));
+  dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
+}
+}  // namespace
+
+// How a panel draws a source: tone-mapped at the exposure, or (a method under
+// a map display) through the map's colours scaled to mapMax.
+DisplayParams Studio::displayParams(Source s, float mapMax) const {
+  DisplayParams p;
+  if (view_.display == Display::Image || !isMethod(s)) {
+    p.mode = DisplayMode::Tonemap;
+    p.scale = std::exp2(view_.exposure);
+  } else {
+    p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
+             : view_.display == Display::Flip ? DisplayMode::Magma
+                                              : DisplayMode::Signed;
+    p.scale = 1.0f / std::max(mapMax, 1e-12f);
+  }
+  return p;
+}
+
 void Studio::viewsPanel() {
   statusBar();
   ImVec2 origin = ImGui::GetCursorScreenPos(), avail = ImGui::GetContentRegionAvail();
@@ -855,36 +931,13 @@ void Studio::viewsPanel() {
   ImVec2 uv0(view_.center.x - half, view_.center.y - half), uv1(view_.center.x + half, view_.center.y + half);
 
   // One colour scale for every map on screen, so panels compare fairly.
-  auto isMethod = [](Source s) {
-    return s != Source::Reference && s != Source::LostClamping && s != Source::LostDiffuse;
-  };
   float sharedMax = 0;
   for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
     if (isMethod(view_.panels[i])) sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
   const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
-  auto params = [&](Source s) {
-    DisplayParams p;
-    if (!maps || !isMethod(s)) {
-      p.mode = DisplayMode::Tonemap;
-      p.scale = std::exp2(view_.exposure);
-    } else {
-      p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
-               : view_.display == Display::Flip ? DisplayMode::Magma
-                                                : DisplayMode::Signed;
-      p.scale = 1.0f / std::max(mapMax, 1e-12f);
-    }
-    return p;
-  };
-  // A stale image is dimmed and badged until its first new picture.
-  auto staleMark = [&](ImVec2 p0, ImVec2 p1) {
-    dl->AddRectFilled(p0, p1, IM_COL32(0, 0, 0, 150));
-    const char* badge = "STALE - previous settings";
-    ImVec2 ts = ImGui::CalcTextSize(badge);
-    dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(120, 80, 0, 230));
-    dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
-  };
+  auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
   for (int i = 0; i < n; ++i) {
     ImVec2 p0(origin.x + i * (panelW + 8) + (panelW - w) / 2, origin.y + labelH);
@@ -896,8 +949,8 @@ void Studio::viewsPanel() {
       if (!flipPending(b)) drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
       drawn_.push_back({ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, b});
-      if (sourceStale(a)) staleMark(p0, ImVec2(sx, p1.y));
-      if (sourceStale(b)) staleMark(ImVec2(sx, p0.y), p1);
+      if (sourceStale(a)) staleMark(dl, p0, ImVec2(sx, p1.y));
+      if (sourceStale(b)) staleMark(dl, ImVec2(sx, p0.y), p1);
       dl->AddLine(ImVec2(sx, p0.y), ImVec2(sx, p1.y), IM_COL32(255, 255, 255, 200), 1.5f);
       dl->AddText(ImVec2(p0.x, origin.y), panelStale(0) ? staleTitle : IM_COL32_WHITE,
                   (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
@@ -911,7 +964,7 @@ void Studio::viewsPanel() {
       }
       drawn_.push_back({p0, p1, uv0, uv1, s});
       bool stale = sourceStale(s);
-      if (stale) staleMark(p0, p1);
+      if (stale) staleMark(dl, p0, p1);
       dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
                   (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
     }
@@ -995,6 +1048,13 @@ void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float pa
   view_.center.x = std::clamp(view_.center.x, half, 1 - half);
   view_.center.y = std::clamp(view_.center.y, half, 1 - half);
 
+  handleViewKeys();
+}
+
+// Keys over the views: T swaps VSL and VPL (or the first two panels), 1-7 put
+// that image in panel 1. Not while text is typed or a popup is open.
+void Studio::handleViewKeys() {
+  ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput || ImGui::IsPopupOpen("", ImGuiPopupFlags_AnyPopupId)) return;
   Source* p = view_.panels;
   const int shown = view_.mode == ViewMode::SideBySide3 ? 3 : view_.mode == ViewMode::Single ? 1 : 2;
@@ -1124,15 +1184,9 @@ void Studio::updateMetrics() {
   livePtMetrics_ = compareImages(live, *ref);
 }
 
-void Studio::metricsPanel() {
-  if (!snap_ || snap_->width == 0) {
-    ImGui::TextUnformatted("No picture yet.");
-    return;
-  }
-  const Snapshot& s = *snap_;
-  updateMetrics();
-  const bool stale = sourceStale(Source::Vsl);
-  ImGui::BeginGroup();
+// The metrics panel's first lines: scene, size and component, throughput,
+// and the UI's own responsiveness.
+void Studio::metricsSummary(const Snapshot& s, bool stale) {
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 480);
   ImGui::Text("%s  |  %dx%d  |  %s component", std::filesystem::path(s.settings.scene).filename().c_str(), s.width,
               s.height, kComponentNames[int(view_.component)]);
@@ -1146,6 +1200,25 @@ void Studio::metricsPanel() {
   ImGui::TextWrapped("UI frame %.1f ms  change -> picture %.0f ms  launch -> picture %.0f ms", lastFrameMs_,
                      restartToPictureMs_, launchToPictureMs_);
   ImGui::PopTextWrapPos();
+}
+
+// Which reference, and how noisy it is.
+void Studio::metricsReferenceNotes(const Snapshot& s) {
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
+  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
+                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
+  char noiseText[48] = "unknown (no halves)";
+  if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
+  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
+                     s.referenceSpp, noiseText);
+  if (s.backgroundSpp > 0 && !s.convergedReference)
+    ImGui::TextWrapped("background reference: %d / %d spp", s.backgroundSpp, s.settings.backgroundReferenceSpp);
+  ImGui::PopTextWrapPos();
+}
+
+// The table of each method's error against the reference: mean, RMSE,
+// relMSE, relMSE at equal time, bias^2 and noise, FLIP.
+void Studio::metricsTable(const Snapshot& s) {
   // A fixed outer width: the table's row lines end at the table, not under the plot.
   // relMSE as compare.h computes it, less the reference's own noise where
   // it is known (the indirect component: relMSE(A, B) / 4 from the
@@ -1306,17 +1379,20 @@ void Studio::metricsPanel() {
     flipCell(4);
     ImGui::EndTable();
   }
-  // Which reference, and how noisy it is.
-  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
-  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
-                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
-  char noiseText[48] = "unknown (no halves)";
-  if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
-  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
-                     s.referenceSpp, noiseText);
-  if (s.backgroundSpp > 0 && !s.convergedReference)
-    ImGui::TextWrapped("background reference: %d / %d spp", s.backgroundSpp, s.settings.backgroundReferenceSpp);
-  ImGui::PopTextWrapPos();
+}
+
+void Studio::metricsPanel() {
+  if (!snap_ || snap_->width == 0) {
+    ImGui::TextUnformatted("No picture yet.");
+    return;
+  }
+  const Snapshot& s = *snap_;
+  updateMetrics();
+  const bool stale = sourceStale(Source::Vsl);
+  ImGui::BeginGroup();
+  metricsSummary(s, stale);
+  metricsTable(s);
+  metricsReferenceNotes(s);
   ImGui::EndGroup();
   ImGui::SameLine(0, 12);
   plotErrors(
@@ -1336,6 +1412,78 @@ std::vector<double> logTicks(double lo, double hi) {
       if (v >= lo * 0.9999 && v <= hi * 1.0001) t.push_back(v);
     }
   return t;
+}
+}  // namespace
+
+namespace {
+// The error plot's log-log axes: time along x, error along y, over the plot
+// area [a, b] on screen.
+struct LogAxes {
+  ImVec2 a, b;
+  double tMin, tMax, eMin, eMax;
+  float X(double t) const {
+    return a.x + float((std::log(t) - std::log(tMin)) / (std::log(tMax) - std::log(tMin))) * (b.x - a.x);
+  }
+  float Y(double e) const {
+    return b.y - float((std::log(e) - std::log(eMin)) / (std::log(eMax) - std::log(eMin))) * (b.y - a.y);
+  }
+};
+
+void drawLogTicks(ImDrawList* dl, const LogAxes& ax) {
+  // Labelled ticks with faint grid lines.
+  char buf[32];
+  float lastLabelY = 1e9f;
+  for (double v : logTicks(ax.eMin, ax.eMax)) {
+    float y = ax.Y(v);
+    if (y > lastLabelY - 13) continue;
+    lastLabelY = y;
+    dl->AddLine(ImVec2(ax.a.x, y), ImVec2(ax.b.x, y), IM_COL32(70, 70, 70, 255));
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    dl->AddText(ImVec2(ax.a.x - 6 - ImGui::CalcTextSize(buf).x, y - 7), IM_COL32_WHITE, buf);
+  }
+  float lastLabelEnd = -1e9f;
+  for (double v : logTicks(ax.tMin, ax.tMax)) {
+    float x = ax.X(v);
+    dl->AddLine(ImVec2(x, ax.a.y), ImVec2(x, ax.b.y), IM_COL32(70, 70, 70, 255));
+    std::snprintf(buf, sizeof buf, "%.3g s", v);
+    float tw = ImGui::CalcTextSize(buf).x;
+    if (x - tw / 2 < lastLabelEnd + 6) continue;  // labels never overlap: skip this one
+    dl->AddText(ImVec2(x - tw / 2, ax.b.y + 2), IM_COL32_WHITE, buf);
+    lastLabelEnd = x + tw / 2;
+  }
+}
+
+// Each method's error against its own time, and the legend in the right margin.
+void drawErrorSeries(ImDrawList* dl, const LogAxes& ax, const std::vector<ErrorSample>& h) {
+  struct Series {
+    const char* name;
+    ImU32 colour;
+    double (*t)(const ErrorSample&);
+    double (*v)(const ErrorSample&);
+  };
+  const Series series[] = {
+      {"VSL", IM_COL32(255, 120, 80, 255), [](const ErrorSample& e) { return e.vslSeconds; },
+       [](const ErrorSample& e) { return e.vsl; }},
+      {"VPL", IM_COL32(90, 160, 255, 255), [](const ErrorSample& e) { return e.vplSeconds; },
+       [](const ErrorSample& e) { return e.vpl; }},
+      {"PT", IM_COL32(120, 220, 120, 255), [](const ErrorSample& e) { return e.ptSeconds; },
+       [](const ErrorSample& e) { return e.pt; }},
+  };
+  float ly = ax.a.y + 2;
+  dl->PushClipRect(ax.a, ax.b, true);
+  for (const Series& sr : series) {
+    std::vector<ImVec2> pts;
+    for (const ErrorSample& e : h)
+      if (sr.t(e) > 0 && sr.v(e) > 0) pts.push_back(ImVec2(ax.X(sr.t(e)), ax.Y(sr.v(e))));
+    if (pts.size() >= 2) dl->AddPolyline(pts.data(), int(pts.size()), sr.colour, 0, 2.0f);
+    for (const ImVec2& q : pts) dl->AddCircleFilled(q, 2.5f, sr.colour);
+  }
+  dl->PopClipRect();
+  // The legend sits in the right margin, outside the curves.
+  for (const Series& sr : series) {
+    dl->AddText(ImVec2(ax.b.x + 8, ly), sr.colour, sr.name);
+    ly += 14;
+  }
 }
 }  // namespace
 
@@ -1361,67 +1509,14 @@ void Studio::plotErrors(const ImVec2& size) {
   if (tMin > tMax || eMin > eMax) return;
   if (!(tMax > tMin * 1.5)) tMin /= 1.5, tMax *= 1.5;
   if (!(eMax > eMin * 1.5)) eMin /= 1.5, eMax *= 1.5;
-  auto X = [&](double t) {
-    return a.x + float((std::log(t) - std::log(tMin)) / (std::log(tMax) - std::log(tMin))) * (b.x - a.x);
-  };
-  auto Y = [&](double e) {
-    return b.y - float((std::log(e) - std::log(eMin)) / (std::log(eMax) - std::log(eMin))) * (b.y - a.y);
-  };
-  // Labelled ticks with faint grid lines.
-  char buf[32];
-  float lastLabelY = 1e9f;
-  for (double v : logTicks(eMin, eMax)) {
-    float y = Y(v);
-    if (y > lastLabelY - 13) continue;
-    lastLabelY = y;
-    dl->AddLine(ImVec2(a.x, y), ImVec2(b.x, y), IM_COL32(70, 70, 70, 255));
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-    dl->AddText(ImVec2(a.x - 6 - ImGui::CalcTextSize(buf).x, y - 7), IM_COL32_WHITE, buf);
-  }
-  float lastLabelEnd = -1e9f;
-  for (double v : logTicks(tMin, tMax)) {
-    float x = X(v);
-    dl->AddLine(ImVec2(x, a.y), ImVec2(x, b.y), IM_COL32(70, 70, 70, 255));
-    std::snprintf(buf, sizeof buf, "%.3g s", v);
-    float tw = ImGui::CalcTextSize(buf).x;
-    if (x - tw / 2 < lastLabelEnd + 6) continue;  // labels never overlap: skip this one
-    dl->AddText(ImVec2(x - tw / 2, b.y + 2), IM_COL32_WHITE, buf);
-    lastLabelEnd = x + tw / 2;
-  }
+  const LogAxes ax{a, b, tMin, tMax, eMin, eMax};
+  drawLogTicks(dl, ax);
   // Equal time: the budget every method has reached.
   if (double tb = equalTimeBudget(h); tb > tMin && tb < tMax) {
-    float x = X(tb);
+    float x = ax.X(tb);
     for (float y = a.y; y < b.y; y += 8) dl->AddLine(ImVec2(x, y), ImVec2(x, std::min(y + 4, b.y)), IM_COL32_WHITE);
   }
-  struct Series {
-    const char* name;
-    ImU32 colour;
-    double (*t)(const ErrorSample&);
-    double (*v)(const ErrorSample&);
-  };
-  const Series series[] = {
-      {"VSL", IM_COL32(255, 120, 80, 255), [](const ErrorSample& e) { return e.vslSeconds; },
-       [](const ErrorSample& e) { return e.vsl; }},
-      {"VPL", IM_COL32(90, 160, 255, 255), [](const ErrorSample& e) { return e.vplSeconds; },
-       [](const ErrorSample& e) { return e.vpl; }},
-      {"PT", IM_COL32(120, 220, 120, 255), [](const ErrorSample& e) { return e.ptSeconds; },
-       [](const ErrorSample& e) { return e.pt; }},
-  };
-  float ly = a.y + 2;
-  dl->PushClipRect(a, b, true);
-  for (const Series& sr : series) {
-    std::vector<ImVec2> pts;
-    for (const ErrorSample& e : h)
-      if (sr.t(e) > 0 && sr.v(e) > 0) pts.push_back(ImVec2(X(sr.t(e)), Y(sr.v(e))));
-    if (pts.size() >= 2) dl->AddPolyline(pts.data(), int(pts.size()), sr.colour, 0, 2.0f);
-    for (const ImVec2& q : pts) dl->AddCircleFilled(q, 2.5f, sr.colour);
-  }
-  dl->PopClipRect();
-  // The legend sits in the right margin, outside the curves.
-  for (const Series& sr : series) {
-    dl->AddText(ImVec2(b.x + 8, ly), sr.colour, sr.name);
-    ly += 14;
-  }
+  drawErrorSeries(dl, ax, h);
 }
 
 // ---- [6] Log ---------------------------------------------------------------------------
@@ -1439,335 +1534,6 @@ void Studio::logPanel() {
   if (ImGui::GetScrollY() >= ImGui::GetScrollMaxY()) ImGui::SetScrollHereY(1.0f);
   ImGui::EndChild();
 }
-
-// ---- [7] Export ------------------------------------------------------------------------
-
-void Studio::afterRender(int fbWidth, int fbHeight) {
-  if (!savePngPending_) return;
-  savePngPending_ = false;
-  int x0 = std::max(0, int(viewMin_.x)), y0 = std::max(0, int(viewMin_.y));
-  int x1 = std::min(fbWidth, int(viewMax_.x)), y1 = std::min(fbHeight, int(viewMax_.y));
-  if (x1 <= x0 || y1 <= y0) return;
-  std::vector<uint8_t> px = readFramebuffer(x0, y0, x1 - x0, y1 - y0, fbHeight);
-  if (Result<void> saved = writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px)) {
-    message_ = "wrote " + savePngPath_;
-    log::info(message_);
-  } else {
-    errorDialog_ = "Saving the view failed; existing files are untouched.\n\n" + saved.error();
-  }
-}
-
-namespace {
-
-const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
-
-// Per-pixel error of test against ref under a metric, averaged over the
-// channels (as the studio's maps show it), in every channel.
-Image errorMap(const Image& test, const Image& ref, ErrorMetric metric) {
-  Image m(test.width, test.height);
-  const float eps = mapEpsilon(ref);
-  for (size_t i = 0; i + 2 < test.rgb.size(); i += 3) {
-    float e = 0;
-    for (int c = 0; c < 3; ++c) {
-      float r = ref.rgb[i + c], d = test.rgb[i + c] - r;
-      float v = metricError(d, r, metric, eps);
-      e += std::isfinite(v) ? v / 3 : 0.0f;
-    }
-    m.rgb[i] = m.rgb[i + 1] = m.rgb[i + 2] = e;
-  }
-  return m;
-}
-
-// An error map in false colour (0 black ... vmax white), with a colour bar in
-// 16 rows below it.
-std::vector<uint8_t> falseColourWithBar(const Image& map, float vmax, int* rows) {
-  return colourMapWithBar(map, falseColour, vmax, rows);
-}
-
-std::string firstLineOf(const char* path, const std::string& key) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind(key, 0) == 0) {
-      size_t c = line.find(':');
-      std::string v = c == std::string::npos ? line : line.substr(c + 1);
-      v.erase(0, v.find_first_not_of(" \t"));
-      return v;
-    }
-  return "";
-}
-
-nlohmann::json machineJson() {
-  return {{"cpu", firstLineOf("/proc/cpuinfo", "model name")},
-          {"hardwareThreads", std::thread::hardware_concurrency()},
-          {"renderThreads", threadCount()},
-          {"memory", firstLineOf("/proc/meminfo", "MemTotal")}};
-}
-
-std::string utcStamp() {
-  std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%SZ", &tm);
-  return buf;
-}
-
-}  // namespace
-
-std::string Studio::exportStem() const {
-  std::string scene = snap_ ? snap_->settings.scene : settings_.scene;
-  return std::filesystem::path(scene).stem().string() + "-" + utcStamp();
-}
-
-std::string Studio::uniquePath(const std::string& dir, const std::string& stem, const std::string& ext) {
-  std::filesystem::path p = std::filesystem::path(dir) / (stem + ext);
-  for (int k = 2; std::filesystem::exists(p); ++k)
-    p = std::filesystem::path(dir) / (stem + "-" + std::to_string(k) + ext);
-  return p.string();
-}
-
-Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>* written, std::string* folderOut) {
-  auto fail = [](const std::string& e) -> Result<void> { return Error(e); };
-  if (!snap_ || snap_->width == 0) return fail("nothing to export yet");
-  const Snapshot& s = *snap_;
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) return fail(dir + ": cannot create the directory (" + ec.message() + ")");
-  // A new folder per export; create_directory fails if it exists, so two
-  // exports in the same second (or two studios) never share one.
-  const std::string stem = exportStem();
-  std::filesystem::path folder;
-  for (int k = 1;; ++k) {
-    folder = std::filesystem::path(dir) / (k == 1 ? stem : stem + "-" + std::to_string(k));
-    if (std::filesystem::create_directory(folder, ec)) break;
-    if (ec) return fail(folder.string() + ": cannot create the directory (" + ec.message() + ")");
-    if (k > 1000) return fail(folder.string() + ": too many exports with this name");
-  }
-  std::vector<std::string> files;
-  auto path = [&](const std::string& name) { return (folder / name).string(); };
-
-  // Every layer, linear, in one EXR.
-  Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl),
-        vplFull = add(s.many.direct, s.many.vpl);
-  ErrorImages ev = errorImages(s.many.vsl, s.refIndirect), ep = errorImages(s.many.vpl, s.refIndirect);
-  std::vector<Layer> layers = {{"", vslFull},
-                               {"vsl-full", vslFull},
-                               {"vsl-indirect", s.many.vsl},
-                               {"vpl-full", vplFull},
-                               {"vpl-indirect", s.many.vpl},
-                               {"direct", s.many.direct},
-                               {"pt-full", ptFull},
-                               {"pt-direct", s.ptDirect},
-                               {"pt-indirect", s.ptIndirect},
-                               {"reference-full", add(s.refDirect, s.refIndirect)},
-                               {"reference-indirect", s.refIndirect},
-                               {"vpl-unclamped-indirect", s.many.vplUnclamped},
-                               {"vpl-diffuse-indirect", s.many.vplDiffuse},
-                               {"lost-to-clamping", s.many.lostToClamping},
-                               {"lost-to-diffuse", s.many.lostToDiffuse},
-                               {"error-vsl-signed", ev.signedDiff},
-                               {"error-vsl-relsq", ev.relSquared},
-                               {"error-vpl-signed", ep.signedDiff},
-                               {"error-vpl-relsq", ep.relSquared}};
-  if (Result<void> w = writeExr(path("images.exr"), layers,
-                                {{"vsl.version", VSL_VERSION},
-                                 {"vsl.scene", s.settings.scene},
-                                 {"vsl.settings", s.settings.many.describe()}});
-      !w)
-    return fail(w.error());
-  files.push_back(path("images.exr"));
-
-  // Every image at the render's resolution, the shown component and exposure.
-  const char* comp = componentName(view_.component);
-  for (int i = 0; i < int(Source::Count); ++i) {
-    Image scratch;
-    const Image* img = componentImage(Source(i), view_.component, scratch);
-    std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
-    if (Result<void> w = writePng(path(name), *img, view_.exposure); !w) return fail(w.error());
-    files.push_back(path(name));
-  }
-  // Error maps of each method on one shared scale (set by hand, or the
-  // largest 99th percentile), with a colour bar.
-  Image refScratch;
-  const Image* ref = referenceImage(view_.component, refScratch);
-  std::vector<Image> maps;
-  float vmax = view_.errorScale, autoMax = 0;
-  for (Source m : kMetricSources) {
-    Image scratch;
-    maps.push_back(errorMap(*componentImage(m, view_.component, scratch), *ref, view_.metric));
-    autoMax = std::max(autoMax, percentile99(maps.back()));
-  }
-  if (!(vmax > 0)) vmax = autoMax > 0 ? autoMax : 1.0f;
-  for (size_t i = 0; i < maps.size(); ++i) {
-    int rows = 0;
-    std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
-    std::string name =
-        "error-" + sourceSlug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
-    if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
-    files.push_back(path(name));
-  }
-
-  // FLIP maps through magma with a bar: the asynchronous ones when they
-  // belong to this picture, component and exposure, else computed here (an
-  // export may take a moment; a frame never does).
-  const FlipNumbers flip = flipMeans() ? *flip_ : computeFlip(s, view_.component, view_.exposure);
-  nlohmann::json flipJson = {{"metric", "LDR-FLIP, mean pooled"},
-                             {"component", comp},
-                             {"exposure", view_.exposure},
-                             {"pixelsPerDegree", kFlipPixelsPerDegree}};
-  for (size_t i = 0; i < std::size(kMetricSources); ++i) {
-    int rows = 0;
-    std::vector<uint8_t> px = magmaWithBar(flip.map[i], &rows);
-    std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
-    if (Result<void> w = writePngRgb8(path(name), s.width, rows, px); !w) return fail(w.error());
-    files.push_back(path(name));
-    flipJson["mean"][sourceName(kMetricSources[i])] = flip.mean[i];
-  }
-  if (s.convergedReference) flipJson["mean"]["Path tracer (live)"] = flip.mean[4];
-
-  nlohmann::json cropJson = nullptr;
-  if (!view_.crop.empty()) {
-    Image full;
-    const Image* refFull = referenceImage(view_.component, full);
-    if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return w;
-  }
-
-  nlohmann::json metrics;
-  for (Source src : kMetricSources) {
-    for (Component c : {Component::Full, Component::Indirect}) {
-      Image sc, rs;
-      CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
-      metrics[sourceName(src)][componentName(c)] = {
-          {"mean", r.average.meanTest}, {"rmse", r.average.rmse}, {"relMSE", r.average.relMse}};
-    }
-  }
-  nlohmann::json hist = nlohmann::json::array();
-  for (const ErrorSample& e : s.history)
-    hist.push_back({{"manySeconds", e.manySeconds},
-                    {"vslSeconds", e.vslSeconds},
-                    {"vplSeconds", e.vplSeconds},
-                    {"vsl", e.vsl},
-                    {"vpl", e.vpl},
-                    {"ptSeconds", e.ptSeconds},
-                    {"pt", e.pt},
-                    {"referenceNoiseSubtracted", e.referenceNoise}});
-  // The reference every number is measured against, and its own noise.
-  const double budget = equalTimeBudget(s.history);
-  auto finiteOrNull = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  nlohmann::json reference = {
-      {"source", s.referenceSource},
-      {"converged", s.convergedReference},
-      {"spp", s.referenceSpp},
-      {"indirectNoiseRelMSE", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
-      {"noiseEstimate", "relMSE(A, B) / 4 from two independent halves; subtracted from errorHistory"},
-      {"livePathTracerSpp", s.ptSpp}};
-  nlohmann::json equalTime = {{"budgetSeconds", budget},
-                              {"vsl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vsl, budget))},
-                              {"vpl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vpl, budget))},
-                              {"pt", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Pt, budget))}};
-  // Bias against noise of each method's indirect image (session.h,
-  // BiasNoise), where measured: null for a method with fewer than two
-  // independent estimates.
-  nlohmann::json biasNoise = {
-      {"definition",
-       "compare.h biasVariance over K independent estimates (light sets; the path tracer's two halves) against the "
-       "reference: bias2 = mean(w ((m - ref)^2 - s^2/K)), variance = mean(w s^2) of one estimate, relMSE of their "
-       "mean; w = 1/(ref^2 + eps), the indirect component"},
-      {"referenceNoise", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
-      {"lightSetsDone", s.lightSetsDone}};
-  const char* biasRows[] = {"VSL", "VPL (clamped)", "VPL unclamped", "VPL diffuse-only", "Path tracer (live)"};
-  for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
-    const BiasNoise& b = s.biasNoise[i];
-    biasNoise["methods"][biasRows[i]] =
-        b.renders < 2 ? nlohmann::json(nullptr)
-                      : nlohmann::json({{"renders", b.renders},
-                                        {"bias2", b.bias2},
-                                        {"variance", b.variance},
-                                        {"relMSE", b.relMse},
-                                        {"bias2MinusReferenceNoise", s.referenceNoise >= 0
-                                                                         ? nlohmann::json(b.bias2 - s.referenceNoise)
-                                                                         : nlohmann::json(nullptr)}});
-  }
-  const ManyLightSettings& m = s.settings.many;
-  // The clamp as resolved: its mode and the bound actually used.
-  nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
-  clamp["bound"] = std::isinf(m.clamp) ? nlohmann::json(nullptr) : nlohmann::json(s.clampBound);
-  nlohmann::json j = {{"version", VSL_VERSION},
-                      {"scene", s.settings.scene},
-                      {"exportedUtc", utcStamp()},
-                      {"replay", "vsl render " + s.settings.scene + " --method all " + m.describe()},
-                      {"settings",
-                       {{"lights", m.lights},
-                        {"radius",
-                         {{"mode", m.globalRadius > 0 ? "global" : "knn"},
-                          {"scale", m.radiusScale},
-                          {"knn", m.knn},
-                          {"globalFraction", m.globalRadius},
-                          {"sceneRadius", s.sceneRadius},
-                          {"min", s.radiusMin},
-                          {"median", s.radiusMedian},
-                          {"max", s.radiusMax}}},
-                        {"vslSamples",
-                         {{"setting", m.vslSamples > 0 ? nlohmann::json(m.vslSamples) : nlohmann::json("auto")},
-                          {"meanPerPair", s.pairs ? double(s.vslEvaluations) / double(s.pairs) : 0.0}}},
-                        {"clamp", clamp},
-                        {"diffuseOnly", m.diffuseOnly},
-                        {"seed", m.seed},
-                        {"batches", m.batches},
-                        {"directSamples", m.directSamples},
-                        {"lightMaxDepth", m.lightMaxDepth},
-                        {"maxReferenceSpp", s.settings.maxReferenceSpp},
-                        {"lightSets", s.settings.lightSets}}},
-                      {"width", s.width},
-                      {"height", s.height},
-                      {"samples",
-                       {{"lightSetsDone", s.lightSetsDone},
-                        {"lightSets", s.lightSets},
-                        {"lightsTraced", s.lightsTotal},
-                        {"lightsGathered", s.lightsProcessed},
-                        {"batchesDone", s.batchesDone},
-                        {"batchCount", s.batchCount},
-                        {"referenceSpp", s.ptSpp},
-                        {"pairs", s.pairs},
-                        {"vslEvaluations", s.vslEvaluations}}},
-                      {"timings",
-                       {{"wallSeconds", s.seconds},
-                        {"lightTracingSeconds", s.lightTracingSeconds},
-                        {"knnSeconds", s.knnSeconds},
-                        {"gatherSeconds", s.gatherSeconds},
-                        {"vslOwnSeconds", s.vslSeconds},
-                        {"vplOwnSeconds", s.vplSeconds},
-                        {"referenceSeconds", s.referenceSeconds},
-                        {"pairsPerSecond", s.pairsPerSecond}}},
-                      {"machine", machineJson()},
-                      {"complete", {{"manyLight", s.manyLightDone}, {"reference", s.referenceDone}}},
-                      {"nonFiniteRejected", s.nonFinite},
-                      {"view",
-                       {{"component", comp},
-                        {"exposure", view_.exposure},
-                        {"errorMetric", kMetricNames[int(view_.metric)]},
-                        {"errorMapMax", vmax}}},
-                      {"metricsAgainstReference", metrics},
-                      {"relMseEpsilon", mapEps_},
-                      {"relMseEpsilonMode", "relative: 0.01 x the reference's mean luminance^2"},
-                      {"crop", cropJson},
-                      {"reference", reference},
-                      {"equalTimeIndirect", equalTime},
-                      {"flip", flipJson},
-                      {"biasNoiseIndirect", biasNoise},
-                      {"errorHistory", hist}};
-  if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
-  files.push_back(path("metrics.json"));
-  if (written) *written = files;
-  if (folderOut) *folderOut = folder.string();
-  log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
-  return {};
-}
-
-}  // namespace vsl::ui
-
-namespace vsl::ui {
 
 // ---- [8] Crop insets -------------------------------------------------------------------
 
@@ -1922,160 +1688,6 @@ void Studio::cropsPanel() {
     ImGui::EndGroup();
   }
   ImGui::EndChild();
-}
-
-namespace {
-
-// 8-bit RGB pictures for the crop files and figure.
-struct Rgb8 {
-  int w = 0, h = 0;
-  std::vector<uint8_t> px;
-  Rgb8(int width, int height, uint8_t fill = 20) : w(width), h(height), px(size_t(width) * height * 3, fill) {}
-  uint8_t* at(int x, int y) { return &px[(size_t(y) * w + x) * 3]; }
-  const uint8_t* at(int x, int y) const { return &px[(size_t(y) * w + x) * 3]; }
-};
-
-Rgb8 toneMapped(const Image& img, float exposure) {
-  Rgb8 out(img.width, img.height);
-  const float s = std::exp2(exposure);
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) {
-      Vec3 v = img.at(x, y) * s;
-      uint8_t* q = out.at(x, y);
-      q[0] = toSrgb8(v.x), q[1] = toSrgb8(v.y), q[2] = toSrgb8(v.z);
-    }
-  return out;
-}
-
-Rgb8 falseColoured(const Image& map, float vmax) {
-  Rgb8 out(map.width, map.height);
-  for (int y = 0; y < map.height; ++y)
-    for (int x = 0; x < map.width; ++x) {
-      Vec3 m = map.at(x, y);
-      Vec3 c = falseColour((m.x + m.y + m.z) / 3 / std::max(vmax, 1e-12f));
-      uint8_t* q = out.at(x, y);
-      q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
-      q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
-      q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
-    }
-  return out;
-}
-
-// Nearest neighbour: every pixel becomes an f x f block.
-Rgb8 magnified(const Rgb8& in, int f) {
-  Rgb8 out(in.w * f, in.h * f);
-  for (int y = 0; y < out.h; ++y)
-    for (int x = 0; x < out.w; ++x) std::copy_n(in.at(x / f, y / f), 3, out.at(x, y));
-  return out;
-}
-
-void blit(Rgb8& dst, const Rgb8& src, int x0, int y0) {
-  for (int y = 0; y < src.h; ++y)
-    for (int x = 0; x < src.w; ++x)
-      if (x0 + x < dst.w && y0 + y < dst.h) std::copy_n(src.at(x, y), 3, dst.at(x0 + x, y0 + y));
-}
-
-// A frame `t` pixels wide just outside the rectangle (inside where it meets
-// the image's border).
-void outline(Rgb8& img, const CropRect& r, int t) {
-  const int x0 = std::max(r.x - t, 0), y0 = std::max(r.y - t, 0);
-  const int x1 = std::min(r.x + r.w + t, img.w), y1 = std::min(r.y + r.h + t, img.h);
-  for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x) {
-      const bool inside = x >= std::max(r.x, t) && x < std::min(r.x + r.w, img.w - t) && y >= std::max(r.y, t) &&
-                          y < std::min(r.y + r.h, img.h - t);
-      if (inside) continue;
-      uint8_t* q = img.at(x, y);
-      q[0] = 255, q[1] = 210, q[2] = 0;
-    }
-}
-
-}  // namespace
-
-// Writes crop-<image>-<component>.png (each image and error map, magnified
-// by an integer factor, nearest neighbour) and crop-figure-<component>.png
-// (the reference with the rectangle outlined, then the crops side by side:
-// top row the reference and the methods, bottom row the methods' error
-// maps; at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
-// *out.
-Result<void> Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
-                                 std::vector<std::string>* files) const {
-  const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
-  if (r.empty())
-    return Error("crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
-                 std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
-                 std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image");
-  if (r.w != view_.crop.w || r.h != view_.crop.h)
-    log::warning("crop clipped to the image: " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
-                 std::to_string(r.w) + "," + std::to_string(r.h));
-  float vmax = 1;
-  std::vector<CropItem> items = buildCrops(r, view_.component, &vmax);
-  const int f = cropMagnification(r);
-  const char* comp = componentName(view_.component);
-  const std::string metricSlug = kMetricSlugs[int(view_.metric)];
-  std::vector<Rgb8> tiles;
-  nlohmann::json names = nlohmann::json::object();
-  for (const CropItem& c : items) {
-    tiles.push_back(c.error ? falseColoured(c.image, vmax) : toneMapped(c.image, view_.exposure));
-    std::string name = c.error ? "crop-error-" + sourceSlug(c.source) + "-" + metricSlug + "-" + comp + ".png"
-                               : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
-    Rgb8 big = magnified(tiles.back(), f);
-    const std::string path = (std::filesystem::path(folder) / name).string();
-    if (Result<void> w = writePngRgb8(path, big.w, big.h, big.px); !w) return w;
-    files->push_back(path);
-    names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
-  }
-  // The figure: the reference magnified `scale` times (at least 512 pixels
-  // tall, at most 8x), and beside it the crops at the largest integer factor
-  // that fits two rows in that height (at least 1x).
-  const int gap = 8, scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
-  const int fullW = full.width * scale, fullH = full.height * scale;
-  const int fig = std::max(1, (fullH - gap) / (2 * r.h));
-  const int cw = r.w * fig, ch = r.h * fig, columns = 1 + int(std::size(kMetricSources));
-  Rgb8 figure(fullW + gap + columns * (cw + gap), std::max(fullH, 2 * ch + gap));
-  Rgb8 whole = toneMapped(full, view_.exposure);
-  outline(whole, r, scale > 1 ? 1 : 2);
-  blit(figure, magnified(whole, scale), 0, 0);
-  for (size_t i = 0; i < tiles.size(); ++i) {
-    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
-    blit(figure, magnified(tiles[i], fig), fullW + gap + col * (cw + gap), row * (ch + gap));
-  }
-  const std::string figName = std::string("crop-figure-") + comp + ".png";
-  const std::string figPath = (std::filesystem::path(folder) / figName).string();
-  if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) return w;
-  files->push_back(figPath);
-
-  // The crops' metrics for the full and indirect components (as the whole
-  // image's), each method's crop against the reference's crop.
-  nlohmann::json metrics;
-  for (Component c : {Component::Full, Component::Indirect}) {
-    for (const CropItem& item : buildCrops(r, c, nullptr)) {
-      if (!item.hasMetrics || item.error) continue;
-      const ChannelMetrics& a = item.metrics.average;
-      metrics[sourceName(item.source)][componentName(c)] = {
-          {"mean", a.meanTest}, {"meanReference", a.meanRef}, {"rmse", a.rmse}, {"relMSE", a.relMse}};
-    }
-  }
-  *out = {{"x", r.x},
-          {"y", r.y},
-          {"width", r.w},
-          {"height", r.h},
-          {"imageWidth", snap_->width},
-          {"imageHeight", snap_->height},
-          {"magnification", f},
-          {"component", comp},
-          {"errorMetric", kMetricNames[int(view_.metric)]},
-          {"errorMapMax", vmax},
-          {"files", names},
-          {"figure", figName},
-          {"figureMagnification", fig},
-          {"figureScale", scale},
-          {"figureLayout",
-           "left: the reference (magnified figureScale times) with the crop outlined; right, magnified "
-           "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
-           "bottom row: the methods' error maps"},
-          {"metricsAgainstReferenceCrop", metrics}};
-  return {};
 }
 
 }  // namespace vsl::ui

@@ -18,6 +18,7 @@
 #include "core/compare.h"
 #include "core/math.h"
 #include "core/session.h"
+#include "core/stopwatch.h"
 #include "ui/gl_image.h"
 
 namespace vsl::ui {
@@ -186,14 +187,35 @@ class Studio {
 
  private:
   void controlsPanel();
+  // controlsPanel's sections, top to bottom; those returning bool return
+  // whether a setting changed (a restart follows once the controls rest).
+  void sceneControls();
+  bool virtualLightControls();
+  bool gatherControls();
+  bool renderControls();
+  bool referenceControls();
+  void viewControls();
+  void exportControls();
+  bool track(const char* key, bool c);
   void viewsPanel();
+  DisplayParams displayParams(Source s, float mapMax) const;
   void metricsPanel();
+  // metricsPanel's parts, top to bottom.
+  void metricsSummary(const Snapshot& s, bool stale);
+  void metricsTable(const Snapshot& s);
+  void metricsReferenceNotes(const Snapshot& s);
   void logPanel();
   void cropsPanel();
   void updateCrops();
   void drawCropOutline(ImDrawList* dl);
   Result<void> exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
                            std::vector<std::string>* files) const;
+  // exportAll's parts (studio_export.cpp): the PNGs and error maps (returns
+  // the error maps' scale), the FLIP maps (returns their JSON), metrics.json.
+  Result<float> exportPictures(const std::string& folder, std::vector<std::string>* files) const;
+  Result<nlohmann::json> exportFlipMaps(const std::string& folder, std::vector<std::string>* files) const;
+  nlohmann::json exportMetricsJson(float errorMapMax, const nlohmann::json& flipJson,
+                                   const nlohmann::json& cropJson) const;
   void plotErrors(const ImVec2& size);
   void restart(bool fromScratch = false);
   void pullSnapshot();
@@ -201,6 +223,7 @@ class Studio {
   void statusBar();
   void probe(const ImVec2& mouse);
   void handleViewInput(const ImVec2& origin, const ImVec2& avail, float panelW, float w, float h, int n);
+  void handleViewKeys();
   void errorField(const char* key);
   bool pixelValue(Source s, Component c, int x, int y, Vec3* out) const;
   std::string exportStem() const;  // <scene>-<UTC timestamp>
@@ -282,7 +305,7 @@ class Studio {
   const Snapshot* cropsFor_ = nullptr;
   ViewState cropsView_;
   // Responsiveness, measured on the UI thread.
-  std::chrono::steady_clock::time_point created_ = std::chrono::steady_clock::now(), restartedAt_ = created_;
+  Stopwatch sinceLaunch_, sinceRestart_ = sinceLaunch_;
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
   double launchToPictureMs_ = -1, restartToPictureMs_ = -1;
 };

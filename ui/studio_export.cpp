@@ -1,0 +1,567 @@
+// The studio's exports: the shown view as PNG, and exportAll's folder (EXR
+// layers, PNGs, error and FLIP maps, crops, metrics.json).
+// Sections: [1] saving the view  [2] helpers  [3] exportAll and its parts
+//           [4] crop files and figure
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "core/flip.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "ui/headless_gl.h"
+#include "ui/studio.h"
+#include "ui/studio_internal.h"
+
+namespace vsl::ui {
+
+namespace studio_detail {
+
+Image errorMap(const Image& test, const Image& ref, ErrorMetric metric) {
+  Image m(test.width, test.height);
+  const float eps = mapEpsilon(ref);
+  for (size_t i = 0; i + 2 < test.rgb.size(); i += 3) {
+    float e = 0;
+    for (int c = 0; c < 3; ++c) {
+      float r = ref.rgb[i + c], d = test.rgb[i + c] - r;
+      float v = metricError(d, r, metric, eps);
+      e += std::isfinite(v) ? v / 3 : 0.0f;
+    }
+    m.rgb[i] = m.rgb[i + 1] = m.rgb[i + 2] = e;
+  }
+  return m;
+}
+
+}  // namespace studio_detail
+
+using namespace studio_detail;
+
+// ---- [1] Saving the view -------------------------------------------------------------
+
+void Studio::afterRender(int fbWidth, int fbHeight) {
+  if (!savePngPending_) return;
+  savePngPending_ = false;
+  int x0 = std::max(0, int(viewMin_.x)), y0 = std::max(0, int(viewMin_.y));
+  int x1 = std::min(fbWidth, int(viewMax_.x)), y1 = std::min(fbHeight, int(viewMax_.y));
+  if (x1 <= x0 || y1 <= y0) return;
+  std::vector<uint8_t> px = readFramebuffer(x0, y0, x1 - x0, y1 - y0, fbHeight);
+  if (Result<void> saved = writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px)) {
+    message_ = "wrote " + savePngPath_;
+    log::info(message_);
+  } else {
+    errorDialog_ = "Saving the view failed; existing files are untouched.\n\n" + saved.error();
+  }
+}
+
+// ---- [2] Helpers ---------------------------------------------------------------------
+
+namespace {
+
+const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
+
+// An error map in false colour (0 black ... vmax white), with a colour bar in
+// 16 rows below it.
+std::vector<uint8_t> falseColourWithBar(const Image& map, float vmax, int* rows) {
+  return colourMapWithBar(map, falseColour, vmax, rows);
+}
+
+std::string firstLineOf(const char* path, const std::string& key) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(key, 0) == 0) {
+      size_t c = line.find(':');
+      std::string v = c == std::string::npos ? line : line.substr(c + 1);
+      v.erase(0, v.find_first_not_of(" \t"));
+      return v;
+    }
+  return "";
+}
+
+nlohmann::json machineJson() {
+  return {{"cpu", firstLineOf("/proc/cpuinfo", "model name")},
+          {"hardwareThreads", std::thread::hardware_concurrency()},
+          {"renderThreads", threadCount()},
+          {"memory", firstLineOf("/proc/meminfo", "MemTotal")}};
+}
+
+std::string utcStamp() {
+  std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%SZ", &tm);
+  return buf;
+}
+
+}  // namespace
+
+std::string Studio::exportStem() const {
+  std::string scene = snap_ ? snap_->settings.scene : settings_.scene;
+  return std::filesystem::path(scene).stem().string() + "-" + utcStamp();
+}
+
+std::string Studio::uniquePath(const std::string& dir, const std::string& stem, const std::string& ext) {
+  std::filesystem::path p = std::filesystem::path(dir) / (stem + ext);
+  for (int k = 2; std::filesystem::exists(p); ++k)
+    p = std::filesystem::path(dir) / (stem + "-" + std::to_string(k) + ext);
+  return p.string();
+}
+
+// ---- [3] exportAll and its parts -------------------------------------------------------
+
+namespace {
+
+// A new folder per export under dir; create_directory fails if it exists, so
+// two exports in the same second (or two studios) never share one.
+Result<std::filesystem::path> makeExportFolder(const std::string& dir, const std::string& stem) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return Error(dir + ": cannot create the directory (" + ec.message() + ")");
+  std::filesystem::path folder;
+  for (int k = 1;; ++k) {
+    folder = std::filesystem::path(dir) / (k == 1 ? stem : stem + "-" + std::to_string(k));
+    if (std::filesystem::create_directory(folder, ec)) break;
+    if (ec) return Error(folder.string() + ": cannot create the directory (" + ec.message() + ")");
+    if (k > 1000) return Error(folder.string() + ": too many exports with this name");
+  }
+  return folder;
+}
+
+// Every layer, linear, in one EXR.
+Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
+  Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl),
+        vplFull = add(s.many.direct, s.many.vpl);
+  ErrorImages ev = errorImages(s.many.vsl, s.refIndirect), ep = errorImages(s.many.vpl, s.refIndirect);
+  std::vector<Layer> layers = {{"", vslFull},
+                               {"vsl-full", vslFull},
+                               {"vsl-indirect", s.many.vsl},
+                               {"vpl-full", vplFull},
+                               {"vpl-indirect", s.many.vpl},
+                               {"direct", s.many.direct},
+                               {"pt-full", ptFull},
+                               {"pt-direct", s.ptDirect},
+                               {"pt-indirect", s.ptIndirect},
+                               {"reference-full", add(s.refDirect, s.refIndirect)},
+                               {"reference-indirect", s.refIndirect},
+                               {"vpl-unclamped-indirect", s.many.vplUnclamped},
+                               {"vpl-diffuse-indirect", s.many.vplDiffuse},
+                               {"lost-to-clamping", s.many.lostToClamping},
+                               {"lost-to-diffuse", s.many.lostToDiffuse},
+                               {"error-vsl-signed", ev.signedDiff},
+                               {"error-vsl-relsq", ev.relSquared},
+                               {"error-vpl-signed", ep.signedDiff},
+                               {"error-vpl-relsq", ep.relSquared}};
+  return writeExr(
+      path, layers,
+      {{"vsl.version", VSL_VERSION}, {"vsl.scene", s.settings.scene}, {"vsl.settings", s.settings.many.describe()}});
+}
+
+nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+nlohmann::json historyJson(const std::vector<ErrorSample>& history) {
+  nlohmann::json hist = nlohmann::json::array();
+  for (const ErrorSample& e : history)
+    hist.push_back({{"manySeconds", e.manySeconds},
+                    {"vslSeconds", e.vslSeconds},
+                    {"vplSeconds", e.vplSeconds},
+                    {"vsl", e.vsl},
+                    {"vpl", e.vpl},
+                    {"ptSeconds", e.ptSeconds},
+                    {"pt", e.pt},
+                    {"referenceNoiseSubtracted", e.referenceNoise}});
+  return hist;
+}
+
+// The reference every number is measured against, and its own noise.
+nlohmann::json referenceJson(const Snapshot& s) {
+  return {{"source", s.referenceSource},
+          {"converged", s.convergedReference},
+          {"spp", s.referenceSpp},
+          {"indirectNoiseRelMSE", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
+          {"noiseEstimate", "relMSE(A, B) / 4 from two independent halves; subtracted from errorHistory"},
+          {"livePathTracerSpp", s.ptSpp}};
+}
+
+nlohmann::json equalTimeJson(const Snapshot& s) {
+  const double budget = equalTimeBudget(s.history);
+  return {{"budgetSeconds", budget},
+          {"vsl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vsl, budget))},
+          {"vpl", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Vpl, budget))},
+          {"pt", finiteOrNull(errorAtOwnTime(s.history, StudioMethod::Pt, budget))}};
+}
+
+// Bias against noise of each method's indirect image (session.h,
+// BiasNoise), where measured: null for a method with fewer than two
+// independent estimates.
+nlohmann::json biasNoiseJson(const Snapshot& s) {
+  nlohmann::json biasNoise = {
+      {"definition",
+       "compare.h biasVariance over K independent estimates (light sets; the path tracer's two halves) against the "
+       "reference: bias2 = mean(w ((m - ref)^2 - s^2/K)), variance = mean(w s^2) of one estimate, relMSE of their "
+       "mean; w = 1/(ref^2 + eps), the indirect component"},
+      {"referenceNoise", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
+      {"lightSetsDone", s.lightSetsDone}};
+  const char* biasRows[] = {"VSL", "VPL (clamped)", "VPL unclamped", "VPL diffuse-only", "Path tracer (live)"};
+  for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
+    const BiasNoise& b = s.biasNoise[i];
+    biasNoise["methods"][biasRows[i]] =
+        b.renders < 2 ? nlohmann::json(nullptr)
+                      : nlohmann::json({{"renders", b.renders},
+                                        {"bias2", b.bias2},
+                                        {"variance", b.variance},
+                                        {"relMSE", b.relMse},
+                                        {"bias2MinusReferenceNoise", s.referenceNoise >= 0
+                                                                         ? nlohmann::json(b.bias2 - s.referenceNoise)
+                                                                         : nlohmann::json(nullptr)}});
+  }
+  return biasNoise;
+}
+
+// The render's settings, with the radii and the clamp as resolved.
+nlohmann::json settingsJson(const Snapshot& s) {
+  const ManyLightSettings& m = s.settings.many;
+  // The clamp as resolved: its mode and the bound actually used.
+  nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
+  clamp["bound"] = std::isinf(m.clamp) ? nlohmann::json(nullptr) : nlohmann::json(s.clampBound);
+  return {{"lights", m.lights},
+          {"radius",
+           {{"mode", m.globalRadius > 0 ? "global" : "knn"},
+            {"scale", m.radiusScale},
+            {"knn", m.knn},
+            {"globalFraction", m.globalRadius},
+            {"sceneRadius", s.sceneRadius},
+            {"min", s.radiusMin},
+            {"median", s.radiusMedian},
+            {"max", s.radiusMax}}},
+          {"vslSamples",
+           {{"setting", m.vslSamples > 0 ? nlohmann::json(m.vslSamples) : nlohmann::json("auto")},
+            {"meanPerPair", s.pairs ? double(s.vslEvaluations) / double(s.pairs) : 0.0}}},
+          {"clamp", clamp},
+          {"diffuseOnly", m.diffuseOnly},
+          {"seed", m.seed},
+          {"batches", m.batches},
+          {"directSamples", m.directSamples},
+          {"lightMaxDepth", m.lightMaxDepth},
+          {"maxReferenceSpp", s.settings.maxReferenceSpp},
+          {"lightSets", s.settings.lightSets}};
+}
+
+// How far the render got, and what it took.
+nlohmann::json samplesJson(const Snapshot& s) {
+  return {{"lightSetsDone", s.lightSetsDone},  {"lightSets", s.lightSets},
+          {"lightsTraced", s.lightsTotal},     {"lightsGathered", s.lightsProcessed},
+          {"batchesDone", s.batchesDone},      {"batchCount", s.batchCount},
+          {"referenceSpp", s.ptSpp},           {"pairs", s.pairs},
+          {"vslEvaluations", s.vslEvaluations}};
+}
+
+nlohmann::json timingsJson(const Snapshot& s) {
+  return {{"wallSeconds", s.seconds},
+          {"lightTracingSeconds", s.lightTracingSeconds},
+          {"knnSeconds", s.knnSeconds},
+          {"gatherSeconds", s.gatherSeconds},
+          {"vslOwnSeconds", s.vslSeconds},
+          {"vplOwnSeconds", s.vplSeconds},
+          {"referenceSeconds", s.referenceSeconds},
+          {"pairsPerSecond", s.pairsPerSecond}};
+}
+
+}  // namespace
+
+// Every image at the render's resolution, the shown component and exposure,
+// then the error maps of each method on one shared scale (set by hand, or the
+// largest 99th percentile), with a colour bar. Returns that scale.
+Result<float> Studio::exportPictures(const std::string& folder, std::vector<std::string>* files) const {
+  auto path = [&](const std::string& name) { return (std::filesystem::path(folder) / name).string(); };
+  const char* comp = componentName(view_.component);
+  for (int i = 0; i < int(Source::Count); ++i) {
+    Image scratch;
+    const Image* img = componentImage(Source(i), view_.component, scratch);
+    std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
+    if (Result<void> w = writePng(path(name), *img, view_.exposure); !w) return Error(w.error());
+    files->push_back(path(name));
+  }
+  Image refScratch;
+  const Image* ref = referenceImage(view_.component, refScratch);
+  std::vector<Image> maps;
+  float vmax = view_.errorScale, autoMax = 0;
+  for (Source m : kMetricSources) {
+    Image scratch;
+    maps.push_back(errorMap(*componentImage(m, view_.component, scratch), *ref, view_.metric));
+    autoMax = std::max(autoMax, percentile99(maps.back()));
+  }
+  if (!(vmax > 0)) vmax = autoMax > 0 ? autoMax : 1.0f;
+  for (size_t i = 0; i < maps.size(); ++i) {
+    int rows = 0;
+    std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
+    std::string name =
+        "error-" + sourceSlug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
+    if (Result<void> w = writePngRgb8(path(name), snap_->width, rows, px); !w) return Error(w.error());
+    files->push_back(path(name));
+  }
+  return vmax;
+}
+
+// FLIP maps through magma with a bar: the asynchronous ones when they
+// belong to this picture, component and exposure, else computed here (an
+// export may take a moment; a frame never does). Returns their description
+// and means.
+Result<nlohmann::json> Studio::exportFlipMaps(const std::string& folder, std::vector<std::string>* files) const {
+  const Snapshot& s = *snap_;
+  const char* comp = componentName(view_.component);
+  const FlipNumbers flip = flipMeans() ? *flip_ : computeFlip(s, view_.component, view_.exposure);
+  nlohmann::json flipJson = {{"metric", "LDR-FLIP, mean pooled"},
+                             {"component", comp},
+                             {"exposure", view_.exposure},
+                             {"pixelsPerDegree", kFlipPixelsPerDegree}};
+  for (size_t i = 0; i < std::size(kMetricSources); ++i) {
+    int rows = 0;
+    std::vector<uint8_t> px = magmaWithBar(flip.map[i], &rows);
+    std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
+    const std::string path = (std::filesystem::path(folder) / name).string();
+    if (Result<void> w = writePngRgb8(path, s.width, rows, px); !w) return Error(w.error());
+    files->push_back(path);
+    flipJson["mean"][sourceName(kMetricSources[i])] = flip.mean[i];
+  }
+  if (s.convergedReference) flipJson["mean"]["Path tracer (live)"] = flip.mean[4];
+  return flipJson;
+}
+
+// metrics.json: the settings, the samples and timings, and every number
+// measured against the reference.
+nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json& flipJson,
+                                         const nlohmann::json& cropJson) const {
+  const Snapshot& s = *snap_;
+  nlohmann::json metrics;
+  for (Source src : kMetricSources) {
+    for (Component c : {Component::Full, Component::Indirect}) {
+      Image sc, rs;
+      CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
+      metrics[sourceName(src)][componentName(c)] = {
+          {"mean", r.average.meanTest}, {"rmse", r.average.rmse}, {"relMSE", r.average.relMse}};
+    }
+  }
+  return {{"version", VSL_VERSION},
+          {"scene", s.settings.scene},
+          {"exportedUtc", utcStamp()},
+          {"replay", "vsl render " + s.settings.scene + " --method all " + s.settings.many.describe()},
+          {"settings", settingsJson(s)},
+          {"width", s.width},
+          {"height", s.height},
+          {"samples", samplesJson(s)},
+          {"timings", timingsJson(s)},
+          {"machine", machineJson()},
+          {"complete", {{"manyLight", s.manyLightDone}, {"reference", s.referenceDone}}},
+          {"nonFiniteRejected", s.nonFinite},
+          {"view",
+           {{"component", componentName(view_.component)},
+            {"exposure", view_.exposure},
+            {"errorMetric", kMetricNames[int(view_.metric)]},
+            {"errorMapMax", errorMapMax}}},
+          {"metricsAgainstReference", metrics},
+          {"relMseEpsilon", mapEps_},
+          {"relMseEpsilonMode", "relative: 0.01 x the reference's mean luminance^2"},
+          {"crop", cropJson},
+          {"reference", referenceJson(s)},
+          {"equalTimeIndirect", equalTimeJson(s)},
+          {"flip", flipJson},
+          {"biasNoiseIndirect", biasNoiseJson(s)},
+          {"errorHistory", historyJson(s.history)}};
+}
+
+Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>* written, std::string* folderOut) {
+  auto fail = [](const std::string& e) -> Result<void> { return Error(e); };
+  if (!snap_ || snap_->width == 0) return fail("nothing to export yet");
+  const Snapshot& s = *snap_;
+  Result<std::filesystem::path> made = makeExportFolder(dir, exportStem());
+  if (!made) return fail(made.error());
+  const std::filesystem::path folder = *made;
+  std::vector<std::string> files;
+  auto path = [&](const std::string& name) { return (folder / name).string(); };
+
+  if (Result<void> w = writeLayersExr(s, path("images.exr")); !w) return fail(w.error());
+  files.push_back(path("images.exr"));
+  Result<float> errorMapMax = exportPictures(folder.string(), &files);
+  if (!errorMapMax) return fail(errorMapMax.error());
+  Result<nlohmann::json> flipJson = exportFlipMaps(folder.string(), &files);
+  if (!flipJson) return fail(flipJson.error());
+  nlohmann::json cropJson = nullptr;
+  if (!view_.crop.empty()) {
+    Image full;
+    const Image* refFull = referenceImage(view_.component, full);
+    if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return w;
+  }
+
+  const nlohmann::json j = exportMetricsJson(*errorMapMax, *flipJson, cropJson);
+  if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
+  files.push_back(path("metrics.json"));
+  if (written) *written = files;
+  if (folderOut) *folderOut = folder.string();
+  log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
+  return {};
+}
+
+// ---- [4] Crop files and figure ---------------------------------------------------------
+
+namespace {
+
+// 8-bit RGB pictures for the crop files and figure.
+struct Rgb8 {
+  int w = 0, h = 0;
+  std::vector<uint8_t> px;
+  Rgb8(int width, int height, uint8_t fill = 20) : w(width), h(height), px(size_t(width) * height * 3, fill) {}
+  uint8_t* at(int x, int y) { return &px[(size_t(y) * w + x) * 3]; }
+  const uint8_t* at(int x, int y) const { return &px[(size_t(y) * w + x) * 3]; }
+};
+
+Rgb8 toneMapped(const Image& img, float exposure) {
+  Rgb8 out(img.width, img.height);
+  const float s = std::exp2(exposure);
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      Vec3 v = img.at(x, y) * s;
+      uint8_t* q = out.at(x, y);
+      q[0] = toSrgb8(v.x), q[1] = toSrgb8(v.y), q[2] = toSrgb8(v.z);
+    }
+  return out;
+}
+
+Rgb8 falseColoured(const Image& map, float vmax) {
+  Rgb8 out(map.width, map.height);
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x) {
+      Vec3 m = map.at(x, y);
+      Vec3 c = falseColour((m.x + m.y + m.z) / 3 / std::max(vmax, 1e-12f));
+      uint8_t* q = out.at(x, y);
+      q[0] = uint8_t(std::clamp(c.x, 0.0f, 1.0f) * 255 + 0.5f);
+      q[1] = uint8_t(std::clamp(c.y, 0.0f, 1.0f) * 255 + 0.5f);
+      q[2] = uint8_t(std::clamp(c.z, 0.0f, 1.0f) * 255 + 0.5f);
+    }
+  return out;
+}
+
+// Nearest neighbour: every pixel becomes an f x f block.
+Rgb8 magnified(const Rgb8& in, int f) {
+  Rgb8 out(in.w * f, in.h * f);
+  for (int y = 0; y < out.h; ++y)
+    for (int x = 0; x < out.w; ++x) std::copy_n(in.at(x / f, y / f), 3, out.at(x, y));
+  return out;
+}
+
+void blit(Rgb8& dst, const Rgb8& src, int x0, int y0) {
+  for (int y = 0; y < src.h; ++y)
+    for (int x = 0; x < src.w; ++x)
+      if (x0 + x < dst.w && y0 + y < dst.h) std::copy_n(src.at(x, y), 3, dst.at(x0 + x, y0 + y));
+}
+
+// A frame `t` pixels wide just outside the rectangle (inside where it meets
+// the image's border).
+void outline(Rgb8& img, const CropRect& r, int t) {
+  const int x0 = std::max(r.x - t, 0), y0 = std::max(r.y - t, 0);
+  const int x1 = std::min(r.x + r.w + t, img.w), y1 = std::min(r.y + r.h + t, img.h);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const bool inside = x >= std::max(r.x, t) && x < std::min(r.x + r.w, img.w - t) && y >= std::max(r.y, t) &&
+                          y < std::min(r.y + r.h, img.h - t);
+      if (inside) continue;
+      uint8_t* q = img.at(x, y);
+      q[0] = 255, q[1] = 210, q[2] = 0;
+    }
+}
+
+}  // namespace
+
+// Writes crop-<image>-<component>.png (each image and error map, magnified
+// by an integer factor, nearest neighbour) and crop-figure-<component>.png
+// (the reference with the rectangle outlined, then the crops side by side:
+// top row the reference and the methods, bottom row the methods' error
+// maps; at least 512 pixels tall), and describes them, the rectangle and the crops' metrics in
+// *out.
+Result<void> Studio::exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
+                                 std::vector<std::string>* files) const {
+  const CropRect r = view_.crop.resolved(snap_->width, snap_->height);
+  if (r.empty())
+    return Error("crop " + std::to_string(view_.crop.x) + "," + std::to_string(view_.crop.y) + "," +
+                 std::to_string(view_.crop.w) + "," + std::to_string(view_.crop.h) + " lies outside the " +
+                 std::to_string(snap_->width) + "x" + std::to_string(snap_->height) + " image");
+  if (r.w != view_.crop.w || r.h != view_.crop.h)
+    log::warning("crop clipped to the image: " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
+                 std::to_string(r.w) + "," + std::to_string(r.h));
+  float vmax = 1;
+  std::vector<CropItem> items = buildCrops(r, view_.component, &vmax);
+  const int f = cropMagnification(r);
+  const char* comp = componentName(view_.component);
+  const std::string metricSlug = kMetricSlugs[int(view_.metric)];
+  std::vector<Rgb8> tiles;
+  nlohmann::json names = nlohmann::json::object();
+  for (const CropItem& c : items) {
+    tiles.push_back(c.error ? falseColoured(c.image, vmax) : toneMapped(c.image, view_.exposure));
+    std::string name = c.error ? "crop-error-" + sourceSlug(c.source) + "-" + metricSlug + "-" + comp + ".png"
+                               : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
+    Rgb8 big = magnified(tiles.back(), f);
+    const std::string path = (std::filesystem::path(folder) / name).string();
+    if (Result<void> w = writePngRgb8(path, big.w, big.h, big.px); !w) return w;
+    files->push_back(path);
+    names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
+  }
+  // The figure: the reference magnified `scale` times (at least 512 pixels
+  // tall, at most 8x), and beside it the crops at the largest integer factor
+  // that fits two rows in that height (at least 1x).
+  const int gap = 8, scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
+  const int fullW = full.width * scale, fullH = full.height * scale;
+  const int fig = std::max(1, (fullH - gap) / (2 * r.h));
+  const int cw = r.w * fig, ch = r.h * fig, columns = 1 + int(std::size(kMetricSources));
+  Rgb8 figure(fullW + gap + columns * (cw + gap), std::max(fullH, 2 * ch + gap));
+  Rgb8 whole = toneMapped(full, view_.exposure);
+  outline(whole, r, scale > 1 ? 1 : 2);
+  blit(figure, magnified(whole, scale), 0, 0);
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
+    blit(figure, magnified(tiles[i], fig), fullW + gap + col * (cw + gap), row * (ch + gap));
+  }
+  const std::string figName = std::string("crop-figure-") + comp + ".png";
+  const std::string figPath = (std::filesystem::path(folder) / figName).string();
+  if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) return w;
+  files->push_back(figPath);
+
+  // The crops' metrics for the full and indirect components (as the whole
+  // image's), each method's crop against the reference's crop.
+  nlohmann::json metrics;
+  for (Component c : {Component::Full, Component::Indirect}) {
+    for (const CropItem& item : buildCrops(r, c, nullptr)) {
+      if (!item.hasMetrics || item.error) continue;
+      const ChannelMetrics& a = item.metrics.average;
+      metrics[sourceName(item.source)][componentName(c)] = {
+          {"mean", a.meanTest}, {"meanReference", a.meanRef}, {"rmse", a.rmse}, {"relMSE", a.relMse}};
+    }
+  }
+  *out = {{"x", r.x},
+          {"y", r.y},
+          {"width", r.w},
+          {"height", r.h},
+          {"imageWidth", snap_->width},
+          {"imageHeight", snap_->height},
+          {"magnification", f},
+          {"component", comp},
+          {"errorMetric", kMetricNames[int(view_.metric)]},
+          {"errorMapMax", vmax},
+          {"files", names},
+          {"figure", figName},
+          {"figureMagnification", fig},
+          {"figureScale", scale},
+          {"figureLayout",
+           "left: the reference (magnified figureScale times) with the crop outlined; right, magnified "
+           "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
+           "bottom row: the methods' error maps"},
+          {"metricsAgainstReferenceCrop", metrics}};
+  return {};
+}
+
+}  // namespace vsl::ui

@@ -1,0 +1,30 @@
+// Internal to the studio's own files (studio.cpp, studio_export.cpp): the
+// constants and image helpers both use. Not part of the ui interface.
+#pragma once
+
+#include "core/compare.h"
+#include "ui/studio.h"
+
+namespace vsl::ui::studio_detail {
+
+// The methods of the metrics table, the FLIP maps and the exported error maps.
+inline constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
+inline const char* const kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)", "squared (t-r)^2",
+                                           "relative squared (t-r)^2/(r^2+eps)"};
+
+// One pixel's error under a metric. eps follows the reference as relMSE's
+// does (compare.h: 0.01 x the reference's mean luminance squared) for the
+// squared metrics, and its square root for the absolute ones.
+float metricError(float d, float r, ErrorMetric metric, float eps);
+// The eps of the relative error maps for a reference image.
+float mapEpsilon(const Image& ref);
+// a + b per channel, over the shorter of the two.
+Image add(const Image& a, const Image& b);
+// The 99th percentile of |channel mean| over the finite pixels (at least
+// 1e-12); 1 for an image without any.
+float percentile99(const Image& img);
+// Per-pixel error of test against ref under a metric, averaged over the
+// channels (as the studio's maps show it), in every channel.
+Image errorMap(const Image& test, const Image& ref, ErrorMetric metric);
+
+}  // namespace vsl::ui::studio_detail
