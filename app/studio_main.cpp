@@ -195,7 +195,10 @@ void restoreLastSession(const Args& a, Launch* launch) {
     s.scene = a.scene;
   }
   if (a.lightsGiven) s.many.lights = a.lights;
-  if (a.widthGiven) s.many.width = a.width, s.many.height = 0;
+  if (a.widthGiven) {
+    s.many.width = a.width;
+    s.many.height = 0;
+  }
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
@@ -265,8 +268,10 @@ void holdShortKeyPresses() {
   gReleaseNext.clear();
   // Modifiers are not held: text typed right after them would read as shortcuts.
   for (int k : gPressed)
-    if (!io.KeysDown[k] && (k < GLFW_KEY_LEFT_SHIFT || k > GLFW_KEY_RIGHT_SUPER))
-      io.KeysDown[k] = true, gReleaseNext.push_back(k);
+    if (!io.KeysDown[k] && (k < GLFW_KEY_LEFT_SHIFT || k > GLFW_KEY_RIGHT_SUPER)) {
+      io.KeysDown[k] = true;
+      gReleaseNext.push_back(k);
+    }
   gPressed.clear();
 }
 void onDrop(GLFWwindow*, int count, const char** paths) {
@@ -362,7 +367,10 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
     else
       glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
     holdShortKeyPresses();
-    if (gInput) gInput = false, settle = 3;
+    if (gInput) {
+      gInput = false;
+      settle = 3;
+    }
     const double since = sinceDraw.seconds();
     const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
     const bool tick = focused && studio.busy() && since >= 1.0;

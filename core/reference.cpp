@@ -40,7 +40,11 @@ struct Fnv {
   }
   void str(const std::string& s) { vec(std::vector<char>(s.begin(), s.end())); }
   void f(float x) { bytes(&x, sizeof x); }
-  void v3(const Vec3& v) { f(v.x), f(v.y), f(v.z); }
+  void v3(const Vec3& v) {
+    f(v.x);
+    f(v.y);
+    f(v.z);
+  }
 };
 
 // A file name made safe for a cache key: letters, digits, '-', '_' and '.'.
@@ -145,7 +149,10 @@ std::string referenceKey(const Scene& scene, int width, int height, int maxDepth
   for (const Texture& t : scene.textures) h.vec(t.rgba);
   const Camera& c = scene.camera;
   h.str(c.name);
-  h.v3(c.position), h.v3(c.forward), h.v3(c.up), h.f(c.yfov);
+  h.v3(c.position);
+  h.v3(c.forward);
+  h.v3(c.up);
+  h.f(c.yfov);
   char key[160];
   std::snprintf(key, sizeof key, "%s-%016llx-%dx%d-d%d", safeName(scene.path).c_str(), (unsigned long long)h.h, width,
                 height, maxDepth);
@@ -222,8 +229,12 @@ Result<Reference> readReference(const std::string& path, int width, int height, 
   bool all = true;
   for (const Layer* l : halves) all = all && sameSize(l);
   if (all && indirectLayer == "indirect") {
-    r.fullA = halves[0]->image, r.directA = halves[1]->image, r.indirectA = halves[2]->image;
-    r.fullB = halves[3]->image, r.directB = halves[4]->image, r.indirectB = halves[5]->image;
+    r.fullA = halves[0]->image;
+    r.directA = halves[1]->image;
+    r.indirectA = halves[2]->image;
+    r.fullB = halves[3]->image;
+    r.directB = halves[4]->image;
+    r.indirectB = halves[5]->image;
   }
   if (auto it = attrs.find("vsl.reference.spp"); it != attrs.end()) r.spp = std::atoi(it->second.c_str());
   if (auto it = attrs.find("vsl.reference.seconds"); it != attrs.end()) r.seconds = std::atof(it->second.c_str());

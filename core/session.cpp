@@ -270,7 +270,10 @@ void Session::run() {
       std::unique_lock<std::mutex> lock(mutex_);
       if (!pending_ && !quit_) {
         std::string idle = w.scene ? "done" : "idle";
-        if (status_.stage != idle) stageClock_.reset(), ++version_;
+        if (status_.stage != idle) {
+          stageClock_.reset();
+          ++version_;
+        }
         status_.stage = idle;
       }
       wake_.wait(lock, [&] { return quit_ || pending_; });

@@ -733,7 +733,10 @@ void Studio::viewControls() {
     ImGui::SliderFloat("map max", &view_.errorScale, 0, 10, view_.errorScale > 0 ? "%.4g" : autoText,
                        ImGuiSliderFlags_Logarithmic);
   }
-  if (ImGui::Button("Fit")) view_.zoom = 1, view_.center = ImVec2(0.5f, 0.5f);
+  if (ImGui::Button("Fit")) {
+    view_.zoom = 1;
+    view_.center = ImVec2(0.5f, 0.5f);
+  }
   ImGui::SameLine();
   ImGui::TextDisabled("zoom %.2fx (wheel), pan (drag)", view_.zoom);
   ImGui::Checkbox("crop tool", &view_.cropTool);
@@ -924,7 +927,10 @@ void Studio::viewsPanel() {
   const float panelW = (avail.x - 8 * (n - 1)) / n, panelH = avail.y - labelH;
   // Fit the image into a panel, keeping its aspect.
   float w = panelW, h = panelW / aspect;
-  if (h > panelH) h = panelH, w = panelH * aspect;
+  if (h > panelH) {
+    h = panelH;
+    w = panelH * aspect;
+  }
   handleViewInput(origin, avail, panelW, w, h, n);
   // Zoom and pan: the visible UV window.
   float half = 0.5f / view_.zoom;
@@ -1023,10 +1029,12 @@ void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float pa
     const int i = panelAt(io.MouseClickedPos[0]);
     ImVec2 a = toPixel(io.MouseClickedPos[0], i), b = toPixel(io.MousePos, i);
     CropRect r;
-    r.x = int(std::floor(std::min(a.x, b.x))), r.y = int(std::floor(std::min(a.y, b.y)));
+    r.x = int(std::floor(std::min(a.x, b.x)));
+    r.y = int(std::floor(std::min(a.y, b.y)));
     r.w = std::min(int(std::ceil(std::max(a.x, b.x))), snap_->width) - r.x;
     r.h = std::min(int(std::ceil(std::max(a.y, b.y))), snap_->height) - r.y;
-    r.imageW = snap_->width, r.imageH = snap_->height;
+    r.imageW = snap_->width;
+    r.imageH = snap_->height;
     view_.crop = r;
   } else if (ImGui::IsItemActive() && wipeGrabbed_) {
     view_.wipe = std::clamp((io.MousePos.x - imageX0(0)) / w, 0.0f, 1.0f);
@@ -1218,167 +1226,191 @@ void Studio::metricsReferenceNotes(const Snapshot& s) {
 
 // The table of each method's error against the reference: mean, RMSE,
 // relMSE, relMSE at equal time, bias^2 and noise, FLIP.
-void Studio::metricsTable(const Snapshot& s) {
-  // A fixed outer width: the table's row lines end at the table, not under the plot.
-  // relMSE as compare.h computes it, less the reference's own noise where
-  // it is known (the indirect component: relMSE(A, B) / 4 from the
-  // reference's halves, session.h); the equal-time column interpolates each
-  // method's history at the same amount of its own time.
-  const bool indirect = view_.component == Component::Indirect;
-  const double noise = indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
-  const double budget = equalTimeBudget(s.history);
-  auto atEqualTime = [&](int i) {
-    if (!indirect || i > 1) return double(NAN);
-    return errorAtOwnTime(s.history, i == 0 ? StudioMethod::Vsl : StudioMethod::Vpl, budget);
-  };
+// What every row of the metrics table is compared against: relMSE as
+// compare.h computes it, less the reference's own noise where it is known
+// (the indirect component: relMSE(A, B) / 4 from the reference's halves,
+// session.h); the equal-time column interpolates each method's history at
+// the same amount of its own time. The best value of each column is green.
+struct Studio::TableState {
+  bool indirect = false;
+  double noise = 0, budget = 0, ptEqual = NAN;
   double best[3] = {INFINITY, INFINITY, INFINITY};  // RMSE, relMSE, equal time
-  for (int i = 0; i < 4; ++i) {
-    best[0] = std::min(best[0], metrics_[i].average.rmse);
-    best[1] = std::min(best[1], metrics_[i].average.relMse - noise);
-    if (double e = atEqualTime(i); std::isfinite(e)) best[2] = std::min(best[2], e);
-  }
-  if (s.convergedReference) {
-    best[0] = std::min(best[0], livePtMetrics_.average.rmse);
-    best[1] = std::min(best[1], livePtMetrics_.average.relMse - noise);
-  }
-  const double ptEqual = indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, budget) : NAN;
-  if (std::isfinite(ptEqual)) best[2] = std::min(best[2], ptEqual);
-  const ImVec4 green(0.45f, 0.95f, 0.45f, 1);
-  auto cell = [&](double v, double bestV, const char* fmt) {
-    if (!std::isfinite(v))
-      ImGui::TextDisabled("-");
-    else if (v == bestV)
-      ImGui::TextColored(green, fmt, v);
-    else
-      ImGui::Text(fmt, v);
-  };
   // FLIP: the newest result for this component and exposure (greyed while a
   // newer snapshot's is being computed).
-  const bool flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
-  const bool flipFresh = flipHere && flip_->serial == s.serial;
+  bool flipHere = false, flipFresh = false;
   double bestFlip = INFINITY;
-  if (flipHere)
-    for (int i = 0; i < 5; ++i)
-      if (i < 4 || s.convergedReference) bestFlip = std::min(bestFlip, flip_->mean[i]);
-  auto flipCell = [&](int i) {
-    if (!flipHere || (i == 4 && !s.convergedReference))
-      ImGui::TextDisabled("-");
-    else if (!flipFresh)
-      ImGui::TextDisabled("%.4f", flip_->mean[i]);
-    else
-      cell(flip_->mean[i], bestFlip, "%.4f");
-    if (ImGui::IsItemHovered())
-      ImGui::SetTooltip(
-          "LDR-FLIP (HPG 2020, mean pooled) of the tone-mapped images at this exposure, against the "
-          "reference; computed off the UI thread%s",
-          flipFresh ? "" : " (grey: from an earlier picture)");
-  };
-  // Bias against noise (session.h, BiasNoise): from the completed light sets
-  // (the path tracer's halves), for the indirect component; bias^2 less the
-  // reference's own noise where it is known, as relMSE.
   // The best bias^2 is the one nearest 0 (an unbiased method's estimate
   // scatters around 0, so it can be slightly negative).
   double bestBias = INFINITY, bestNoise = INFINITY;
-  for (const BiasNoise& b : s.biasNoise)
-    if (b.renders >= 2)
-      bestBias = std::min(bestBias, std::abs(b.bias2 - noise)), bestNoise = std::min(bestNoise, b.variance);
-  auto biasCells = [&](BiasNoiseRow row) {
-    const BiasNoise& b = s.biasNoise[int(row)];
-    for (int k = 0; k < 2; ++k) {
-      ImGui::TableNextColumn();
-      if (!indirect) {
-        ImGui::TextDisabled("n/a");
-      } else if (b.renders < 2) {
-        ImGui::TextDisabled("-");
-      } else {
-        const double v = k == 0 ? b.bias2 - noise : b.variance;
-        cell(v, k == 0 ? (std::abs(v) == bestBias ? v : NAN) : bestNoise, "%.4g");
-      }
-      if (!ImGui::IsItemHovered()) continue;
-      const bool pt = row == BiasNoiseRow::Pt;
-      if (!indirect)
-        ImGui::SetTooltip("Bias and noise are measured on the indirect component");
-      else if (b.renders < 2 && pt)
-        ImGui::SetTooltip("The path tracer's two halves are measured against a converged reference only");
-      else if (b.renders < 2)
-        ImGui::SetTooltip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
-      else if (k == 0)
-        ImGui::SetTooltip(
-            "bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s",
-            b.renders, pt ? "halves" : "light sets",
-            noise > 0 ? ", less the reference's own noise" : "; it includes the reference's own noise");
-      else
-        ImGui::SetTooltip("noise = mean(w s^2): the variance of one %s (relMSE units); the mean of K has 1/K of it",
-                          pt ? "half" : "light set");
-    }
-  };
-  if (ImGui::BeginTable("metrics", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(660, 0))) {
-    ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
-                            ImGuiTableColumnFlags_WidthStretch);
-    ImGui::TableSetupColumn("mean");
-    ImGui::TableSetupColumn("RMSE");
-    ImGui::TableSetupColumn(noise > 0 ? "relMSE-noise" : "relMSE");
-    char eqTitle[32];
-    std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", budget);
-    ImGui::TableSetupColumn(indirect ? eqTitle : "@equal t");
-    ImGui::TableSetupColumn(noise > 0 ? "bias^2-noise" : "bias^2");
-    ImGui::TableSetupColumn("noise");
-    ImGui::TableSetupColumn("FLIP");
-    ImGui::TableHeadersRow();
-    for (int i = 0; i < 4; ++i) {
-      const CompareResult& c = metrics_[i];
-      ImGui::TableNextRow();
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(sourceName(kMetricSources[i]));
-      ImGui::TableNextColumn();
-      ImGui::Text("%.5g", c.average.meanTest);
-      ImGui::TableNextColumn();
-      cell(c.average.rmse, best[0], "%.4g");
-      ImGui::TableNextColumn();
-      cell(c.average.relMse - noise, best[1], "%.4g");
-      if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
-                          noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
-      ImGui::TableNextColumn();
-      cell(atEqualTime(i), best[2], "%.4g");
-      biasCells(BiasNoiseRow(i));
-      ImGui::TableNextColumn();
-      flipCell(i);
-    }
-    ImGui::TableNextRow();
-    ImGui::TableNextColumn();
-    ImGui::TextUnformatted(s.convergedReference ? "Path tracer (live)" : "Reference (live PT)");
-    if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("%s", s.convergedReference ? "The live path tracer, measured against the converged reference"
-                                                   : "The live path tracer is the reference: its value is its own "
-                                                     "noise, relMSE(A, B)/4 from two independent halves");
-    ImGui::TableNextColumn();
-    ImGui::Text("%.5g", s.convergedReference ? livePtMetrics_.average.meanTest : referenceMean_);
-    ImGui::TableNextColumn();
-    if (s.convergedReference)
-      cell(livePtMetrics_.average.rmse, best[0], "%.4g");
-    else
-      ImGui::TextUnformatted("-");
-    ImGui::TableNextColumn();
-    // Against a converged reference the live path tracer is measured like the
-    // methods; as the reference itself its value is its own noise, which is
-    // estimated for the indirect component only.
-    if (s.convergedReference) {
-      cell(livePtMetrics_.average.relMse - noise, best[1], "%.4g");
-    } else if (indirect) {
-      ImGui::Text("~%.3g", s.referenceNoise);
-    } else {
-      ImGui::TextDisabled("n/a");
-      if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("The path tracer's error is tracked for the indirect component only");
-    }
-    ImGui::TableNextColumn();
-    cell(ptEqual, best[2], "%.4g");
-    biasCells(BiasNoiseRow::Pt);
-    ImGui::TableNextColumn();
-    flipCell(4);
-    ImGui::EndTable();
+  double atEqualTime(const Snapshot& s, int i) const {
+    if (!indirect || i > 1) return double(NAN);
+    return errorAtOwnTime(s.history, i == 0 ? StudioMethod::Vsl : StudioMethod::Vpl, budget);
   }
+};
+
+namespace {
+void cell(double v, double bestV, const char* fmt) {
+  if (!std::isfinite(v))
+    ImGui::TextDisabled("-");
+  else if (v == bestV)
+    ImGui::TextColored(ImVec4(0.45f, 0.95f, 0.45f, 1), fmt, v);
+  else
+    ImGui::Text(fmt, v);
+}
+}  // namespace
+
+Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
+  TableState t;
+  t.indirect = view_.component == Component::Indirect;
+  t.noise = t.indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
+  t.budget = equalTimeBudget(s.history);
+  for (int i = 0; i < 4; ++i) {
+    t.best[0] = std::min(t.best[0], metrics_[i].average.rmse);
+    t.best[1] = std::min(t.best[1], metrics_[i].average.relMse - t.noise);
+    if (double e = t.atEqualTime(s, i); std::isfinite(e)) t.best[2] = std::min(t.best[2], e);
+  }
+  if (s.convergedReference) {
+    t.best[0] = std::min(t.best[0], livePtMetrics_.average.rmse);
+    t.best[1] = std::min(t.best[1], livePtMetrics_.average.relMse - t.noise);
+  }
+  t.ptEqual = t.indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, t.budget) : NAN;
+  if (std::isfinite(t.ptEqual)) t.best[2] = std::min(t.best[2], t.ptEqual);
+  t.flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
+  t.flipFresh = t.flipHere && flip_->serial == s.serial;
+  if (t.flipHere)
+    for (int i = 0; i < 5; ++i)
+      if (i < 4 || s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
+  for (const BiasNoise& b : s.biasNoise)
+    if (b.renders >= 2) {
+      t.bestBias = std::min(t.bestBias, std::abs(b.bias2 - t.noise));
+      t.bestNoise = std::min(t.bestNoise, b.variance);
+    }
+  return t;
+}
+
+void Studio::flipCell(const Snapshot& s, const TableState& t, int i) {
+  if (!t.flipHere || (i == 4 && !s.convergedReference))
+    ImGui::TextDisabled("-");
+  else if (!t.flipFresh)
+    ImGui::TextDisabled("%.4f", flip_->mean[i]);
+  else
+    cell(flip_->mean[i], t.bestFlip, "%.4f");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "LDR-FLIP (HPG 2020, mean pooled) of the tone-mapped images at this exposure, against the "
+        "reference; computed off the UI thread%s",
+        t.flipFresh ? "" : " (grey: from an earlier picture)");
+}
+
+// Bias against noise (session.h, BiasNoise): from the completed light sets
+// (the path tracer's halves), for the indirect component; bias^2 less the
+// reference's own noise where it is known, as relMSE.
+void Studio::biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row) {
+  const BiasNoise& b = s.biasNoise[int(row)];
+  for (int k = 0; k < 2; ++k) {
+    ImGui::TableNextColumn();
+    if (!t.indirect) {
+      ImGui::TextDisabled("n/a");
+    } else if (b.renders < 2) {
+      ImGui::TextDisabled("-");
+    } else {
+      const double v = k == 0 ? b.bias2 - t.noise : b.variance;
+      cell(v, k == 0 ? (std::abs(v) == t.bestBias ? v : NAN) : t.bestNoise, "%.4g");
+    }
+    if (!ImGui::IsItemHovered()) continue;
+    const bool pt = row == BiasNoiseRow::Pt;
+    if (!t.indirect)
+      ImGui::SetTooltip("Bias and noise are measured on the indirect component");
+    else if (b.renders < 2 && pt)
+      ImGui::SetTooltip("The path tracer's two halves are measured against a converged reference only");
+    else if (b.renders < 2)
+      ImGui::SetTooltip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
+    else if (k == 0)
+      ImGui::SetTooltip(
+          "bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s", b.renders,
+          pt ? "halves" : "light sets",
+          t.noise > 0 ? ", less the reference's own noise" : "; it includes the reference's own noise");
+    else
+      ImGui::SetTooltip("noise = mean(w s^2): the variance of one %s (relMSE units); the mean of K has 1/K of it",
+                        pt ? "half" : "light set");
+  }
+}
+
+void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
+  const CompareResult& c = metrics_[i];
+  ImGui::TableNextRow();
+  ImGui::TableNextColumn();
+  ImGui::TextUnformatted(sourceName(kMetricSources[i]));
+  ImGui::TableNextColumn();
+  ImGui::Text("%.5g", c.average.meanTest);
+  ImGui::TableNextColumn();
+  cell(c.average.rmse, t.best[0], "%.4g");
+  ImGui::TableNextColumn();
+  cell(c.average.relMse - t.noise, t.best[1], "%.4g");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
+                      t.noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
+  ImGui::TableNextColumn();
+  cell(t.atEqualTime(s, i), t.best[2], "%.4g");
+  biasCells(s, t, BiasNoiseRow(i));
+  ImGui::TableNextColumn();
+  flipCell(s, t, i);
+}
+
+void Studio::livePtRow(const Snapshot& s, const TableState& t) {
+  ImGui::TableNextRow();
+  ImGui::TableNextColumn();
+  ImGui::TextUnformatted(s.convergedReference ? "Path tracer (live)" : "Reference (live PT)");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("%s", s.convergedReference ? "The live path tracer, measured against the converged reference"
+                                                 : "The live path tracer is the reference: its value is its own "
+                                                   "noise, relMSE(A, B)/4 from two independent halves");
+  ImGui::TableNextColumn();
+  ImGui::Text("%.5g", s.convergedReference ? livePtMetrics_.average.meanTest : referenceMean_);
+  ImGui::TableNextColumn();
+  if (s.convergedReference)
+    cell(livePtMetrics_.average.rmse, t.best[0], "%.4g");
+  else
+    ImGui::TextUnformatted("-");
+  ImGui::TableNextColumn();
+  // Against a converged reference the live path tracer is measured like the
+  // methods; as the reference itself its value is its own noise, which is
+  // estimated for the indirect component only.
+  if (s.convergedReference) {
+    cell(livePtMetrics_.average.relMse - t.noise, t.best[1], "%.4g");
+  } else if (t.indirect) {
+    ImGui::Text("~%.3g", s.referenceNoise);
+  } else {
+    ImGui::TextDisabled("n/a");
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The path tracer's error is tracked for the indirect component only");
+  }
+  ImGui::TableNextColumn();
+  cell(t.ptEqual, t.best[2], "%.4g");
+  biasCells(s, t, BiasNoiseRow::Pt);
+  ImGui::TableNextColumn();
+  flipCell(s, t, 4);
+}
+
+void Studio::metricsTable(const Snapshot& s) {
+  const TableState t = metricsTableState(s);
+  // A fixed outer width: the table's row lines end at the table, not under the plot.
+  if (!ImGui::BeginTable("metrics", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(660, 0)))
+    return;
+  ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
+                          ImGuiTableColumnFlags_WidthStretch);
+  ImGui::TableSetupColumn("mean");
+  ImGui::TableSetupColumn("RMSE");
+  ImGui::TableSetupColumn(t.noise > 0 ? "relMSE-noise" : "relMSE");
+  char eqTitle[32];
+  std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", t.budget);
+  ImGui::TableSetupColumn(t.indirect ? eqTitle : "@equal t");
+  ImGui::TableSetupColumn(t.noise > 0 ? "bias^2-noise" : "bias^2");
+  ImGui::TableSetupColumn("noise");
+  ImGui::TableSetupColumn("FLIP");
+  ImGui::TableHeadersRow();
+  for (int i = 0; i < 4; ++i) methodRow(s, t, i);
+  livePtRow(s, t);
+  ImGui::EndTable();
 }
 
 void Studio::metricsPanel() {
@@ -1502,13 +1534,25 @@ void Studio::plotErrors(const ImVec2& size) {
   double tMin = 1e30, tMax = 1e-30, eMin = 1e30, eMax = 1e-30;
   for (const ErrorSample& e : h) {
     for (double t : {e.vslSeconds, e.vplSeconds, e.ptSeconds})
-      if (t > 0) tMin = std::min(tMin, t), tMax = std::max(tMax, t);
+      if (t > 0) {
+        tMin = std::min(tMin, t);
+        tMax = std::max(tMax, t);
+      }
     for (double v : {e.vsl, e.vpl, e.pt})
-      if (v > 0) eMin = std::min(eMin, v), eMax = std::max(eMax, v);
+      if (v > 0) {
+        eMin = std::min(eMin, v);
+        eMax = std::max(eMax, v);
+      }
   }
   if (tMin > tMax || eMin > eMax) return;
-  if (!(tMax > tMin * 1.5)) tMin /= 1.5, tMax *= 1.5;
-  if (!(eMax > eMin * 1.5)) eMin /= 1.5, eMax *= 1.5;
+  if (!(tMax > tMin * 1.5)) {
+    tMin /= 1.5;
+    tMax *= 1.5;
+  }
+  if (!(eMax > eMin * 1.5)) {
+    eMin /= 1.5;
+    eMax *= 1.5;
+  }
   const LogAxes ax{a, b, tMin, tMax, eMin, eMax};
   drawLogTicks(dl, ax);
   // Equal time: the budget every method has reached.
@@ -1542,13 +1586,18 @@ CropRect CropRect::resolved(int width, int height) const {
   if (imageW > 0 && imageH > 0 && (imageW != width || imageH != height)) {
     // Made on an image of another size: the same part of the picture.
     const double sx = double(width) / imageW, sy = double(height) / imageH;
-    r.x = int(std::floor(x * sx)), r.y = int(std::floor(y * sy));
-    r.w = std::max(1, int(std::lround(w * sx))), r.h = std::max(1, int(std::lround(h * sy)));
+    r.x = int(std::floor(x * sx));
+    r.y = int(std::floor(y * sy));
+    r.w = std::max(1, int(std::lround(w * sx)));
+    r.h = std::max(1, int(std::lround(h * sy)));
   }
   const int x1 = std::min(r.x + r.w, width), y1 = std::min(r.y + r.h, height);
-  r.x = std::max(r.x, 0), r.y = std::max(r.y, 0);
-  r.w = std::max(0, x1 - r.x), r.h = std::max(0, y1 - r.y);
-  r.imageW = width, r.imageH = height;
+  r.x = std::max(r.x, 0);
+  r.y = std::max(r.y, 0);
+  r.w = std::max(0, x1 - r.x);
+  r.h = std::max(0, y1 - r.y);
+  r.imageW = width;
+  r.imageH = height;
   return r;
 }
 
@@ -1662,10 +1711,12 @@ void Studio::cropsPanel() {
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", title.c_str());
     p = ImGui::GetCursorScreenPos();
     DisplayParams dp;
-    if (c.error)
-      dp.mode = DisplayMode::FalseColour, dp.scale = 1.0f / std::max(cropErrorMax_, 1e-12f);
-    else
+    if (c.error) {
+      dp.mode = DisplayMode::FalseColour;
+      dp.scale = 1.0f / std::max(cropErrorMax_, 1e-12f);
+    } else {
       dp.scale = std::exp2(view_.exposure);
+    }
     drawImage(ImGui::GetWindowDrawList(), cropTextures_[i], p, ImVec2(p.x + tw, p.y + th), ImVec2(0, 0), ImVec2(1, 1),
               dp);
     ImGui::Dummy(ImVec2(tw, th));

@@ -203,6 +203,13 @@ class Studio {
   // metricsPanel's parts, top to bottom.
   void metricsSummary(const Snapshot& s, bool stale);
   void metricsTable(const Snapshot& s);
+  // metricsTable's parts: what every row compares against, then its rows.
+  struct TableState;
+  TableState metricsTableState(const Snapshot& s) const;
+  void methodRow(const Snapshot& s, const TableState& t, int i);
+  void livePtRow(const Snapshot& s, const TableState& t);
+  void biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row);
+  void flipCell(const Snapshot& s, const TableState& t, int i);
   void metricsReferenceNotes(const Snapshot& s);
   void logPanel();
   void cropsPanel();

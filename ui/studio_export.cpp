@@ -428,7 +428,9 @@ Rgb8 toneMapped(const Image& img, float exposure) {
     for (int x = 0; x < img.width; ++x) {
       Vec3 v = img.at(x, y) * s;
       uint8_t* q = out.at(x, y);
-      q[0] = toSrgb8(v.x), q[1] = toSrgb8(v.y), q[2] = toSrgb8(v.z);
+      q[0] = toSrgb8(v.x);
+      q[1] = toSrgb8(v.y);
+      q[2] = toSrgb8(v.z);
     }
   return out;
 }
@@ -472,7 +474,9 @@ void outline(Rgb8& img, const CropRect& r, int t) {
                           y < std::min(r.y + r.h, img.h - t);
       if (inside) continue;
       uint8_t* q = img.at(x, y);
-      q[0] = 255, q[1] = 210, q[2] = 0;
+      q[0] = 255;
+      q[1] = 210;
+      q[2] = 0;
     }
 }
 
