@@ -1,6 +1,9 @@
 // Float textures and the shader that displays them. Tone mapping (exposure,
-// sRGB), false-colour error maps and signed differences are shader uniforms:
-// changing them never re-uploads a texture or restarts a render.
+// sRGB) and the colour scales of maps (false colour, magma, signed) are shader
+// uniforms: changing the exposure or a map's scale never re-uploads a texture
+// or restarts a render. The maps themselves (error, FLIP, signed difference)
+// are computed on the CPU and uploaded when the display, the component or the
+// picture changes (Studio::updateTextures).
 #pragma once
 
 #include <imgui.h>
