@@ -65,16 +65,16 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     if (woL.z <= 0) return es;
     const bool narrow = std::max(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
     const bool last = j + 1 >= kMaxSpecularChain;
+    const BrdfAt full(brdf, woL);
     if (!last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f))) {
       // Punctual lights reflected here are never hit by the continued ray.
-      if (j >= 1) gp.shared += beta * nextEvent(BrdfAt(brdf, woL), sh, true, rng, c);
-      if (!continuePath(BrdfAt(brdf, woL), sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
+      if (j >= 1) gp.shared += beta * nextEvent(full, sh, true, rng, c);
+      if (!continuePath(full, sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
       continue;
     }
     // The gather point: the whole BRDF, or its diffuse lobe if the specular
     // lobe is split off (once per eye sample).
     const bool split = narrow && cur + 1 < kMaxGatherPoints && !last;
-    const BrdfAt full(brdf, woL);
     gp.rx.f = split ? full.diffuseLobe() : full;
     // Behind a specular chain, its own direct light is indirect for the
     // image (two or more scattering events).
