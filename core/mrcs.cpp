@@ -105,17 +105,28 @@ void projectColumns(const std::vector<float>& columns, int rows, Rng& rng, Colum
 }
 
 // 1. Sampling: about two thirds of the clusters from seeds drawn in
-//    proportion to the column norm, every column joining its closest seed.
+//    proportion to each column's summed distance to all others (as in the
+//    MRCS paper), every column joining its closest seed.
 std::vector<Cluster> seedClusters(const ColumnSpace& cs, int clusters, Rng& rng) {
   const size_t n = cs.nz.size();
+  // alpha_i = sum_j d(i, j) = n_i (sum_j n_j - u_i . sum_j n_j u_j).
+  double sumN = 0, sumV[kDims] = {};
+  for (size_t i = 0; i < n; ++i) {
+    sumN += cs.n(i);
+    for (int d = 0; d < kDims; ++d) sumV[d] += cs.n(i) * cs.dir(i)[d];
+  }
   std::vector<double> w(n);
-  for (size_t i = 0; i < n; ++i) w[i] = cs.n(i);
-  DiscreteDistribution byNorm(w);
+  for (size_t i = 0; i < n; ++i) {
+    double uv = 0;
+    for (int d = 0; d < kDims; ++d) uv += cs.dir(i)[d] * sumV[d];
+    w[i] = cs.n(i) * std::max(sumN - uv, 0.0);
+  }
+  DiscreteDistribution bySummedDistance(w);
   std::vector<uint32_t> seeds;
   std::vector<char> isSeed(n, 0);
   int want = std::max(1, (2 * clusters) / 3);
   for (int k = 0; k < 4 * want && int(seeds.size()) < want; ++k) {
-    uint32_t s = uint32_t(byNorm.sample(rng.uniform(), nullptr));
+    uint32_t s = uint32_t(bySummedDistance.sample(rng.uniform(), nullptr));
     if (!isSeed[s]) {
       isSeed[s] = 1;
       seeds.push_back(s);

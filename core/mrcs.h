@@ -6,7 +6,8 @@
 //   1. computes R rows fully: one random pixel in each of R image blocks,
 //      against every light (the reduced columns rho_j, one value per row);
 //   2. clusters the reduced columns into C clusters: about two thirds seeded by
-//      sampling columns in proportion to their norm and assigning every column
+//      sampling columns in proportion to their summed distance to all the
+//      others, sum_j d(i,j) = n_i (sum_j n_j - u_i . sum_j n_j u_j), and assigning every column
 //      to the closest seed under d(i,j) = |rho_i||rho_j| - rho_i.rho_j, the rest
 //      by splitting the costliest cluster (cost = (sum |rho|)^2 - |sum rho|^2)
 //      along a random projection;
