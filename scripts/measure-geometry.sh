@@ -10,7 +10,7 @@
 # vsl_scale binary, default build/bin/vsl_scale).
 # Writes OUT_DIR/dense-N.gltf (generated, ~40 MB at 10^6), one CSV per scene,
 # all.csv and table.md (the tables and exponents for the doc).
-# About 25 minutes on 2 shared cores; scenes and CSVs that exist are reused.
+# About 20 minutes on 2 shared cores; scenes and CSVs that exist are reused.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/geometry}
