@@ -28,6 +28,15 @@ Scenes
                   of the indirect light; diffuse-only VPLs get none of it).
 The many-light fractions are asserted by tests/test_scenes.cpp.
 Only the Python standard library is used; output is deterministic.
+
+    python3 assets/generate_scenes.py --dense TRIANGLES OUT.gltf [BASE]
+
+writes a dense version of a bundled scene (BASE, default cornell-glossy) for
+measuring how costs grow with geometry (docs/PERFORMANCE.md, "Geometry
+scale"): every quad face except emitters is tessellated into a grid and
+dented (displaced against its normal) by smooth noise that vanishes on its edges
+(so boxes stay closed), with about TRIANGLES triangles in all. Not bundled: a
+million triangles make a ~40 MB file.
 """
 import base64
 import json
@@ -654,7 +663,137 @@ SCENES = {"furnace": furnace, "cornell-glossy": cornell_glossy, "tableau": table
           "hall": hall}
 
 
+# ---- dense scenes for the geometry-scale measurement -------------------------
+
+def _read_accessor(g, index):
+    """The values of accessor `index` of a Gltf built above (float or uint32)."""
+    acc = g.doc["accessors"][index]
+    view = g.doc["bufferViews"][acc["bufferView"]]
+    comps = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[acc["type"]]
+    fmt = "<%d%s" % (acc["count"] * comps, "f" if acc["componentType"] == 5126 else "I")
+    flat = struct.unpack_from(fmt, g.blob, view["byteOffset"])
+    return [list(flat[i:i + comps]) for i in range(0, len(flat), comps)] if comps > 1 else list(flat)
+
+
+def _quad_faces(g, prim):
+    """The parallelograms (origin, eu, ev) of a primitive made of quad(..., subdiv=1)
+    pieces (4 vertices and 2 triangles each, as quad() and box() write them), or
+    None if it is made of anything else."""
+    p = _read_accessor(g, prim["attributes"]["POSITION"])
+    idx = _read_accessor(g, prim["indices"])
+    if len(p) % 4 or len(idx) != len(p) // 4 * 6:
+        return None
+    faces = []
+    for k in range(len(p) // 4):
+        a = 4 * k
+        if idx[6 * k:6 * k + 6] != [a, a + 1, a + 3, a, a + 3, a + 2]:
+            return None
+        faces.append((p[a], sub(p[a + 1], p[a]), sub(p[a + 2], p[a])))
+    return faces
+
+
+# Smooth noise: three plane waves (unit direction, wavelength in metres, phase).
+_WAVES = [([0.48, 0.64, 0.60], 0.37, 0.3), ([-0.80, 0.36, 0.48], 0.17, 1.7), ([0.28, -0.96, 0.0], 0.071, 4.1)]
+
+
+def _noise(x):
+    """Value in [-1, 1] and gradient of the smooth noise at world point x."""
+    v, grad = 0.0, [0.0, 0.0, 0.0]
+    for k, (d, wavelength, phase) in enumerate(_WAVES):
+        f, a = 2 * math.pi / wavelength, 0.5 ** k / 1.75
+        arg = f * dot(d, x) + phase
+        v += a * math.sin(arg)
+        grad = add(grad, mul(d, a * f * math.cos(arg)))
+    return v, grad
+
+
+def displaced_quad(origin, eu, ev, nu, nv, amplitude):
+    """quad() on an nu x nv grid, displaced against its normal (dents, so that
+    nothing moves in front of the face: a ceiling stays above its light) by
+    h = -amplitude x 16 s(1-s) t(1-t) x (1 + noise(P)) / 2, which is zero on the
+    edges, so neighbouring faces still meet. Normals are those of the displaced
+    surface."""
+    m = Mesh()
+    nrm = norm(cross(eu, ev))
+    for j in range(nv + 1):
+        for i in range(nu + 1):
+            s, t = i / nu, j / nv
+            x = add(origin, add(mul(eu, s), mul(ev, t)))
+            v, grad = _noise(x)
+            w = 16 * s * (1 - s) * t * (1 - t)
+            k = -amplitude / 2
+            h = k * w * (1 + v)
+            dh_ds = k * (16 * (1 - 2 * s) * t * (1 - t) * (1 + v) + w * dot(grad, eu))
+            dh_dt = k * (16 * s * (1 - s) * (1 - 2 * t) * (1 + v) + w * dot(grad, ev))
+            m.p.append(add(x, mul(nrm, h)))
+            m.n.append(norm(cross(add(eu, mul(nrm, dh_ds)), add(ev, mul(nrm, dh_dt)))))
+            m.t.append(norm(eu) + [1.0])
+            m.uv.append([s, 1 - t])
+    w = nu + 1
+    for j in range(nv):
+        for i in range(nu):
+            a, b, c, d = j * w + i, j * w + i + 1, (j + 1) * w + i + 1, (j + 1) * w + i
+            m.idx += [a, b, c, a, c, d]
+    return m
+
+
+def _grid_sizes(faces, density):
+    """Grid cells along each side of each face at `density` cells per metre."""
+    return [(max(1, round(density * math.sqrt(dot(eu, eu)))), max(1, round(density * math.sqrt(dot(ev, ev)))))
+            for _, eu, ev in faces]
+
+
+def dense_scene(base, triangles):
+    """`base` with its non-emissive quad faces tessellated to about `triangles`
+    triangles in all (see the module docstring)."""
+    src = SCENES[base]()
+    g = Gltf(base + "-dense")
+    g.doc["materials"], g.used, g.lights = src.doc["materials"], src.used, src.lights
+    if "cameras" in src.doc:
+        g.doc["cameras"] = src.doc["cameras"]
+    parts = []  # (name, material, faces, emitter, tangents)
+    for node in src.doc["nodes"]:
+        if "mesh" not in node:
+            g.node(node)
+            continue
+        mesh = src.doc["meshes"][node["mesh"]]
+        prim = mesh["primitives"][0]
+        faces = _quad_faces(src, prim)
+        if faces is None:
+            raise ValueError("%s: mesh '%s' is not made of quads" % (base, mesh["name"]))
+        emitter = "emissiveFactor" in src.doc["materials"][prim["material"]]
+        parts.append((mesh["name"], prim["material"], faces, emitter, "TANGENT" in prim["attributes"]))
+    # Pick the density (cells per metre) whose total is closest to the request;
+    # emitters stay flat, one quad each, so the light sources do not change.
+    free = [f for _, _, faces, emitter, _ in parts if not emitter for f in faces]
+    fixed = sum(2 * len(faces) for _, _, faces, emitter, _ in parts if emitter)
+    count = lambda d: fixed + sum(2 * nu * nv for nu, nv in _grid_sizes(free, d))
+    lo, hi = 0.0, 1.0
+    while count(hi) < triangles:
+        hi *= 2
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if count(mid) < triangles else (lo, mid)
+    density = min((lo, hi), key=lambda d: abs(count(d) - triangles))
+    for name, material, faces, emitter, tangents in parts:
+        m = Mesh()
+        for (o, eu, ev), (nu, nv) in zip(faces, _grid_sizes(faces, 0.0 if emitter else density)):
+            amplitude = 0.0 if emitter else 0.03 * math.sqrt(min(dot(eu, eu), dot(ev, ev)))
+            m.extend(displaced_quad(o, eu, ev, nu, nv, amplitude))
+        g.mesh(name, m, material, tangents=tangents)
+    return g
+
+
 def main():
+    if len(sys.argv) > 1 and sys.argv[1] == "--dense":
+        if len(sys.argv) not in (4, 5):
+            sys.exit("usage: generate_scenes.py --dense TRIANGLES OUT.gltf [BASE]")
+        base = sys.argv[4] if len(sys.argv) == 5 else "cornell-glossy"
+        g = dense_scene(base, int(sys.argv[2]))
+        g.write(sys.argv[3])
+        tris = sum(len(_read_accessor(g, m["primitives"][0]["indices"])) // 3 for m in g.doc["meshes"])
+        print("wrote %s (%d triangles)" % (sys.argv[3], tris))
+        return
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes")
     os.makedirs(out, exist_ok=True)
     for name, make in SCENES.items():

@@ -1,0 +1,32 @@
+# The dense scene generator (assets/generate_scenes.py --dense, used by
+# scripts/measure-geometry.sh) makes a file that loads, with a triangle count
+# within 5% of the request, and that passes the glTF validator when NODE is set.
+set(request 20000)
+set(scene ${OUT}/dense-${request}.gltf)
+file(MAKE_DIRECTORY ${OUT})
+execute_process(COMMAND ${PYTHON} ${SRC}/assets/generate_scenes.py --dense ${request} ${scene} RESULT_VARIABLE rc
+                OUTPUT_QUIET)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "generate_scenes.py --dense ${request} failed (${rc})")
+endif()
+execute_process(COMMAND ${VSL} info ${scene} RESULT_VARIABLE rc OUTPUT_VARIABLE info ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "vsl info ${scene} failed (${rc}): ${err}")
+endif()
+if(NOT info MATCHES "triangles  ([0-9]+)")
+  message(FATAL_ERROR "vsl info printed no triangle count:\n${info}")
+endif()
+set(count ${CMAKE_MATCH_1})
+math(EXPR low "${request} * 95 / 100")
+math(EXPR high "${request} * 105 / 100")
+if(count LESS low OR count GREATER high)
+  message(FATAL_ERROR "${scene}: ${count} triangles, requested ${request} (allowed ${low}..${high})")
+endif()
+if(NODE)
+  execute_process(COMMAND ${NODE} ${SRC}/scripts/validate-gltf.cjs ${scene} RESULT_VARIABLE rc OUTPUT_VARIABLE out
+                  ERROR_VARIABLE out)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "the glTF validator rejects ${scene} (${rc}):\n${out}")
+  endif()
+endif()
+message(STATUS "${scene}: ${count} triangles (requested ${request})")
