@@ -1245,8 +1245,10 @@ void Studio::metricsSummary(const Snapshot& s, bool stale) {
 // Which reference, and how noisy it is.
 void Studio::metricsReferenceNotes(const Snapshot& s) {
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
-  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
-                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
+  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s; estimator: %s", s.lightSetsDone,
+                     s.lightSets,
+                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "",
+                     s.settings.estimator.describe().c_str());
   char noiseText[48] = "unknown (no halves)";
   if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
   ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
@@ -1440,7 +1442,10 @@ void Studio::metricsTable(const Snapshot& s) {
   ImGui::TableSetupColumn("noise");
   ImGui::TableSetupColumn("FLIP");
   ImGui::TableHeadersRow();
-  for (int i = 0; i < 4; ++i) methodRow(s, t, i);
+  // MRCS gathers VSL and the clamped VPL only: the other VPL layers are black.
+  const bool mrcs = s.settings.estimator.kind == EstimatorKind::Mrcs;
+  for (int i = 0; i < 4; ++i)
+    if (!mrcs || kMetricSources[i] == Source::Vsl || kMetricSources[i] == Source::Vpl) methodRow(s, t, i);
   livePtRow(s, t);
   ImGui::EndTable();
 }
