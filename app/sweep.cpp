@@ -461,8 +461,8 @@ void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
 int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
   Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(a.scene);
   if (!loaded) return fail(kExitBadInput, loaded.error());
-  const RenderContext& rc = **loaded;
-  const Scene& scene = rc.scene();
+  const RenderContext& context = **loaded;
+  const Scene& scene = context.scene();
   SweepReference reference;
   if (int rc = loadSweepReference(a, scene, reference); rc != 0) return rc;
   const Image* ref = &reference.ref.indirect;
@@ -471,7 +471,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
   const int W = ref->width, H = ref->height;
   const CompareResult self = compareImages(*ref, *ref);
-  SweepContext ctx{a, rc, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
   runConfigurations(ctx, shardIndex, shardCount);
   meta = {a.scene,
           reference.name,
