@@ -18,6 +18,7 @@
 #include "core/mrcs.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
+#include "core/render_context.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/stopwatch.h"
@@ -228,12 +229,11 @@ json benchStages(const Scene& scene, const Accel& accel, const LightSampler& lig
 }
 
 int runBench(const BenchArgs& a) {
-  SceneResult loaded = loadScene(a.scene);
+  Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(a.scene);
   if (!loaded) return fail(kExitBadInput, loaded.error());
-  const Scene& scene = **loaded;
-  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
-  if (!built) return fail(kExitBadInput, built.error());
-  const Accel& accel = **built;
+  const Scene& scene = (*loaded)->scene();
+  const Accel& accel = (*loaded)->accel();
+  const LightSampler& lights = (*loaded)->lights();
   OcclusionBench occlusion(accel, makeOcclusionRays(scene, accel, 1 << 20));
   if (occlusion.rays() == 0)
     return failf(kExitBadInput, "%s: the camera sees no geometry; nothing to benchmark", a.scene.c_str());
@@ -244,7 +244,6 @@ int runBench(const BenchArgs& a) {
   auto [rawRate, rawCalls] = occlusion.single(a.seconds);
   const uint64_t blocked = occlusion.blocked();
   double batchRate = occlusion.batched(a.seconds);
-  LightSampler lights(scene);
   PtBench pt = benchPathTracer(scene, accel, lights, a);
   std::printf("scene                      %s\n", a.scene.c_str());
   std::printf("raw Embree occluded rays/s %.3f M  (single calls; %.1f%% blocked)\n", rawRate * 1e-6,

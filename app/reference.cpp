@@ -8,6 +8,7 @@
 #include "app/cli.h"
 #include "core/log.h"
 #include "core/reference.h"
+#include "core/render_context.h"
 
 namespace vsl {
 
@@ -108,12 +109,10 @@ int cmdReference(ReferenceArgs& a) {
                  a.scene.c_str(), w, h);
   s.width = w;
   s.height = h;
-  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
-  if (!built) return fail(kExitBadInput, built.error());
-  std::unique_ptr<Accel> accel = std::move(built).value();
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene);
+  if (!ctx) return fail(kExitBadInput, ctx.error());
   const std::string key = referenceKey(*scene, w, h, s.maxDepth);
-  LightSampler lights(*scene);
-  ReferenceRenderer rr(*scene, *accel, lights, s);
+  ReferenceRenderer rr(*scene, (*ctx)->accel(), (*ctx)->lights(), s);
   std::fprintf(stderr, "reference: %s, %dx%d, max depth %d, cache key %s\n", a.scene.c_str(), w, h, s.maxDepth,
                key.c_str());
   renderUntilDone(rr, a, maxSpp);

@@ -110,15 +110,18 @@ int parseVslSamples(const std::string& text, int& samples) {
 int resolveManyLightArgs(RenderArgs& a) {
   ManyLightSettings& m = a.many;
   m.seed = a.settings.seed;
-  m.computeVsl = a.settings.method != "vpl";
-  m.computeVpl = a.settings.method != "vsl";
+  m.computeVsl = a.method != Method::Vpl;
+  m.computeVpl = a.method != Method::Vsl;
   m.width = a.settings.width;
   m.height = a.settings.height;
   if (int rc = parseClamp(a.clamp, m.clamp); rc != 0) return rc;
   if (int rc = parseVslSamples(a.vslSamples, m.vslSamples); rc != 0) return rc;
   if (Result<void> v = m.validate(); !v) return fail(kExitBadArguments, v.error());
-  if (!a.mrcsSpec.empty() && !parseMrcsSpec(a.mrcsSpec, a.mrcs)) return kExitBadArguments;
-  a.mrcs.spreadVslRadius = a.mrcsSpread;
+  if (!a.mrcsSpec.empty()) {
+    if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
+    a.estimator.kind = EstimatorKind::Mrcs;
+  }
+  a.estimator.mrcs.spreadVslRadius = a.mrcsSpread;
   return 0;
 }
 
@@ -178,7 +181,7 @@ int writePtImages(const RenderArgs& a, const PtImages& im, int passes) {
 // Everything --json reports about a path-traced render.
 struct PtStats {
   int passes = 0;
-  double loadSeconds = 0, renderSeconds = 0;
+  double loadSeconds = 0, bvhSeconds = 0, renderSeconds = 0;
   uint64_t paths = 0, rays = 0, rejected = 0;
 };
 
@@ -195,7 +198,7 @@ int writePtJson(const RenderArgs& a, const Scene& scene, const PtImages& im, con
             {"seed", s.seed},
             {"maxDepth", s.maxDepth},
             {"component", componentName(s.component)},
-            {"seconds", {{"load", st.loadSeconds}, {"render", st.renderSeconds}}},
+            {"seconds", {{"load", st.loadSeconds}, {"bvh", st.bvhSeconds}, {"render", st.renderSeconds}}},
             {"paths", st.paths},
             {"rays", st.rays},
             {"pathsPerSecond", st.paths / std::max(st.renderSeconds, 1e-9)},
@@ -212,9 +215,9 @@ int writePtJson(const RenderArgs& a, const Scene& scene, const PtImages& im, con
   return 0;
 }
 
-int renderPathTraced(const RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds) {
-  LightSampler lights(scene);
-  PathTracer pt(scene, accel, lights, a.settings);
+int renderPathTraced(const RenderArgs& a, const RenderContext& ctx) {
+  const Scene& scene = ctx.scene();
+  PathTracer pt(scene, ctx.accel(), ctx.lights(), a.settings);
   int w = pt.width(), h = pt.height();
   Film direct(w, h), indirect(w, h);
   PtCounters counters;
@@ -222,7 +225,8 @@ int renderPathTraced(const RenderArgs& a, const Scene& scene, const Accel& accel
   PtStats st;
   st.passes = renderPasses(pt, a.settings, direct, indirect, counters);
   st.renderSeconds = clock.seconds();
-  st.loadSeconds = loadSeconds;
+  st.loadSeconds = ctx.loadSeconds();
+  st.bvhSeconds = ctx.bvhSeconds();
 
   PtImages im{direct.image(), indirect.image(), {}};
   im.full = addImages(im.direct, im.indirect);
@@ -241,11 +245,13 @@ int cmdRender(RenderArgs& a) {
   if (!parseComponent(a.component, &a.settings.component))
     return failf(kExitBadArguments, "--component must be full, direct or indirect (got '%s')", a.component.c_str());
   if (Result<void> v = a.settings.validate(); !v) return fail(kExitBadArguments, v.error());
-  const bool many = a.settings.method != "pt";
+  a.method = parseMethod(a.settings.method).value_or(Method::Pt);  // validated above
+  const bool many = a.method != Method::Pt;
   if (many)
     if (int rc = resolveManyLightArgs(a); rc != 0) return rc;
-  Stopwatch clock;
+  Stopwatch loadClock;
   auto scene = loadOrReport(a.scene, a.camera);
+  const double loadSeconds = loadClock.seconds();
   if (!scene) return kExitBadInput;
   // The camera's aspect ratio fills in a missing side: the result must still
   // be within the resolution cap.
@@ -256,12 +262,10 @@ int cmdRender(RenderArgs& a) {
                  "%s: the camera's aspect ratio %g turns the requested size into %dx%d, over the limit of %d "
                  "a side; give both --width and --height",
                  a.scene.c_str(), scene->camera.aspect, w0, h0, RenderSettings::kMaxResolution);
-  Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
-  if (!built) return fail(kExitBadInput, built.error());
-  const std::unique_ptr<Accel>& accel = *built;
-  double loadSeconds = clock.seconds();
-  if (many) return renderManyLights(a, *scene, *accel, loadSeconds);
-  return renderPathTraced(a, *scene, *accel, loadSeconds);
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene, loadSeconds);
+  if (!ctx) return fail(kExitBadInput, ctx.error());
+  if (many) return renderManyLights(a, **ctx);
+  return renderPathTraced(a, **ctx);
 }
 
 }  // namespace

@@ -6,9 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "core/accel.h"
-#include "core/many_light.h"
-#include "core/mrcs.h"
+#include "core/estimator.h"
+#include "core/render_context.h"
 #include "core/settings.h"
 
 namespace vsl {
@@ -19,15 +18,16 @@ struct RenderArgs {
   ManyLightSettings many;
   std::string clamp = "auto", vslSamples = "auto", mrcsSpec;
   bool mrcsSpread = false;
-  MrcsSettings mrcs{0, 0, 0};  // rows 0: no MRCS
+  Method method = Method::Pt;   // settings.method, parsed once
+  EstimatorSettings estimator;  // brute force, or MRCS with --mrcs (its seed stays 0)
   float exposure = 0;
 };
 
 // The per-channel mean of an image as a JSON array [r, g, b] (for --json).
 nlohmann::json imageMeanJson(const Image& img);
 
-// Renders a.settings.method (vsl, vpl or all) into a.out, a.png and
-// a.jsonPath; returns the exit code. loadSeconds: scene loading and BVH.
-int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds);
+// Renders a.method (vsl, vpl or all) into a.out, a.png and a.jsonPath;
+// returns the exit code.
+int renderManyLights(RenderArgs& a, const RenderContext& ctx);
 
 }  // namespace vsl

@@ -17,7 +17,7 @@ namespace {
 
 using json = nlohmann::json;
 
-// What a gather produced, whichever way it ran.
+// What a gather produced, whichever estimator ran.
 struct Gathered {
   ManyLightImages im;
   int w = 0, h = 0, batches = 0;
@@ -27,57 +27,50 @@ struct Gathered {
   json mrcs;  // MRCS statistics; null for the brute-force gather
 };
 
-// Matrix row-column sampling: rows, clustering, representative columns.
-void gatherMrcs(const RenderArgs& a, const Scene& scene, const Accel& accel, const LightSampler& lights,
-                const ManyLightRun& run, Gathered& g) {
-  std::fprintf(stderr, "render: MRCS with %d rows and %d clusters (uniform mix %g) over %zu lights\n", a.mrcs.rows,
-               a.mrcs.clusters, a.mrcs.uniformMix, run.set.lights.size());
-  MrcsResult mr = renderMrcs(scene, accel, lights, run.set, run.radii, a.many, a.mrcs);
-  g.im = std::move(mr.images);
-  g.w = g.im.direct.width;
-  g.h = g.im.direct.height;
-  g.pairs = mr.pairs;
-  g.lightsProcessed = run.set.lights.size();
-  g.batches = 1;
-  g.mrcs = {{"rows", a.mrcs.rows},
-            {"clusters", a.mrcs.clusters},
-            {"uniformMix", a.mrcs.uniformMix},
-            {"spreadVslRadius", a.mrcs.spreadVslRadius},
-            {"rowSeconds", mr.rowSeconds},
-            {"clusterSeconds", mr.clusterSeconds},
-            {"columnSeconds", mr.columnSeconds},
-            {"zeroColumnsVsl", mr.zeroColumnsVsl},
-            {"zeroColumnsVpl", mr.zeroColumnsVpl}};
-  std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s\n", mr.rowSeconds, mr.clusterSeconds,
-               mr.columnSeconds);
-}
-
-// Brute force: progressive light batches until all are gathered or the time
-// limit is reached.
-void gatherBatches(const RenderArgs& a, const Scene& scene, const Accel& accel, const LightSampler& lights,
-                   const ManyLightRun& run, Gathered& g) {
-  ManyLightRenderer r(scene, accel, lights, run.set, run.radii, a.many);
+// Steps the estimator until it is done or the time limit is reached: brute
+// force in progressive light batches, MRCS (rows, clustering,
+// representative columns) in one step.
+void gather(const RenderArgs& a, ManyLightEstimator& est, Gathered& g) {
+  const EstimatorSettings& e = a.estimator;
+  const size_t n = est.run().set.lights.size();
+  if (e.kind == EstimatorKind::Mrcs)
+    std::fprintf(stderr, "render: MRCS with %d rows and %d clusters (uniform mix %g) over %zu lights\n", e.mrcs.rows,
+                 e.mrcs.clusters, e.mrcs.uniformMix, n);
   Progress progress("render");
   Stopwatch clock;
-  for (int b = 0; b < r.batchCount(); ++b) {
-    r.renderBatch(b);
-    ++g.batches;
+  while (!est.done()) {
+    est.step();
     double el = clock.seconds();
     char detail[160];
-    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", g.batches, r.batchCount(),
-                  r.lightsProcessed(), r.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
-    progress.update(double(r.lightsProcessed()) / std::max<size_t>(run.set.lights.size(), 1), detail);
+    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", est.stepsDone(),
+                  est.stepCount(), est.lightsProcessed(), est.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
+    progress.update(double(est.lightsProcessed()) / std::max<size_t>(n, 1), detail);
     if (a.settings.timeLimit > 0 && el >= a.settings.timeLimit) break;
   }
   progress.finish();
-  g.im = r.images();
-  g.w = r.width();
-  g.h = r.height();
-  g.lightsProcessed = r.lightsProcessed();
-  g.pairs = r.stats().pairs;
-  g.shadowRays = r.stats().shadowRays;
-  g.vslEvaluations = r.stats().vslEvaluations;
-  g.nonFinite = r.stats().nonFinite;
+  g.im = est.images();
+  g.w = est.width();
+  g.h = est.height();
+  g.batches = est.stepsDone();
+  g.lightsProcessed = est.lightsProcessed();
+  const ManyLightStats& st = est.stats();
+  g.pairs = st.pairs;
+  g.shadowRays = st.shadowRays;
+  g.vslEvaluations = st.vslEvaluations;
+  g.nonFinite = st.nonFinite;
+  if (e.kind != EstimatorKind::Mrcs) return;
+  const MrcsStats ms = est.mrcsStats();
+  g.mrcs = {{"rows", e.mrcs.rows},
+            {"clusters", e.mrcs.clusters},
+            {"uniformMix", e.mrcs.uniformMix},
+            {"spreadVslRadius", e.mrcs.spreadVslRadius},
+            {"rowSeconds", ms.rowSeconds},
+            {"clusterSeconds", ms.clusterSeconds},
+            {"columnSeconds", ms.columnSeconds},
+            {"zeroColumnsVsl", ms.zeroColumnsVsl},
+            {"zeroColumnsVpl", ms.zeroColumnsVpl}};
+  std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s\n", ms.rowSeconds, ms.clusterSeconds,
+               ms.columnSeconds);
 }
 
 // The EXR layers of the method(s), the default layer (index 0) being the
@@ -88,18 +81,18 @@ std::vector<Layer> manyLightLayers(const RenderArgs& a, const ManyLightImages& i
     return s.component == Component::Direct ? im.direct : s.component == Component::Indirect ? ind : full;
   };
   Image vslFull = addImages(im.direct, im.vsl), vplFull = addImages(im.direct, im.vpl);
-  if (s.method == "all") {
+  if (a.method == Method::All) {
     std::vector<Layer> layers = {{"", pick(im.vsl, vslFull)}, {"vsl-full", vslFull},    {"vsl-indirect", im.vsl},
                                  {"vpl-full", vplFull},       {"vpl-indirect", im.vpl}, {"direct", im.direct}};
-    if (a.mrcs.rows == 0)  // MRCS renders the two methods only
+    if (a.estimator.kind == EstimatorKind::BruteForce)  // MRCS renders the two methods only
       layers.insert(layers.end(), {{"vpl-unclamped-indirect", im.vplUnclamped},
                                    {"vpl-diffuse-indirect", im.vplDiffuse},
                                    {"lost-to-clamping", im.lostToClamping},
                                    {"lost-to-diffuse", im.lostToDiffuse}});
     return layers;
   }
-  const Image& ind = s.method == "vsl" ? im.vsl : im.vpl;
-  const Image& full = s.method == "vsl" ? vslFull : vplFull;
+  const Image& ind = a.method == Method::Vsl ? im.vsl : im.vpl;
+  const Image& full = a.method == Method::Vsl ? vslFull : vplFull;
   return {{"", pick(ind, full)}, {"full", full}, {"direct", im.direct}, {"indirect", ind}};
 }
 
@@ -127,7 +120,7 @@ int writeManyLightImages(const RenderArgs& a, const Gathered& g) {
 
 // Timings of the stages before and around the gather.
 struct ManyLightTimes {
-  double load = 0, total = 0;
+  double load = 0, bvh = 0, total = 0;
 };
 
 int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightRun& run, const Gathered& g,
@@ -137,6 +130,7 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
   json j = {{"version", VSL_VERSION},
             {"scene", a.scene},
             {"method", a.settings.method},
+            {"estimator", estimatorName(a.estimator.kind)},
             {"settings", a.many.describe()},
             {"width", g.w},
             {"height", g.h},
@@ -150,6 +144,7 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
             {"radius", {{"min", q(0)}, {"median", q(0.5)}, {"max", q(1)}}},
             {"seconds",
              {{"load", t.load},
+              {"bvh", t.bvh},
               {"lightTracing", run.set.seconds},
               {"knn", run.knnSeconds},
               {"gather", g.seconds},
@@ -177,30 +172,30 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
 
 }  // namespace
 
-int renderManyLights(RenderArgs& a, const Scene& scene, const Accel& accel, double loadSeconds) {
-  LightSampler lights(scene);
-  if (lights.empty())
+int renderManyLights(RenderArgs& a, const RenderContext& ctx) {
+  if (!ctx.hasEmitters())
     return failf(kExitBadInput, "%s: the scene has no lights, so there is nothing to trace virtual lights from",
                  a.scene.c_str());
   // Trace the virtual lights and their radii.
   Stopwatch total;
-  ManyLightRun run = prepareManyLights(scene, accel, lights, a.many);
+  ManyLightRun run = prepareManyLights(ctx, a.many);
   std::fprintf(stderr,
                "traced %zu virtual lights from %llu paths in %.2f s (%zu bytes each, %.1f MB); radii in %.2f s\n",
                run.set.lights.size(), (unsigned long long)run.set.paths, run.set.seconds, sizeof(VirtualLight),
                run.set.bytes() / 1e6, run.knnSeconds);
   // Gather them, and write what came out.
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, std::move(run), a.many, a.estimator);
   Gathered g;
-  Stopwatch gather;
-  if (a.mrcs.rows > 0)
-    gatherMrcs(a, scene, accel, lights, run, g);
-  else
-    gatherBatches(a, scene, accel, lights, run, g);
-  g.seconds = gather.seconds();
+  Stopwatch gatherClock;
+  gather(a, *est, g);
+  g.seconds = gatherClock.seconds();
   if (int rc = writeManyLightImages(a, g); rc != 0) return rc;
-  uint64_t rejected = g.nonFinite + run.set.nonFiniteRejected;
+  const ManyLightRun& lights = est->run();
+  uint64_t rejected = g.nonFinite + lights.set.nonFiniteRejected;
   if (rejected > 0) log::warning("rejected " + std::to_string(rejected) + " non-finite contributions");
-  if (!a.jsonPath.empty()) return writeManyLightJson(a, scene, run, g, {loadSeconds, total.seconds()}, rejected);
+  if (!a.jsonPath.empty())
+    return writeManyLightJson(a, ctx.scene(), lights, g, {ctx.loadSeconds(), ctx.bvhSeconds(), total.seconds()},
+                              rejected);
   return 0;
 }
 

@@ -6,7 +6,7 @@
 //   vsl-studio [SCENE] [--headless] [--frames N] [--screenshot PATH]
 //              [--export DIR] [--after SECONDS] [--window WxH] [--lights N] [--width W]
 //              [--crop X,Y,W,H] [--fresh] [--reference REF.exr] [--background-reference SPP]
-//              [--light-sets N]
+//              [--light-sets N] [--mrcs ROWS,CLUSTERS[,MIX]] [--progressive-radius ALPHA]
 //
 // Without a SCENE, the last session's scene, settings and view come back
 // (ui::lastSessionPath(); --fresh ignores it); every run that did not fail
@@ -52,6 +52,10 @@ struct Args {
   int backgroundReference = 0;                   // spp of a reference rendered into the cache
   int lightSets = StudioSettings().lightSets;    // independent light sets
   bool lightSetsGiven = false;
+  std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
+  float progressive = 0;        // > 0: the progressive radius with this alpha
+  EstimatorSettings estimator;  // resolved from mrcs and progressive
+  bool estimatorGiven = false;
 };
 
 // What the studio starts with: options and the initial view.
@@ -160,6 +164,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
   o.settings.lightSets = a.lightSets;
+  o.settings.estimator = a.estimator;
   return o;
 }
 
@@ -200,6 +205,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
     s.many.height = 0;
   }
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
+  if (a.estimatorGiven) s.estimator = a.estimator;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
   v.crop = launch->view.crop;  // --crop applies to this run only
@@ -456,7 +462,44 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
+  app.add_option("--mrcs", a.mrcs,
+                 "Start with the MRCS estimator: ROWS,CLUSTERS[,MIX] (e.g. 300,900); each light set is one MRCS "
+                 "render and the sets are averaged (default: brute-force batches)");
+  app.add_option("--progressive-radius", a.progressive,
+                 "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
+                 "ALPHA in (0,1), e.g. 0.7");
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
+}
+
+// --mrcs and --progressive-radius into a.estimator. Returns 0, or 2 after
+// saying what is wrong.
+int resolveEstimator(Args& a, bool progressiveGiven) {
+  EstimatorSettings& e = a.estimator;
+  if (!a.mrcs.empty()) {
+    // ROWS,CLUSTERS then optionally ,MIX, and nothing after.
+    const char* text = a.mrcs.c_str();
+    int used = 0, usedMix = 0;
+    bool ok = std::sscanf(text, "%d,%d%n", &e.mrcs.rows, &e.mrcs.clusters, &used) == 2;
+    if (ok && text[used] == ',')
+      ok = std::sscanf(text + used + 1, "%lf%n", &e.mrcs.uniformMix, &usedMix) == 1 && text[used + 1 + usedMix] == 0;
+    else
+      ok = ok && text[used] == 0;
+    if (!ok) {
+      std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS or ROWS,CLUSTERS,MIX (got '%s')\n", text);
+      return 2;
+    }
+    e.kind = EstimatorKind::Mrcs;
+  }
+  if (progressiveGiven) {
+    e.progressiveRadius = true;
+    e.alpha = a.progressive;
+  }
+  if (Result<void> v = e.validate(); !v) {
+    std::fprintf(stderr, "error: %s\n", v.error().c_str());  // names the setting and its range
+    return 2;
+  }
+  a.estimatorGiven = !a.mrcs.empty() || progressiveGiven;
+  return 0;
 }
 
 }  // namespace
@@ -481,6 +524,7 @@ int main(int argc, char** argv) {
   a.lightsGiven = app.count("--lights") > 0;
   a.widthGiven = app.count("--width") > 0;
   a.lightSetsGiven = app.count("--light-sets") > 0;
+  if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
   Launch launch;
   if (!a.crop.empty()) {
     ui::CropRect& c = launch.view.crop;

@@ -27,6 +27,7 @@
 #include <sstream>
 
 #include "core/compare.h"
+#include "core/estimator.h"
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
@@ -37,6 +38,39 @@
 namespace vsl {
 
 namespace {
+
+// A sweep method, parsed once from its name: what it renders, with which
+// estimator, and whether it runs in passes of independent light sets (the
+// progressive ones shrinking the VSL radius per pass).
+struct SweepMethod {
+  const char* name;
+  Method gather;  // Pt, Vsl or Vpl
+  EstimatorKind estimator;
+  bool progressiveRadius, passes;
+};
+constexpr SweepMethod kSweepMethods[] = {
+    {"pt", Method::Pt, EstimatorKind::BruteForce, false, false},
+    {"vpl", Method::Vpl, EstimatorKind::BruteForce, false, false},
+    {"vsl", Method::Vsl, EstimatorKind::BruteForce, false, false},
+    {"vsl-progressive", Method::Vsl, EstimatorKind::BruteForce, true, true},
+    {"vsl-mrcs", Method::Vsl, EstimatorKind::Mrcs, false, true},
+    {"vpl-mrcs", Method::Vpl, EstimatorKind::Mrcs, false, true},
+    {"vsl-mrcs-progressive", Method::Vsl, EstimatorKind::Mrcs, true, true},
+};
+// The method of a name the command line accepted (CLI::IsMember); names
+// read back from a shard's CSV that are not methods of this version are
+// treated as the brute-force VPL (only their labels matter when merging).
+const SweepMethod& sweepMethod(const std::string& name) {
+  for (const SweepMethod& m : kSweepMethods)
+    if (name == m.name) return m;
+  return kSweepMethods[1];
+}
+
+std::vector<std::string> sweepMethodNames() {
+  std::vector<std::string> names;
+  for (const SweepMethod& m : kSweepMethods) names.push_back(m.name);
+  return names;
+}
 
 struct Point {
   std::string method;
@@ -53,9 +87,10 @@ struct Point {
   double flip = NAN, bias2 = NAN, variance = NAN;
   std::string series() const {
     std::ostringstream s;
+    const Method gather = sweepMethod(method).gather;
     s << method;
-    if (method != "pt") s << " N=" << lights;
-    if (method.rfind("vsl", 0) == 0) s << " s=" << radiusScale;
+    if (gather != Method::Pt) s << " N=" << lights;
+    if (gather == Method::Vsl) s << " s=" << radiusScale;
     return s.str();
   }
 };
@@ -81,12 +116,13 @@ std::vector<Config> gridOf(const std::vector<std::string>& methods, const std::v
                            const std::vector<float>& scales) {
   std::vector<Config> g;
   for (const std::string& m : methods) {
-    if (m == "pt") {
+    const Method gather = sweepMethod(m).gather;
+    if (gather == Method::Pt) {
       g.push_back({m, 0, 0});
       continue;
     }
     for (uint32_t n : lights)
-      for (float sc : m.rfind("vsl", 0) == 0 ? scales : std::vector<float>{0.0f}) g.push_back({m, n, sc});
+      for (float sc : gather == Method::Vsl ? scales : std::vector<float>{0.0f}) g.push_back({m, n, sc});
   }
   return g;
 }
@@ -195,9 +231,7 @@ std::vector<size_t> paretoFront(const std::vector<T>& pts, const std::vector<siz
 // Everything one run needs: the scene, the reference and the arguments.
 struct SweepContext {
   const SweepArgs& a;
-  const Scene& scene;
-  const Accel& accel;
-  const LightSampler& lights;
+  const RenderContext& ctx;
   const Image& ref;
   int W, H;
   std::vector<Point>& pts;
@@ -249,7 +283,7 @@ struct SweepContext {
     m.seed = seed;
     m.directSamples = 1;
     m.radiusScale = scale > 0 ? scale : 1.0f;
-    m.computeVsl = method.rfind("vsl", 0) == 0;
+    m.computeVsl = sweepMethod(method).gather == Method::Vsl;
     m.computeVpl = !m.computeVsl;
     return m;
   }
@@ -260,7 +294,7 @@ struct SweepContext {
     rs.width = W;
     rs.height = H;
     rs.seed = seedOf(set);
-    PathTracer pt(scene, accel, lights, rs);
+    PathTracer pt(ctx.scene(), ctx.accel(), ctx.lights(), rs);
     Film d(W, H), ind(W, H);
     PtCounters c;
     double el = 0;
@@ -284,26 +318,22 @@ struct SweepContext {
   // (r^2 *= (i+alpha)/(i+1)); "-mrcs" renders each pass with matrix
   // row-column sampling instead of the brute-force gather.
   void runPasses(const std::string& method, uint32_t n, float sc, int set) {
-    const bool mrcs = method.find("-mrcs") != std::string::npos;
-    const bool progressive = method.find("progressive") != std::string::npos;
+    const SweepMethod& sm = sweepMethod(method);
     Stopwatch clock;
     Image sum(W, H);
     for (int pass = 0;; ++pass) {
       ManyLightSettings m = manySettings(method, n, sc, seedOf(set, pass));
       m.batches = 1;
-      if (progressive) m.radiusScale *= progressiveRadiusFactor(pass, a.alpha);
-      ManyLightRun run = prepareManyLights(scene, accel, lights, m);
-      Image v;
-      if (mrcs) {
-        MrcsSettings ms = a.mrcs;
-        ms.seed = m.seed;
-        MrcsResult mr = renderMrcs(scene, accel, lights, run.set, run.radii, m, ms);
-        v = m.computeVsl ? mr.images.vsl : mr.images.vpl;
-      } else {
-        ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
-        r.renderBatch(0);
-        v = m.computeVsl ? r.images().vsl : r.images().vpl;
+      if (sm.progressiveRadius) m.radiusScale *= progressiveRadiusFactor(pass, a.alpha);
+      EstimatorSettings e;
+      e.kind = sm.estimator;
+      e.mrcs = a.mrcs;
+      e.mrcs.seed = m.seed;
+      std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, e);
+      while (est->step()) {
       }
+      const ManyLightImages im = est->images();
+      const Image& v = m.computeVsl ? im.vsl : im.vpl;
       for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += v.rgb[i];
       Image mean = sum;
       for (float& x : mean.rgb) x /= float(pass + 1);
@@ -321,13 +351,11 @@ struct SweepContext {
     ManyLightSettings m = manySettings(method, n, sc, seedOf(set));
     m.batches = a.batches;
     Stopwatch clock;
-    ManyLightRun run = prepareManyLights(scene, accel, lights, m);
-    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
-    for (int b = 0; b < r.batchCount(); ++b) {
-      r.renderBatch(b);
-      ManyLightImages im = r.images();
+    std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, EstimatorSettings{});
+    while (est->step()) {
+      ManyLightImages im = est->images();
       double el = clock.seconds();
-      record(method, n, sc, set, b + 1, el, m.computeVsl ? im.vsl : im.vpl);
+      record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl);
       if (a.time > 0 && el >= a.time) break;
     }
     finish();
@@ -416,12 +444,11 @@ void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
   for (size_t i = 0; i < grid.size(); ++i) {
     if (int(i % size_t(shardCount)) != shardIndex) continue;
     const Config& g = grid[i];
-    const bool passes =
-        g.method.find("-mrcs") != std::string::npos || g.method.find("progressive") != std::string::npos;
+    const SweepMethod& m = sweepMethod(g.method);
     for (int set = 0; set < a.sets; ++set) {
-      if (g.method == "pt")
+      if (m.gather == Method::Pt)
         ctx.runPt(set);
-      else if (passes)
+      else if (m.passes)
         ctx.runPasses(g.method, g.lights, g.radiusScale, set);
       else
         ctx.runBatches(g.method, g.lights, g.radiusScale, set);
@@ -432,13 +459,10 @@ void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
 
 // Runs this shard's part of the grid; fills the points and what the outputs need.
 int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
-  SceneResult lr = loadScene(a.scene);
-  if (!lr) return fail(kExitBadInput, lr.error());
-  const Scene& scene = **lr;
-  Result<std::unique_ptr<Accel>> built = Accel::build(scene);
-  if (!built) return fail(kExitBadInput, built.error());
-  std::unique_ptr<Accel> accel = std::move(built).value();
-  LightSampler lights(scene);
+  Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(a.scene);
+  if (!loaded) return fail(kExitBadInput, loaded.error());
+  const RenderContext& context = **loaded;
+  const Scene& scene = context.scene();
   SweepReference reference;
   if (int rc = loadSweepReference(a, scene, reference); rc != 0) return rc;
   const Image* ref = &reference.ref.indirect;
@@ -447,7 +471,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
   const int W = ref->width, H = ref->height;
   const CompareResult self = compareImages(*ref, *ref);
-  SweepContext ctx{a, scene, *accel, lights, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
   runConfigurations(ctx, shardIndex, shardCount);
   meta = {a.scene,
           reference.name,
@@ -806,7 +830,7 @@ Subcommand addSweepCommand(CLI::App& app) {
                    "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
                    "vsl-mrcs-progressive (both)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"pt", "vpl", "vsl", "vsl-progressive", "vsl-mrcs", "vpl-mrcs", "vsl-mrcs-progressive"}))
+      ->check(CLI::IsMember(sweepMethodNames()))
       ->default_str("pt,vpl,vsl");
   sweep->add_option("--lights", sw.lights, "Light counts, comma separated")
       ->delimiter(',')

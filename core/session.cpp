@@ -23,9 +23,16 @@ const int kReferenceDepth = RenderSettings().maxDepth;
 
 // describe() covers the user-facing settings; the rest are compared by hand.
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b) {
+  const EstimatorSettings &ea = a.estimator, &eb = b.estimator;
+  const bool sameEstimator =
+      ea.kind == eb.kind && ea.progressiveRadius == eb.progressiveRadius &&
+      (!ea.progressiveRadius || ea.alpha == eb.alpha) &&
+      (ea.kind != EstimatorKind::Mrcs ||
+       (ea.mrcs.rows == eb.mrcs.rows && ea.mrcs.clusters == eb.mrcs.clusters &&
+        ea.mrcs.uniformMix == eb.mrcs.uniformMix && ea.mrcs.spreadVslRadius == eb.mrcs.spreadVslRadius));
   return a.scene == b.scene && a.maxReferenceSpp == b.maxReferenceSpp && a.many.describe() == b.many.describe() &&
          a.many.lightMaxDepth == b.many.lightMaxDepth && a.many.computeVsl == b.many.computeVsl &&
-         a.many.computeVpl == b.many.computeVpl;
+         a.many.computeVpl == b.many.computeVpl && sameEstimator;
 }
 
 namespace {
@@ -48,8 +55,7 @@ Image ManyLightImages::*const kLayer[kLayers] = {&ManyLightImages::vsl,         
 
 }  // namespace
 
-// A render in progress: its light sets, renderers and bookkeeping. Heap-held
-// so that the renderer's references into `prep` stay valid.
+// A render in progress: its light sets, estimators and bookkeeping.
 struct Session::Job {
   StudioSettings settings;
   int width = 0, height = 0, batchCount = 0;
@@ -57,8 +63,7 @@ struct Session::Job {
   // The light set in progress, number `set` (seed settings.many.seed + set);
   // ml is null between sets and once all are done.
   int set = 0;
-  ManyLightRun prep;
-  std::unique_ptr<ManyLightRenderer> ml;
+  std::unique_ptr<ManyLightEstimator> ml;  // the set in progress (it owns its lights), if any
   int batch = 0;
   // The completed sets: their count, work, per-pixel sums (double, in set
   // order) and the indirect images of each (biasVariance needs them all).
@@ -79,9 +84,7 @@ struct Session::Job {
 // Worker-owned state: the current scene survives failed loads, and the
 // reference (keyed by scene and resolution) survives restarts.
 struct Session::Worker {
-  std::shared_ptr<const Scene> scene;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
+  std::unique_ptr<RenderContext> ctx;  // scene, BVH and light sampler
   std::string scenePath;
   // The live path tracer (seed 0): pass p goes to half p % 2 (reference.h).
   struct Reference {
@@ -140,6 +143,7 @@ Result<void> StudioSettings::validate() const {
   if (backgroundReferenceSpp < 0 || backgroundReferenceSpp > (1 << 20))
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
+  if (Result<void> e = estimator.validate(); !e) return e;
   return many.validate();
 }
 
@@ -269,7 +273,7 @@ void Session::run() {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       if (!pending_ && !quit_) {
-        std::string idle = w.scene ? "done" : "idle";
+        std::string idle = w.ctx ? "done" : "idle";
         if (status_.stage != idle) {
           stageClock_.reset();
           ++version_;
@@ -316,7 +320,7 @@ void Session::run() {
 void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) {
   if (!ensureScene(w, s) || stopped()) return;
   int width = s.many.width, height = s.many.height;
-  resolveResolution(*w.scene, width, height);
+  resolveResolution(w.ctx->scene(), width, height);
   if (Result<void> fits = checkMemory(s, width, height); !fits) {
     reportRunError("settings refused (the previous render goes on): " + fits.error());
     if (!w.job) return;
@@ -342,37 +346,24 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
 // without emitters) the previous scene stays and s.scene is set back to it;
 // returns false only when there is no scene at all.
 bool Session::ensureScene(Worker& w, StudioSettings& s) {
-  if (w.scene && s.scene == w.scenePath) return true;
+  if (w.ctx && s.scene == w.scenePath) return true;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     status_.loading = s.scene;
   }
   setStage("loading");
-  SceneResult r = loadScene(s.scene);
-  std::shared_ptr<const Scene> scene = r.valueOr(nullptr);
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
-  std::string err = r.error();
+  Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(s.scene);
+  std::unique_ptr<RenderContext> ctx = loaded ? std::move(loaded).value() : nullptr;
+  std::string err = loaded.error();
   bool noEmitters = false;
-  if (scene) {
-    Result<std::unique_ptr<Accel>> built = Accel::build(*scene);
-    if (built) {
-      accel = std::move(built).value();
-    } else {
-      err = built.error();
-    }
+  if (ctx && !ctx->hasEmitters()) {
+    noEmitters = true;
+    err = s.scene +
+          ": the scene has no emitters (no emissive material and no KHR_lights_punctual light), so every method "
+          "renders black";
+    for (const std::string& warning : ctx->scene().warnings) err += "\n" + warning;  // e.g. an unsupported extension
   }
-  if (accel) {
-    lights = std::make_unique<LightSampler>(*scene);
-    if (lights->empty()) {
-      noEmitters = true;
-      err = s.scene +
-            ": the scene has no emitters (no emissive material and no KHR_lights_punctual light), so every method "
-            "renders black";
-      for (const std::string& warning : scene->warnings) err += "\n" + warning;  // e.g. an unsupported extension
-    }
-  }
-  if (!scene || !accel || noEmitters) {
+  if (!ctx || noEmitters) {
     log::error("cannot load scene: " + err);
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -381,23 +372,22 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
       ++status_.loadErrorSerial;
     }
     ++version_;
-    if (!w.scene) return false;
+    if (!w.ctx) return false;
     s.scene = w.scenePath;  // keep rendering the previous scene with the other new settings
     return true;
   }
   w.job.reset();  // it and the live path tracer point into the old scene
   w.ref = {};
-  w.scene = scene;
-  w.accel = std::move(accel);
-  w.lights = std::move(lights);
+  w.ctx = std::move(ctx);
   w.scenePath = s.scene;
-  for (const std::string& warning : w.scene->warnings) log::warning(warning);
+  const Scene& scene = w.ctx->scene();
+  for (const std::string& warning : scene.warnings) log::warning(warning);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     status_.loadError.clear();
     status_.scene = w.scenePath;
-    status_.sceneAspect = w.scene->camera.aspect > 0 ? w.scene->camera.aspect : 1.0f;
-    status_.sceneWarnings = w.scene->warnings;
+    status_.sceneAspect = scene.camera.aspect > 0 ? scene.camera.aspect : 1.0f;
+    status_.sceneWarnings = scene.warnings;
   }
   ++version_;
   return true;
@@ -414,7 +404,7 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
   if (!prepareSet(w, *job)) return nullptr;
   job->width = job->ml->width();
   job->height = job->ml->height();
-  job->batchCount = job->ml->batchCount();
+  job->batchCount = job->ml->stepCount();
   job->clampBound = job->ml->clampBound();
 
   // The reference depends only on the scene and the resolution: it keeps
@@ -426,34 +416,35 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
     rs.height = job->height;
     rs.seed = 0;
     w.ref.key = refKey;
-    w.ref.pt = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
+    w.ref.pt = std::make_unique<ReferenceRenderer>(w.ctx->scene(), w.ctx->accel(), w.ctx->lights(), rs);
   }
   job->ptStart = w.ref.pt->seconds();
   job->sppStart = w.ref.pt->spp();
   return job;
 }
 
-// Light set number job.set (seed settings.many.seed + set): light tracing
-// and radii, as prepareManyLights does but with the stage shown between
-// them, then its renderer. False, with no set in the job, if stopped.
+// Light set number job.set (lightSetSettings: seed settings.many.seed + set,
+// the radii of the progressive VSL): light tracing and radii, as
+// prepareManyLights does but with the stage shown between them, then its
+// estimator. False, with no set in the job, if stopped.
 bool Session::prepareSet(Worker& w, Job& job) {
   const StudioSettings& s = job.settings;
-  job.ml.reset();  // the previous set's renderer points into prep
-  job.prep = ManyLightRun();
+  job.ml.reset();
   job.batch = 0;
-  ManyLightSettings many = s.many;
-  many.seed = s.many.seed + uint64_t(job.set);
+  const LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set);
+  const ManyLightSettings& many = set.many;
+  const Scene& scene = w.ctx->scene();
   setStage("tracing lights", many.lights);
   LightTracingSettings lt;
   lt.count = many.lights;
   lt.seed = many.seed;
   lt.maxDepth = many.lightMaxDepth;
   ManyLightRun prep;
-  prep.set = traceVirtualLights(*w.scene, *w.accel, *w.lights, lt, &stop_);
+  prep.set = traceVirtualLights(scene, w.ctx->accel(), w.ctx->lights(), lt, &stop_);
   if (stopped()) return false;
   setStage("k-NN radii", many.lights);
   Stopwatch knnClock;
-  const float R = std::max(w.scene->boundingRadius(), 1e-6f);
+  const float R = std::max(scene.boundingRadius(), 1e-6f);
   if (many.globalRadius > 0)
     prep.radii.assign(prep.set.lights.size(), many.globalRadius * R);
   else
@@ -468,9 +459,8 @@ bool Session::prepareSet(Worker& w, Job& job) {
     job.radiusMin = *lo;
     job.radiusMax = *hi;
   }
-  job.prep = std::move(prep);
-  job.ml = std::make_unique<ManyLightRenderer>(*w.scene, *w.accel, *w.lights, job.prep.set, job.prep.radii, many);
-  job.mlSeconds += job.prep.set.seconds + job.prep.knnSeconds;
+  job.mlSeconds += prep.set.seconds + prep.knnSeconds;
+  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator);
   setStage("rendering");
   return true;
 }
@@ -482,6 +472,7 @@ bool Session::prepareSet(Worker& w, Job& job) {
 // number, so set k always has seed + k.
 void Session::retireSet(Job& job, bool completed) {
   const ManyLightStats& st = job.ml->stats();
+  const ManyLightRun& prep = job.ml->run();
   if (completed) {
     const ManyLightImages im = job.ml->images();
     const size_t n = im.vsl.rgb.size();
@@ -498,20 +489,19 @@ void Session::retireSet(Job& job, bool completed) {
       for (size_t i = 0; i < n; ++i) mean.rgb[i] = float(sum[i] / K);
       if (l < kIndirectLayers) job.setImages[l].push_back(img);
     }
-    job.done.lights += job.prep.set.lights.size();
+    job.done.lights += prep.set.lights.size();
     ++job.set;
   }
   SetTotals& d = job.done;
-  d.tracingSeconds += job.prep.set.seconds;
-  d.knnSeconds += job.prep.knnSeconds;
+  d.tracingSeconds += prep.set.seconds;
+  d.knnSeconds += prep.knnSeconds;
   d.gatherSeconds += st.gatherSeconds;
   d.vslSeconds += st.vslSeconds;
   d.vplSeconds += st.vplSeconds;
   d.pairs += st.pairs;
   d.vslEvaluations += st.vslEvaluations;
-  d.nonFinite += st.nonFinite + job.prep.set.nonFiniteRejected;
+  d.nonFinite += st.nonFinite + prep.set.nonFiniteRejected;
   job.ml.reset();
-  job.prep = ManyLightRun();
   job.batch = 0;
 }
 
@@ -533,9 +523,10 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
         if (!prepareSet(w, job)) break;
       } else {
         Stopwatch batchClock;
-        if (!job.ml->renderBatch(job.batch, &stop_)) break;
+        if (!job.ml->step(&stop_)) break;
         job.mlSeconds += batchClock.seconds();
-        if (++job.batch >= job.ml->batchCount()) retireSet(job, true);
+        ++job.batch;
+        if (job.ml->done()) retireSet(job, true);
       }
       progressed = true;
     }
@@ -567,7 +558,7 @@ void Session::chooseReference(Worker& w, Job& job) {
   const int width = job.width, height = job.height;
   const std::string size = std::to_string(width) + "x" + std::to_string(height);
   if (w.cacheKeyFor != w.scenePath + "|" + size) {
-    w.cacheKey = referenceKey(*w.scene, width, height, kReferenceDepth);
+    w.cacheKey = referenceKey(w.ctx->scene(), width, height, kReferenceDepth);
     w.cacheKeyFor = w.scenePath + "|" + size;
   }
   const std::string& file = job.settings.referencePath;
@@ -612,7 +603,7 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
     rs.width = job.width;
     rs.height = job.height;
     rs.seed = kReferenceSeed;
-    w.background = std::make_unique<ReferenceRenderer>(*w.scene, *w.accel, *w.lights, rs);
+    w.background = std::make_unique<ReferenceRenderer>(w.ctx->scene(), w.ctx->accel(), w.ctx->lights(), rs);
     w.backgroundKey = w.cacheKey;
   }
   setStage("reference");
@@ -652,7 +643,9 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
 }
 
 std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen) const {
-  const ManyLightRenderer* ml = job.ml.get();  // the set in progress, if any
+  const ManyLightEstimator* ml = job.ml.get();  // the set in progress, if any
+  static const ManyLightRun kNoSet;
+  const ManyLightRun& prep = ml ? ml->run() : kNoSet;
   const ReferenceRenderer& ref = *w.ref.pt;
   const SetTotals& d = job.done;
   auto snap = std::make_shared<Snapshot>();
@@ -671,26 +664,26 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   // Work over every set: the completed ones and the one in progress.
   ManyLightStats none;
   const ManyLightStats& st = ml ? ml->stats() : none;
-  const size_t setSize = ml ? job.prep.set.lights.size() : job.setsDone > 0 ? d.lights / job.setsDone : 0;
+  const size_t setSize = ml ? prep.set.lights.size() : job.setsDone > 0 ? d.lights / job.setsDone : 0;
   const int untraced = std::max(job.settings.lightSets - job.setsDone - (ml ? 1 : 0), 0);
   snap->lightsProcessed = d.lights + (ml ? ml->lightsProcessed() : 0);
   snap->lightsTotal = d.lights + (ml ? setSize : 0) + size_t(untraced) * setSize;
   snap->batchesDone = ml ? job.batch : job.batchCount;
   snap->batchCount = job.batchCount;
   snap->seconds = job.clock.seconds();
-  snap->lightTracingSeconds = d.tracingSeconds + job.prep.set.seconds;
-  snap->knnSeconds = d.knnSeconds + job.prep.knnSeconds;
+  snap->lightTracingSeconds = d.tracingSeconds + prep.set.seconds;
+  snap->knnSeconds = d.knnSeconds + prep.knnSeconds;
   snap->gatherSeconds = d.gatherSeconds + st.gatherSeconds;
   snap->referenceSeconds = ref.seconds();
   snap->clampBound = job.clampBound;
-  snap->sceneRadius = w.scene->boundingRadius();
+  snap->sceneRadius = w.ctx->scene().boundingRadius();
   snap->radiusMin = job.radiusMin;
   snap->radiusMedian = job.radiusMedian;
   snap->radiusMax = job.radiusMax;
   snap->pairs = d.pairs + st.pairs.load();
   snap->vslEvaluations = d.vslEvaluations + st.vslEvaluations.load();
   snap->pairsPerSecond = double(snap->pairs) / std::max(snap->gatherSeconds, 1e-9);
-  snap->nonFinite = d.nonFinite + st.nonFinite + job.prep.set.nonFiniteRejected + ref.rejected();
+  snap->nonFinite = d.nonFinite + st.nonFinite + prep.set.nonFiniteRejected + ref.rejected();
   // Progress: rates over compute time, remaining time at those rates (the
   // sets not yet traced at the mean preparation time of those that were).
   if (snap->gatherSeconds > 0) {

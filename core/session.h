@@ -1,7 +1,8 @@
-// Session: the studio's background renderer. One worker thread loads scenes,
-// traces virtual lights, and interleaves many-light batches (VSL and VPL from
-// shared passes) with path-traced reference passes, publishing an immutable
-// Snapshot after each step. The UI calls restart() with a settings value and
+// Session: the studio's background renderer. One worker thread loads scenes
+// (a RenderContext), traces virtual lights, and interleaves the steps of a
+// many-light estimator (estimator.h: brute-force batches, or one MRCS render
+// per light set; VSL and VPL from shared passes) with path-traced reference
+// passes, publishing an immutable Snapshot after each step. The UI calls restart() with a settings value and
 // pulls the newest snapshot once per frame with latest(); neither call waits
 // for rendering.
 //
@@ -32,6 +33,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/estimator.h"
 #include "core/many_light.h"
 #include "core/reference.h"
 #include "core/stopwatch.h"
@@ -56,6 +58,11 @@ struct StudioSettings {
   // measured (BiasNoise). In [1, kMaxLightSets]; 1 renders one set.
   int lightSets = 8;
   static constexpr int kMaxLightSets = 64;
+  // How each light set is gathered (brute-force batches or MRCS, whose rows
+  // and clusters are drawn with the set's seed) and whether the VSL radii
+  // shrink from set to set (the consistent progressive VSL); estimator.h,
+  // lightSetSettings() gives set k's settings.
+  EstimatorSettings estimator;
   Result<void> validate() const;
 };
 

@@ -412,3 +412,44 @@ TEST_F(Cli, TinyTimeBudgetStillRendersOnePass) {
   EXPECT_EQ(j["spp"], 1);
   EXPECT_GT(j["mean"]["full"][0].get<double>(), 0.5);
 }
+
+// The render JSON times parsing and the BVH build apart (seconds.load,
+// seconds.bvh) and names the estimator; MRCS records its settings.
+TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
+  const std::string common = "render " + scene("cornell-glossy") + " --method all --lights 200 --width 16 --seed 2";
+  Proc r = run(common + " -o " + file("b.exr") + " --json " + file("b.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto j = nlohmann::json::parse(std::ifstream(file("b.json")));
+  EXPECT_EQ(j["estimator"], "brute-force");
+  EXPECT_GT(j["seconds"]["load"].get<double>(), 0);
+  EXPECT_GT(j["seconds"]["bvh"].get<double>(), 0);
+  EXPECT_FALSE(j.contains("mrcs"));
+  r = run(common + " --mrcs 10,20 -o " + file("m.exr") + " --json " + file("m.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = nlohmann::json::parse(std::ifstream(file("m.json")));
+  EXPECT_EQ(j["estimator"], "mrcs");
+  EXPECT_EQ(j["mrcs"]["rows"], 10);
+  EXPECT_EQ(j["mrcs"]["clusters"], 20);
+  EXPECT_EQ(j["batches"], 1);
+  r = run("render " + scene("furnace") + " --spp 2 --width 8 -o " + file("p.exr") + " --json " + file("p.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = nlohmann::json::parse(std::ifstream(file("p.json")));
+  EXPECT_GT(j["seconds"]["bvh"].get<double>(), 0);
+}
+
+// vsl-studio refuses a bad estimator on its command line before opening
+// anything: exit 2 and the setting's valid range.
+TEST_F(Cli, StudioRefusesBadEstimatorFlags) {
+  const std::string studio = std::string(VSL_BINARY_DIR) + "/bin/vsl-studio";
+  if (!fs::exists(studio)) GTEST_SKIP() << "built without the UI";
+  for (auto [args, want] :
+       std::vector<std::pair<std::string, std::string>>{{"--mrcs 0,5", "mrcs rows: must be in [1,100000]"},
+                                                        {"--mrcs 10,0", "mrcs clusters"},
+                                                        {"--mrcs 10", "--mrcs must be ROWS,CLUSTERS"},
+                                                        {"--mrcs 10,20,x", "--mrcs must be ROWS,CLUSTERS"},
+                                                        {"--progressive-radius 1.5", "alpha: must be in (0,1)"}}) {
+    Proc r = shell(studio + " --headless " + args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
+}

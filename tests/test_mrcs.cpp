@@ -3,6 +3,7 @@
 // clusters.
 #include <gtest/gtest.h>
 
+#include "core/estimator.h"
 #include "core/mrcs.h"
 #include "core/rng.h"
 
@@ -122,4 +123,73 @@ TEST_P(MrcsRender, AgreesWithBruteForceAndImprovesWithClusters) {
   }
   EXPECT_GT(errVsl[0], errVsl[2]);
   EXPECT_GT(errVpl[0], errVpl[2]);
+}
+
+// The seam (estimator.h): the MRCS estimator behind the interface is
+// renderMrcs itself, bit for bit for the same light set and seeds, in one
+// step; every layer has the render's size (black where MRCS computes
+// nothing), and a stop flag set beforehand discards the step.
+TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  ManyLightSettings s;
+  s.lights = 400;
+  s.width = s.height = 16;
+  s.directSamples = 2;
+  s.seed = 7;
+  EstimatorSettings e;
+  e.kind = EstimatorKind::Mrcs;
+  e.mrcs = MrcsSettings{24, 60, 3};
+  e.mrcs.spreadVslRadius = GetParam();
+  ManyLightRun run = prepareManyLights(c, s);
+  MrcsResult direct = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, e.mrcs);
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, std::move(run), s, e);
+  EXPECT_EQ(est->kind(), EstimatorKind::Mrcs);
+  EXPECT_EQ(est->stepCount(), 1);
+  std::atomic<bool> stop{true};
+  EXPECT_FALSE(est->step(&stop)) << "stopped before it began";
+  EXPECT_EQ(est->stepsDone(), 0);
+  EXPECT_EQ(est->images().vsl.width, 16) << "black layers of the render's size before the step";
+  ASSERT_TRUE(est->step());
+  EXPECT_TRUE(est->done());
+  EXPECT_FALSE(est->step()) << "nothing left";
+  const ManyLightImages im = est->images();
+  EXPECT_EQ(im.vsl.rgb, direct.images.vsl.rgb);
+  EXPECT_EQ(im.vpl.rgb, direct.images.vpl.rgb);
+  EXPECT_EQ(im.direct.rgb, direct.images.direct.rgb);
+  EXPECT_EQ(im.lostToClamping.rgb.size(), im.vsl.rgb.size());
+  EXPECT_EQ(est->stats().pairs.load(), direct.pairs);
+  EXPECT_EQ(est->lightsProcessed(), est->run().set.lights.size());
+  EXPECT_EQ(est->width(), 16);
+  EXPECT_EQ(est->mrcsStats().zeroColumnsVsl, direct.zeroColumnsVsl);
+}
+
+// Light set k of a progressive run: seed + k for the lights and MRCS's rows,
+// radii scaled by progressiveRadiusFactor(k, alpha) only when asked.
+TEST(MrcsClustering, LightSetSettingsSeedAndShrinkEachSet) {
+  ManyLightSettings m;
+  m.seed = 10;
+  m.radiusScale = 2;
+  EstimatorSettings e;
+  e.kind = EstimatorKind::Mrcs;
+  LightSetSettings k0 = lightSetSettings(m, e, 0), k3 = lightSetSettings(m, e, 3);
+  EXPECT_EQ(k0.many.seed, 10u);
+  EXPECT_EQ(k3.many.seed, 13u);
+  EXPECT_EQ(k3.estimator.mrcs.seed, 13u);
+  EXPECT_EQ(k3.many.radiusScale, 2.0f);
+  e.progressiveRadius = true;
+  e.alpha = 0.7f;
+  EXPECT_EQ(lightSetSettings(m, e, 0).many.radiusScale, 2.0f);
+  EXPECT_EQ(lightSetSettings(m, e, 3).many.radiusScale, 2.0f * progressiveRadiusFactor(3, 0.7f));
+  EXPECT_TRUE(e.validate());
+  e.alpha = 1.0f;
+  EXPECT_FALSE(e.validate());
+  // Names round-trip; unknown names are refused.
+  for (EstimatorKind k : {EstimatorKind::BruteForce, EstimatorKind::Mrcs})
+    EXPECT_EQ(parseEstimatorKind(estimatorName(k)), k);
+  for (Method x : {Method::Pt, Method::Vsl, Method::Vpl, Method::All}) EXPECT_EQ(parseMethod(methodName(x)), x);
+  EXPECT_FALSE(parseMethod("VSL"));
+  EXPECT_FALSE(parseEstimatorKind("bruteforce"));
 }

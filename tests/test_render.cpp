@@ -2,6 +2,7 @@
 // the film's guard against non-finite values.
 #include <gtest/gtest.h>
 
+#include "core/estimator.h"
 #include "core/image_io.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
@@ -301,4 +302,59 @@ TEST(ImageIO, ExrRoundTripAndAtomicFailure) {
   EXPECT_FALSE(w);
   EXPECT_NE(w.error().find("/nonexistent-dir/x.exr"), std::string::npos) << w.error();
   EXPECT_FALSE(readExr(testing::TempDir() + "does-not-exist.exr"));
+}
+
+// The seam (render_context.h, estimator.h). A RenderContext is the scene, its
+// BVH and its light sampler, with the parse and build times apart; a missing
+// file is an error naming it.
+TEST(RenderPT, RenderContextLoadsBuildsAndTimes) {
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::load(test::assetPath("cornell-glossy"));
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  EXPECT_TRUE(c.hasEmitters());
+  EXPECT_GT(c.scene().triangleCount(), 0u);
+  EXPECT_GT(c.loadSeconds(), 0.0);
+  EXPECT_GT(c.bvhSeconds(), 0.0);
+  EXPECT_EQ(c.lights().lightCount(), LightSampler(c.scene()).lightCount());
+  Result<std::unique_ptr<RenderContext>> missing = RenderContext::load("/nonexistent/scene.gltf");
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().find("/nonexistent/scene.gltf"), std::string::npos) << missing.error();
+}
+
+// The brute-force estimator behind the interface is ManyLightRenderer, batch
+// by batch and bit for bit, on the same light set; a stop flag discards the
+// step in progress and leaves the estimator where it was.
+TEST(RenderPT, BruteForceEstimatorEqualsManyLightRenderer) {
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::load(test::assetPath("cornell-glossy"));
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  ManyLightSettings s;
+  s.lights = 300;
+  s.width = s.height = 16;
+  s.batches = 3;
+  s.directSamples = 3;
+  s.seed = 4;
+  ManyLightRun run = prepareManyLights(c, s);
+  ManyLightRenderer direct(c.scene(), c.accel(), c.lights(), run.set, run.radii, s);
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, prepareManyLights(c, s), s, EstimatorSettings{});
+  EXPECT_EQ(est->kind(), EstimatorKind::BruteForce);
+  ASSERT_EQ(est->stepCount(), direct.batchCount());
+  EXPECT_EQ(est->run().set.lights.size(), run.set.lights.size());
+  std::atomic<bool> stop{true};
+  EXPECT_FALSE(est->step(&stop));
+  EXPECT_EQ(est->stepsDone(), 0);
+  for (int b = 0; b < direct.batchCount(); ++b) {
+    ASSERT_TRUE(direct.renderBatch(b));
+    ASSERT_TRUE(est->step());
+    const ManyLightImages want = direct.images(), got = est->images();
+    EXPECT_EQ(got.vsl.rgb, want.vsl.rgb) << "batch " << b;
+    EXPECT_EQ(got.vpl.rgb, want.vpl.rgb) << "batch " << b;
+    EXPECT_EQ(got.vplUnclamped.rgb, want.vplUnclamped.rgb) << "batch " << b;
+    EXPECT_EQ(got.direct.rgb, want.direct.rgb) << "batch " << b;
+    EXPECT_EQ(est->lightsProcessed(), direct.lightsProcessed());
+  }
+  EXPECT_TRUE(est->done());
+  EXPECT_FALSE(est->step());
+  EXPECT_EQ(est->stats().pairs.load(), direct.stats().pairs.load());
+  EXPECT_EQ(est->clampBound(), direct.clampBound());
 }

@@ -14,6 +14,7 @@
 #include "core/compare.h"
 #include "core/image_io.h"
 #include "core/memory_budget.h"
+#include "core/mrcs.h"
 #include "core/parallel.h"
 #include "core/session.h"
 #include "core/virtual_lights.h"
@@ -361,6 +362,13 @@ struct Loaded {
     for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
     return r.images();
   }
+  // One light set rendered with renderMrcs directly.
+  ManyLightImages renderWithMrcs(const ManyLightSettings& m, const MrcsSettings& mrcs) const {
+    ManyLightRun run = prepareManyLights(*scene, *accel, *lights, m);
+    MrcsResult r = vsl::renderMrcs(*scene, *accel, *lights, run.set, run.radii, m, mrcs);
+    EXPECT_FALSE(r.stopped);
+    return r.images;
+  }
 };
 
 // The mean of images as biasVariance computes it: a double sum in order, over K.
@@ -438,6 +446,123 @@ TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
   EXPECT_EQ(snap->many.vsl.rgb, renders[0].vsl.rgb);
   EXPECT_EQ(snap->many.vpl.rgb, renders[0].vpl.rgb);
   EXPECT_EQ(snap->biasNoise[0].renders, 0);
+}
+
+// The MRCS estimator in the session: each light set k is one MRCS render
+// (lights and rows drawn with seed s + k), and the picture is their mean, bit
+// for bit the mean of renderMrcs calls made directly with those seeds.
+TEST(Session, MrcsLightSetsAverageIndependentMrcsRenders) {
+  TempCache cache;
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 11;
+  s.lightSets = 2;
+  s.estimator.kind = EstimatorKind::Mrcs;
+  s.estimator.mrcs.rows = 12;
+  s.estimator.mrcs.clusters = 40;
+  Session session;
+  uint64_t g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(snap->lightSetsDone, 2);
+  EXPECT_EQ(snap->batchCount, 1) << "one MRCS step per light set";
+  EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
+  EXPECT_GT(snap->pairs, 0u);
+  Loaded l("cornell-glossy");
+  std::vector<ManyLightImages> renders;
+  for (uint64_t k = 0; k < 2; ++k) {
+    ManyLightSettings m = s.many;
+    m.seed = s.many.seed + k;
+    MrcsSettings mrcs = s.estimator.mrcs;
+    mrcs.seed = m.seed;
+    renders.push_back(l.renderWithMrcs(m, mrcs));
+  }
+  EXPECT_NE(renders[0].vsl.rgb, renders[1].vsl.rgb) << "independent sets";
+  auto layer = [&](Image ManyLightImages::*which) {
+    return std::vector<const Image*>{&(renders[0].*which), &(renders[1].*which)};
+  };
+  EXPECT_EQ(snap->many.vsl.rgb, meanOf(layer(&ManyLightImages::vsl)).rgb);
+  EXPECT_EQ(snap->many.vpl.rgb, meanOf(layer(&ManyLightImages::vpl)).rgb);
+  EXPECT_EQ(snap->many.direct.rgb, meanOf(layer(&ManyLightImages::direct)).rgb);
+  EXPECT_EQ(snap->biasNoise[int(BiasNoiseRow::Vsl)].renders, 2);
+
+  // Another estimator is another picture: the session starts over.
+  StudioSettings brute = s;
+  brute.estimator.kind = EstimatorKind::BruteForce;
+  EXPECT_FALSE(sameImageSettings(s, brute));
+  StudioSettings moreRows = s;
+  moreRows.estimator.mrcs.rows = 13;
+  EXPECT_FALSE(sameImageSettings(s, moreRows));
+}
+
+// The consistent progressive VSL: light set k's radii are scaled by
+// progressiveRadiusFactor(k, alpha); the picture is the mean of brute-force
+// renders made directly with those radius scales.
+TEST(Session, ProgressiveRadiusShrinksTheRadiiPerLightSet) {
+  TempCache cache;
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 3;
+  s.lightSets = 2;
+  s.estimator.progressiveRadius = true;
+  s.estimator.alpha = 0.5f;
+  Session session;
+  uint64_t g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  Loaded l("cornell-glossy");
+  std::vector<ManyLightImages> renders;
+  for (int k = 0; k < 2; ++k) {
+    ManyLightSettings m = s.many;
+    m.seed = s.many.seed + uint64_t(k);
+    m.radiusScale *= progressiveRadiusFactor(k, 0.5f);
+    renders.push_back(l.render(m));
+  }
+  EXPECT_LT(progressiveRadiusFactor(1, 0.5f), 1.0f);
+  EXPECT_EQ(snap->many.vsl.rgb, meanOf({&renders[0].vsl, &renders[1].vsl}).rgb);
+  // VPL has no radius: only the seeds differ.
+  EXPECT_EQ(snap->many.vpl.rgb, meanOf({&renders[0].vpl, &renders[1].vpl}).rgb);
+  StudioSettings fixed = s;
+  fixed.estimator.progressiveRadius = false;
+  EXPECT_FALSE(sameImageSettings(s, fixed));
+}
+
+// Invalid estimator settings are refused with the setting's name.
+TEST(Session, InvalidEstimatorSettingsAreRejected) {
+  Session session;
+  StudioSettings s = small("furnace", 30, 8);
+  s.estimator.kind = EstimatorKind::Mrcs;
+  s.estimator.mrcs.rows = 0;
+  Result<uint64_t> r = session.restart(s);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("mrcs rows"), std::string::npos) << r.error();
+  s.estimator.mrcs.rows = 10;
+  s.estimator.progressiveRadius = true;
+  s.estimator.alpha = 1.5f;
+  r = session.restart(s);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("alpha"), std::string::npos) << r.error();
+}
+
+// A restart while a large MRCS set renders takes effect promptly: MRCS
+// checks the stop flag between its stages and tiles.
+TEST(Session, RestartDuringMrcsStopsPromptly) {
+  Session session;
+  StudioSettings s = small("kitchen", 20000, 96);
+  s.lightSets = 2;
+  s.estimator.kind = EstimatorKind::Mrcs;
+  s.estimator.mrcs.rows = 400;
+  s.estimator.mrcs.clusters = 2000;
+  uint64_t g = session.restart(s, true).value();
+  (void)g;
+  for (int i = 0; i < 3000 && session.status().stage != "rendering"; ++i) std::this_thread::sleep_for(10ms);
+  std::this_thread::sleep_for(200ms);
+  Session::Status st = session.status();
+  EXPECT_EQ(st.stage, "rendering") << "the first set's MRCS render is in progress";
+  auto t0 = std::chrono::steady_clock::now();
+  uint64_t g2 = session.restart(small("furnace", 30, 8)).value();
+  auto snap = waitFor(session, g2, [](const Snapshot& x) { return x.batchesDone > 0; });
+  ASSERT_TRUE(snap);
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(seconds, 5.0) << "stage when restarted: " << st.stage;
 }
 
 // Asking for fewer sets while a later one renders keeps the completed ones:

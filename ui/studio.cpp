@@ -626,6 +626,37 @@ bool Studio::gatherControls() {
   return changed;
 }
 
+// The estimator: brute-force batches or MRCS, and the progressive radius.
+bool Studio::estimatorControls() {
+  bool changed = false;
+  sectionTitle("Estimator");
+  EstimatorSettings& e = settings_.estimator;
+  const char* kinds[] = {"brute force (batches)", "MRCS (row-column sampling)"};
+  int kind = int(e.kind);
+  if (ImGui::Combo("estimator", &kind, kinds, 2)) {
+    e.kind = EstimatorKind(kind);
+    changed |= track("estimator", true);
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Brute force gathers every (pixel, light) pair in progressive batches. MRCS computes ROWS sampled pixels "
+        "against every light, clusters the lights into CLUSTERS and renders one representative per cluster; "
+        "each light set is one MRCS render, and the sets are averaged.");
+  if (e.kind == EstimatorKind::Mrcs) {
+    changed |= track("estimator", ImGui::SliderInt("rows", &e.mrcs.rows, 10, 4000, "%d", ImGuiSliderFlags_Logarithmic));
+    changed |= track("estimator",
+                     ImGui::SliderInt("clusters", &e.mrcs.clusters, 10, 20000, "%d", ImGuiSliderFlags_Logarithmic));
+  }
+  changed |= track("estimator", ImGui::Checkbox("progressive radius", &e.progressiveRadius));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Consistent progressive VSL: light set k's radii are scaled by sqrt(prod_{i<=k} (i + alpha) / (i + 1)), "
+        "so the mean over the sets converges to the unbiased image. Raise the light sets to see it converge.");
+  if (e.progressiveRadius) changed |= track("estimator", ImGui::SliderFloat("alpha", &e.alpha, 0.05f, 0.95f, "%.2f"));
+  errorField("estimator");
+  return changed;
+}
+
 bool Studio::renderControls() {
   bool changed = false;
   sectionTitle("Render");
@@ -779,6 +810,7 @@ void Studio::controlsPanel() {
   sceneControls();
   bool changed = virtualLightControls();
   changed |= gatherControls();
+  changed |= estimatorControls();
   changed |= renderControls();
   changed |= referenceControls();
   // Restarts wait until the controls rest for a moment (a drag pauses, or
@@ -1213,8 +1245,10 @@ void Studio::metricsSummary(const Snapshot& s, bool stale) {
 // Which reference, and how noisy it is.
 void Studio::metricsReferenceNotes(const Snapshot& s) {
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
-  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s", s.lightSetsDone, s.lightSets,
-                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "");
+  ImGui::TextWrapped("light sets: %d of %d done; VSL and VPL show their mean%s; estimator: %s", s.lightSetsDone,
+                     s.lightSets,
+                     s.lightSetsDone == 0 ? " (the first set's progressive estimate until it is done)" : "",
+                     s.settings.estimator.describe().c_str());
   char noiseText[48] = "unknown (no halves)";
   if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
   ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
@@ -1408,7 +1442,10 @@ void Studio::metricsTable(const Snapshot& s) {
   ImGui::TableSetupColumn("noise");
   ImGui::TableSetupColumn("FLIP");
   ImGui::TableHeadersRow();
-  for (int i = 0; i < 4; ++i) methodRow(s, t, i);
+  // MRCS gathers VSL and the clamped VPL only: the other VPL layers are black.
+  const bool mrcs = s.settings.estimator.kind == EstimatorKind::Mrcs;
+  for (int i = 0; i < 4; ++i)
+    if (!mrcs || kMetricSources[i] == Source::Vsl || kMetricSources[i] == Source::Vpl) methodRow(s, t, i);
   livePtRow(s, t);
   ImGui::EndTable();
 }
@@ -1785,7 +1822,12 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
                         {"diffuseOnly", m.diffuseOnly},
                         {"maxReferenceSpp", s.maxReferenceSpp},
-                        {"lightSets", s.lightSets}}},
+                        {"lightSets", s.lightSets},
+                        {"estimator", estimatorName(s.estimator.kind)},
+                        {"mrcsRows", s.estimator.mrcs.rows},
+                        {"mrcsClusters", s.estimator.mrcs.clusters},
+                        {"progressiveRadius", s.estimator.progressiveRadius},
+                        {"progressiveAlpha", s.estimator.alpha}}},
                       {"view",
                        {{"mode", int(v.mode)},
                         {"panels", {int(v.panels[0]), int(v.panels[1]), int(v.panels[2])}},
@@ -1858,6 +1900,12 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     readField(js, "diffuseOnly", &m.diffuseOnly);
     readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
     readField(js, "lightSets", &s.lightSets);
+    if (js.contains("estimator"))
+      s.estimator.kind = parseEstimatorKind(js.at("estimator").get<std::string>()).value_or(EstimatorKind::BruteForce);
+    readField(js, "mrcsRows", &s.estimator.mrcs.rows);
+    readField(js, "mrcsClusters", &s.estimator.mrcs.clusters);
+    readField(js, "progressiveRadius", &s.estimator.progressiveRadius);
+    readField(js, "progressiveAlpha", &s.estimator.alpha);
     if (j.contains("view")) {
       const nlohmann::json& jv = j.at("view");
       readEnum(jv, "mode", &v.mode, 4);

@@ -192,6 +192,7 @@ class Studio {
   void sceneControls();
   bool virtualLightControls();
   bool gatherControls();
+  bool estimatorControls();
   bool renderControls();
   bool referenceControls();
   void viewControls();

@@ -224,6 +224,19 @@ nlohmann::json biasNoiseJson(const Snapshot& s) {
   return biasNoise;
 }
 
+// The many-light estimator and its settings (estimator.h).
+nlohmann::json estimatorJson(const EstimatorSettings& e) {
+  nlohmann::json j = {{"kind", estimatorName(e.kind)}, {"describe", e.describe()}};
+  if (e.kind == EstimatorKind::Mrcs)
+    j["mrcs"] = {{"rows", e.mrcs.rows},
+                 {"clusters", e.mrcs.clusters},
+                 {"uniformMix", e.mrcs.uniformMix},
+                 {"spreadVslRadius", e.mrcs.spreadVslRadius},
+                 {"seed", "per light set: seed + set"}};
+  j["progressiveRadius"] = e.progressiveRadius ? nlohmann::json({{"alpha", e.alpha}}) : nlohmann::json(nullptr);
+  return j;
+}
+
 // The render's settings, with the radii and the clamp as resolved.
 nlohmann::json settingsJson(const Snapshot& s) {
   const ManyLightSettings& m = s.settings.many;
@@ -250,7 +263,8 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"directSamples", m.directSamples},
           {"lightMaxDepth", m.lightMaxDepth},
           {"maxReferenceSpp", s.settings.maxReferenceSpp},
-          {"lightSets", s.settings.lightSets}};
+          {"lightSets", s.settings.lightSets},
+          {"estimator", estimatorJson(s.settings.estimator)}};
 }
 
 // How far the render got, and what it took.
@@ -351,7 +365,11 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
   return {{"version", VSL_VERSION},
           {"scene", s.settings.scene},
           {"exportedUtc", utcStamp()},
-          {"replay", "vsl render " + s.settings.scene + " --method all " + s.settings.many.describe()},
+          {"replay", "vsl render " + s.settings.scene + " --method all " + s.settings.many.describe() +
+                         (s.settings.estimator.kind == EstimatorKind::Mrcs
+                              ? " --mrcs " + std::to_string(s.settings.estimator.mrcs.rows) + "," +
+                                    std::to_string(s.settings.estimator.mrcs.clusters)
+                              : std::string())},
           {"settings", settingsJson(s)},
           {"width", s.width},
           {"height", s.height},

@@ -1,0 +1,185 @@
+// Sections: [1] names and settings  [2] light sets  [3] brute force  [4] MRCS
+//           [5] the factory
+#include "core/estimator.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "core/stopwatch.h"
+
+namespace vsl {
+
+// ---- [1] Names and settings ---------------------------------------------------------
+
+namespace {
+constexpr std::pair<Method, const char*> kMethodNames[] = {
+    {Method::Pt, "pt"}, {Method::Vsl, "vsl"}, {Method::Vpl, "vpl"}, {Method::All, "all"}};
+constexpr std::pair<EstimatorKind, const char*> kEstimatorNames[] = {{EstimatorKind::BruteForce, "brute-force"},
+                                                                     {EstimatorKind::Mrcs, "mrcs"}};
+}  // namespace
+
+std::optional<Method> parseMethod(std::string_view name) {
+  for (auto [m, n] : kMethodNames)
+    if (name == n) return m;
+  return std::nullopt;
+}
+
+const char* methodName(Method m) {
+  for (auto [k, n] : kMethodNames)
+    if (k == m) return n;
+  return "?";
+}
+
+std::optional<EstimatorKind> parseEstimatorKind(std::string_view name) {
+  for (auto [k, n] : kEstimatorNames)
+    if (name == n) return k;
+  return std::nullopt;
+}
+
+const char* estimatorName(EstimatorKind k) {
+  for (auto [e, n] : kEstimatorNames)
+    if (e == k) return n;
+  return "?";
+}
+
+Result<void> EstimatorSettings::validate() const {
+  if (kind == EstimatorKind::Mrcs)
+    if (Result<void> m = mrcs.validate(); !m) return m;
+  if (progressiveRadius && !(alpha > 0 && alpha < 1)) {
+    std::ostringstream e;
+    e << "progressive radius alpha: must be in (0,1) (got " << alpha << ")";
+    return Error(e.str());
+  }
+  return {};
+}
+
+std::string EstimatorSettings::describe() const {
+  std::ostringstream s;
+  s << estimatorName(kind);
+  if (kind == EstimatorKind::Mrcs) {
+    s << " --mrcs " << mrcs.rows << "," << mrcs.clusters << "," << mrcs.uniformMix;
+    if (mrcs.spreadVslRadius) s << " --mrcs-spread";
+  }
+  if (progressiveRadius) s << " --progressive-radius " << alpha;
+  return s.str();
+}
+
+// ---- [2] Light sets --------------------------------------------------------------------
+
+LightSetSettings lightSetSettings(const ManyLightSettings& base, const EstimatorSettings& est, int k) {
+  LightSetSettings out{base, est};
+  out.many.seed = base.seed + uint64_t(k);
+  if (est.progressiveRadius) {
+    const float f = progressiveRadiusFactor(k, est.alpha);
+    out.many.radiusScale *= f;
+    out.many.globalRadius *= f;
+  }
+  out.estimator.mrcs.seed = out.many.seed;
+  return out;
+}
+
+ManyLightRun prepareManyLights(const RenderContext& ctx, const ManyLightSettings& settings,
+                               const std::atomic<bool>* stop) {
+  return prepareManyLights(ctx.scene(), ctx.accel(), ctx.lights(), settings, stop);
+}
+
+// ---- [3] Brute force: progressive light batches ------------------------------------
+
+namespace {
+
+class BruteForceEstimator final : public ManyLightEstimator {
+ public:
+  BruteForceEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many)
+      : ManyLightEstimator(std::move(run)),
+        renderer_(ctx.scene(), ctx.accel(), ctx.lights(), run_.set, run_.radii, many) {}
+  EstimatorKind kind() const override { return EstimatorKind::BruteForce; }
+  bool step(const std::atomic<bool>* stop) override {
+    if (done()) return false;
+    if (!renderer_.renderBatch(done_, stop)) return false;
+    ++done_;
+    return true;
+  }
+  ManyLightImages images() const override { return renderer_.images(); }
+  int stepsDone() const override { return done_; }
+  int stepCount() const override { return renderer_.batchCount(); }
+  size_t lightsProcessed() const override { return renderer_.lightsProcessed(); }
+  const ManyLightStats& stats() const override { return renderer_.stats(); }
+  int width() const override { return renderer_.width(); }
+  int height() const override { return renderer_.height(); }
+  float clampBound() const override { return renderer_.clampBound(); }
+
+ private:
+  ManyLightRenderer renderer_;  // refers into run_, constructed after it
+  int done_ = 0;
+};
+
+// ---- [4] MRCS: one step ------------------------------------------------------------------
+
+class MrcsEstimator final : public ManyLightEstimator {
+ public:
+  MrcsEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const MrcsSettings& mrcs)
+      : ManyLightEstimator(std::move(run)), ctx_(ctx), many_(many), mrcs_(mrcs) {
+    width_ = many.width;
+    height_ = many.height;
+    resolveResolution(ctx.scene(), width_, height_);
+    clamp_ = manyLightClampBound(ctx.scene(), many);
+  }
+  EstimatorKind kind() const override { return EstimatorKind::Mrcs; }
+  // The whole of renderMrcs; a stopped render is discarded.
+  bool step(const std::atomic<bool>* stop) override {
+    if (done()) return false;
+    MrcsResult r = renderMrcs(ctx_.scene(), ctx_.accel(), ctx_.lights(), run_.set, run_.radii, many_, mrcs_, stop);
+    if (r.stopped) return false;
+    images_ = std::move(r.images);
+    mrcsStats_ = {r.rowSeconds, r.clusterSeconds, r.columnSeconds, r.zeroColumnsVsl, r.zeroColumnsVpl};
+    const double seconds = r.rowSeconds + r.clusterSeconds + r.columnSeconds;
+    stats_.pairs = r.pairs;
+    stats_.gatherSeconds = seconds;
+    stats_.vslSeconds = many_.computeVsl ? seconds : 0;
+    stats_.vplSeconds = many_.computeVpl ? seconds : 0;
+    done_ = true;
+    return true;
+  }
+  // Black layers until the step is done.
+  ManyLightImages images() const override {
+    if (done_) return images_;
+    ManyLightImages black;
+    for (Image* img : {&black.direct, &black.vsl, &black.vpl, &black.vplUnclamped, &black.vplDiffuse,
+                       &black.lostToClamping, &black.lostToDiffuse})
+      *img = Image(width_, height_);
+    return black;
+  }
+  int stepsDone() const override { return done_ ? 1 : 0; }
+  int stepCount() const override { return 1; }
+  size_t lightsProcessed() const override { return done_ ? run_.set.lights.size() : 0; }
+  const ManyLightStats& stats() const override { return stats_; }
+  MrcsStats mrcsStats() const override { return mrcsStats_; }
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  float clampBound() const override { return clamp_; }
+
+ private:
+  const RenderContext& ctx_;
+  ManyLightSettings many_;
+  MrcsSettings mrcs_;
+  int width_ = 0, height_ = 0;
+  float clamp_ = 0;
+  bool done_ = false;
+  ManyLightImages images_;
+  ManyLightStats stats_;
+  MrcsStats mrcsStats_;
+};
+
+}  // namespace
+
+// ---- [5] The factory ----------------------------------------------------------------------
+
+std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,
+                                                  const ManyLightSettings& many, const EstimatorSettings& est) {
+  VSL_CHECK(many.validate().ok());
+  VSL_CHECK(est.validate().ok());
+  if (est.kind == EstimatorKind::Mrcs) return std::make_unique<MrcsEstimator>(ctx, std::move(run), many, est.mrcs);
+  return std::make_unique<BruteForceEstimator>(ctx, std::move(run), many);
+}
+
+}  // namespace vsl

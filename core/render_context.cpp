@@ -1,0 +1,28 @@
+#include "core/render_context.h"
+
+#include "core/stopwatch.h"
+
+namespace vsl {
+
+Result<std::unique_ptr<RenderContext>> RenderContext::load(const std::string& path, const LoadOptions& options) {
+  Stopwatch loadClock;
+  SceneResult scene = loadScene(path, options);
+  if (!scene) return Error(scene.error());
+  return create(std::move(scene).value(), loadClock.seconds());
+}
+
+Result<std::unique_ptr<RenderContext>> RenderContext::create(std::shared_ptr<const Scene> scene, double loadSeconds) {
+  VSL_CHECK(scene != nullptr);
+  std::unique_ptr<RenderContext> ctx(new RenderContext());
+  ctx->scene_ = std::move(scene);
+  ctx->loadSeconds_ = loadSeconds;
+  Stopwatch bvhClock;
+  Result<std::unique_ptr<Accel>> built = Accel::build(*ctx->scene_);
+  if (!built) return Error(built.error());
+  ctx->accel_ = std::move(built).value();
+  ctx->bvhSeconds_ = bvhClock.seconds();
+  ctx->lights_ = std::make_unique<LightSampler>(*ctx->scene_);
+  return ctx;
+}
+
+}  // namespace vsl
