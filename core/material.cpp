@@ -227,17 +227,22 @@ float BrdfAt::pdf(const Vec3& wi) const {
   return pdf;
 }
 
-std::optional<BrdfSample> BrdfAt::sample(float u1, Vec2 u2) const {
-  if (!above_) return std::nullopt;
-  Vec3 wi;
-  bool spec = u1 < ps_;
-  if (spec) {
+bool BrdfAt::sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const {
+  if (!above_) return false;
+  specular = u1 < ps_;
+  if (specular) {
     Vec3 h = b_.ggx.sampleVisibleNormal(w_, u2);
     wi = reflect(w_, h);
   } else {
     wi = sampleCosineHemisphere(u2);
   }
-  if (wi.z <= 0) return std::nullopt;
+  return wi.z > 0;
+}
+
+std::optional<BrdfSample> BrdfAt::sample(float u1, Vec2 u2) const {
+  Vec3 wi;
+  bool spec = false;
+  if (!sampleDirection(u1, u2, wi, spec)) return std::nullopt;
   float p = 0;
   Vec3 f = evalParts(wi, &p).total();
   if (!(p > 0) || !std::isfinite(p)) return std::nullopt;
@@ -252,7 +257,9 @@ bool simdAvailable() {
 }
 
 void BrdfAt::evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const {
-  if (simdAvailable())
+  // A few directions cost less in the scalar form than a register's set-up.
+  constexpr int kMinSimd = 4;
+  if (n >= kMinSimd && simdAvailable())
     evalTotalsAvx2(n, wx, wy, wz, f, pdf);
   else
     evalTotalsScalar(n, wx, wy, wz, f, pdf);

@@ -141,6 +141,10 @@ class BrdfAt {
   void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   float pdf(const Vec3& wi) const;
   std::optional<BrdfSample> sample(float u1, Vec2 u2) const;
+  // The direction half of sample(): false when wi would be below the surface.
+  // sample() is this, then evalParts(wi, &pdf) and a check that the pdf is
+  // positive and finite (callers that evaluate in blocks do those later).
+  bool sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const;
   float specularProbability() const { return ps_; }
   // An upper bound of pdf(wi) over all directions wi.
   float pdfBound() const { return pdfBound_; }

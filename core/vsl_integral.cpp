@@ -1,6 +1,7 @@
 #include "core/vsl_integral.h"
 
 #include <algorithm>
+#include <optional>
 
 #include "core/sampling.h"
 
@@ -27,6 +28,9 @@ double vslClippedDiskArea(double r, double h) {
 }
 
 namespace {
+
+// Marks a BRDF sample whose value and pdf are not evaluated yet (block form).
+constexpr float kPendingPdf = -1.0f;
 
 // What both forms of the quadrature share: the cone toward the sphere, the
 // sample count, the strategies in use and the normalisation.
@@ -55,14 +59,17 @@ struct VslCone {
 
   // Draws the samples of strategy round i in order (the random stream is the
   // same for both forms) and hands each to visit(l, coneSample, fromX, fromP);
-  // a failed BRDF sample is visited with l = 0 and both pointers null.
-  template <typename Visit>
+  // a failed BRDF sample is visited with l = 0 and both pointers null. With
+  // kDefer, a BRDF sample comes with its direction only, its f and pdf set to
+  // kPendingPdf (the block form evaluates them with the others and drops the
+  // sample then if sample() would have failed).
+  template <bool kDefer, typename Visit>
   void drawRound(const VslReceiver& x, const VslEmitter& p, Rng& rng, Visit&& visit) const {
     // Strategy 1: uniform in the cone.
     visit(frame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr, nullptr);
     // Strategy 2: the receiver's BRDF.
     if (useX) {
-      if (auto s = x.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
+      if (auto s = sampleBrdf<kDefer>(x.f, rng))
         visit(x.frame.toWorld(s->wi), false, &*s, nullptr);
       else
         visit(Vec3(0.0f), false, nullptr, nullptr);
@@ -70,10 +77,22 @@ struct VslCone {
     // Strategy 3: the light's BRDF about its incoming direction (emission
     // leaves p along w; the receiver sees it along l = -w).
     if (useP) {
-      if (auto s = p.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
+      if (auto s = sampleBrdf<kDefer>(p.f, rng))
         visit(-p.frame.toWorld(s->wi), false, nullptr, &*s);
       else
         visit(Vec3(0.0f), false, nullptr, nullptr);
+    }
+  }
+  template <bool kDefer>
+  static std::optional<BrdfSample> sampleBrdf(const BrdfAt& f, Rng& rng) {
+    float u1 = rng.uniform();
+    Vec2 u2{rng.uniform(), rng.uniform()};
+    if constexpr (!kDefer) {
+      return f.sample(u1, u2);
+    } else {
+      BrdfSample s{Vec3(0.0f), Vec3(kPendingPdf), kPendingPdf, false};
+      if (!f.sampleDirection(u1, u2, s.wi, s.specularLobe)) return std::nullopt;
+      return s;
     }
   }
 
@@ -117,7 +136,7 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
     if (fromP) pdfP = fromP->pdf;
     addBalanced(fx * fp * (lx.z * lp.z), cone.pdfCone + double(pdfX) + double(pdfP), sum);
   };
-  for (int i = 0; i < cone.n; ++i) cone.drawRound(x, p, rng, accumulate);
+  for (int i = 0; i < cone.n; ++i) cone.drawRound<false>(x, p, rng, accumulate);
   res.transfer = cone.normalise(sum, x, toLight, radius, options);
   return res;
 }
@@ -133,7 +152,8 @@ struct VslPending {
   int n = 0;
   float lx[3][kCapacity], lp[3][kCapacity];
   float fx[3][kCapacity], fp[3][kCapacity], pdfX[kCapacity], pdfP[kCapacity];
-  bool haveX[kCapacity], haveP[kCapacity];  // the value came with a BRDF sample
+  bool haveX[kCapacity], haveP[kCapacity];        // the value came with a BRDF sample
+  bool sampledX[kCapacity], sampledP[kCapacity];  // a BRDF sample still to be evaluated
 
   void push(const Vec3& lxv, const Vec3& lpv, const BrdfSample* fromX, const BrdfSample* fromP) {
     for (int c = 0; c < 3; ++c) {
@@ -142,8 +162,10 @@ struct VslPending {
       if (fromX) fx[c][n] = fromX->f[c];
       if (fromP) fp[c][n] = fromP->f[c];
     }
-    haveX[n] = fromX != nullptr;
-    haveP[n] = fromP != nullptr;
+    sampledX[n] = fromX && fromX->pdf == kPendingPdf;
+    sampledP[n] = fromP && fromP->pdf == kPendingPdf;
+    haveX[n] = fromX && !sampledX[n];
+    haveP[n] = fromP && !sampledP[n];
     if (fromX) pdfX[n] = fromX->pdf;
     if (fromP) pdfP[n] = fromP->pdf;
     ++n;
@@ -161,6 +183,8 @@ struct VslPending {
       Vec3 fpv = haveP[i] ? Vec3(fp[0][i], fp[1][i], fp[2][i]) : Vec3(ep[0][i], ep[1][i], ep[2][i]);
       float px = haveX[i] ? pdfX[i] : cone.useX ? exPdf[i] : 0.0f;
       float pp = haveP[i] ? pdfP[i] : cone.useP ? epPdf[i] : 0.0f;
+      // sample() fails on a pdf that is not positive and finite.
+      if ((sampledX[i] && !(px > 0 && std::isfinite(px))) || (sampledP[i] && !(pp > 0 && std::isfinite(pp)))) continue;
       addBalanced(fxv * fpv * (lx[2][i] * lp[2][i]), cone.pdfCone + double(px) + double(pp), sum);
     }
     n = 0;
@@ -185,7 +209,7 @@ VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3
     pending.push(lx, lp, fromX, fromP);
   };
   for (int i = 0; i < cone.n; ++i) {
-    cone.drawRound(x, p, rng, collect);
+    cone.drawRound<true>(x, p, rng, collect);
     if (pending.n > VslPending::kCapacity - 3) pending.flush(x, p, cone, sum);
   }
   pending.flush(x, p, cone, sum);
