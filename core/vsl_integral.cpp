@@ -83,15 +83,17 @@ struct VslCone {
         visit(Vec3(0.0f), false, nullptr, nullptr);
     }
   }
+  // Both branches draw u1 and u2 in one call expression, as the quadrature
+  // always has: the order of the three draws is the compiler's (unspecified
+  // argument order), and writing them out in sequence would change every
+  // VSL image.
   template <bool kDefer>
   static std::optional<BrdfSample> sampleBrdf(const BrdfAt& f, Rng& rng) {
-    float u1 = rng.uniform();
-    Vec2 u2{rng.uniform(), rng.uniform()};
     if constexpr (!kDefer) {
-      return f.sample(u1, u2);
+      return f.sample(rng.uniform(), {rng.uniform(), rng.uniform()});
     } else {
       BrdfSample s{Vec3(0.0f), Vec3(kPendingPdf), kPendingPdf, false};
-      if (!f.sampleDirection(u1, u2, s.wi, s.specularLobe)) return std::nullopt;
+      if (!f.sampleDirection(rng.uniform(), {rng.uniform(), rng.uniform()}, s.wi, s.specularLobe)) return std::nullopt;
       return s;
     }
   }
