@@ -135,7 +135,7 @@ class BrdfAt {
   // (local frame): f[0..2][i] the RGB value and, with pdf, pdf[i]. The AVX2
   // form (evalTotalsAvx2, only where simdAvailable()) repeats the scalar
   // arithmetic operation for operation without fused multiply-adds, so the
-  // two agree bit for bit; evalTotals picks it when the CPU has AVX2.
+  // two agree bit for bit; evalTotals picks it when the CPU has AVX2 and n >= 4.
   void evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
