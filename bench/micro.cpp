@@ -60,7 +60,9 @@ void BM_BrdfSample(benchmark::State& state) {
 BENCHMARK(BM_BrdfSample);
 
 // The cone integral for a narrow cone (0.6 degrees: 1 sample per strategy), a
-// 15-degree cone (17 per strategy) and a 29-degree one (33 per strategy).
+// 15-degree cone (17 per strategy) and a 29-degree one (33 per strategy), in
+// the scalar reference form and the block form the gather uses.
+template <bool kBlock>
 void BM_VslCone(benchmark::State& state) {
   VslReceiver x;
   x.f = BrdfAt(Brdf::fromGltf(Vec3(0.8f), 0.0f, 0.5f, 0.0f), normalize(Vec3(0.3f, 0.1f, 1.0f)));
@@ -72,10 +74,13 @@ void BM_VslCone(benchmark::State& state) {
   Vec3 toLight(0.2f, 0.1f, 1.0f);
   double radius = state.range(0) / 100.0;
   Rng r(9, 9);
-  for (auto _ : state) benchmark::DoNotOptimize(vslTransfer(x, p, toLight, radius, {}, r));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(kBlock ? vslTransferBlock(x, p, toLight, radius, {}, r)
+                                    : vslTransfer(x, p, toLight, radius, {}, r));
   state.SetItemsProcessed(int64_t(state.iterations()));
 }
-BENCHMARK(BM_VslCone)->Arg(1)->Arg(27)->Arg(50);
+BENCHMARK(BM_VslCone<false>)->Arg(1)->Arg(27)->Arg(50);
+BENCHMARK(BM_VslCone<true>)->Arg(1)->Arg(27)->Arg(50);
 
 void BM_KnnRadii(benchmark::State& state) {
   Rng r(11, 11);

@@ -10,6 +10,7 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
   g.Phi = v.Phi;
   g.n = decodeUnit(v.n);
   g.ng = decodeUnit(v.ng);
+  g.pOff = offsetToLitSide(g.p, g.ng);
   g.em.frame = v.frame();
   g.em.f = BrdfAt(v.brdf(), g.em.frame.toLocal(decodeUnit(v.wi)));
   g.radius = radius;
@@ -33,7 +34,19 @@ Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& l
 
 namespace {
 constexpr int kMaxSpecularChain = 8;
+
+// segmentRay() with both ends already moved off their surfaces.
+bool segmentRayOffset(const Vec3& from, const Vec3& to, Ray& ray) {
+  ray.o = from;
+  Vec3 d = to - from;
+  float dist = length(d);
+  if (!(dist > 0)) return false;
+  ray.d = d / dist;
+  ray.tMin = 0;
+  ray.tMax = dist * (1 - 1e-4f);
+  return true;
 }
+}  // namespace
 
 Vec3 directLight(const PathTracer& direct, int x, int y, int sBegin, int sEnd, GatherCounters& c) {
   Vec3 sum(0.0f);
@@ -84,6 +97,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.beta = beta;
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
+    gp.pOff = offsetToLitSide(gp.p, gp.rx.ng);
     if (!split) return es;
     // The specular lobe, sampled alone, leads to the next gather point. Its
     // direct light is the emission the continued ray hits (next-event light
@@ -137,8 +151,9 @@ bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry
   if (!(g.d2 > 0 && g.cosX > 0 && cosXg > 0 && g.cosP > 0 && cosPg > 0)) return false;
   if (!computeVpl_ && !computeVsl_) return false;
   // One visibility ray feeds every estimate.
+  // segmentRay with both ends' offsets precomputed (the same values).
   Ray s;
-  if (segmentRay(gp.p, gp.rx.ng, L.p, L.ng, s)) {
+  if (segmentRayOffset(gp.pOff, L.pOff, s)) {
     ++c.shadowRays;
     if (accel_.occluded(s)) return false;
   }
@@ -181,7 +196,7 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   if (!computeVsl_) return;
   Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
   float radius = lobeRadius_ > 0 ? std::max(L.radius, lobeRadius_ * g.dist * L.alpha) : L.radius;
-  VslResult r = vslTransfer(gp.rx, L.em, g.d, radius, vsl_, prng);
+  VslResult r = vslTransferBlock(gp.rx, L.em, g.d, radius, vsl_, prng);
   c.vslEvaluations += uint64_t(r.evaluations);
   addLayer(acc, kVslLayer, gp.beta * L.Phi * r.transfer, c);
 }

@@ -13,6 +13,7 @@ namespace vsl {
 // A virtual light decoded for gathering.
 struct GatherLight {
   Vec3 p, Phi, n, ng;
+  Vec3 pOff;  // shadow-ray end: p moved off its surface (offsetToLitSide(p, ng))
   VslEmitter em;
   float radius;
   float alpha;  // the narrower GGX axis of the light's specular lobe
@@ -22,6 +23,7 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius);
 struct GatherPoint {
   bool valid = false;
   Vec3 p, beta;  // beta: throughput of the near-specular chain before the gather point
+  Vec3 pOff;     // shadow-ray origin: p moved off its surface (offsetToLitSide(p, rx.ng))
   VslReceiver rx;
   Vec3 shared;  // indirect light found on the way, common to every method
 };

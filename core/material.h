@@ -131,8 +131,20 @@ class BrdfAt {
   // pdf(wi) (sharing the half vector and D).
   Parts evalParts(const Vec3& wi, float* pdfOut = nullptr) const;
   Vec3 eval(const Vec3& wi) const { return evalParts(wi).total(); }
+  // evalParts(wi, pdf).total() for n directions at once, structure of arrays
+  // (local frame): f[0..2][i] the RGB value and, with pdf, pdf[i]. The AVX2
+  // form (evalTotalsAvx2, only where simdAvailable()) repeats the scalar
+  // arithmetic operation for operation without fused multiply-adds, so the
+  // two agree bit for bit; evalTotals picks it when the CPU has AVX2 and n >= 4.
+  void evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
+  void evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
+  void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   float pdf(const Vec3& wi) const;
   std::optional<BrdfSample> sample(float u1, Vec2 u2) const;
+  // The direction half of sample(): false when wi would be below the surface.
+  // sample() is this, then evalParts(wi, &pdf) and a check that the pdf is
+  // positive and finite (callers that evaluate in blocks do those later).
+  bool sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const;
   float specularProbability() const { return ps_; }
   // An upper bound of pdf(wi) over all directions wi.
   float pdfBound() const { return pdfBound_; }
@@ -146,6 +158,9 @@ class BrdfAt {
   bool above_ = false;      // w.z > 0
   bool specularOn_ = true;  // false: restricted to the diffuse lobe
 };
+
+// True when this CPU runs the AVX2 block forms (BrdfAt::evalTotalsAvx2).
+bool simdAvailable();
 
 // An RGBA image in [0,1] (as stored, not yet linearised).
 struct Texture {

@@ -1,6 +1,7 @@
 #include "core/vsl_integral.h"
 
 #include <algorithm>
+#include <optional>
 
 #include "core/sampling.h"
 
@@ -26,71 +27,195 @@ double vslClippedDiskArea(double r, double h) {
   return r * r * (0.5 * M_PI + std::asin(t) + t * std::sqrt(1.0 - t * t));
 }
 
+namespace {
+
+// Marks a BRDF sample whose value and pdf are not evaluated yet (block form).
+constexpr float kPendingPdf = -1.0f;
+
+// What both forms of the quadrature share: the cone toward the sphere, the
+// sample count, the strategies in use and the normalisation.
+struct VslCone {
+  double d, omc, pdfCone;
+  Vec3 axis;
+  Frame frame;
+  int n;
+  bool useX, useP;
+
+  VslCone(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius, const VslOptions& options) {
+    d = length(toLight);
+    // The cone's axis; a point exactly at the light looks along its normal.
+    axis = d > 0 ? toLight / float(d) : x.frame.n;
+    omc = vslConeOneMinusCos(radius, d);
+    n = options.samplesPerStrategy > 0 ? options.samplesPerStrategy : vslAutoSamples(omc);
+    pdfCone = 1.0 / (2.0 * M_PI * omc);
+    frame = Frame(axis);
+    // Strategies 2 and 3 only where their samples can land in the cone.
+    const double coneSolidAngle = 2.0 * M_PI * omc;
+    useX = double(x.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
+    useP = double(p.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
+  }
+  // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
+  bool inCone(const Vec3& l) const { return 0.5 * double(lengthSquared(l - axis)) <= omc; }
+
+  // Draws the samples of strategy round i in order (the random stream is the
+  // same for both forms) and hands each to visit(l, coneSample, fromX, fromP);
+  // a failed BRDF sample is visited with l = 0 and both pointers null. With
+  // kDefer, a BRDF sample comes with its direction only, its f and pdf set to
+  // kPendingPdf (the block form evaluates them with the others and drops the
+  // sample then if sample() would have failed).
+  template <bool kDefer, typename Visit>
+  void drawRound(const VslReceiver& x, const VslEmitter& p, Rng& rng, Visit&& visit) const {
+    // Strategy 1: uniform in the cone.
+    visit(frame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr, nullptr);
+    // Strategy 2: the receiver's BRDF.
+    if (useX) {
+      if (auto s = sampleBrdf<kDefer>(x.f, rng))
+        visit(x.frame.toWorld(s->wi), false, &*s, nullptr);
+      else
+        visit(Vec3(0.0f), false, nullptr, nullptr);
+    }
+    // Strategy 3: the light's BRDF about its incoming direction (emission
+    // leaves p along w; the receiver sees it along l = -w).
+    if (useP) {
+      if (auto s = sampleBrdf<kDefer>(p.f, rng))
+        visit(-p.frame.toWorld(s->wi), false, nullptr, &*s);
+      else
+        visit(Vec3(0.0f), false, nullptr, nullptr);
+    }
+  }
+  // Both branches draw u1 and u2 in one call expression, as the quadrature
+  // always has: the order of the three draws is the compiler's (unspecified
+  // argument order), and writing them out in sequence would change every
+  // VSL image.
+  template <bool kDefer>
+  static std::optional<BrdfSample> sampleBrdf(const BrdfAt& f, Rng& rng) {
+    if constexpr (!kDefer) {
+      return f.sample(rng.uniform(), {rng.uniform(), rng.uniform()});
+    } else {
+      BrdfSample s{Vec3(0.0f), Vec3(kPendingPdf), kPendingPdf, false};
+      if (!f.sampleDirection(rng.uniform(), {rng.uniform(), rng.uniform()}, s.wi, s.specularLobe)) return std::nullopt;
+      return s;
+    }
+  }
+
+  // Balance heuristic with n samples per strategy: (1/n) sum f / sum_j pdf_j.
+  Vec3 normalise(const double sum[3], const VslReceiver& x, const Vec3& toLight, double radius,
+                 const VslOptions& options) const {
+    double area = options.clippedDisk ? vslClippedDiskArea(radius, dot(toLight, x.ng)) : M_PI * radius * radius;
+    if (!(area > 0)) return Vec3(0.0f);
+    double norm = 1.0 / (double(n) * area);
+    Vec3 t(float(sum[0] * norm), float(sum[1] * norm), float(sum[2] * norm));
+    return isFinite(t) ? t : Vec3(0.0f);
+  }
+};
+
+// Adds one sample's f / (sum of pdfs) to sum (the balance heuristic's term).
+void addBalanced(const Vec3& f, double pdfSum, double sum[3]) {
+  if (isBlack(f) || !(pdfSum > 0)) return;
+  for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
+}
+
+}  // namespace
+
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                       const VslOptions& options, Rng& rng) {
   VslResult res;
-  double d = length(toLight);
-  // The cone's axis; a point exactly at the light looks along its normal.
-  Vec3 axis = d > 0 ? toLight / float(d) : x.frame.n;
-  double omc = vslConeOneMinusCos(radius, d);
-  int n = options.samplesPerStrategy > 0 ? options.samplesPerStrategy : vslAutoSamples(omc);
-  double pdfCone = 1.0 / (2.0 * M_PI * omc);
-  Frame coneFrame(axis);
-  // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
-  auto inCone = [&](const Vec3& l) { return 0.5 * double(lengthSquared(l - axis)) <= omc; };
-
-  // Strategies 2 and 3 only where their samples can land in the cone.
-  const double coneSolidAngle = 2.0 * M_PI * omc;
-  const bool useX = double(x.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
-  const bool useP = double(p.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
-
+  const VslCone cone(x, p, toLight, radius, options);
   double sum[3] = {0, 0, 0};
   // Cone samples are inside by construction (re-testing them in float would
   // reject some near the rim of tiny cones). A BRDF-sampled direction brings
   // its own BRDF's value and pdf.
   auto accumulate = [&](const Vec3& l, bool coneSample, const BrdfSample* fromX, const BrdfSample* fromP) {
     ++res.evaluations;
-    if ((!coneSample && !inCone(l)) || dot(l, x.ng) <= 0) return;
+    if (!coneSample && !fromX && !fromP) return;  // a failed BRDF sample
+    if ((!coneSample && !cone.inCone(l)) || dot(l, x.ng) <= 0) return;
     Vec3 lx = fromX ? fromX->wi : x.frame.toLocal(l), lp = fromP ? fromP->wi : p.frame.toLocal(-l);
     if (lx.z <= 0 || lp.z <= 0) return;
     float pdfX = 0, pdfP = 0;
-    Vec3 fx = fromX ? fromX->f : x.f.evalParts(lx, useX ? &pdfX : nullptr).total();
-    Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, useP ? &pdfP : nullptr).total();
+    Vec3 fx = fromX ? fromX->f : x.f.evalParts(lx, cone.useX ? &pdfX : nullptr).total();
+    Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, cone.useP ? &pdfP : nullptr).total();
     if (fromX) pdfX = fromX->pdf;
     if (fromP) pdfP = fromP->pdf;
-    Vec3 f = fx * fp * (lx.z * lp.z);
-    if (isBlack(f)) return;
-    double pdfSum = pdfCone + double(pdfX) + double(pdfP);
-    if (!(pdfSum > 0)) return;
-    for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
+    addBalanced(fx * fp * (lx.z * lp.z), cone.pdfCone + double(pdfX) + double(pdfP), sum);
   };
+  for (int i = 0; i < cone.n; ++i) cone.drawRound<false>(x, p, rng, accumulate);
+  res.transfer = cone.normalise(sum, x, toLight, radius, options);
+  return res;
+}
 
-  for (int i = 0; i < n; ++i) {
-    // Strategy 1: uniform in the cone.
-    accumulate(coneFrame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr,
-               nullptr);
-    // Strategy 2: the receiver's BRDF.
-    if (useX) {
-      if (auto s = x.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
-        accumulate(x.frame.toWorld(s->wi), false, &*s, nullptr);
-      else
-        ++res.evaluations;
+// ---- The block form ---------------------------------------------------------
+
+namespace {
+
+// Samples that passed the cone and hemisphere tests, in the order drawn,
+// waiting for their BRDF values (structure of arrays for BrdfAt::evalTotals).
+struct VslPending {
+  static constexpr int kCapacity = 64;
+  int n = 0;
+  float lx[3][kCapacity], lp[3][kCapacity];
+  float fx[3][kCapacity], fp[3][kCapacity], pdfX[kCapacity], pdfP[kCapacity];
+  bool haveX[kCapacity], haveP[kCapacity];        // the value came with a BRDF sample
+  bool sampledX[kCapacity], sampledP[kCapacity];  // a BRDF sample still to be evaluated
+
+  void push(const Vec3& lxv, const Vec3& lpv, const BrdfSample* fromX, const BrdfSample* fromP) {
+    for (int c = 0; c < 3; ++c) {
+      lx[c][n] = lxv[c];
+      lp[c][n] = lpv[c];
+      if (fromX) fx[c][n] = fromX->f[c];
+      if (fromP) fp[c][n] = fromP->f[c];
     }
-    // Strategy 3: the light's BRDF about its incoming direction (emission
-    // leaves p along w; the receiver sees it along l = -w).
-    if (useP) {
-      if (auto s = p.f.sample(rng.uniform(), {rng.uniform(), rng.uniform()}))
-        accumulate(-p.frame.toWorld(s->wi), false, nullptr, &*s);
-      else
-        ++res.evaluations;
-    }
+    sampledX[n] = fromX && fromX->pdf == kPendingPdf;
+    sampledP[n] = fromP && fromP->pdf == kPendingPdf;
+    haveX[n] = fromX && !sampledX[n];
+    haveP[n] = fromP && !sampledP[n];
+    if (fromX) pdfX[n] = fromX->pdf;
+    if (fromP) pdfP[n] = fromP->pdf;
+    ++n;
   }
-  // Balance heuristic with n samples per strategy: (1/n) sum f / sum_j pdf_j.
-  double area = options.clippedDisk ? vslClippedDiskArea(radius, dot(toLight, x.ng)) : M_PI * radius * radius;
-  if (!(area > 0)) return res;
-  double norm = 1.0 / (double(n) * area);
-  Vec3 t(float(sum[0] * norm), float(sum[1] * norm), float(sum[2] * norm));
-  res.transfer = isFinite(t) ? t : Vec3(0.0f);
+  // Evaluates both BRDFs on every pending sample at once, adds the balance
+  // heuristic's terms in the order drawn, and empties the block.
+  void flush(const VslReceiver& x, const VslEmitter& p, const VslCone& cone, double sum[3]) {
+    float ex[3][kCapacity], ep[3][kCapacity], exPdf[kCapacity], epPdf[kCapacity];
+    float* const exRows[3] = {ex[0], ex[1], ex[2]};
+    float* const epRows[3] = {ep[0], ep[1], ep[2]};
+    x.f.evalTotals(n, lx[0], lx[1], lx[2], exRows, cone.useX ? exPdf : nullptr);
+    p.f.evalTotals(n, lp[0], lp[1], lp[2], epRows, cone.useP ? epPdf : nullptr);
+    for (int i = 0; i < n; ++i) {
+      Vec3 fxv = haveX[i] ? Vec3(fx[0][i], fx[1][i], fx[2][i]) : Vec3(ex[0][i], ex[1][i], ex[2][i]);
+      Vec3 fpv = haveP[i] ? Vec3(fp[0][i], fp[1][i], fp[2][i]) : Vec3(ep[0][i], ep[1][i], ep[2][i]);
+      float px = haveX[i] ? pdfX[i] : cone.useX ? exPdf[i] : 0.0f;
+      float pp = haveP[i] ? pdfP[i] : cone.useP ? epPdf[i] : 0.0f;
+      // sample() fails on a pdf that is not positive and finite.
+      if ((sampledX[i] && !(px > 0 && std::isfinite(px))) || (sampledP[i] && !(pp > 0 && std::isfinite(pp)))) continue;
+      addBalanced(fxv * fpv * (lx[2][i] * lp[2][i]), cone.pdfCone + double(px) + double(pp), sum);
+    }
+    n = 0;
+  }
+};
+
+}  // namespace
+
+VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
+                           const VslOptions& options, Rng& rng) {
+  VslResult res;
+  const VslCone cone(x, p, toLight, radius, options);
+  double sum[3] = {0, 0, 0};
+  VslPending pending;
+  // The same tests as vslTransfer's accumulate(); the BRDF values wait.
+  auto collect = [&](const Vec3& l, bool coneSample, const BrdfSample* fromX, const BrdfSample* fromP) {
+    ++res.evaluations;
+    if (!coneSample && !fromX && !fromP) return;  // a failed BRDF sample
+    if ((!coneSample && !cone.inCone(l)) || dot(l, x.ng) <= 0) return;
+    Vec3 lx = fromX ? fromX->wi : x.frame.toLocal(l), lp = fromP ? fromP->wi : p.frame.toLocal(-l);
+    if (lx.z <= 0 || lp.z <= 0) return;
+    pending.push(lx, lp, fromX, fromP);
+  };
+  for (int i = 0; i < cone.n; ++i) {
+    cone.drawRound<true>(x, p, rng, collect);
+    if (pending.n > VslPending::kCapacity - 3) pending.flush(x, p, cone, sum);
+  }
+  pending.flush(x, p, cone, sum);
+  res.transfer = cone.normalise(sum, x, toLight, radius, options);
   return res;
 }
 

@@ -76,8 +76,14 @@ struct VslResult {
   int evaluations = 0;
 };
 
-// toLight = p - x.
+// toLight = p - x. The scalar reference form.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                       const VslOptions& options, Rng& rng);
+// The same quadrature with the BRDF evaluations done in blocks of samples
+// (BrdfAt::evalTotals, AVX2 where the CPU has it): the same random stream,
+// the same samples and the same sums in the same order, so the same result
+// as vslTransfer (bit-identical; the tests check float precision).
+VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
+                           const VslOptions& options, Rng& rng);
 
 }  // namespace vsl
