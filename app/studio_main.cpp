@@ -47,6 +47,7 @@ struct Args {
   int width = 256;
   bool lightsGiven = false, widthGiven = false;  // on the command line: they win over the last session
   bool fresh = false;                            // ignore the last session
+  bool verbose = false;                          // echo the log's info lines to stderr
   std::string crop;                              // X,Y,W,H in image pixels
   std::string reference;                         // a converged reference EXR
   int backgroundReference = 0;                   // spp of a reference rendered into the cache
@@ -363,22 +364,24 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
   for (int frame = 0; !glfwWindowShouldClose(win);) {
     // Idle when idle: sleep in the event queue; draw after input (a few
     // frames, so a click's press and release both land), for news from the
-    // renderer (at most 4 per second focused, 1 unfocused), and once a
-    // second while busy and focused for the busy mark. Minimised: never.
+    // renderer (at most 4 per second focused, 1 unfocused; a restart's first
+    // picture at once), and once a second while busy and focused for the
+    // busy mark. Minimised: never.
     // A frame costs ~50-60 ms of a core under software GL.
     const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
     const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
     if (scripted || settle > 0)
       glfwPollEvents();
     else
-      glfwWaitEventsTimeout(studio.restartPending() ? 0.05 : focused ? 0.25 : 1.0);
+      glfwWaitEventsTimeout(studio.awaitingPicture() ? 0.005 : studio.restartPending() ? 0.02 : focused ? 0.25 : 1.0);
     holdShortKeyPresses();
     if (gInput) {
       gInput = false;
       settle = 3;
     }
     const double since = sinceDraw.seconds();
-    const bool news = studio.wantsFrame() && (studio.restartPending() || since >= (focused ? 0.25 : 1.0));
+    const bool news =
+        studio.wantsFrame() && (studio.restartPending() || studio.awaitingPicture() || since >= (focused ? 0.25 : 1.0));
     const bool tick = focused && studio.busy() && since >= 1.0;
     if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
     if (settle > 0) --settle;
@@ -469,6 +472,8 @@ void addOptions(CLI::App& app, Args& a) {
                  "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
                  "ALPHA in (0,1), e.g. 0.7");
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
+  app.add_flag("--verbose", a.verbose,
+               "Echo the log's info lines to stderr (stages, each restart's change -> picture time)");
 }
 
 // --mrcs and --progressive-radius into a.estimator. Returns 0, or 2 after
@@ -536,7 +541,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  log::setEchoLevel(LogLevel::Warning);
+  log::setEchoLevel(a.verbose ? LogLevel::Info : LogLevel::Warning);
   const bool sceneGiven = !a.scene.empty();
   if (!sceneGiven) a.scene = std::string(VSL_ASSETS_DIR) + "/cornell-glossy.gltf";
   launch.options = studioOptions(a);

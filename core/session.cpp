@@ -513,7 +513,8 @@ void Session::retireSet(Job& job, bool completed) {
 void Session::render(Worker& w, Job& job, uint64_t gen) {
   setStage("rendering");
   // A resumed job shows its picture under the new generation at once.
-  if (job.batch > 0 || job.setsDone > 0) publish(makeSnapshot(w, job, gen));
+  bool firstPicture = !(job.batch > 0 || job.setsDone > 0);
+  if (!firstPicture) publish(makeSnapshot(w, job, gen));
   ReferenceRenderer& ref = *w.ref.pt;
   while (!stopped()) {
     bool progressed = false;
@@ -529,6 +530,12 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
         if (job.ml->done()) retireSet(job, true);
       }
       progressed = true;
+    }
+    // A new render's first picture goes out after its first batch; the
+    // reference catches up after it (the studio's change-to-picture time).
+    if (firstPicture && (job.batch > 0 || job.setsDone > 0)) {
+      firstPicture = false;
+      publish(makeSnapshot(w, job, gen));
     }
     // Once the many-light methods are done, a requested background reference
     // goes first (the live path tracer waits), then the live path tracer.

@@ -168,7 +168,8 @@ void Studio::restart(bool fromScratch) {
     log::warning("settings rejected: " + err);
     return;
   }
-  sinceRestart_.reset();
+  if (!changeTimed_) sinceChange_.reset();
+  changeTimed_ = false;
   restartGeneration_ = *started;
   accepted_ = settings_;
   settingsError_.clear();
@@ -209,7 +210,7 @@ void Studio::pullSnapshot() {
     if (s->generation != firstPictureGeneration_ && s->generation == restartGeneration_) {
       // The first picture of this generation: how long the user waited.
       firstPictureGeneration_ = s->generation;
-      restartToPictureMs_ = 1000 * sinceRestart_.seconds();
+      restartToPictureMs_ = 1000 * sinceChange_.seconds();
       if (launchToPictureMs_ < 0) {
         launchToPictureMs_ = 1000 * sinceLaunch_.seconds();
         log::info("first picture " + std::to_string(int(launchToPictureMs_)) + " ms after launch");
@@ -815,7 +816,11 @@ void Studio::controlsPanel() {
   changed |= referenceControls();
   // Restarts wait until the controls rest for a moment (a drag pauses, or
   // typed text is entered): each restart throws away the light set.
-  if (changed) restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  if (changed) {
+    restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(kSettleMs);
+    sinceChange_.reset();  // change -> picture counts from the control's last change
+    changeTimed_ = true;
+  }
   if (ImGui::Button("Restart")) restart(true);
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
   ImGui::SameLine();

@@ -124,6 +124,10 @@ class Studio {
   bool busy() const;
   // A settings change waits for the controls to rest before it restarts.
   bool restartPending() const;
+  // A restart's first picture has not arrived yet (for up to 5 s: a session
+  // with no scene never sends one): the caller polls often and draws it at
+  // once, with no frame-rate cap.
+  bool awaitingPicture() const { return restartGeneration_ != firstPictureGeneration_ && sinceChange_.seconds() < 5.0; }
   // Why the session cannot render ("" if it can): the first scene did not
   // load. The headless front end exits with it.
   std::string fatalError() const;
@@ -312,8 +316,13 @@ class Studio {
   FloatTexture cropTextures_[9];
   const Snapshot* cropsFor_ = nullptr;
   ViewState cropsView_;
-  // Responsiveness, measured on the UI thread.
-  Stopwatch sinceLaunch_, sinceRestart_ = sinceLaunch_;
+  // Responsiveness, measured on the UI thread: change -> picture runs from a
+  // control's last change (the settle delay included) or from a restart
+  // without one (Restart, a new scene) to the first snapshot of its
+  // generation.
+  static constexpr int kSettleMs = 50;  // controls rest this long before a restart
+  Stopwatch sinceLaunch_, sinceChange_ = sinceLaunch_;
+  bool changeTimed_ = false;  // sinceChange_ already runs from a control's change
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
   double launchToPictureMs_ = -1, restartToPictureMs_ = -1;
 };
