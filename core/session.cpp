@@ -531,9 +531,12 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
       }
       progressed = true;
     }
-    // A new render's first picture goes out after its first batch; the
-    // reference catches up after it (the studio's change-to-picture time).
-    if (firstPicture && (job.batch > 0 || job.setsDone > 0)) {
+    // A new render's first picture goes out after its first batch when the
+    // reference already has samples (a change that keeps the scene and the
+    // resolution): the reference catches up after it. Otherwise it waits for
+    // the reference's first pass, so that no error is measured against a
+    // black image.
+    if (firstPicture && (job.batch > 0 || job.setsDone > 0) && (w.converged || ref.spp() > 0)) {
       firstPicture = false;
       publish(makeSnapshot(w, job, gen));
     }
