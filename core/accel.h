@@ -59,15 +59,20 @@ inline Vec3 offsetRayOrigin(const Vec3& p, const Vec3& ng, const Vec3& w) {
 // put it on the far side of a thin wall when the other point lies behind it,
 // and light would leak through. tMax stops just short of the target. Returns
 // false when the points coincide.
-inline bool segmentRay(const Vec3& from, const Vec3& nFrom, const Vec3& to, const Vec3& nTo, Ray& ray) {
-  ray.o = offsetToLitSide(from, nFrom);
-  Vec3 d = offsetToLitSide(to, nTo) - ray.o;
+// segmentRay() between ends already moved off their surfaces (the gather
+// offsets each gather point and each light once, not once per pair).
+inline bool segmentRayBetween(const Vec3& from, const Vec3& to, Ray& ray) {
+  ray.o = from;
+  Vec3 d = to - from;
   float dist = length(d);
   if (!(dist > 0)) return false;
   ray.d = d / dist;
   ray.tMin = 0;
   ray.tMax = dist * (1 - 1e-4f);
   return true;
+}
+inline bool segmentRay(const Vec3& from, const Vec3& nFrom, const Vec3& to, const Vec3& nTo, Ray& ray) {
+  return segmentRayBetween(offsetToLitSide(from, nFrom), offsetToLitSide(to, nTo), ray);
 }
 
 }  // namespace vsl

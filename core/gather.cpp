@@ -34,18 +34,6 @@ Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& l
 
 namespace {
 constexpr int kMaxSpecularChain = 8;
-
-// segmentRay() with both ends already moved off their surfaces.
-bool segmentRayOffset(const Vec3& from, const Vec3& to, Ray& ray) {
-  ray.o = from;
-  Vec3 d = to - from;
-  float dist = length(d);
-  if (!(dist > 0)) return false;
-  ray.d = d / dist;
-  ray.tMin = 0;
-  ray.tMax = dist * (1 - 1e-4f);
-  return true;
-}
 }  // namespace
 
 Vec3 directLight(const PathTracer& direct, int x, int y, int sBegin, int sEnd, GatherCounters& c) {
@@ -153,7 +141,7 @@ bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry
   // One visibility ray feeds every estimate.
   // segmentRay with both ends' offsets precomputed (the same values).
   Ray s;
-  if (segmentRayOffset(gp.pOff, L.pOff, s)) {
+  if (segmentRayBetween(gp.pOff, L.pOff, s)) {
     ++c.shadowRays;
     if (accel_.occluded(s)) return false;
   }
