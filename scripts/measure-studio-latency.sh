@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Issue 10's interactivity figures, measured by the studio itself (its log's
+# "first picture ... ms after the settings changed", from a control's last
+# change, the settle delay included, to the first snapshot of the new
+# settings reaching the UI thread). Needs Xvfb, openbox, xdotool, ImageMagick.
+#   xvfb-run -a -s "-screen 0 1600x1000x24" bash scripts/measure-studio-latency.sh [OUT] [change|mrcs]
+# change: cornell-glossy at 256 px; clicks the seed "+" button six times, 2 s
+#         apart (the button sits at (220, 549) in the 1600x1000 window's layout).
+# mrcs:   cornell-glossy at 512x512, 100,000 lights, MRCS 300 rows / 900
+#         clusters, one light set: the time to the first (complete) picture.
+# Run on an idle machine; prints the log lines and saves a screenshot.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-out/latency}
+mode=${2:-change}
+studio=${STUDIO:-build/bin/vsl-studio}
+mkdir -p "$out"
+export XDG_CONFIG_HOME="$out/config"
+openbox >/dev/null 2>&1 &
+sleep 1
+if [ "$mode" = mrcs ]; then
+  "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 512 --lights 100000 \
+    --mrcs 300,900 --light-sets 1 >"$out/studio.log" 2>&1 &
+  pid=$!
+  for _ in $(seq 1 300); do sleep 1; grep -q "first picture" "$out/studio.log" && break; done
+  sleep 1
+else
+  "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 256 >"$out/studio.log" 2>&1 &
+  pid=$!
+  sleep 10
+  for _ in 1 2 3 4 5 6; do
+    xdotool mousemove 220 549 click 1
+    sleep 2
+  done
+fi
+import -window root "$out/$mode.png"
+wid=$(xdotool search --name '^vsl-studio$' | head -1)
+[ -n "$wid" ] && xdotool key --window "$wid" ctrl+q
+for _ in $(seq 1 50); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
+kill $pid 2>/dev/null
+grep -i "first picture" "$out/studio.log"
