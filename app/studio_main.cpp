@@ -481,16 +481,8 @@ void addOptions(CLI::App& app, Args& a) {
 int resolveEstimator(Args& a, bool progressiveGiven) {
   EstimatorSettings& e = a.estimator;
   if (!a.mrcs.empty()) {
-    // ROWS,CLUSTERS then optionally ,MIX, and nothing after.
-    const char* text = a.mrcs.c_str();
-    int used = 0, usedMix = 0;
-    bool ok = std::sscanf(text, "%d,%d%n", &e.mrcs.rows, &e.mrcs.clusters, &used) == 2;
-    if (ok && text[used] == ',')
-      ok = std::sscanf(text + used + 1, "%lf%n", &e.mrcs.uniformMix, &usedMix) == 1 && text[used + 1 + usedMix] == 0;
-    else
-      ok = ok && text[used] == 0;
-    if (!ok) {
-      std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS or ROWS,CLUSTERS,MIX (got '%s')\n", text);
+    if (!parseMrcsText(a.mrcs, e.mrcs)) {
+      std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS or ROWS,CLUSTERS,MIX (got '%s')\n", a.mrcs.c_str());
       return 2;
     }
     e.kind = EstimatorKind::Mrcs;

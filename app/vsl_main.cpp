@@ -17,6 +17,7 @@
 #include <iostream>
 
 #include "app/cli.h"
+#include "core/estimator.h"
 #include "core/log.h"
 
 namespace vsl {
@@ -42,15 +43,7 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
 }
 
 bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
-  // ROWS,CLUSTERS then optionally ,MIX, and nothing after ("10,20x" is refused).
-  const char* text = spec.c_str();
-  int used = 0, usedMix = 0;
-  bool ok = std::sscanf(text, "%d,%d%n", &out.rows, &out.clusters, &used) == 2;
-  if (ok && text[used] == ',')
-    ok = std::sscanf(text + used + 1, "%lf%n", &out.uniformMix, &usedMix) == 1 && text[used + 1 + usedMix] == 0;
-  else
-    ok = ok && text[used] == 0;
-  if (ok && out.validate()) return true;
+  if (parseMrcsText(spec, out) && out.validate()) return true;
   failf(kExitBadArguments, "--mrcs must be ROWS,CLUSTERS with positive integers, optionally ,MIX in [0,1] (got '%s')",
         spec.c_str());
   return false;

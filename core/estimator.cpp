@@ -3,6 +3,7 @@
 #include "core/estimator.h"
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "core/stopwatch.h"
@@ -16,30 +17,32 @@ constexpr std::pair<Method, const char*> kMethodNames[] = {
     {Method::Pt, "pt"}, {Method::Vsl, "vsl"}, {Method::Vpl, "vpl"}, {Method::All, "all"}};
 constexpr std::pair<EstimatorKind, const char*> kEstimatorNames[] = {{EstimatorKind::BruteForce, "brute-force"},
                                                                      {EstimatorKind::Mrcs, "mrcs"}};
+template <class E, size_t N>
+std::optional<E> byName(const std::pair<E, const char*> (&table)[N], std::string_view name) {
+  for (auto [e, n] : table)
+    if (name == n) return e;
+  return std::nullopt;
+}
+
+template <class E, size_t N>
+const char* nameOf(const std::pair<E, const char*> (&table)[N], E value) {
+  for (auto [e, n] : table)
+    if (e == value) return n;
+  return "?";
+}
 }  // namespace
 
-std::optional<Method> parseMethod(std::string_view name) {
-  for (auto [m, n] : kMethodNames)
-    if (name == n) return m;
-  return std::nullopt;
-}
+std::optional<Method> parseMethod(std::string_view name) { return byName(kMethodNames, name); }
+const char* methodName(Method m) { return nameOf(kMethodNames, m); }
+std::optional<EstimatorKind> parseEstimatorKind(std::string_view name) { return byName(kEstimatorNames, name); }
+const char* estimatorName(EstimatorKind k) { return nameOf(kEstimatorNames, k); }
 
-const char* methodName(Method m) {
-  for (auto [k, n] : kMethodNames)
-    if (k == m) return n;
-  return "?";
-}
-
-std::optional<EstimatorKind> parseEstimatorKind(std::string_view name) {
-  for (auto [k, n] : kEstimatorNames)
-    if (name == n) return k;
-  return std::nullopt;
-}
-
-const char* estimatorName(EstimatorKind k) {
-  for (auto [e, n] : kEstimatorNames)
-    if (e == k) return n;
-  return "?";
+bool parseMrcsText(const std::string& spec, MrcsSettings& out) {
+  const char* text = spec.c_str();
+  int used = 0, usedMix = 0;
+  if (std::sscanf(text, "%d,%d%n", &out.rows, &out.clusters, &used) != 2) return false;
+  if (text[used] != ',') return text[used] == 0;
+  return std::sscanf(text + used + 1, "%lf%n", &out.uniformMix, &usedMix) == 1 && text[used + 1 + usedMix] == 0;
 }
 
 Result<void> EstimatorSettings::validate() const {

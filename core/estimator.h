@@ -45,6 +45,11 @@ enum class EstimatorKind { BruteForce, Mrcs };
 std::optional<EstimatorKind> parseEstimatorKind(std::string_view name);  // "brute-force", "mrcs"
 const char* estimatorName(EstimatorKind k);
 
+// The text of `--mrcs`: ROWS,CLUSTERS then optionally ,MIX, and nothing after
+// ("10,20x" is refused). Fills out's rows, clusters and mix; true when the
+// text has that form (the values are checked by MrcsSettings::validate()).
+bool parseMrcsText(const std::string& text, MrcsSettings& out);
+
 // The estimator and its settings; a plain value with named defaults.
 struct EstimatorSettings {
   EstimatorKind kind = EstimatorKind::BruteForce;

@@ -57,6 +57,18 @@ struct VslCone {
   // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
   bool inCone(const Vec3& l) const { return 0.5 * double(lengthSquared(l - axis)) <= omc; }
 
+  // The tests every drawn sample passes before its BRDFs count (a BRDF
+  // sample must land in the cone; both sides' hemispheres), giving the
+  // direction in each side's local frame. False for a failed BRDF sample.
+  bool accept(const VslReceiver& x, const VslEmitter& p, const Vec3& l, bool coneSample, const BrdfSample* fromX,
+              const BrdfSample* fromP, Vec3& lx, Vec3& lp) const {
+    if (!coneSample && !fromX && !fromP) return false;  // a failed BRDF sample
+    if ((!coneSample && !inCone(l)) || dot(l, x.ng) <= 0) return false;
+    lx = fromX ? fromX->wi : x.frame.toLocal(l);
+    lp = fromP ? fromP->wi : p.frame.toLocal(-l);
+    return lx.z > 0 && lp.z > 0;
+  }
+
   // Draws the samples of strategy round i in order (the random stream is the
   // same for both forms) and hands each to visit(l, coneSample, fromX, fromP);
   // a failed BRDF sample is visited with l = 0 and both pointers null. With
@@ -127,10 +139,8 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
   // its own BRDF's value and pdf.
   auto accumulate = [&](const Vec3& l, bool coneSample, const BrdfSample* fromX, const BrdfSample* fromP) {
     ++res.evaluations;
-    if (!coneSample && !fromX && !fromP) return;  // a failed BRDF sample
-    if ((!coneSample && !cone.inCone(l)) || dot(l, x.ng) <= 0) return;
-    Vec3 lx = fromX ? fromX->wi : x.frame.toLocal(l), lp = fromP ? fromP->wi : p.frame.toLocal(-l);
-    if (lx.z <= 0 || lp.z <= 0) return;
+    Vec3 lx, lp;
+    if (!cone.accept(x, p, l, coneSample, fromX, fromP, lx, lp)) return;
     float pdfX = 0, pdfP = 0;
     Vec3 fx = fromX ? fromX->f : x.f.evalParts(lx, cone.useX ? &pdfX : nullptr).total();
     Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, cone.useP ? &pdfP : nullptr).total();
@@ -201,14 +211,11 @@ VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3
   const VslCone cone(x, p, toLight, radius, options);
   double sum[3] = {0, 0, 0};
   VslPending pending;
-  // The same tests as vslTransfer's accumulate(); the BRDF values wait.
+  // The same tests as vslTransfer's (VslCone::accept); the BRDF values wait.
   auto collect = [&](const Vec3& l, bool coneSample, const BrdfSample* fromX, const BrdfSample* fromP) {
     ++res.evaluations;
-    if (!coneSample && !fromX && !fromP) return;  // a failed BRDF sample
-    if ((!coneSample && !cone.inCone(l)) || dot(l, x.ng) <= 0) return;
-    Vec3 lx = fromX ? fromX->wi : x.frame.toLocal(l), lp = fromP ? fromP->wi : p.frame.toLocal(-l);
-    if (lx.z <= 0 || lp.z <= 0) return;
-    pending.push(lx, lp, fromX, fromP);
+    Vec3 lx, lp;
+    if (cone.accept(x, p, l, coneSample, fromX, fromP, lx, lp)) pending.push(lx, lp, fromX, fromP);
   };
   for (int i = 0; i < cone.n; ++i) {
     cone.drawRound<true>(x, p, rng, collect);
