@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/estimator.h"
+
 namespace vsl {
 
 const char* componentName(Component c) {
@@ -31,7 +33,7 @@ bool parseComponent(const std::string& s, Component* out) {
 
 Result<void> RenderSettings::validate() const {
   std::ostringstream e;
-  if (method != "pt" && method != "vsl" && method != "vpl" && method != "all")
+  if (!parseMethod(method))
     e << "method: must be pt, vsl, vpl or all (got '" << method << "')";
   else if (width < 0 || width > kMaxResolution)
     e << "width: must be in [1," << kMaxResolution << "] (got " << width << ")";

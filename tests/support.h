@@ -19,15 +19,38 @@
 #include "core/lights.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
+#include "core/render_context.h"
 
 namespace vsl::test {
 
+// A scene with its BVH and light sampler (a RenderContext), and views of the
+// three for the tests' calls.
 struct Loaded {
+  std::unique_ptr<RenderContext> context;
   std::shared_ptr<const Scene> scene;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
+  const Accel* accel = nullptr;
+  const LightSampler* lights = nullptr;
   int width = 0, height = 0;  // the asked width, height from the camera's aspect ratio
 };
+
+// `built` as a Loaded (its views set), or an empty one and a test failure.
+inline Loaded loadedFrom(Result<std::unique_ptr<RenderContext>> built, int width = 48) {
+  Loaded l;
+  EXPECT_TRUE(built) << built.error();
+  if (!built) return l;
+  l.context = std::move(built).value();
+  l.scene = l.context->sharedScene();
+  l.accel = &l.context->accel();
+  l.lights = &l.context->lights();
+  l.width = width;
+  resolveResolution(*l.scene, l.width, l.height);
+  return l;
+}
+
+// A hand-built scene with its BVH and light sampler.
+inline Loaded loadedFrom(std::shared_ptr<const Scene> scene, int width = 48) {
+  return loadedFrom(RenderContext::create(std::move(scene)), width);
+}
 
 // ---- Files --------------------------------------------------------------------------
 
@@ -78,18 +101,7 @@ inline std::shared_ptr<const Scene> loadAssetScene(const std::string& name) {
 
 // assets/scenes/NAME.gltf; failures are reported as test failures.
 inline Loaded loadAsset(const std::string& name, int width = 48) {
-  Loaded l;
-  SceneResult r = loadScene(assetPath(name));
-  EXPECT_TRUE(r) << r.error();
-  if (!r) return l;
-  l.scene = r.value();
-  Result<std::unique_ptr<Accel>> built = Accel::build(*l.scene);
-  EXPECT_TRUE(built) << built.error();
-  if (built) l.accel = std::move(built).value();
-  l.lights = std::make_unique<LightSampler>(*l.scene);
-  l.width = width;
-  resolveResolution(*l.scene, l.width, l.height);
-  return l;
+  return loadedFrom(RenderContext::load(assetPath(name)), width);
 }
 
 // A quad o, o+eu, o+eu+ev, o+ev (two triangles) facing cross(eu, ev).

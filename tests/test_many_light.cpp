@@ -598,12 +598,8 @@ TEST(ManyLight, NearMirrorRoughAndGrazingStayFinite) {
   s->camera.forward = normalize(Vec3(0, -0.01f, -1));
   s->camera.right = Vec3(1, 0, 0);
   s->camera.up = cross(s->camera.right, s->camera.forward);
-  Loaded l;
-  l.scene = s;
-  Result<std::unique_ptr<Accel>> built = Accel::build(*s);
-  ASSERT_TRUE(built) << built.error();
-  l.accel = std::move(built).value();
-  l.lights = std::make_unique<LightSampler>(*s);
+  Loaded l = loadedFrom(s);
+  ASSERT_TRUE(l.context);
   ManyLightSettings ms;
   ms.lights = 800;
   ms.width = ms.height = 16;
@@ -698,12 +694,8 @@ std::shared_ptr<Scene> backLitSheet(bool doubleSided) {
 TEST(ManyLight, NoLightThroughThinSheets) {
   for (bool doubleSided : {false, true}) {
     SCOPED_TRACE(doubleSided ? "double-sided" : "one-sided");
-    Loaded l;
-    l.scene = backLitSheet(doubleSided);
-    Result<std::unique_ptr<Accel>> built = Accel::build(*l.scene);
-    ASSERT_TRUE(built) << built.error();
-    l.accel = std::move(built).value();
-    l.lights = std::make_unique<LightSampler>(*l.scene);
+    Loaded l = loadedFrom(backLitSheet(doubleSided));
+    ASSERT_TRUE(l.context);
     Reference ref = ptIndirect(l, 16, 16, 64, 3);
     EXPECT_EQ(ref.mean, 0.0) << "the path tracer finds no indirect light on the front";
     // Radii well above the light spacing (so that back lights sit inside the

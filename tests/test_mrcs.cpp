@@ -81,19 +81,20 @@ class MrcsRender : public ::testing::TestWithParam<bool> {};
 INSTANTIATE_TEST_SUITE_P(Spread, MrcsRender, ::testing::Values(false, true));
 TEST_P(MrcsRender, AgreesWithBruteForceAndImprovesWithClusters) {
   const bool spread = GetParam();
-  SceneResult lr = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(lr) << lr.error();
-  Result<std::unique_ptr<Accel>> built = Accel::build(**lr);
-  auto accel = std::move(built).value();
-  LightSampler lights(**lr);
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  ASSERT_TRUE(ctx) << ctx.error();
+  const Scene& scene = (*ctx)->scene();
+  const Accel& accel = (*ctx)->accel();
+  const LightSampler& lights = (*ctx)->lights();
   ManyLightSettings s;
   s.lights = 1500;
   s.width = s.height = 24;
   s.batches = 1;
   s.directSamples = 2;
   s.seed = 5;
-  ManyLightRun run = prepareManyLights(**lr, *accel, lights, s);
-  ManyLightRenderer brute(**lr, *accel, lights, run.set, run.radii, s);
+  ManyLightRun run = prepareManyLights(scene, accel, lights, s);
+  ManyLightRenderer brute(scene, accel, lights, run.set, run.radii, s);
   ASSERT_TRUE(brute.renderBatch(0));
   ManyLightImages ref = brute.images();
   std::vector<double> errVsl, errVpl;
@@ -103,7 +104,7 @@ TEST_P(MrcsRender, AgreesWithBruteForceAndImprovesWithClusters) {
     for (int k = 0; k < seeds; ++k) {
       MrcsSettings m{64, clusters, uint64_t(k)};
       m.spreadVslRadius = spread;
-      MrcsResult r = renderMrcs(**lr, *accel, lights, run.set, run.radii, s, m);
+      MrcsResult r = renderMrcs(scene, accel, lights, run.set, run.radii, s, m);
       ASSERT_FALSE(r.stopped);
       EXPECT_EQ(r.images.vsl.width, 24);
       ev += relMse(r.images.vsl, ref.vsl) / seeds;

@@ -16,6 +16,7 @@
 #include "core/memory_budget.h"
 #include "core/mrcs.h"
 #include "core/parallel.h"
+#include "core/render_context.h"
 #include "core/session.h"
 #include "core/virtual_lights.h"
 
@@ -343,17 +344,18 @@ namespace {
 
 // A scene loaded for rendering directly, outside the session.
 struct Loaded {
-  std::shared_ptr<const Scene> scene;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<LightSampler> lights;
+  std::unique_ptr<RenderContext> context;
+  const Scene* scene = nullptr;
+  const Accel* accel = nullptr;
+  const LightSampler* lights = nullptr;
   explicit Loaded(const char* name) {
-    SceneResult lr = loadScene(asset(name));
-    EXPECT_TRUE(lr) << lr.error();
-    scene = lr.valueOr(nullptr);
-    Result<std::unique_ptr<Accel>> a = Accel::build(*scene);
-    EXPECT_TRUE(a) << a.error();
-    accel = std::move(a).value();
-    lights = std::make_unique<LightSampler>(*scene);
+    Result<std::unique_ptr<RenderContext>> c = RenderContext::load(asset(name));
+    EXPECT_TRUE(c) << c.error();
+    if (!c) return;
+    context = std::move(c).value();
+    scene = &context->scene();
+    accel = &context->accel();
+    lights = &context->lights();
   }
   // One light set rendered to completion with ManyLightRenderer.
   ManyLightImages render(ManyLightSettings m) const {
@@ -644,16 +646,13 @@ TEST(Session, LiveReferenceNoiseIsEstimatedAndSubtracted) {
 // measured against it with its noise subtracted.
 TEST(Session, UsesAMatchingCachedReference) {
   TempCache cache;
-  SceneResult lr = loadScene(asset("cornell-glossy"));
-  ASSERT_TRUE(lr) << lr.error();
-  const Scene& scene = **lr;
-  Result<std::unique_ptr<Accel>> accel = Accel::build(scene);
-  ASSERT_TRUE(accel) << accel.error();
-  LightSampler lights(scene);
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::load(asset("cornell-glossy"));
+  ASSERT_TRUE(ctx) << ctx.error();
+  const Scene& scene = (*ctx)->scene();
   RenderSettings rs;
   rs.width = rs.height = 16;
   rs.seed = 5;
-  ReferenceRenderer rr(scene, **accel, lights, rs);
+  ReferenceRenderer rr(scene, (*ctx)->accel(), (*ctx)->lights(), rs);
   while (rr.spp() < 32) ASSERT_TRUE(rr.step());
   vsl::Reference ref = rr.result();
   ref.key = referenceKey(scene, 16, 16, RenderSettings().maxDepth);
@@ -677,7 +676,7 @@ TEST(Session, UsesAMatchingCachedReference) {
   // converged reference, are those of one made here.
   RenderSettings live = rs;
   live.seed = 0;
-  ReferenceRenderer pt(scene, **accel, lights, live);
+  ReferenceRenderer pt(scene, (*ctx)->accel(), (*ctx)->lights(), live);
   while (pt.spp() < snap->ptSpp) ASSERT_TRUE(pt.stepPass());
   EXPECT_EQ(snap->ptIndirect.rgb, pt.meanIndirect().rgb);
   const Image a = pt.halfIndirect(0), b = pt.halfIndirect(1);
