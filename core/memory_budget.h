@@ -23,8 +23,11 @@ struct MemoryEstimate {
   uint64_t total() const { return fixedBytes + lightBytes + pixelBytes; }
 };
 
-// The studio's peak for `lights` virtual lights at width x height pixels.
-MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height);
+// The studio's peak for `lights` virtual lights at width x height pixels;
+// mrcsRows > 0 when the light sets are gathered by MRCS with that many rows
+// (every light decoded at once, its reduced columns for both estimators and
+// the clustering's projection, and a gather point per pixel).
+MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int mrcsRows = 0);
 
 // Bytes this process may still allocate: MemAvailable from /proc/meminfo,
 // lowered to the cgroup's memory.max minus its current use when that is
@@ -40,6 +43,7 @@ std::string formatBytes(uint64_t bytes);
 // "needs about 286 GB (1.1 KB per pixel at 16384x16384, 178 B per light);
 // 19 GB may be used (75% of 25 GB available); with these lights a width of
 // at most 4177 px fits".
-Result<void> checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75);
+Result<void> checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75,
+                               int mrcsRows = 0);
 
 }  // namespace vsl

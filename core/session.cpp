@@ -167,7 +167,8 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   if (available == 0) available = availableMemoryBytes();
   const std::string what =
       std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" + std::to_string(height);
-  if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available); !m)
+  const int mrcsRows = s.estimator.kind == EstimatorKind::Mrcs ? s.estimator.mrcs.rows : 0;
+  if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available, 0.75, mrcsRows); !m)
     return Error("memory: " + what + " " + m.error());
   // What checkStudioMemory does not count, per pixel: the light sets' double
   // sums (7 layers), their mean, biasVariance's 3 temporary images, the live
@@ -176,7 +177,7 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   const uint64_t pixels = uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0));
   const uint64_t fixed = kLayers * 3 * sizeof(double) + (kLayers + 3) * 3 * sizeof(float) + 4 * 4 * sizeof(double);
   const uint64_t perSet = kIndirectLayers * 3 * sizeof(float);
-  const uint64_t base = estimateStudioMemory(s.many.lights, width, height).total();
+  const uint64_t base = estimateStudioMemory(s.many.lights, width, height, mrcsRows).total();
   const uint64_t budget = uint64_t(0.75 * double(available));
   const uint64_t need = base + pixels * (fixed + perSet * uint64_t(s.lightSets));
   if (available == 0 || need <= budget) return {};

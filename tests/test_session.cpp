@@ -12,6 +12,7 @@
 #include <filesystem>
 
 #include "core/compare.h"
+#include "core/gather.h"
 #include "core/image_io.h"
 #include "core/memory_budget.h"
 #include "core/mrcs.h"
@@ -245,6 +246,29 @@ TEST(Session, MemoryEstimateIsItemised) {
   Result<void> tooBig = checkStudioMemory(1000, 100, 50, e.total() / 2);
   EXPECT_FALSE(tooBig);
   EXPECT_NE(tooBig.error(), "");
+  // MRCS holds every light decoded and its reduced columns for both
+  // estimators (2 x rows floats), and one gather point set per pixel.
+  MemoryEstimate m = estimateStudioMemory(1000, 100, 50, 300);
+  EXPECT_GE(m.bytesPerLight, e.bytesPerLight + 2 * 300 * sizeof(float) + sizeof(GatherLight) / 2);
+  EXPECT_GE(m.bytesPerPixel, e.bytesPerPixel + sizeof(EyeSample));
+  EXPECT_FALSE(checkStudioMemory(1000, 100, 50, e.total() * 4 / 3 + 1, 0.75, 300))
+      << "what fits brute force need not fit MRCS";
+}
+
+// The studio refuses an MRCS render whose reduced columns would not fit, and
+// names the light count that does.
+TEST(Session, MrcsMemoryIsCheckedBeforeRendering) {
+  Session session;
+  StudioSettings s = small("cornell-glossy", 200000, 64);
+  s.estimator.kind = EstimatorKind::Mrcs;
+  s.estimator.mrcs.rows = 2000;
+  const uint64_t brute = estimateStudioMemory(200000, 64, 64).total();
+  session.setAvailableMemoryForTesting(brute * 2);  // brute force fits in 75% of this; MRCS needs 3.2 GB more
+  Result<uint64_t> r = session.restart(s);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("lights fit"), std::string::npos) << r.error();
+  s.estimator.kind = EstimatorKind::BruteForce;
+  EXPECT_TRUE(session.restart(s)) << "the same settings fit brute force";
 }
 
 // Every stage stops promptly on a restart, light tracing and k-NN included
