@@ -120,8 +120,9 @@ class BruteForceEstimator final : public ManyLightEstimator {
 
 class MrcsEstimator final : public ManyLightEstimator {
  public:
-  MrcsEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const MrcsSettings& mrcs)
-      : ManyLightEstimator(std::move(run)), ctx_(ctx), many_(many), mrcs_(mrcs) {
+  MrcsEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const MrcsSettings& mrcs,
+                MrcsProgress* progress)
+      : ManyLightEstimator(std::move(run)), ctx_(ctx), many_(many), mrcs_(mrcs), progress_(progress) {
     width_ = many.width;
     height_ = many.height;
     resolveResolution(ctx.scene(), width_, height_);
@@ -131,7 +132,8 @@ class MrcsEstimator final : public ManyLightEstimator {
   // The whole of renderMrcs; a stopped render is discarded.
   bool step(const std::atomic<bool>* stop) override {
     if (done()) return false;
-    MrcsResult r = renderMrcs(ctx_.scene(), ctx_.accel(), ctx_.lights(), run_.set, run_.radii, many_, mrcs_, stop);
+    MrcsResult r =
+        renderMrcs(ctx_.scene(), ctx_.accel(), ctx_.lights(), run_.set, run_.radii, many_, mrcs_, stop, progress_);
     if (r.stopped) return false;
     images_ = std::move(r.images);
     mrcsStats_ = {r.rowSeconds, r.clusterSeconds, r.columnSeconds, r.zeroColumnsVsl, r.zeroColumnsVpl};
@@ -165,6 +167,7 @@ class MrcsEstimator final : public ManyLightEstimator {
   const RenderContext& ctx_;
   ManyLightSettings many_;
   MrcsSettings mrcs_;
+  MrcsProgress* progress_;
   int width_ = 0, height_ = 0;
   float clamp_ = 0;
   bool done_ = false;
@@ -178,10 +181,12 @@ class MrcsEstimator final : public ManyLightEstimator {
 // ---- [5] The factory ----------------------------------------------------------------------
 
 std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,
-                                                  const ManyLightSettings& many, const EstimatorSettings& est) {
+                                                  const ManyLightSettings& many, const EstimatorSettings& est,
+                                                  MrcsProgress* progress) {
   VSL_CHECK(many.validate().ok());
   VSL_CHECK(est.validate().ok());
-  if (est.kind == EstimatorKind::Mrcs) return std::make_unique<MrcsEstimator>(ctx, std::move(run), many, est.mrcs);
+  if (est.kind == EstimatorKind::Mrcs)
+    return std::make_unique<MrcsEstimator>(ctx, std::move(run), many, est.mrcs, progress);
   return std::make_unique<BruteForceEstimator>(ctx, std::move(run), many);
 }
 

@@ -116,8 +116,10 @@ class ManyLightEstimator {
 };
 
 // An estimator of the light set `run` (moved in) on ctx, which must outlive
-// it. many and est must be valid (VSL_CHECK).
+// it. many and est must be valid (VSL_CHECK). An MRCS estimator reports its
+// stages to `progress` (which must outlive it) while a step runs.
 std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,
-                                                  const ManyLightSettings& many, const EstimatorSettings& est);
+                                                  const ManyLightSettings& many, const EstimatorSettings& est,
+                                                  MrcsProgress* progress = nullptr);
 
 }  // namespace vsl

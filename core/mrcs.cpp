@@ -1,5 +1,6 @@
 #include "core/mrcs.h"
 
+#include <algorithm>
 #include <memory>
 #include <numeric>
 #include <queue>
@@ -270,6 +271,16 @@ std::vector<Representative> clusterColumns(const std::vector<float>& columns, si
   return pickRepresentatives(cs, cl, uniformMix, rng);
 }
 
+std::string MrcsProgress::text() const {
+  static const char* const kNames[] = {"", "eye paths", "rows", "clustering", "columns", ""};
+  const int st = stage.load();
+  if (st <= kIdle || st >= kDone) return "";
+  std::string t = std::string("MRCS ") + kNames[st];
+  const uint64_t n = total.load(), d = std::min(done.load(), n);
+  if (n > 0) t += " " + std::to_string(int(100 * d / n)) + "%";
+  return t;
+}
+
 namespace {
 
 // What the MRCS stages share: the image, the light set decoded for
@@ -285,7 +296,14 @@ struct MrcsJob {
   std::vector<EyeSample> gps;  // per pixel
   std::vector<GatherLight> gl;
   std::atomic<uint64_t> pairs{0};
+  MrcsProgress* progress = nullptr;
   bool stopped() const { return stop && stop->load(std::memory_order_relaxed); }
+  void begin(MrcsProgress::Stage st, uint64_t units) const {
+    if (progress) progress->begin(st, units);
+  }
+  void advance(uint64_t units) const {
+    if (progress) progress->advance(units);
+  }
 };
 
 // Gather points (one eye sample per pixel) and direct light.
@@ -299,6 +317,7 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
   PathTracer direct(scene, accel, lights, rs);
   job.gps.resize(size_t(job.W) * job.H);
   directOut = Image(job.W, job.H);
+  job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
   parallelFor(size_t(job.H), [&](size_t y) {
     GatherCounters c;
     for (int x = 0; x < job.W; ++x) {
@@ -307,6 +326,7 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
       job.gps[pix] = job.both->eyePath(x, int(y), job.W, job.H, rng, c);
       directOut.set(x, int(y), directLight(direct, x, int(y), 0, settings.directSamples, c));
     }
+    job.advance(1);
   });
 }
 
@@ -337,6 +357,7 @@ void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector
   const int R = int(rowPix.size());
   colVsl.assign(job.doVsl ? job.N * R : 0, 0.0f);
   colVpl.assign(job.doVpl ? job.N * R : 0, 0.0f);
+  job.begin(MrcsProgress::kRows, job.N);
   parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
     GatherCounters cnt;
     for (size_t j = j0; j < j1; ++j) {
@@ -354,6 +375,7 @@ void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector
         if (job.doVpl) colVpl[j * R + r] = lum(job.vplLayer);
       }
     }
+    job.advance(j1 - j0);
     job.pairs.fetch_add(cnt.pairs);
   });
 }
@@ -365,6 +387,7 @@ void representativeColumns(MrcsJob& job, const std::vector<Representative>& repV
                            ManyLightImages& images) {
   images.vsl = Image(job.W, job.H);
   images.vpl = Image(job.W, job.H);
+  job.begin(MrcsProgress::kColumns, uint64_t(job.H));
   parallelFor(size_t(job.H), [&](size_t y) {
     if (job.stopped()) return;
     GatherCounters cnt;
@@ -394,6 +417,7 @@ void representativeColumns(MrcsJob& job, const std::vector<Representative>& repV
       images.vsl.set(x, int(y), isFinite(vsl) ? vsl : Vec3(0.0f));
       images.vpl.set(x, int(y), isFinite(vpl) ? vpl : Vec3(0.0f));
     }
+    job.advance(1);
     job.pairs.fetch_add(cnt.pairs);
   });
 }
@@ -402,9 +426,10 @@ void representativeColumns(MrcsJob& job, const std::vector<Representative>& repV
 
 MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                       const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
-                      const std::atomic<bool>* stop) {
+                      const std::atomic<bool>* stop, MrcsProgress* progress) {
   MrcsResult res;
   MrcsJob job;
+  job.progress = progress;
   job.W = settings.width;
   job.H = settings.height;
   resolveResolution(scene, job.W, job.H);
@@ -435,10 +460,12 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   res.rowSeconds = clock.lap();
   if (job.stopped()) {
     res.stopped = true;
+    job.begin(MrcsProgress::kIdle, 0);
     return res;
   }
 
   // 2-3. Clustering and representatives.
+  job.begin(MrcsProgress::kClustering, 0);
   std::vector<Representative> repVsl, repVpl;
   const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
   if (job.doVsl) repVsl = clusterColumns(colVsl, job.N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
@@ -457,6 +484,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   representativeColumns(job, repVsl, repGl, repVpl, res.images);
   res.columnSeconds = clock.lap();
   res.stopped = job.stopped();
+  job.begin(MrcsProgress::kDone, 0);
   res.pairs = job.pairs.load();
   for (Image* img :
        {&res.images.vplUnclamped, &res.images.vplDiffuse, &res.images.lostToClamping, &res.images.lostToDiffuse})

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <atomic>
+#include <string>
 
 #include "core/many_light.h"
 
@@ -60,11 +61,30 @@ struct MrcsResult {
   bool stopped = false;
 };
 
+// Where a render is, so that a long one shows progress while it runs:
+// written by the render's threads, read from any thread. The stage's work is
+// counted in its own units (image rows for the eye paths and the columns,
+// lights for the rows); clustering has no count.
+struct MrcsProgress {
+  enum Stage : int { kIdle, kEyePaths, kRows, kClustering, kColumns, kDone };
+  std::atomic<int> stage{kIdle};
+  std::atomic<uint64_t> done{0}, total{0};
+  void begin(Stage s, uint64_t units) {
+    done.store(0);
+    total.store(units);
+    stage.store(s);
+  }
+  void advance(uint64_t units) { done.fetch_add(units, std::memory_order_relaxed); }
+  // "MRCS rows 43%", "MRCS clustering"; empty when idle or done.
+  std::string text() const;
+};
+
 // Renders the VSL and VPL indirect images (and direct light with
-// settings.directSamples samples) from `set` with MRCS.
+// settings.directSamples samples) from `set` with MRCS. `progress`, if given,
+// follows the stages.
 MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                       const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
-                      const std::atomic<bool>* stop = nullptr);
+                      const std::atomic<bool>* stop = nullptr, MrcsProgress* progress = nullptr);
 
 // The clustering and representative choice alone, on reduced columns given as
 // rows x lights values (row-major per light: columns[j * rows + r]). Returns,

@@ -228,6 +228,7 @@ Session::Status Session::status() const {
   std::lock_guard<std::mutex> lock(mutex_);
   Status s = status_;
   s.stageSeconds = stageClock_.seconds();
+  if (s.stage == "rendering") s.stepProgress = mrcsProgress_.text();
   return s;
 }
 
@@ -461,7 +462,7 @@ bool Session::prepareSet(Worker& w, Job& job) {
     job.radiusMax = *hi;
   }
   job.mlSeconds += prep.set.seconds + prep.knnSeconds;
-  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator);
+  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &mrcsProgress_);
   setStage("rendering");
   return true;
 }

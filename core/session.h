@@ -197,6 +197,9 @@ class Session {
     std::string loading;        // the path being loaded while stage is "loading"
     double stageSeconds = 0;    // wall time since the stage began
     uint32_t lightsTarget = 0;  // the light count being traced
+    // Within a long step while rendering: an MRCS render's stage and its
+    // share done ("MRCS columns 43%"); "" otherwise.
+    std::string stepProgress;
     std::vector<std::string> sceneWarnings;
     bool busy() const { return stage != "idle" && stage != "done"; }
   };
@@ -242,7 +245,8 @@ class Session {
   bool pending_ = false, pendingFromScratch_ = false;
   StudioSettings next_;
   std::atomic<uint64_t> version_{0}, memoryForTesting_{0};
-  Stopwatch stageClock_;  // since the stage began
+  MrcsProgress mrcsProgress_;  // the MRCS render in progress, if any
+  Stopwatch stageClock_;       // since the stage began
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};
   std::shared_ptr<const Snapshot> latest_;

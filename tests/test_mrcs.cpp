@@ -146,14 +146,18 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
   e.mrcs.spreadVslRadius = GetParam();
   ManyLightRun run = prepareManyLights(c, s);
   MrcsResult direct = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, e.mrcs);
-  std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, std::move(run), s, e);
+  MrcsProgress progress;
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, std::move(run), s, e, &progress);
   EXPECT_EQ(est->kind(), EstimatorKind::Mrcs);
   EXPECT_EQ(est->stepCount(), 1);
   std::atomic<bool> stop{true};
   EXPECT_FALSE(est->step(&stop)) << "stopped before it began";
   EXPECT_EQ(est->stepsDone(), 0);
   EXPECT_EQ(est->images().vsl.width, 16) << "black layers of the render's size before the step";
+  EXPECT_EQ(progress.stage.load(), MrcsProgress::kIdle) << "a render stopped after its rows is no longer shown";
   ASSERT_TRUE(est->step());
+  EXPECT_EQ(progress.stage.load(), MrcsProgress::kDone);
+  EXPECT_EQ(progress.text(), "");
   EXPECT_TRUE(est->done());
   EXPECT_FALSE(est->step()) << "nothing left";
   const ManyLightImages im = est->images();
@@ -165,6 +169,24 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
   EXPECT_EQ(est->lightsProcessed(), est->run().set.lights.size());
   EXPECT_EQ(est->width(), 16);
   EXPECT_EQ(est->mrcsStats().zeroColumnsVsl, direct.zeroColumnsVsl);
+}
+
+// The stage text a long MRCS render shows while it runs.
+TEST(MrcsClustering, ProgressNamesTheStageAndItsShare) {
+  MrcsProgress p;
+  EXPECT_EQ(p.text(), "") << "idle";
+  p.begin(MrcsProgress::kRows, 200);
+  p.advance(86);
+  EXPECT_EQ(p.text(), "MRCS rows 43%");
+  p.advance(500);
+  EXPECT_EQ(p.text(), "MRCS rows 100%") << "never above 100%";
+  p.begin(MrcsProgress::kClustering, 0);
+  EXPECT_EQ(p.text(), "MRCS clustering");
+  p.begin(MrcsProgress::kColumns, 16);
+  p.advance(4);
+  EXPECT_EQ(p.text(), "MRCS columns 25%");
+  p.begin(MrcsProgress::kDone, 0);
+  EXPECT_EQ(p.text(), "");
 }
 
 // Light set k of a progressive run: seed + k for the lights and MRCS's rows,

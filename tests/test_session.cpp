@@ -583,6 +583,7 @@ TEST(Session, RestartDuringMrcsStopsPromptly) {
   std::this_thread::sleep_for(200ms);
   Session::Status st = session.status();
   EXPECT_EQ(st.stage, "rendering") << "the first set's MRCS render is in progress";
+  EXPECT_EQ(st.stepProgress.rfind("MRCS ", 0), 0u) << "its stage is shown: '" << st.stepProgress << "'";
   auto t0 = std::chrono::steady_clock::now();
   uint64_t g2 = session.restart(small("furnace", 30, 8)).value();
   auto snap = waitFor(session, g2, [](const Snapshot& x) { return x.batchesDone > 0; });

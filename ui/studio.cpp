@@ -877,6 +877,7 @@ void Studio::statusBar() {
   else
     what = st.stage.empty() ? "idle" : st.stage;
   if (busyNow && st.stage != "rendering") what += "  " + humanSeconds(st.stageSeconds);
+  if (busyNow && !st.stepProgress.empty()) what += "  " + st.stepProgress;
   bool anyStale = false;
   for (int i = 0; i < 3; ++i) anyStale |= snap_ && panelStale(i);
   if (busyNow)
