@@ -3,8 +3,12 @@
 // sampling (--mrcs), and writes the EXR layers of the chosen method(s), the
 // optional PNG and --json statistics.
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
 
 #include "app/cli.h"
 #include "app/render.h"
@@ -30,7 +34,34 @@ struct Gathered {
 // Steps the estimator until it is done or the time limit is reached: brute
 // force in progressive light batches, MRCS (rows, clustering,
 // representative columns) in one step.
-void gather(const RenderArgs& a, ManyLightEstimator& est, Gathered& g) {
+// One MRCS step on a thread of its own while this one shows its stages
+// (`mp`, which the estimator reports to) as a share of the work, each
+// stage weighted by its pairs (eye paths and direct light by their samples).
+void mrcsStepWithProgress(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp, Progress& progress) {
+  std::atomic<bool> finished{false};
+  std::thread worker([&] {
+    est.step();
+    finished = true;
+  });
+  const double N = double(est.run().set.lights.size()), P = double(est.width()) * est.height();
+  const double methods = double(a.many.computeVsl) + double(a.many.computeVpl);
+  const double eye = P * (1 + a.many.directSamples) / 4, rows = a.estimator.mrcs.rows * N,
+               columns = methods * a.estimator.mrcs.clusters * P, total = eye + rows + columns;
+  while (!finished) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const int st = mp.stage.load();
+    const double share = mp.total.load() ? std::min(1.0, double(mp.done.load()) / double(mp.total.load())) : 0.0;
+    double f = 0;
+    if (st == MrcsProgress::kEyePaths) f = eye * share;
+    if (st == MrcsProgress::kRows) f = eye + rows * share;
+    if (st == MrcsProgress::kClustering) f = eye + rows;
+    if (st == MrcsProgress::kColumns) f = eye + rows + columns * share;
+    if (st != MrcsProgress::kIdle && st != MrcsProgress::kDone) progress.update(f / total, mp.text());
+  }
+  worker.join();
+}
+
+void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp, Gathered& g) {
   const EstimatorSettings& e = a.estimator;
   const size_t n = est.run().set.lights.size();
   if (e.kind == EstimatorKind::Mrcs)
@@ -38,6 +69,12 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, Gathered& g) {
                  e.mrcs.clusters, e.mrcs.uniformMix, n);
   Progress progress("render");
   Stopwatch clock;
+  if (e.kind == EstimatorKind::Mrcs) {
+    mrcsStepWithProgress(a, est, mp, progress);
+    char done[64];
+    std::snprintf(done, sizeof done, "MRCS done, %.1f s", clock.seconds());
+    progress.update(1.0, done);
+  }
   while (!est.done()) {
     est.step();
     double el = clock.seconds();
@@ -184,10 +221,11 @@ int renderManyLights(RenderArgs& a, const RenderContext& ctx) {
                run.set.lights.size(), (unsigned long long)run.set.paths, run.set.seconds, sizeof(VirtualLight),
                run.set.bytes() / 1e6, run.knnSeconds);
   // Gather them, and write what came out.
-  std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, std::move(run), a.many, a.estimator);
+  MrcsProgress mp;
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, std::move(run), a.many, a.estimator, &mp);
   Gathered g;
   Stopwatch gatherClock;
-  gather(a, *est, g);
+  gather(a, *est, mp, g);
   g.seconds = gatherClock.seconds();
   if (int rc = writeManyLightImages(a, g); rc != 0) return rc;
   const ManyLightRun& lights = est->run();
