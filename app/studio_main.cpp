@@ -367,7 +367,9 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
     // renderer (at most 4 per second focused, 1 unfocused; a restart's first
     // picture at once), and once a second while busy and focused for the
     // busy mark. Minimised: never.
-    // A frame costs ~50-60 ms of a core under software GL.
+    // A frame costs ~50-60 ms of a core under software GL: while a restart's
+    // first picture is awaited, the session's other news (its stages) waits
+    // for the usual rate, so that the first batch has the cores.
     const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
     const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
     if (scripted || settle > 0)
@@ -381,7 +383,8 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
     }
     const double since = sinceDraw.seconds();
     const bool news =
-        studio.wantsFrame() && (studio.restartPending() || studio.awaitingPicture() || since >= (focused ? 0.25 : 1.0));
+        studio.wantsFrame() && (studio.restartPending() || (studio.awaitingPicture() && studio.pictureArrived()) ||
+                                since >= (focused ? 0.25 : 1.0));
     const bool tick = focused && studio.busy() && since >= 1.0;
     if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
     if (settle > 0) --settle;

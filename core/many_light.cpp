@@ -106,7 +106,9 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
       set_(set),
       radii_(radii),
       settings_(settings),
-      direct_(scene, accel, lights, directSettings(settings)) {
+      direct_(scene, accel, lights, directSettings(settings)),
+      directFilm_(direct_.width(), direct_.height()),
+      sharedFilm_(direct_.width(), direct_.height()) {
   VSL_CHECK_EQ(radii.size(), set.lights.size());
   width_ = direct_.width();
   height_ = direct_.height();
@@ -134,21 +136,22 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     directEnd_.push_back(std::max(dEnd, directEnd_.empty() ? 1 : directEnd_.back() + 1));
     prev = end;
   }
-  directFilm_ = Film(width_, height_);
-  sharedFilm_ = Film(width_, height_);
-  for (Film& f : gather_) f = Film(width_, height_);
+  // The films are built in place (a Film copies where it could move).
+  gather_.reserve(kGatherLayers);
+  for (int k = 0; k < kGatherLayers; ++k) gather_.emplace_back(width_, height_);
 }
 
 // ---- [3] One batch: its lights, per-batch buffers, tiles --------------------------
 
-// Everything one batch's tiles share. The buffers are merged into the films
-// only if the batch completes.
+// Everything one batch's tiles share. Its per-pixel results go to the
+// renderer's batch buffers, which are merged into the films only if the
+// batch completes.
 struct ManyLightRenderer::Batch {
   int b = 0;
   size_t begin = 0, end = 0;  // this batch's range of order_
   int dBegin = 0, dEnd = 0;   // this batch's range of direct samples
   std::vector<GatherLight> lights;
-  std::vector<Vec3> direct, shared, layers[kGatherLayers];
+  Vec3 *direct = nullptr, *shared = nullptr, *layers[kGatherLayers] = {};
   std::atomic<bool> abandoned{false};
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
@@ -173,10 +176,16 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   });
   Gatherer gatherer(scene_, accel_, direct_.lightSampler(), settings_, clamp_, settings_.computeVsl,
                     settings_.computeVpl);
+  // Every tile writes every one of its pixels, so the buffers need no clearing.
   const size_t np = size_t(width_) * height_;
-  batch.direct.resize(np);
-  batch.shared.resize(np);
-  for (auto& l : batch.layers) l.assign(np, Vec3(0.0f));
+  batchDirect_.resize(np);
+  batchShared_.resize(np);
+  batch.direct = batchDirect_.data();
+  batch.shared = batchShared_.data();
+  for (int k = 0; k < kGatherLayers; ++k) {
+    batchLayers_[k].resize(np);
+    batch.layers[k] = batchLayers_[k].data();
+  }
   const bool complete = parallelForTiles(width_, height_, stop, [&](int x0, int y0, int x1, int y1) {
     gatherTile(batch, gatherer, stop, x0, y0, x1, y1);
   });
@@ -220,18 +229,22 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   uint32_t visible[kLightBlock];
   double vplOwn = 0, vslOwn = 0;
   for (size_t l0 = 0; l0 < nb; l0 += kLightBlock) {
-    if (stop && stop->load(std::memory_order_relaxed)) {
-      batch.abandoned = true;
-      return;
-    }
     const size_t l1 = std::min(nb, l0 + kLightBlock);
     for (int i = 0; i < n; ++i) {
+      // A restart waits for at most a row of pixels against one block.
+      if (i % 16 == 0 && stop && stop->load(std::memory_order_relaxed)) {
+        batch.abandoned = true;
+        return;
+      }
       for (int k = 0; k < gps[size_t(i)].count; ++k) {
         const GatherPoint& gp = gps[size_t(i)].points[k];
         if (!gp.valid) continue;
         size_t nv = 0;
         for (size_t l = l0; l < l1; ++l)
           if (gatherer.connect(gp, batch.lights[l], geo[nv], c)) visible[nv++] = uint32_t(l);
+        // No light visible: no transfer to time (a clock read costs ~30 ns,
+        // as much as a small batch's transfers).
+        if (nv == 0) continue;
         Stopwatch own;
         if (settings_.computeVpl) {
           for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch.lights[visible[v]], geo[v], acc[size_t(i)].v, c);
@@ -271,13 +284,17 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   const float scale = nb ? float(double(N) / double(nb)) : 0.0f;
   const double weight = N ? double(nb) / double(N) : 0.0;
   const int dCount = batch.dEnd - batch.dBegin;
-  for (int y = 0; y < height_; ++y)
-    for (int x = 0; x < width_; ++x) {
-      size_t pix = size_t(y) * width_ + x;
-      directFilm_.add(x, y, batch.direct[pix], double(dCount));
-      sharedFilm_.add(x, y, batch.shared[pix], 1.0);
-      for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
-    }
+  // Rows in parallel: Film::add is safe for different pixels, and each
+  // pixel's sums see the same additions in the same order as serially.
+  parallelForChunks(size_t(height_), 16, [&](size_t y0, size_t y1) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < width_; ++x) {
+        size_t pix = size_t(y) * width_ + x;
+        directFilm_.add(x, y, batch.direct[pix], double(dCount));
+        sharedFilm_.add(x, y, batch.shared[pix], 1.0);
+        for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
+      }
+  });
   processed_ = batch.end;
   ++batchesDone_;
   // Each method's own time: the batch's wall time less the share of thread
@@ -292,29 +309,35 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
 
 // ---- [5] Images -------------------------------------------------------------------
 
+// The films are read in parallel, one per item: the studio's first picture
+// of a restart waits for this.
 ManyLightImages ManyLightRenderer::images() const {
   ManyLightImages im;
-  im.direct = directFilm_.image();
-  Image shared = sharedFilm_.image();
-  auto indirect = [&](int layer) {
-    Image g = gather_[layer].image();
-    for (size_t i = 0; i < g.rgb.size(); ++i) g.rgb[i] += shared.rgb[i];
-    return g;
-  };
-  im.vsl = indirect(kVslLayer);
-  Image full = indirect(kVplFull), fullC = indirect(kVplFullClamped);
-  Image diff = indirect(kVplDiffuse), diffC = indirect(kVplDiffuseClamped);
-  const Image& selU = settings_.diffuseOnly ? diff : full;
-  const Image& selC = settings_.diffuseOnly ? diffC : fullC;
-  im.vpl = selC;
-  im.vplUnclamped = full;
-  im.vplDiffuse = diff;
+  Image shared, layer[kGatherLayers];
+  parallelFor(kGatherLayers + 2, [&](size_t k) {
+    if (k == kGatherLayers)
+      im.direct = directFilm_.image();
+    else if (k == kGatherLayers + 1)
+      shared = sharedFilm_.image();
+    else
+      layer[k] = gather_[k].image();
+  });
+  // Indirect = the gathered layer plus the light found on the eye paths.
+  parallelFor(kGatherLayers, [&](size_t k) {
+    for (size_t i = 0; i < layer[k].rgb.size(); ++i) layer[k].rgb[i] += shared.rgb[i];
+  });
+  const int u = settings_.diffuseOnly ? kVplDiffuse : kVplFull;
+  const int c = settings_.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   im.lostToClamping = Image(width_, height_);
   im.lostToDiffuse = Image(width_, height_);
-  for (size_t i = 0; i < selU.rgb.size(); ++i) {
-    im.lostToClamping.rgb[i] = selU.rgb[i] - selC.rgb[i];
-    im.lostToDiffuse.rgb[i] = full.rgb[i] - diff.rgb[i];
+  for (size_t i = 0; i < shared.rgb.size(); ++i) {
+    im.lostToClamping.rgb[i] = layer[u].rgb[i] - layer[c].rgb[i];
+    im.lostToDiffuse.rgb[i] = layer[kVplFull].rgb[i] - layer[kVplDiffuse].rgb[i];
   }
+  im.vsl = std::move(layer[kVslLayer]);
+  im.vpl = std::move(layer[c]);
+  im.vplUnclamped = std::move(layer[kVplFull]);
+  im.vplDiffuse = std::move(layer[kVplDiffuse]);
   return im;
 }
 

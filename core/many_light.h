@@ -165,7 +165,11 @@ class ManyLightRenderer {
   size_t processed_ = 0;
   int batchesDone_ = 0;
   Film directFilm_, sharedFilm_;  // per-pass averages
-  Film gather_[kGatherLayers];    // batch estimates weighted by batch share
+  std::vector<Film> gather_;      // kGatherLayers films: batch estimates weighted by batch share
+  // A batch's per-pixel results, merged into the films only if the batch
+  // completes. Kept from batch to batch (every tile overwrites its pixels),
+  // so that no batch allocates and clears full-image buffers.
+  std::vector<Vec3> batchDirect_, batchShared_, batchLayers_[kGatherLayers];
   ManyLightStats stats_;
 };
 

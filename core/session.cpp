@@ -11,6 +11,7 @@
 #include "core/compare.h"
 #include "core/log.h"
 #include "core/memory_budget.h"
+#include "core/parallel.h"
 
 namespace vsl {
 
@@ -232,9 +233,12 @@ Session::Status Session::status() const {
   return s;
 }
 
+// Only a change bumps the version: each bump makes the UI draw a frame, which
+// under software GL costs ~50 ms of a core that a restart's first batch wants.
 void Session::setStage(const std::string& stage, uint32_t lightsTarget) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (status_.stage == stage && status_.lightsTarget == lightsTarget) return;
     if (status_.stage != stage) stageClock_.reset();
     status_.stage = stage;
     status_.lightsTarget = lightsTarget;
@@ -665,13 +669,22 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->settings = job.settings;
   snap->width = job.width;
   snap->height = job.height;
-  // The mean of the completed sets; the first set's progressive estimate
-  // until it completes.
-  snap->many = job.setsDone > 0 ? job.mean : ml->images();
+  // The images in parallel (a restart's first picture waits for them): the
+  // mean of the completed sets (the first set's progressive estimate until
+  // it completes), the live path tracer's, and its noise.
+  double liveNoise = -1;
+  parallelFor(4, [&](size_t k) {
+    if (k == 0)
+      snap->many = job.setsDone > 0 ? job.mean : ml->images();
+    else if (k == 1)
+      snap->ptDirect = ref.meanDirect();
+    else if (k == 2)
+      snap->ptIndirect = ref.meanIndirect();
+    else
+      liveNoise = ref.indirectNoise();
+  });
   snap->lightSets = job.settings.lightSets;
   snap->lightSetsDone = job.setsDone;
-  snap->ptDirect = ref.meanDirect();
-  snap->ptIndirect = ref.meanIndirect();
   snap->ptSpp = ref.spp();
   // Work over every set: the completed ones and the one in progress.
   ManyLightStats none;
@@ -714,7 +727,6 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
   snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
   snap->backgroundSpp = job.backgroundSpp;
-  const double liveNoise = ref.indirectNoise();
   useReference(w, liveNoise, *snap);
   biasNoise(w, job, *snap);
   recordError(w, job, liveNoise, *snap);
@@ -755,10 +767,14 @@ void Session::recordError(const Worker& w, Job& job, double liveNoise, Snapshot&
   e.vplSeconds = snap.vplSeconds;
   e.ptSeconds = w.ref.pt->seconds();
   e.referenceNoise = noise;
-  e.vsl = compareImages(snap.many.vsl, snap.refIndirect).average.relMse - noise;
-  e.vpl = compareImages(snap.many.vpl, snap.refIndirect).average.relMse - noise;
-  e.pt =
-      w.converged ? compareImages(snap.ptIndirect, snap.refIndirect).average.relMse - noise : std::max(liveNoise, 0.0);
+  // The comparisons in parallel (the first picture of a restart waits for them).
+  const Image* test[3] = {&snap.many.vsl, &snap.many.vpl, &snap.ptIndirect};
+  double relMse[3] = {0, 0, 0};
+  parallelFor(w.converged ? 3 : 2,
+              [&](size_t k) { relMse[k] = compareImages(*test[k], snap.refIndirect).average.relMse; });
+  e.vsl = relMse[0] - noise;
+  e.vpl = relMse[1] - noise;
+  e.pt = w.converged ? relMse[2] - noise : std::max(liveNoise, 0.0);
   // The history is the job's; a resumed job republishes without a new point.
   std::vector<ErrorSample>& history = job.history;
   if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)

@@ -5,7 +5,8 @@
 # settings reaching the UI thread). Needs Xvfb, openbox, xdotool, ImageMagick.
 #   xvfb-run -a -s "-screen 0 1600x1000x24" bash scripts/measure-studio-latency.sh [OUT] [change|mrcs]
 # change: cornell-glossy at 256 px; clicks the seed "+" button six times, 2 s
-#         apart (the button sits at (220, 549) in the 1600x1000 window's layout).
+#         apart (the button sits at (220, 549) in the 1600x1000 window's layout;
+#         a click restarts at once, only a drag waits for a pause).
 # mrcs:   cornell-glossy at 512x512, 100,000 lights, MRCS 300 rows / 900
 #         clusters, one light set: the time to the first (complete) picture.
 # Run on an idle machine; prints the log lines and saves a screenshot.
@@ -39,3 +40,11 @@ wid=$(xdotool search --name '^vsl-studio$' | head -1)
 for _ in $(seq 1 50); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
 kill $pid 2>/dev/null
 grep -i "first picture" "$out/studio.log"
+# change: the changes' values (generation 1 is the launch), their median and
+# how many are within 250 and 200 ms.
+if [ "$mode" != mrcs ]; then
+  grep -o "generation [0-9]*: first picture [0-9]* ms" "$out/studio.log" | awk '$2 != "1:" { print $5 }' | sort -n |
+    awk '{ v[NR] = $1; if ($1 <= 250) a++; if ($1 <= 200) b++ }
+         END { if (NR) printf "changes: %d, median %s ms, %d within 250 ms, %d within 200 ms\n", NR,
+                 (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2), a, b }'
+fi

@@ -248,6 +248,8 @@ void Studio::pullSnapshot() {
 
 bool Studio::busy() const { return session_ && session_->status().busy(); }
 
+bool Studio::pictureArrived() const { return session_ && session_->latest(serial_) != nullptr; }
+
 bool Studio::wantsFrame() const {
   const bool flipDone = flipTask_.valid() && flipTask_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
   return !session_ || session_->version() != drawnVersion_ || restartPending() || flipDone;
@@ -814,10 +816,12 @@ void Studio::controlsPanel() {
   changed |= estimatorControls();
   changed |= renderControls();
   changed |= referenceControls();
-  // Restarts wait until the controls rest for a moment (a drag pauses, or
-  // typed text is entered): each restart throws away the light set.
+  // A drag restarts when it pauses for kSettleMs, typed text when it is
+  // entered (each restart throws away the light set); a click or a key
+  // restarts at once, in this frame.
   if (changed) {
-    restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(kSettleMs);
+    const int settleMs = ImGui::IsMouseDragging(ImGuiMouseButton_Left) ? kSettleMs : 0;
+    restartAt_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(settleMs);
     sinceChange_.reset();  // change -> picture counts from the control's last change
     changeTimed_ = true;
   }

@@ -128,6 +128,8 @@ class Studio {
   // with no scene never sends one): the caller polls often and draws it at
   // once, with no frame-rate cap.
   bool awaitingPicture() const { return restartGeneration_ != firstPictureGeneration_ && sinceChange_.seconds() < 5.0; }
+  // The session has a snapshot this studio has not pulled yet.
+  bool pictureArrived() const;
   // Why the session cannot render ("" if it can): the first scene did not
   // load. The headless front end exits with it.
   std::string fatalError() const;
@@ -320,7 +322,7 @@ class Studio {
   // control's last change (the settle delay included) or from a restart
   // without one (Restart, a new scene) to the first snapshot of its
   // generation.
-  static constexpr int kSettleMs = 50;  // controls rest this long before a restart
+  static constexpr int kSettleMs = 50;  // a drag rests this long before a restart
   Stopwatch sinceLaunch_, sinceChange_ = sinceLaunch_;
   bool changeTimed_ = false;  // sinceChange_ already runs from a control's change
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
