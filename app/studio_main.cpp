@@ -372,21 +372,36 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
     // for the usual rate, so that the first batch has the cores.
     const bool iconified = glfwGetWindowAttrib(win, GLFW_ICONIFIED) != 0;
     const bool focused = glfwGetWindowAttrib(win, GLFW_FOCUSED) != 0;
-    if (scripted || settle > 0)
+    // For the first 250 ms of a restart's wait for its first picture, the
+    // frames owed after input wait too (the picture, or the 4-per-second
+    // rate, still draws one): the frames that follow a slider's drag would
+    // otherwise take a core from the first batch.
+    // A drag's restart, once the pointer rests, is sent between frames when
+    // it falls due (waiting for it instead of drawing the frames owed), not
+    // at the end of the next 50-70 ms frame.
+    const bool holding = !scripted && ((!studio.restartPending() && studio.awaitingPicture() &&
+                                        studio.secondsSinceChange() < 0.25 && !studio.pictureArrived()) ||
+                                       (studio.restartPending() && !gInput));
+    if (scripted || (settle > 0 && !holding))
       glfwPollEvents();
     else
-      glfwWaitEventsTimeout(studio.awaitingPicture() ? 0.005 : studio.restartPending() ? 0.02 : focused ? 0.25 : 1.0);
+      glfwWaitEventsTimeout(studio.awaitingPicture()  ? 0.005
+                            : studio.restartPending() ? std::max(0.001, studio.secondsToRestart())
+                            : focused                 ? 0.25
+                                                      : 1.0);
     holdShortKeyPresses();
+    const bool input = gInput;
     if (gInput) {
       gInput = false;
       settle = 3;
     }
+    if (!scripted && !input && studio.restartIfDue()) continue;
     const double since = sinceDraw.seconds();
     const bool news =
         studio.wantsFrame() && (studio.restartPending() || (studio.awaitingPicture() && studio.pictureArrived()) ||
                                 since >= (focused ? 0.25 : 1.0));
     const bool tick = focused && studio.busy() && since >= 1.0;
-    if (!scripted && settle == 0 && (iconified || (!news && !tick))) continue;
+    if (!scripted && (settle == 0 || holding) && (iconified || (!news && !tick))) continue;
     if (settle > 0) --settle;
     if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
     sinceDraw.reset();

@@ -3,10 +3,12 @@
 # "first picture ... ms after the settings changed", from a control's last
 # change, the settle delay included, to the first snapshot of the new
 # settings reaching the UI thread). Needs Xvfb, openbox, xdotool, ImageMagick.
-#   xvfb-run -a -s "-screen 0 1600x1000x24" bash scripts/measure-studio-latency.sh [OUT] [change|mrcs]
+#   xvfb-run -a -s "-screen 0 1600x1000x24" bash scripts/measure-studio-latency.sh [OUT] [change|drag|mrcs]
 # change: cornell-glossy at 256 px; clicks the seed "+" button six times, 2 s
 #         apart (the button sits at (220, 549) in the 1600x1000 window's layout;
 #         a click restarts at once, only a drag waits for a pause).
+# drag:   the same, dragging the radius-scale slider six times (a press, which
+#         moves the value to the pointer, a quick drag, a 1 s rest, the release).
 # mrcs:   cornell-glossy at 512x512, 100,000 lights, MRCS 300 rows / 900
 #         clusters, one light set: the time to the first (complete) picture.
 # Run on an idle machine; prints the log lines and saves a screenshot.
@@ -29,8 +31,20 @@ else
   "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 256 >"$out/studio.log" 2>&1 &
   pid=$!
   sleep 10
-  for _ in 1 2 3 4 5 6; do
-    xdotool mousemove 220 549 click 1
+  for i in 1 2 3 4 5 6; do
+    if [ "$mode" = drag ]; then
+      # Drag the radius-scale slider (its bar spans x 18-230 at y 180) and
+      # rest; pressing it already moves the value to the pointer (one
+      # restart), the drag's pause restarts again.
+      if [ $((i % 2)) = 1 ]; then a=130 b=160; else a=160 b=130; fi
+      xdotool mousemove $a 180 mousedown 1
+      sleep 0.1
+      for x in $(seq $a $(((b - a) / 10)) $b); do xdotool mousemove "$x" 180; done
+      sleep 1
+      xdotool mouseup 1
+    else
+      xdotool mousemove 220 549 click 1
+    fi
     sleep 2
   done
 fi

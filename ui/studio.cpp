@@ -178,6 +178,19 @@ void Studio::restart(bool fromScratch) {
 
 bool Studio::restartPending() const { return restartAt_ != std::chrono::steady_clock::time_point(); }
 
+double Studio::secondsToRestart() const {
+  if (!restartPending()) return 0;
+  if (ImGui::GetIO().WantTextInput) return 0.25;  // typed text restarts when it is entered
+  return std::max(0.0, std::chrono::duration<double>(restartAt_ - std::chrono::steady_clock::now()).count());
+}
+
+bool Studio::restartIfDue() {
+  if (!restartPending() || std::chrono::steady_clock::now() < restartAt_ || ImGui::GetIO().WantTextInput) return false;
+  restartAt_ = {};
+  restart();
+  return true;
+}
+
 void Studio::applySettings(const StudioSettings& settings) {
   settings_ = settings;
   scenePath_ = settings.scene;
@@ -441,10 +454,7 @@ void Studio::frame() {
   ImGui::BeginChild("controls", ImVec2(330, 0), true);
   controlsPanel();
   ImGui::EndChild();
-  if (restartPending() && std::chrono::steady_clock::now() >= restartAt_ && !ImGui::GetIO().WantTextInput) {
-    restartAt_ = {};
-    restart();
-  }
+  restartIfDue();
   ImGui::SameLine();
   ImGui::BeginChild("right", ImVec2(0, 0), false);
   float bottom = std::min(260.0f, ImGui::GetContentRegionAvail().y * 0.4f);

@@ -124,10 +124,19 @@ class Studio {
   bool busy() const;
   // A settings change waits for the controls to rest before it restarts.
   bool restartPending() const;
+  // Seconds until a pending restart is due (0 when due or none is pending;
+  // 0.25 while text is being typed, which restarts when it is entered).
+  double secondsToRestart() const;
+  // Sends a pending restart whose controls have rested long enough; the
+  // window loop calls it between frames, so that the restart does not wait
+  // for a frame (50-70 ms under software GL). True if it sent one.
+  bool restartIfDue();
   // A restart's first picture has not arrived yet (for up to 5 s: a session
   // with no scene never sends one): the caller polls often and draws it at
   // once, with no frame-rate cap.
   bool awaitingPicture() const { return restartGeneration_ != firstPictureGeneration_ && sinceChange_.seconds() < 5.0; }
+  // Seconds since a control last changed the settings.
+  double secondsSinceChange() const { return sinceChange_.seconds(); }
   // The session has a snapshot this studio has not pulled yet.
   bool pictureArrived() const;
   // Why the session cannot render ("" if it can): the first scene did not
