@@ -559,9 +559,14 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
            (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
       if (!ref.stepPass(&stop_)) break;
       ptStep = progressed = true;
+      // A first picture still owed (the reference had no samples) goes out
+      // after one pass, not after the reference has caught up with a long
+      // step (an MRCS light set: tens of seconds).
+      if (firstPicture && (job.batch > 0 || job.setsDone > 0)) break;
     }
     if (stopped() || !progressed) break;
     publish(makeSnapshot(w, job, gen));
+    if (job.batch > 0 || job.setsDone > 0) firstPicture = false;
   }
 }
 
