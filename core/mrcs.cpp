@@ -281,6 +281,36 @@ std::string MrcsProgress::text() const {
   return t;
 }
 
+void MrcsProgress::plan(const Work& work) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  work_ = work;
+}
+
+void MrcsProgress::begin(Stage s, uint64_t units) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  done.store(0);
+  total.store(units);
+  stage.store(s);
+}
+
+double MrcsProgress::overall() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int st = stage.load();
+  if (st >= kDone) return 1.0;
+  const double P = double(work_.pixels), N = double(work_.lights);
+  const double eye = P * (1 + work_.directSamples) / 4, rows = work_.rows * N,
+               columns = work_.methods * work_.clusters * P, all = eye + rows + columns;
+  if (st <= kIdle || !(all > 0)) return 0.0;
+  const uint64_t n = total.load();
+  const double share = n ? std::min(1.0, double(done.load()) / double(n)) : 0.0;
+  double f = 0;
+  if (st == kEyePaths) f = eye * share;
+  if (st == kRows) f = eye + rows * share;
+  if (st == kClustering) f = eye + rows;
+  if (st == kColumns) f = eye + rows + columns * share;
+  return f / all;
+}
+
 namespace {
 
 // What the MRCS stages share: the image, the light set decoded for
@@ -444,6 +474,13 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
   job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
 
+  if (progress)
+    progress->plan({.pixels = uint64_t(job.W) * uint64_t(job.H),
+                    .lights = job.N,
+                    .rows = mrcs.rows,
+                    .clusters = mrcs.clusters,
+                    .methods = int(job.doVsl) + int(job.doVpl),
+                    .directSamples = settings.directSamples});
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
   job.gl.resize(job.N);
   parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {

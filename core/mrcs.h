@@ -24,6 +24,7 @@
 #pragma once
 
 #include <atomic>
+#include <mutex>
 #include <string>
 
 #include "core/many_light.h"
@@ -64,19 +65,37 @@ struct MrcsResult {
 // Where a render is, so that a long one shows progress while it runs:
 // written by the render's threads, read from any thread. The stage's work is
 // counted in its own units (image rows for the eye paths and the columns,
-// lights for the rows); clustering has no count.
+// lights for the rows); clustering has no count. overall() weighs the stages
+// by the work plan() recorded when the render began.
 struct MrcsProgress {
   enum Stage : int { kIdle, kEyePaths, kRows, kClustering, kColumns, kDone };
+  // A render's size, from which its stages' weights follow.
+  struct Work {
+    uint64_t pixels = 0, lights = 0;
+    int rows = 0, clusters = 0;
+    int methods = 0;  // VSL and/or VPL: 1 or 2
+    int directSamples = 0;
+  };
   std::atomic<int> stage{kIdle};
   std::atomic<uint64_t> done{0}, total{0};
-  void begin(Stage s, uint64_t units) {
-    done.store(0);
-    total.store(units);
-    stage.store(s);
-  }
+  // Recorded by renderMrcs before its first stage.
+  void plan(const Work& work);
+  void begin(Stage s, uint64_t units);
   void advance(uint64_t units) { done.fetch_add(units, std::memory_order_relaxed); }
   // "MRCS rows 43%", "MRCS clustering"; empty when idle or done.
   std::string text() const;
+  // The whole render's share done, in [0, 1]: each stage weighted by its
+  // pairs (rows x lights for the rows, methods x clusters x pixels for the
+  // columns; eye paths and direct light by their samples, a quarter of a pair
+  // each: pixels x (1 + directSamples) / 4), clustering counted as no work.
+  // 0 when idle or with no work planned, 1 when done. Reads the stage and its
+  // counts together (begin() cannot come in between), so it never decreases
+  // while one render runs.
+  double overall() const;
+
+ private:
+  mutable std::mutex mutex_;  // begin() and plan() against overall()
+  Work work_;
 };
 
 // Renders the VSL and VPL indirect images (and direct light with

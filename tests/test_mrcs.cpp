@@ -3,6 +3,9 @@
 // clusters.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <thread>
+
 #include "core/estimator.h"
 #include "core/mrcs.h"
 #include "core/rng.h"
@@ -171,6 +174,57 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
   EXPECT_EQ(est->mrcsStats().zeroColumnsVsl, direct.zeroColumnsVsl);
 }
 
+// overall() through a real render, polled from a second thread as the CLI
+// polls it: it starts at 0, never decreases through the stages, stays in
+// [0, 1] and is 1 once the render is done.
+TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  ManyLightSettings s;
+  s.lights = 400;
+  s.width = s.height = 16;
+  s.directSamples = 2;
+  s.seed = 7;
+  MrcsSettings m{24, 60, 3};
+  m.spreadVslRadius = GetParam();
+  ManyLightRun run = prepareManyLights(c, s);
+  MrcsProgress progress;
+  EXPECT_EQ(progress.overall(), 0.0) << "idle";
+  // The poller keeps every change of (stage, overall) and checks each read
+  // against the one before.
+  struct Seen {
+    int stage;
+    double overall;
+  };
+  std::vector<Seen> seen;
+  std::atomic<bool> finished{false};
+  std::thread poller([&] {
+    Seen last{MrcsProgress::kIdle, 0.0};
+    while (!finished.load()) {
+      const Seen now{progress.stage.load(), progress.overall()};
+      if (now.stage != last.stage || now.overall != last.overall) seen.push_back(now);
+      last = now;
+      std::this_thread::yield();
+    }
+  });
+  MrcsResult r = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m, nullptr, &progress);
+  finished = true;
+  poller.join();
+  ASSERT_FALSE(r.stopped);
+  EXPECT_EQ(progress.stage.load(), MrcsProgress::kDone);
+  EXPECT_EQ(progress.overall(), 1.0) << "done";
+  double before = 0.0;
+  int beforeStage = MrcsProgress::kIdle;
+  for (const Seen& x : seen) {
+    EXPECT_GE(x.overall, before) << "stage " << x.stage << " after stage " << beforeStage;
+    EXPECT_LE(x.overall, 1.0) << "stage " << x.stage;
+    before = x.overall;
+    beforeStage = x.stage;
+  }
+}
+
 // The stage text a long MRCS render shows while it runs.
 TEST(MrcsClustering, ProgressNamesTheStageAndItsShare) {
   MrcsProgress p;
@@ -187,6 +241,43 @@ TEST(MrcsClustering, ProgressNamesTheStageAndItsShare) {
   EXPECT_EQ(p.text(), "MRCS columns 25%");
   p.begin(MrcsProgress::kDone, 0);
   EXPECT_EQ(p.text(), "");
+}
+
+// The whole render's share, each stage weighted by its pairs. 100 pixels,
+// 1000 lights, 10 rows, 20 clusters, both methods, 3 direct samples: eye
+// paths 100 x (1 + 3) / 4 = 100, rows 10 x 1000 = 10000, columns
+// 2 x 20 x 100 = 4000; 14100 in all.
+TEST(MrcsClustering, OverallProgressWeighsTheStagesByTheirPairs) {
+  MrcsProgress p;
+  EXPECT_EQ(p.overall(), 0.0) << "idle, nothing planned";
+  p.plan({.pixels = 100, .lights = 1000, .rows = 10, .clusters = 20, .methods = 2, .directSamples = 3});
+  EXPECT_EQ(p.overall(), 0.0) << "planned, not begun";
+  p.begin(MrcsProgress::kEyePaths, 10);
+  p.advance(5);
+  EXPECT_DOUBLE_EQ(p.overall(), 50.0 / 14100);
+  p.begin(MrcsProgress::kRows, 1000);
+  EXPECT_DOUBLE_EQ(p.overall(), 100.0 / 14100) << "the eye paths done, no rows yet";
+  p.advance(250);
+  EXPECT_DOUBLE_EQ(p.overall(), (100.0 + 2500) / 14100);
+  p.advance(5000);
+  EXPECT_DOUBLE_EQ(p.overall(), 10100.0 / 14100) << "a stage never counts above its weight";
+  p.begin(MrcsProgress::kClustering, 0);
+  EXPECT_DOUBLE_EQ(p.overall(), 10100.0 / 14100) << "clustering counts as no work";
+  p.begin(MrcsProgress::kColumns, 10);
+  p.advance(3);
+  EXPECT_DOUBLE_EQ(p.overall(), (10100.0 + 1200) / 14100);
+  EXPECT_EQ(p.text(), "MRCS columns 30%") << "the text keeps the stage's own share";
+  p.advance(7);
+  EXPECT_EQ(p.overall(), 1.0) << "the last stage complete";
+  p.begin(MrcsProgress::kDone, 0);
+  EXPECT_EQ(p.overall(), 1.0);
+  // One method: its columns weigh half as much (2000 of 12100).
+  p.plan({.pixels = 100, .lights = 1000, .rows = 10, .clusters = 20, .methods = 1, .directSamples = 3});
+  p.begin(MrcsProgress::kColumns, 4);
+  p.advance(1);
+  EXPECT_DOUBLE_EQ(p.overall(), (10100.0 + 500) / 12100);
+  p.begin(MrcsProgress::kIdle, 0);
+  EXPECT_EQ(p.overall(), 0.0) << "a stopped render";
 }
 
 // Light set k of a progressive run: seed + k for the lights and MRCS's rows,
