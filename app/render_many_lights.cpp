@@ -31,36 +31,26 @@ struct Gathered {
   json mrcs;  // MRCS statistics; null for the brute-force gather
 };
 
-// Steps the estimator until it is done or the time limit is reached: brute
-// force in progressive light batches, MRCS (rows, clustering,
-// representative columns) in one step.
 // One MRCS step on a thread of its own while this one shows its stages
-// (`mp`, which the estimator reports to) as a share of the work, each
-// stage weighted by its pairs (eye paths and direct light by their samples).
-void mrcsStepWithProgress(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp, Progress& progress) {
+// (`mp`, which the estimator reports to) as a share of the whole render
+// (MrcsProgress::overall: each stage weighted by its pairs).
+void mrcsStepWithProgress(ManyLightEstimator& est, const MrcsProgress& mp, Progress& progress) {
   std::atomic<bool> finished{false};
   std::thread worker([&] {
     est.step();
     finished = true;
   });
-  const double N = double(est.run().set.lights.size()), P = double(est.width()) * est.height();
-  const double methods = double(a.many.computeVsl) + double(a.many.computeVpl);
-  const double eye = P * (1 + a.many.directSamples) / 4, rows = a.estimator.mrcs.rows * N,
-               columns = methods * a.estimator.mrcs.clusters * P, total = eye + rows + columns;
   while (!finished) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const int st = mp.stage.load();
-    const double share = mp.total.load() ? std::min(1.0, double(mp.done.load()) / double(mp.total.load())) : 0.0;
-    double f = 0;
-    if (st == MrcsProgress::kEyePaths) f = eye * share;
-    if (st == MrcsProgress::kRows) f = eye + rows * share;
-    if (st == MrcsProgress::kClustering) f = eye + rows;
-    if (st == MrcsProgress::kColumns) f = eye + rows + columns * share;
-    if (st != MrcsProgress::kIdle && st != MrcsProgress::kDone) progress.update(f / total, mp.text());
+    if (st != MrcsProgress::kIdle && st != MrcsProgress::kDone) progress.update(mp.overall(), mp.text());
   }
   worker.join();
 }
 
+// Steps the estimator until it is done or the time limit is reached: brute
+// force in progressive light batches, MRCS (rows, clustering,
+// representative columns) in one step.
 void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp, Gathered& g) {
   const EstimatorSettings& e = a.estimator;
   const size_t n = est.run().set.lights.size();
@@ -70,7 +60,7 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
   Progress progress("render");
   Stopwatch clock;
   if (e.kind == EstimatorKind::Mrcs) {
-    mrcsStepWithProgress(a, est, mp, progress);
+    mrcsStepWithProgress(est, mp, progress);
     char done[64];
     std::snprintf(done, sizeof done, "MRCS done, %.1f s", clock.seconds());
     progress.update(1.0, done);
