@@ -516,12 +516,27 @@ void Session::retireSet(Job& job, bool completed) {
 // Interleaves equal compute time for the many-light methods (one batch, or
 // the next light set's preparation, per step) and the reference, publishing
 // after each step, until all are done or stopped.
+//
+// The first picture of a render (the first with a batch or a light set in
+// it) is due, checked after every step, once the reference has a pass or a
+// converged reference is used, so that no error is measured against a black
+// image. After a many-light step it goes out at once and the reference
+// catches up after it (a change that keeps the scene and the resolution
+// keeps the reference's samples); when the reference had no samples, it goes
+// out after one reference pass, not after the reference has caught up with
+// a long step (an MRCS light set: tens of seconds).
 void Session::render(Worker& w, Job& job, uint64_t gen) {
   setStage("rendering");
-  // A resumed job shows its picture under the new generation at once.
-  bool firstPicture = !(job.batch > 0 || job.setsDone > 0);
-  if (!firstPicture) publish(makeSnapshot(w, job, gen));
   ReferenceRenderer& ref = *w.ref.pt;
+  auto hasManyLight = [&] { return job.batch > 0 || job.setsDone > 0; };
+  bool firstPicture = !hasManyLight();  // owed until a picture shows many-light work
+  auto firstPictureDue = [&] { return firstPicture && hasManyLight() && (w.converged || ref.spp() > 0); };
+  auto show = [&] {
+    publish(makeSnapshot(w, job, gen));
+    if (hasManyLight()) firstPicture = false;
+  };
+  // A resumed job shows its picture under the new generation at once.
+  if (!firstPicture) show();
   while (!stopped()) {
     bool progressed = false;
     if (job.setsDone < job.settings.lightSets) {
@@ -537,15 +552,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
       }
       progressed = true;
     }
-    // A new render's first picture goes out after its first batch when the
-    // reference already has samples (a change that keeps the scene and the
-    // resolution): the reference catches up after it. Otherwise it waits for
-    // the reference's first pass, so that no error is measured against a
-    // black image.
-    if (firstPicture && (job.batch > 0 || job.setsDone > 0) && (w.converged || ref.spp() > 0)) {
-      firstPicture = false;
-      publish(makeSnapshot(w, job, gen));
-    }
+    if (firstPictureDue()) show();
     // Once the many-light methods are done, a requested background reference
     // goes first (the live path tracer waits), then the live path tracer.
     if (!progressed && renderBackgroundReference(w, job, gen)) {
@@ -559,14 +566,10 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
            (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
       if (!ref.stepPass(&stop_)) break;
       ptStep = progressed = true;
-      // A first picture still owed (the reference had no samples) goes out
-      // after one pass, not after the reference has caught up with a long
-      // step (an MRCS light set: tens of seconds).
-      if (firstPicture && (job.batch > 0 || job.setsDone > 0)) break;
+      if (firstPictureDue()) break;  // it goes out below
     }
     if (stopped() || !progressed) break;
-    publish(makeSnapshot(w, job, gen));
-    if (job.batch > 0 || job.setsDone > 0) firstPicture = false;
+    show();
   }
 }
 
