@@ -175,8 +175,8 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
 }
 
 // overall() through a real render, polled from a second thread as the CLI
-// polls it: it starts at 0, never decreases through the stages, stays in
-// [0, 1] and is 1 once the render is done.
+// polls it: it starts at 0, never decreases as the stages follow one
+// another, stays in [0, 1] and is 1 once the render is done.
 TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
   Result<std::unique_ptr<RenderContext>> ctx =
       RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
@@ -218,6 +218,7 @@ TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
   double before = 0.0;
   int beforeStage = MrcsProgress::kIdle;
   for (const Seen& x : seen) {
+    EXPECT_GE(x.stage, beforeStage) << "the stages come in order";
     EXPECT_GE(x.overall, before) << "stage " << x.stage << " after stage " << beforeStage;
     EXPECT_LE(x.overall, 1.0) << "stage " << x.stage;
     before = x.overall;
