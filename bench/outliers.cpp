@@ -12,6 +12,7 @@
 // light: its depth, lobe, radius, cone half-angle and the receiver's lobe.
 //   vsl_outliers SCENE.gltf REFERENCE.exr [--seed 1] [--lights 10000]
 //                [--width 64] [--alpha 0.05] [--list 0] [--split-alpha 0]
+//                [--lobe-radius 0] [--radius-scale 1]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -57,6 +58,10 @@ int main(int argc, char** argv) {
   app.add_option("--alpha", alpha, "Narrow: GGX alpha (narrower axis) below this")->check(CLI::Range(0.0, 1.0));
   app.add_option("--list", list, "Print this many worst pixels")->check(CLI::Range(0, 10000));
   app.add_option("--split-alpha", s.splitAlpha, "Lobe splitting (as in vsl render)")->check(CLI::Range(0.0, 1.0));
+  app.add_option("--lobe-radius", s.lobeRadius, "Lobe-aware minimum radius (as in vsl render)")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--radius-scale", s.radiusScale, "VSL radius scale (as in vsl render)")
+      ->check(CLI::Range(0.01, 100.0));
   CLI11_PARSE(app, argc, argv);
 
   auto context = RenderContext::load(scenePath);
