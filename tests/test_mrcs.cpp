@@ -26,6 +26,16 @@ double relMse(const Image& a, const Image& b) {
   }
   return s / double(a.rgb.size());
 }
+// The small render the seam and progress tests share: cornell-glossy at
+// 16x16 with 400 lights and 2 direct samples.
+ManyLightSettings smallRender() {
+  ManyLightSettings s;
+  s.lights = 400;
+  s.width = s.height = 16;
+  s.directSamples = 2;
+  s.seed = 7;
+  return s;
+}
 }  // namespace
 
 TEST(MrcsClustering, FewColumnsAreTheirOwnClusters) {
@@ -138,11 +148,7 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
       RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
   ASSERT_TRUE(ctx) << ctx.error();
   const RenderContext& c = **ctx;
-  ManyLightSettings s;
-  s.lights = 400;
-  s.width = s.height = 16;
-  s.directSamples = 2;
-  s.seed = 7;
+  ManyLightSettings s = smallRender();
   EstimatorSettings e;
   e.kind = EstimatorKind::Mrcs;
   e.mrcs = MrcsSettings{24, 60, 3};
@@ -182,11 +188,7 @@ TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
       RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
   ASSERT_TRUE(ctx) << ctx.error();
   const RenderContext& c = **ctx;
-  ManyLightSettings s;
-  s.lights = 400;
-  s.width = s.height = 16;
-  s.directSamples = 2;
-  s.seed = 7;
+  ManyLightSettings s = smallRender();
   MrcsSettings m{24, 60, 3};
   m.spreadVslRadius = GetParam();
   ManyLightRun run = prepareManyLights(c, s);
