@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "core/compare.h"
 #include "core/gather.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
@@ -114,9 +115,7 @@ int main(int argc, char** argv) {
     }
   });
 
-  double meanRef = 0;
-  for (int i = 0; i < W * H; ++i) meanRef += luminance(ref->at(i % W, i / W)) / (W * H);
-  const double eps = 0.01 * meanRef * meanRef;
+  const double eps = RelMseEpsilon().resolve(*ref);  // relMSE's default, as vsl compare uses it
   std::vector<std::pair<double, int>> err;
   double vslErr = 0, vplErr = 0, byClass[2][2] = {};
   for (int i = 0; i < W * H; ++i) {
