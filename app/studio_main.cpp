@@ -53,6 +53,8 @@ struct Args {
   int backgroundReference = 0;                   // spp of a reference rendered into the cache
   int lightSets = StudioSettings().lightSets;    // independent light sets
   bool lightSetsGiven = false;
+  float splitAlpha = ManyLightSettings().splitAlpha;  // lobe splitting (0 = off)
+  bool splitAlphaGiven = false;
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -161,6 +163,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.width = a.width;
   o.settings.many.batches = 16;
   o.settings.many.directSamples = 64;
+  o.settings.many.splitAlpha = a.splitAlpha;
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -206,6 +209,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
     s.many.height = 0;
   }
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
+  if (a.splitAlphaGiven) s.many.splitAlpha = a.splitAlpha;
   if (a.estimatorGiven) s.estimator = a.estimator;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
@@ -480,6 +484,11 @@ void addOptions(CLI::App& app, Args& a) {
                  "measured (1: one set)")
       ->default_str(std::to_string(StudioSettings().lightSets))
       ->check(CLI::Range(1, StudioSettings::kMaxLightSets));
+  app.add_option("--split-alpha", a.splitAlpha,
+                 "Gather points whose specular lobe is narrower than this (GGX alpha, on both axes) gather their "
+                 "diffuse lobe and continue the eye path with the specular lobe; 0 = off (the \"split alpha\" control)")
+      ->default_str(std::to_string(ManyLightSettings().splitAlpha))
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -539,6 +548,7 @@ int main(int argc, char** argv) {
   a.lightsGiven = app.count("--lights") > 0;
   a.widthGiven = app.count("--width") > 0;
   a.lightSetsGiven = app.count("--light-sets") > 0;
+  a.splitAlphaGiven = app.count("--split-alpha") > 0;
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
   Launch launch;
   if (!a.crop.empty()) {

@@ -32,7 +32,7 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
       ->default_str(std::to_string(ManyLightSettings().continueAlpha))
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--split-alpha", m.splitAlpha,
-                  "Gather points whose specular lobe is narrower than this (GGX alpha, narrower axis) gather "
+                  "Gather points whose specular lobe is narrower than this (GGX alpha, on both axes) gather "
                   "their diffuse lobe and continue the eye path with the specular lobe; 0 = off")
       ->default_str(std::to_string(ManyLightSettings().splitAlpha))
       ->check(CLI::Range(0.0, 1.0));

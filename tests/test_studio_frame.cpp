@@ -660,6 +660,30 @@ TEST(StudioCli, HeadlessRunWithARefusedReferenceFails) {
   EXPECT_NE(r.out.find("missing.exr"), std::string::npos) << r.out;
 }
 
+// --split-alpha reaches the render (the export's replay command carries it) and
+// a value outside [0,1] is a bad argument.
+TEST(StudioCli, SplitAlphaReachesTheRender) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-split-cli";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string common = "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " +
+                             dir + "/out --split-alpha ";
+  StudioRun r = runStudio(dir + "/config", common + "0.05");
+  ASSERT_EQ(r.code, 0) << r.out;
+  int exports = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/out")) {
+    std::ifstream js(e.path() / "metrics.json");
+    ASSERT_TRUE(js) << e.path();
+    const std::string replay = nlohmann::json::parse(js)["replay"].get<std::string>();
+    EXPECT_NE(replay.find("--split-alpha 0.05"), std::string::npos) << replay;
+    ++exports;
+  }
+  EXPECT_EQ(exports, 1);
+  r = runStudio(dir + "/config", common + "2");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--split-alpha"), std::string::npos) << r.out;
+}
+
 TEST(LastSession, RoundTripAndCorruptFiles) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-test";
   std::filesystem::remove_all(dir);
