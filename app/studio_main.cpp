@@ -19,11 +19,13 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <thread>
 
+#include "app/finite_options.h"
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/stopwatch.h"
@@ -549,6 +551,10 @@ int main(int argc, char** argv) {
   a.widthGiven = app.count("--width") > 0;
   a.lightSetsGiven = app.count("--light-sets") > 0;
   a.splitAlphaGiven = app.count("--split-alpha") > 0;
+  if (std::string bad = nonFiniteOption(app); !bad.empty()) {
+    std::fprintf(stderr, "error: %s\n", bad.c_str());
+    return 2;
+  }
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
   Launch launch;
   if (!a.crop.empty()) {

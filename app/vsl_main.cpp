@@ -17,6 +17,7 @@
 #include <iostream>
 
 #include "app/cli.h"
+#include "app/finite_options.h"
 #include "core/estimator.h"
 #include "core/log.h"
 
@@ -73,6 +74,10 @@ int main(int argc, char** argv) {
     CLI::App* sub = nullptr;
     for (CLI::App* s : app.get_subcommands()) sub = s;
     std::cerr << (sub ? sub->help() : app.help());
+    return kExitBadArguments;
+  }
+  if (std::string bad = nonFiniteOption(app); !bad.empty()) {
+    std::fprintf(stderr, "error: %s\n", bad.c_str());
     return kExitBadArguments;
   }
   log::setEchoLevel(LogLevel::Warning);

@@ -453,3 +453,33 @@ TEST_F(Cli, StudioRefusesBadEstimatorFlags) {
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
   }
 }
+
+// NaN and infinity pass CLI11's range checks; every floating-point option of
+// vsl and vsl-studio refuses them (exit 2, the option named) before any work,
+// lists item by item, while finite values still run.
+TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
+  const std::string render = "render " + scene("cornell-glossy") + " --method vpl --lights 20 --width 8 --batches 1 " +
+                             "--direct-samples 1 -o " + file("nf.exr");
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {render + " --exposure nan", "--exposure: must be a finite number (got 'nan')"},
+           {render + " --exposure -inf", "--exposure: must be a finite number (got '-inf')"},
+           {render + " --split-alpha nan", "--split-alpha: must be a finite number"},
+           {render + " --radius-scale 1e999", "--radius-scale: must be a finite number (got '1e999')"},
+           {"sweep " + scene("cornell-glossy") + " --radius-scale 1,nan -o " + file("nf-sweep"),
+            "--radius-scale: must be a finite number (got 'nan')"}}) {
+    Proc r = run(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
+  EXPECT_FALSE(fs::exists(file("nf.exr")));
+  EXPECT_FALSE(fs::exists(file("nf-sweep")));
+  Proc ok = run(render + " --exposure -1.5");
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  const std::string studio = std::string(VSL_BINARY_DIR) + "/bin/vsl-studio";
+  if (!fs::exists(studio)) GTEST_SKIP() << "built without the UI";
+  for (const char* args : {"--after nan", "--split-alpha nan", "--progressive-radius nan"}) {
+    Proc r = shell(studio + " --headless " + args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("must be a finite number"), std::string::npos) << args << "\n" << r.out;
+  }
+}

@@ -679,9 +679,15 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
     ++exports;
   }
   EXPECT_EQ(exports, 1);
-  r = runStudio(dir + "/config", common + "2");
+  for (const char* bad : {"2", "-0.1", "nan"}) {
+    r = runStudio(dir + "/config", common + bad);
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.out;
+    EXPECT_NE(r.out.find("--split-alpha"), std::string::npos) << r.out;
+  }
+  // NaN passes CLI11's range checks; the studio refuses it itself.
+  r = runStudio(dir + "/config", common + "0 --after nan");
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("--split-alpha"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--after"), std::string::npos) << r.out;
 }
 
 TEST(LastSession, RoundTripAndCorruptFiles) {

@@ -1,0 +1,35 @@
+// NaN and infinity pass CLI11's range checks (every comparison with NaN is
+// false), so `--exposure nan` or `--after nan` would reach the settings. Both
+// executables ask this after parsing and exit 2 with its message.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+
+namespace vsl {
+
+// The first floating-point option of app (or of its parsed subcommands) given
+// a value that is not a finite number, as "--name: must be a finite number
+// (got 'nan')"; empty if there is none. Lists are checked item by item.
+inline std::string nonFiniteOption(const CLI::App& app) {
+  for (const CLI::Option* o : app.get_options()) {
+    if (o->count() == 0 || o->get_type_name().find("FLOAT") == std::string::npos) continue;
+    for (const std::string& given : o->results()) {
+      std::istringstream items(given);
+      for (std::string item; std::getline(items, item, ',');) {
+        char* end = nullptr;
+        const double v = std::strtod(item.c_str(), &end);
+        if (end != item.c_str() && !std::isfinite(v))
+          return o->get_name() + ": must be a finite number (got '" + item + "')";
+      }
+    }
+  }
+  for (const CLI::App* sub : app.get_subcommands())
+    if (std::string m = nonFiniteOption(*sub); !m.empty()) return m;
+  return {};
+}
+
+}  // namespace vsl
