@@ -41,7 +41,7 @@ namespace {
 struct Args {
   std::string scene;
   bool headless = false;
-  int frames = 0;  // 0 = until closed (windowed) or until the export (headless)
+  int frames = 0;  // 0 = until closed (windowed); headless, until the export or the render is done
   std::string screenshot, exportDir;
   double after = -1;  // seconds; < 0 = when the many-light render is complete
   std::string window = "1280x800";
@@ -119,6 +119,13 @@ struct Script {
       }
     }
     if (args.frames > 0 && frame + 1 >= args.frames) {
+      if (!args.screenshot.empty() && !saveScreenshot(fbw, fbh)) failed = true;
+      return true;
+    }
+    // Headless with neither an export nor a frame count: the run ends when the
+    // many-light render is done (or at --after), with the screenshot if asked.
+    if (headlessProgress && args.exportDir.empty() && args.frames == 0 &&
+        (args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900)) {
       if (!args.screenshot.empty() && !saveScreenshot(fbw, fbh)) failed = true;
       return true;
     }
@@ -543,7 +550,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   int w = 1280, h = 800;
-  if (std::sscanf(a.window.c_str(), "%dx%d", &w, &h) != 2 || w < 320 || h < 240 || w > 8192 || h > 8192) {
+  char extra = 0;  // digits only, at most five each: no trailing text, no wrap-around
+  if (a.window.size() > 11 || a.window.find_first_not_of("0123456789x") != std::string::npos ||
+      std::sscanf(a.window.c_str(), "%dx%d%c", &w, &h, &extra) != 2 || w < 320 || h < 240 || w > 8192 || h > 8192) {
     std::fprintf(stderr, "error: --window must be WxH between 320x240 and 8192x8192 (got '%s')\n", a.window.c_str());
     return 2;
   }
@@ -554,6 +563,12 @@ int main(int argc, char** argv) {
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return 2;
+  }
+  for (const char* name : {"--export", "--screenshot", "--reference"}) {
+    if (app.count(name) > 0 && app[name]->as<std::string>().empty()) {
+      std::fprintf(stderr, "error: %s: the path is empty\n", name);
+      return 2;
+    }
   }
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
   Launch launch;

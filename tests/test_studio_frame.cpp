@@ -690,6 +690,28 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   EXPECT_NE(r.out.find("--after"), std::string::npos) << r.out;
 }
 
+// Headless without --export or --frames ends when the render is done (it
+// used to run until killed), taking the screenshot if asked; empty paths are
+// bad arguments.
+TEST(StudioCli, HeadlessRunsWithoutAnExportEnd) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-headless-end";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string common = "--headless --fresh --window 320x240 --lights 20 --width 8 --light-sets 1";
+  StudioRun r = runStudio(dir + "/config", common + " --screenshot " + dir + "/shot.png");
+  EXPECT_EQ(r.code, 0) << r.out;
+  int w = 0, h = 0, n = 0;
+  EXPECT_TRUE(stbi_info((dir + "/shot.png").c_str(), &w, &h, &n)) << r.out;
+  EXPECT_EQ(w, 320);
+  r = runStudio(dir + "/config", common);
+  EXPECT_EQ(r.code, 0) << r.out;
+  for (const char* empty : {"--export ''", "--screenshot ''"}) {
+    r = runStudio(dir + "/config", common + " " + empty);
+    EXPECT_EQ(r.code, 2) << empty << ": " << r.out;
+    EXPECT_NE(r.out.find("the path is empty"), std::string::npos) << r.out;
+  }
+}
+
 TEST(LastSession, RoundTripAndCorruptFiles) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-test";
   std::filesystem::remove_all(dir);
