@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdarg>
 #include <cstdio>
+#include <filesystem>
 
 namespace vsl {
 
@@ -89,6 +90,46 @@ float percentile(std::vector<float> values, double q) {
   const size_t k = size_t(q * double(values.size() - 1));
   std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
   return values[k];
+}
+
+namespace {
+
+bool sameFile(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ea, eb;
+  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea) && !ea;
+  return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
+}
+
+}  // namespace
+
+std::string clashingOutput(const CLI::App& subcommand) {
+  struct Named {
+    std::string option, path;
+  };
+  std::vector<Named> inputs, outputs;
+  for (const CLI::Option* o : subcommand.get_options()) {
+    if (o->count() == 0) continue;
+    const std::string name = o->get_name();
+    const bool output =
+        name == "--output" || name == "--png" || name == "--json" || name == "--flip-exr" || name == "--flip-png";
+    const bool input = o->get_positional() || name == "--reference" || name == "--reference-b" || name == "--merge";
+    for (const std::string& path : o->results()) {
+      if (path.empty()) continue;
+      if (output) outputs.push_back({name, path});
+      if (input) inputs.push_back({name, path});
+    }
+  }
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    for (const Named& in : inputs)
+      if (sameFile(outputs[i].path, in.path))
+        return outputs[i].option + " " + outputs[i].path + " is also the input " + in.path +
+               " (it would be overwritten)";
+    for (size_t j = 0; j < i; ++j)
+      if (sameFile(outputs[i].path, outputs[j].path))
+        return outputs[i].option + " " + outputs[i].path + " is also " + outputs[j].option + " " + outputs[j].path;
+  }
+  return {};
 }
 
 }  // namespace vsl

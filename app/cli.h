@@ -50,6 +50,15 @@ int fail(int exitCode, const std::string& message);
 // The same with a printf-style message.
 [[gnu::format(printf, 2, 3)]] int failf(int exitCode, const char* format, ...);
 
+// ---- Inputs and outputs ---------------------------------------------------------
+
+// A file the command would write that is one of its inputs or another of its
+// outputs (the same file by device and inode where both exist, by normalised
+// path otherwise), as "-o a.exr is also the input a.exr"; empty if none.
+// Outputs are the parsed subcommand's --output, --png, --json, --flip-exr and
+// --flip-png; inputs its positionals, --reference, --reference-b and --merge.
+std::string clashingOutput(const CLI::App& subcommand);
+
 // ---- Shared options (defined in vsl_main.cpp) ---------------------------------
 
 // Options of the VSL gather shared by render and sweep.

@@ -80,6 +80,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return kExitBadArguments;
   }
+  for (const CLI::App* sub : app.get_subcommands()) {
+    if (std::string clash = clashingOutput(*sub); !clash.empty()) {
+      std::fprintf(stderr, "error: %s\n", clash.c_str());
+      return kExitBadArguments;
+    }
+  }
   log::setEchoLevel(LogLevel::Warning);
   // Every subcommand runs inside one handler: running out of memory (or any
   // other exception a library throws) is reported and exits 1, never aborts.

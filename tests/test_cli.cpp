@@ -483,3 +483,30 @@ TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
     EXPECT_NE(r.out.find("must be a finite number"), std::string::npos) << args << "\n" << r.out;
   }
 }
+
+// An output that is one of the command's inputs, or another of its outputs, is
+// refused before any work (exit 2, both named) and the input is left as it was:
+// tonemap or compare over their own EXRs, a render over its scene, --png over -o.
+TEST_F(Cli, OutputsNeverOverwriteInputs) {
+  fs::copy_file(scene("furnace"), file("fz.gltf"), fs::copy_options::overwrite_existing);
+  Proc r = run("render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("s1.exr"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  fs::copy_file(file("s1.exr"), file("s2.exr"), fs::copy_options::overwrite_existing);
+  const auto exrSize = fs::file_size(file("s1.exr")), sceneSize = fs::file_size(file("fz.gltf"));
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {"tonemap " + file("s1.exr") + " -o " + file("s1.exr"), "is also the input"},
+           {"compare " + file("s1.exr") + " " + file("s2.exr") + " -o " + file("s1.exr"), "is also the input"},
+           {"compare " + file("s1.exr") + " " + file("s2.exr") + " --flip-exr " + dir.string() + "/./s2.exr",
+            "is also the input"},
+           {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("fz.gltf"), "is also the input"},
+           {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("same.exr") + " --png " + file("same.exr"),
+            "--png " + file("same.exr") + " is also --output"}}) {
+    r = run(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
+  EXPECT_EQ(fs::file_size(file("s1.exr")), exrSize);
+  EXPECT_EQ(fs::file_size(file("s2.exr")), exrSize);
+  EXPECT_EQ(fs::file_size(file("fz.gltf")), sceneSize);
+  EXPECT_FALSE(fs::exists(file("same.exr")));
+}
