@@ -205,6 +205,9 @@ int writeErrorPng(const std::string& path, const Image& relSquared) {
 
 int compareOne(const CompareArgs& a, const Image& t, const Image& r, const RelMseEpsilon& eps) {
   CompareResult c = compareImages(t, r, eps);
+  if (c.pixels == 0)  // nothing to measure: never report a perfect score
+    return failf(kExitBadInput, "no pixel is finite in both images (non-finite pixels: test %zu, reference %zu)",
+                 c.nonFiniteTest, c.nonFiniteRef);
   CompareFlip flip;
   if (!a.noFlip) flip = compareFlip(t, r, a.exposure);
   printCompare(a, c, eps, flip);
@@ -225,6 +228,7 @@ int compareOne(const CompareArgs& a, const Image& t, const Image& r, const RelMs
 int compareMany(const CompareArgs& a, const std::vector<const Image*>& tests, const Image& r,
                 const RelMseEpsilon& eps) {
   BiasVarianceResult bv = biasVariance(tests, r, eps);
+  if (bv.pixels == 0) return fail(kExitBadInput, "no pixel is finite in every image");
   CompareFlip flip;
   if (!a.noFlip) flip = compareFlip(bv.mean, r, a.exposure);
   auto bvJson = [](const BiasVarianceChannel& m) {

@@ -1,5 +1,7 @@
 #include "core/reference.h"
 
+#include <cmath>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -210,6 +212,13 @@ Result<Reference> readReference(const std::string& path, int width, int height, 
     return Error(path + ": " + std::to_string(I.width) + "x" + std::to_string(I.height) + ", but the render is " +
                  std::to_string(width) + "x" + std::to_string(height));
   }
+  // Every method is measured against it: one NaN would turn a metric into NaN
+  // or drop the pixel from it, and an all-NaN reference would score zero error.
+  size_t nonFinite = 0;
+  for (float v : I.rgb) nonFinite += !std::isfinite(v);
+  if (nonFinite > 0)
+    return Error(path + ": " + std::to_string(nonFinite) + " of " + std::to_string(I.rgb.size()) + " values of the '" +
+                 indirectLayer + "' layer are not finite numbers; a reference must be finite everywhere");
   Reference r;
   r.width = I.width;
   r.height = I.height;

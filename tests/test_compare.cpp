@@ -211,6 +211,26 @@ TEST(CompareCli, BlackAgainstWhiteFlipAndEpsilonInTheJson) {
 }
 
 // Several test images: bias2, variance and the relMSE of their mean, with maps.
+// Two images without a finite pixel in common are refused (exit 1), never
+// scored as a perfect match (they were: "0 pixels", relMSE 0).
+TEST(CompareCli, NoFinitePixelIsNotAPerfectScore) {
+  fs::path d = scratch("nan");
+  Image nan(8, 8), ok(8, 8);
+  for (float& v : nan.rgb) v = std::nanf("");
+  ASSERT_TRUE(writeExr((d / "nan.exr").string(), {{"", nan}}));
+  ASSERT_TRUE(writeExr((d / "ok.exr").string(), {{"", ok}}));
+  Proc p = vslOut("compare " + (d / "nan.exr").string() + " " + (d / "ok.exr").string(), true);
+  EXPECT_EQ(p.code, 1) << p.out;
+  EXPECT_NE(p.out.find("no pixel is finite in both images (non-finite pixels: test 64, reference 0)"),
+            std::string::npos)
+      << p.out;
+  p = vslOut("compare " + (d / "ok.exr").string() + " " + (d / "ok.exr").string() + " " + (d / "nan.exr").string(),
+             true);
+  EXPECT_EQ(p.code, 1) << p.out;
+  EXPECT_NE(p.out.find("no pixel is finite in every image"), std::string::npos) << p.out;
+  fs::remove_all(d);
+}
+
 TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
   fs::path d = scratch("bv");
   Image ref(8, 8), a(8, 8), b(8, 8), c(8, 8);

@@ -154,6 +154,24 @@ TEST(Reference, ForeignImagesNeedAnIndirectLayer) {
   std::filesystem::remove_all(dir);
 }
 
+// A reference with a NaN or an infinity in its indirect layer is refused,
+// naming the file and how many values: an all-NaN reference used to score
+// every method's error as zero.
+TEST(Reference, NonFiniteReferencesAreRefused) {
+  std::string dir = tempDir("nonfinite");
+  Image img(8, 8);
+  for (float& v : img.rgb) v = 0.5f;
+  img.rgb[5] = std::nanf("");
+  img.rgb[9] = INFINITY;
+  Result<void> w = writeExr(dir + "/nan.exr", {{"indirect", img}});
+  ASSERT_TRUE(w) << w.error();
+  Result<vsl::Reference> r = readReference(dir + "/nan.exr", 8, 8);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("nan.exr: 2 of 192 values of the 'indirect' layer are not finite"), std::string::npos)
+      << r.error();
+  std::filesystem::remove_all(dir);
+}
+
 // Keys follow the scene's content, resolution and depth; the cache keeps the
 // entry with the most samples.
 TEST(Reference, CacheKeysAndEntries) {
