@@ -120,7 +120,17 @@ std::string clashingOutput(const CLI::App& subcommand) {
       if (input) inputs.push_back({name, path});
     }
   }
+  namespace fs = std::filesystem;
+  const bool outputIsFolder = subcommand.get_name() == "sweep";  // created with its parents
   for (size_t i = 0; i < outputs.size(); ++i) {
+    // Checked now, not after a render of minutes or hours.
+    if (!(outputIsFolder && outputs[i].option == "--output")) {
+      std::error_code ec;
+      const fs::path path(outputs[i].path), parent = path.parent_path().empty() ? "." : path.parent_path();
+      if (fs::is_directory(path, ec)) return outputs[i].option + " " + outputs[i].path + " is a folder, not a file";
+      if (!fs::is_directory(parent, ec))
+        return outputs[i].option + " " + outputs[i].path + ": the folder " + parent.string() + " does not exist";
+    }
     for (const Named& in : inputs)
       if (sameFile(outputs[i].path, in.path))
         return outputs[i].option + " " + outputs[i].path + " is also the input " + in.path +
