@@ -103,11 +103,14 @@ bool sameFile(const std::string& a, const std::string& b) {
 
 }  // namespace
 
-std::string clashingOutput(const CLI::App& subcommand) {
-  struct Named {
-    std::string option, path;
-  };
-  std::vector<Named> inputs, outputs;
+namespace {
+
+struct NamedPath {
+  std::string option, path;
+};
+
+// The parsed subcommand's output and input paths (see clashingOutput).
+void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std::vector<NamedPath>* outputs) {
   for (const CLI::Option* o : subcommand.get_options()) {
     if (o->count() == 0) continue;
     const std::string name = o->get_name();
@@ -116,28 +119,41 @@ std::string clashingOutput(const CLI::App& subcommand) {
     const bool input = o->get_positional() || name == "--reference" || name == "--reference-b" || name == "--merge";
     for (const std::string& path : o->results()) {
       if (path.empty()) continue;
-      if (output) outputs.push_back({name, path});
-      if (input) inputs.push_back({name, path});
+      if (output) outputs->push_back({name, path});
+      if (input) inputs->push_back({name, path});
     }
   }
-  namespace fs = std::filesystem;
-  const bool outputIsFolder = subcommand.get_name() == "sweep";  // created with its parents
+}
+
+}  // namespace
+
+std::string clashingOutput(const CLI::App& subcommand) {
+  std::vector<NamedPath> inputs, outputs;
+  namedPaths(subcommand, &inputs, &outputs);
   for (size_t i = 0; i < outputs.size(); ++i) {
-    // Checked now, not after a render of minutes or hours.
-    if (!(outputIsFolder && outputs[i].option == "--output")) {
-      std::error_code ec;
-      const fs::path path(outputs[i].path), parent = path.parent_path().empty() ? "." : path.parent_path();
-      if (fs::is_directory(path, ec)) return outputs[i].option + " " + outputs[i].path + " is a folder, not a file";
-      if (!fs::is_directory(parent, ec))
-        return outputs[i].option + " " + outputs[i].path + ": the folder " + parent.string() + " does not exist";
-    }
-    for (const Named& in : inputs)
+    for (const NamedPath& in : inputs)
       if (sameFile(outputs[i].path, in.path))
         return outputs[i].option + " " + outputs[i].path + " is also the input " + in.path +
                " (it would be overwritten)";
     for (size_t j = 0; j < i; ++j)
       if (sameFile(outputs[i].path, outputs[j].path))
         return outputs[i].option + " " + outputs[i].path + " is also " + outputs[j].option + " " + outputs[j].path;
+  }
+  return {};
+}
+
+std::string unwritableOutput(const CLI::App& subcommand) {
+  namespace fs = std::filesystem;
+  std::vector<NamedPath> inputs, outputs;
+  namedPaths(subcommand, &inputs, &outputs);
+  const bool outputIsFolder = subcommand.get_name() == "sweep";  // created with its parents
+  for (const NamedPath& out : outputs) {
+    if (outputIsFolder && out.option == "--output") continue;
+    std::error_code ec;
+    const fs::path path(out.path), parent = path.parent_path().empty() ? "." : path.parent_path();
+    if (fs::is_directory(path, ec)) return out.option + " " + out.path + " is a folder, not a file";
+    if (!fs::is_directory(parent, ec))
+      return out.option + " " + out.path + ": the folder " + parent.string() + " does not exist";
   }
   return {};
 }

@@ -85,6 +85,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "error: %s\n", clash.c_str());
       return kExitBadArguments;
     }
+    if (std::string unwritable = unwritableOutput(*sub); !unwritable.empty()) {
+      std::fprintf(stderr, "error: %s\n", unwritable.c_str());
+      return kExitBadInput;
+    }
   }
   log::setEchoLevel(LogLevel::Warning);
   // Every subcommand runs inside one handler: running out of memory (or any

@@ -486,8 +486,7 @@ TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
 
 // An output that is one of the command's inputs, or another of its outputs, is
 // refused before any work (exit 2, both named) and the input is left as it was:
-// tonemap or compare over their own EXRs, a render over its scene, --png over -o;
-// so is an output in a folder that does not exist, or that is a folder.
+// tonemap or compare over their own EXRs, a render over its scene, --png over -o.
 TEST_F(Cli, OutputsNeverOverwriteInputs) {
   fs::copy_file(scene("furnace"), file("fz.gltf"), fs::copy_options::overwrite_existing);
   Proc r = run("render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("s1.exr"));
@@ -502,10 +501,7 @@ TEST_F(Cli, OutputsNeverOverwriteInputs) {
            {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("fz.gltf"), "is also the input"},
            {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("same.exr") + " --png " + file("same.exr"),
             "--png " + file("same.exr") + " is also --output"},
-           // Checked before the render, not after it.
-           {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("same.exr") + " --png " + file("no/x.png"),
-            "the folder " + file("no") + " does not exist"},
-           {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + dir.string(), "is a folder, not a file"}}) {
+       }) {
     r = run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
@@ -513,5 +509,16 @@ TEST_F(Cli, OutputsNeverOverwriteInputs) {
   EXPECT_EQ(fs::file_size(file("s1.exr")), exrSize);
   EXPECT_EQ(fs::file_size(file("s2.exr")), exrSize);
   EXPECT_EQ(fs::file_size(file("fz.gltf")), sceneSize);
+  EXPECT_FALSE(fs::exists(file("same.exr")));
+  // An output in a folder that does not exist, or that is a folder: an I/O
+  // failure (exit 1), found before the render instead of after it.
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("same.exr") + " --png " + file("no/x.png"),
+            "the folder " + file("no") + " does not exist"},
+           {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + dir.string(), "is a folder, not a file"}}) {
+    r = run(args);
+    EXPECT_EQ(r.code, 1) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
   EXPECT_FALSE(fs::exists(file("same.exr")));
 }
