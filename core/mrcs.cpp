@@ -410,44 +410,38 @@ void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector
   });
 }
 
-// 4. Full columns for the representatives: every pixel's estimate is its
-//    shared light plus the weighted representatives' contributions.
-void representativeColumns(MrcsJob& job, const std::vector<Representative>& repVsl,
-                           const std::vector<GatherLight>& repGl, const std::vector<Representative>& repVpl,
-                           ManyLightImages& images) {
-  images.vsl = Image(job.W, job.H);
-  images.vpl = Image(job.W, job.H);
-  job.begin(MrcsProgress::kColumns, uint64_t(job.H));
+// 4. Full columns for one method's representatives (its layer, gathered by
+//    `gatherer`; repGl[q] is representative q's light): every pixel's
+//    estimate is its shared light plus the weighted representatives'
+//    contributions. Without representatives (a method not rendered) the
+//    image is the shared light alone, and its rows do not count as progress.
+void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std::vector<Representative>& reps,
+                           const std::vector<GatherLight>& repGl, Image& out) {
+  out = Image(job.W, job.H);
+  const bool counted = !reps.empty();
   parallelFor(size_t(job.H), [&](size_t y) {
     if (job.stopped()) return;
     GatherCounters cnt;
     for (int x = 0; x < job.W; ++x) {
       size_t pix = y * job.W + x;
       const EyeSample& es = job.gps[pix];
-      Vec3 vsl = es.shared(), vpl = es.shared();
+      Vec3 L = es.shared();
       for (int g = 0; g < es.count; ++g) {
         const GatherPoint& gp = es.points[g];
         if (!gp.valid) continue;
         const uint64_t stream = gatherStream(pix, g);
-        double sv[3] = {}, sp[3] = {};
-        for (size_t q = 0; q < repVsl.size(); ++q) {
-          const Representative& r = repVsl[q];
+        double s[3] = {};
+        for (size_t q = 0; q < reps.size(); ++q) {
+          const Representative& r = reps[q];
           double acc[kGatherLayers][3] = {};
-          job.vslOnly->evaluate(gp, repGl[q], r.light, stream, acc, cnt);
-          for (int k = 0; k < 3; ++k) sv[k] += r.weight * acc[kVslLayer][k];
+          gatherer.evaluate(gp, repGl[q], r.light, stream, acc, cnt);
+          for (int k = 0; k < 3; ++k) s[k] += r.weight * acc[layer][k];
         }
-        for (const Representative& r : repVpl) {
-          double acc[kGatherLayers][3] = {};
-          job.vplOnly->evaluate(gp, job.gl[r.light], r.light, stream, acc, cnt);
-          for (int k = 0; k < 3; ++k) sp[k] += r.weight * acc[job.vplLayer][k];
-        }
-        vsl += Vec3(float(sv[0]), float(sv[1]), float(sv[2]));
-        vpl += Vec3(float(sp[0]), float(sp[1]), float(sp[2]));
+        L += Vec3(float(s[0]), float(s[1]), float(s[2]));
       }
-      images.vsl.set(x, int(y), isFinite(vsl) ? vsl : Vec3(0.0f));
-      images.vpl.set(x, int(y), isFinite(vpl) ? vpl : Vec3(0.0f));
+      out.set(x, int(y), isFinite(L) ? L : Vec3(0.0f));
     }
-    job.advance(1);
+    if (counted) job.advance(1);
     job.pairs.fetch_add(cnt.pairs);
   });
 }
@@ -481,14 +475,15 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
                     .clusters = mrcs.clusters,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
+  Stopwatch clock;
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
   job.gl.resize(job.N);
   parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) job.gl[i] = decodeGatherLight(set.lights[i], radii[i]);
   });
+  res.eyeSeconds = clock.lap();
 
   // 1. Rows.
-  Stopwatch clock;
   Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
   const std::vector<size_t> rowPix = pickRows(job, mrcs.rows, rng);
   const int R = int(rowPix.size());
@@ -501,25 +496,45 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
     return res;
   }
 
-  // 2-3. Clustering and representatives.
+  // 2-3. Clustering and representatives: VSL's now, VPL's after VSL's
+  // columns, so that the VSL image is complete as early as it can be (each
+  // clustering has its own seed: the order changes nothing).
   job.begin(MrcsProgress::kClustering, 0);
-  std::vector<Representative> repVsl, repVpl;
   const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
+  std::vector<Representative> repVsl, repVpl;
   if (job.doVsl) repVsl = clusterColumns(colVsl, job.N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
-  if (job.doVpl)
-    repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
   colVsl = {};
-  colVpl = {};
   res.clusterSeconds = clock.lap();
 
-  // 4. Full columns for the representatives.
+  // 4. Full columns for the representatives: VSL's, then (the VSL image
+  // handed out) VPL's clustering and columns.
+  job.begin(MrcsProgress::kColumns, uint64_t(job.H) * uint64_t(int(job.doVsl) + int(job.doVpl)));
   std::vector<GatherLight> repGl;
   for (const Representative& r : repVsl) {
     repGl.push_back(job.gl[r.light]);
     if (mrcs.spreadVslRadius) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
   }
-  representativeColumns(job, repVsl, repGl, repVpl, res.images);
-  res.columnSeconds = clock.lap();
+  representativeColumns(job, *job.vslOnly, kVslLayer, repVsl, repGl, res.images.vsl);
+  res.vslColumnSeconds = res.columnSeconds = clock.lap();
+  if (job.doVsl && job.doVpl && !job.stopped() && progress && progress->onVslImage) {
+    ManyLightImages vslImages;
+    vslImages.direct = res.images.direct;
+    vslImages.vsl = res.images.vsl;
+    for (Image* img : {&vslImages.vpl, &vslImages.vplUnclamped, &vslImages.vplDiffuse, &vslImages.lostToClamping,
+                       &vslImages.lostToDiffuse})
+      *img = Image(job.W, job.H);
+    progress->onVslImage(vslImages);
+    clock.lap();  // the caller's time, not MRCS's
+  }
+  if (job.doVpl && !job.stopped()) {
+    repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
+    res.clusterSeconds += clock.lap();
+  }
+  colVpl = {};
+  repGl.clear();
+  for (const Representative& r : repVpl) repGl.push_back(job.gl[r.light]);
+  if (!job.stopped()) representativeColumns(job, *job.vplOnly, job.vplLayer, repVpl, repGl, res.images.vpl);
+  res.columnSeconds += clock.lap();
   res.stopped = job.stopped();
   job.begin(MrcsProgress::kDone, 0);
   res.pairs = job.pairs.load();
