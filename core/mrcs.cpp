@@ -52,11 +52,6 @@ struct ColumnSpace {
 
   double n(size_t i) const { return norm[nz[i]]; }
   const float* dir(size_t i) const { return &u[i * kDims]; }
-  float dot(size_t a, size_t b) const {
-    float s = 0;
-    for (int d = 0; d < kDims; ++d) s += u[a * kDims + d] * u[b * kDims + d];
-    return s;
-  }
   // Cluster cost (sum n)^2 - |sum n u|^2 >= 0.
   double cost(const std::vector<uint32_t>& m) const {
     double sn = 0, v[kDims] = {};
@@ -92,12 +87,18 @@ void projectColumns(const std::vector<float>& columns, int rows, Rng& rng, Colum
     for (size_t i = i0; i < i1; ++i) {
       const float* col = &columns[size_t(cs.nz[i]) * rows];
       float* ui = &cs.u[i * kDims];
+      // All kDims sums at once, each over r in order (independent sums
+      // vectorise; the order within each keeps the result bit for bit).
+      double s[kDims] = {};
+      for (int r = 0; r < rows; ++r) {
+        const double c = col[r];
+        const float* Mr = &M[size_t(r) * kDims];
+        for (int d = 0; d < kDims; ++d) s[d] += c * Mr[d];
+      }
       double len = 0;
       for (int d = 0; d < kDims; ++d) {
-        double s = 0;
-        for (int r = 0; r < rows; ++r) s += double(col[r]) * M[size_t(r) * kDims + d];
-        ui[d] = float(s);
-        len += s * s;
+        ui[d] = float(s[d]);
+        len += s[d] * s[d];
       }
       float inv = len > 0 ? float(1.0 / std::sqrt(len)) : 0.0f;
       for (int d = 0; d < kDims; ++d) ui[d] *= inv;
@@ -133,17 +134,37 @@ std::vector<Cluster> seedClusters(const ColumnSpace& cs, int clusters, Rng& rng)
       seeds.push_back(s);
     }
   }
+  // The seeds' directions by dimension (seedDir[d * Sp + k], zero past the
+  // last seed) and norms, so that a column's cosines to a block of seeds are
+  // summed side by side in fixed-size blocks (which the compiler vectorises).
+  constexpr size_t kBlock = 16;
+  const size_t S = seeds.size(), Sp = (S + kBlock - 1) / kBlock * kBlock;
+  std::vector<float> seedDir(kDims * Sp, 0.0f);
+  std::vector<double> seedN(S);
+  for (size_t k = 0; k < S; ++k) {
+    seedN[k] = cs.n(seeds[k]);
+    for (int d = 0; d < kDims; ++d) seedDir[d * Sp + k] = cs.dir(seeds[k])[d];
+  }
   std::vector<uint32_t> assign(n);
   parallelForChunks(n, 512, [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) {
+      const float* ui = cs.dir(i);
       double best = 1e300;
       uint32_t bk = 0;
-      for (size_t k = 0; k < seeds.size(); ++k) {
-        // d(i, s) = n_i n_s (1 - cos); n_i is common to every seed.
-        double d = cs.n(seeds[k]) * (1.0 - cs.dot(i, seeds[k]));
-        if (d < best) {
-          best = d;
-          bk = uint32_t(k);
+      for (size_t k0 = 0; k0 < S; k0 += kBlock) {
+        // Each cosine is a float sum over d in order.
+        float cosine[kBlock] = {};
+        for (int d = 0; d < kDims; ++d) {
+          const float* sd = &seedDir[d * Sp + k0];
+          for (size_t q = 0; q < kBlock; ++q) cosine[q] += ui[d] * sd[q];
+        }
+        for (size_t q = 0; q < std::min(kBlock, S - k0); ++q) {
+          // d(i, s) = n_i n_s (1 - cos); n_i is common to every seed.
+          const double dist = seedN[k0 + q] * (1.0 - cosine[q]);
+          if (dist < best) {
+            best = dist;
+            bk = uint32_t(k0 + q);
+          }
         }
       }
       assign[i] = bk;
