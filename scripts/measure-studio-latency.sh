@@ -32,6 +32,7 @@ if [ "$mode" = mrcs ]; then
   # utime + stime of every thread (exited ones included), in clock ticks.
   cpu=$(awk '{ print $14 + $15 }' /proc/$pid/stat 2>/dev/null)
   echo "studio CPU at the first picture: $(awk -v t="${cpu:-0}" -v hz="$(getconf CLK_TCK)" 'BEGIN { printf "%.1f", t / hz }') s; load average $(cut -d' ' -f1-3 /proc/loadavg)"
+  sleep 2  # the frame that shows it (the log line is written when the UI pulls the snapshot)
   import -window root "$out/$mode-first.png"
   # Then the light set's end (VPL's columns), if this studio logs its stages.
   for _ in $(seq 1 300); do
