@@ -52,11 +52,6 @@ struct ColumnSpace {
 
   double n(size_t i) const { return norm[nz[i]]; }
   const float* dir(size_t i) const { return &u[i * kDims]; }
-  float dot(size_t a, size_t b) const {
-    float s = 0;
-    for (int d = 0; d < kDims; ++d) s += u[a * kDims + d] * u[b * kDims + d];
-    return s;
-  }
   // Cluster cost (sum n)^2 - |sum n u|^2 >= 0.
   double cost(const std::vector<uint32_t>& m) const {
     double sn = 0, v[kDims] = {};
@@ -92,12 +87,18 @@ void projectColumns(const std::vector<float>& columns, int rows, Rng& rng, Colum
     for (size_t i = i0; i < i1; ++i) {
       const float* col = &columns[size_t(cs.nz[i]) * rows];
       float* ui = &cs.u[i * kDims];
+      // All kDims sums at once, each over r in order (independent sums
+      // vectorise; the order within each keeps the result bit for bit).
+      double s[kDims] = {};
+      for (int r = 0; r < rows; ++r) {
+        const double c = col[r];
+        const float* Mr = &M[size_t(r) * kDims];
+        for (int d = 0; d < kDims; ++d) s[d] += c * Mr[d];
+      }
       double len = 0;
       for (int d = 0; d < kDims; ++d) {
-        double s = 0;
-        for (int r = 0; r < rows; ++r) s += double(col[r]) * M[size_t(r) * kDims + d];
-        ui[d] = float(s);
-        len += s * s;
+        ui[d] = float(s[d]);
+        len += s[d] * s[d];
       }
       float inv = len > 0 ? float(1.0 / std::sqrt(len)) : 0.0f;
       for (int d = 0; d < kDims; ++d) ui[d] *= inv;
@@ -133,17 +134,37 @@ std::vector<Cluster> seedClusters(const ColumnSpace& cs, int clusters, Rng& rng)
       seeds.push_back(s);
     }
   }
+  // The seeds' directions by dimension (seedDir[d * Sp + k], zero past the
+  // last seed) and norms, so that a column's cosines to a block of seeds are
+  // summed side by side in fixed-size blocks (which the compiler vectorises).
+  constexpr size_t kBlock = 16;
+  const size_t S = seeds.size(), Sp = (S + kBlock - 1) / kBlock * kBlock;
+  std::vector<float> seedDir(kDims * Sp, 0.0f);
+  std::vector<double> seedN(S);
+  for (size_t k = 0; k < S; ++k) {
+    seedN[k] = cs.n(seeds[k]);
+    for (int d = 0; d < kDims; ++d) seedDir[d * Sp + k] = cs.dir(seeds[k])[d];
+  }
   std::vector<uint32_t> assign(n);
   parallelForChunks(n, 512, [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) {
+      const float* ui = cs.dir(i);
       double best = 1e300;
       uint32_t bk = 0;
-      for (size_t k = 0; k < seeds.size(); ++k) {
-        // d(i, s) = n_i n_s (1 - cos); n_i is common to every seed.
-        double d = cs.n(seeds[k]) * (1.0 - cs.dot(i, seeds[k]));
-        if (d < best) {
-          best = d;
-          bk = uint32_t(k);
+      for (size_t k0 = 0; k0 < S; k0 += kBlock) {
+        // Each cosine is a float sum over d in order.
+        float cosine[kBlock] = {};
+        for (int d = 0; d < kDims; ++d) {
+          const float* sd = &seedDir[d * Sp + k0];
+          for (size_t q = 0; q < kBlock; ++q) cosine[q] += ui[d] * sd[q];
+        }
+        for (size_t q = 0; q < std::min(kBlock, S - k0); ++q) {
+          // d(i, s) = n_i n_s (1 - cos); n_i is common to every seed.
+          const double dist = seedN[k0 + q] * (1.0 - cosine[q]);
+          if (dist < best) {
+            best = dist;
+            bk = uint32_t(k0 + q);
+          }
         }
       }
       assign[i] = bk;
@@ -410,44 +431,38 @@ void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector
   });
 }
 
-// 4. Full columns for the representatives: every pixel's estimate is its
-//    shared light plus the weighted representatives' contributions.
-void representativeColumns(MrcsJob& job, const std::vector<Representative>& repVsl,
-                           const std::vector<GatherLight>& repGl, const std::vector<Representative>& repVpl,
-                           ManyLightImages& images) {
-  images.vsl = Image(job.W, job.H);
-  images.vpl = Image(job.W, job.H);
-  job.begin(MrcsProgress::kColumns, uint64_t(job.H));
+// 4. Full columns for one method's representatives (its layer, gathered by
+//    `gatherer`; repGl[q] is representative q's light): every pixel's
+//    estimate is its shared light plus the weighted representatives'
+//    contributions. Without representatives (a method not rendered) the
+//    image is the shared light alone, and its rows do not count as progress.
+void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std::vector<Representative>& reps,
+                           const std::vector<GatherLight>& repGl, Image& out) {
+  out = Image(job.W, job.H);
+  const bool counted = !reps.empty();
   parallelFor(size_t(job.H), [&](size_t y) {
     if (job.stopped()) return;
     GatherCounters cnt;
     for (int x = 0; x < job.W; ++x) {
       size_t pix = y * job.W + x;
       const EyeSample& es = job.gps[pix];
-      Vec3 vsl = es.shared(), vpl = es.shared();
+      Vec3 L = es.shared();
       for (int g = 0; g < es.count; ++g) {
         const GatherPoint& gp = es.points[g];
         if (!gp.valid) continue;
         const uint64_t stream = gatherStream(pix, g);
-        double sv[3] = {}, sp[3] = {};
-        for (size_t q = 0; q < repVsl.size(); ++q) {
-          const Representative& r = repVsl[q];
+        double s[3] = {};
+        for (size_t q = 0; q < reps.size(); ++q) {
+          const Representative& r = reps[q];
           double acc[kGatherLayers][3] = {};
-          job.vslOnly->evaluate(gp, repGl[q], r.light, stream, acc, cnt);
-          for (int k = 0; k < 3; ++k) sv[k] += r.weight * acc[kVslLayer][k];
+          gatherer.evaluate(gp, repGl[q], r.light, stream, acc, cnt);
+          for (int k = 0; k < 3; ++k) s[k] += r.weight * acc[layer][k];
         }
-        for (const Representative& r : repVpl) {
-          double acc[kGatherLayers][3] = {};
-          job.vplOnly->evaluate(gp, job.gl[r.light], r.light, stream, acc, cnt);
-          for (int k = 0; k < 3; ++k) sp[k] += r.weight * acc[job.vplLayer][k];
-        }
-        vsl += Vec3(float(sv[0]), float(sv[1]), float(sv[2]));
-        vpl += Vec3(float(sp[0]), float(sp[1]), float(sp[2]));
+        L += Vec3(float(s[0]), float(s[1]), float(s[2]));
       }
-      images.vsl.set(x, int(y), isFinite(vsl) ? vsl : Vec3(0.0f));
-      images.vpl.set(x, int(y), isFinite(vpl) ? vpl : Vec3(0.0f));
+      out.set(x, int(y), isFinite(L) ? L : Vec3(0.0f));
     }
-    job.advance(1);
+    if (counted) job.advance(1);
     job.pairs.fetch_add(cnt.pairs);
   });
 }
@@ -481,14 +496,15 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
                     .clusters = mrcs.clusters,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
+  Stopwatch clock;
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
   job.gl.resize(job.N);
   parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) job.gl[i] = decodeGatherLight(set.lights[i], radii[i]);
   });
+  res.eyeSeconds = clock.lap();
 
   // 1. Rows.
-  Stopwatch clock;
   Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
   const std::vector<size_t> rowPix = pickRows(job, mrcs.rows, rng);
   const int R = int(rowPix.size());
@@ -501,25 +517,45 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
     return res;
   }
 
-  // 2-3. Clustering and representatives.
+  // 2-3. Clustering and representatives: VSL's now, VPL's after VSL's
+  // columns, so that the VSL image is complete as early as it can be (each
+  // clustering has its own seed: the order changes nothing).
   job.begin(MrcsProgress::kClustering, 0);
-  std::vector<Representative> repVsl, repVpl;
   const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
+  std::vector<Representative> repVsl, repVpl;
   if (job.doVsl) repVsl = clusterColumns(colVsl, job.N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
-  if (job.doVpl)
-    repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
   colVsl = {};
-  colVpl = {};
   res.clusterSeconds = clock.lap();
 
-  // 4. Full columns for the representatives.
+  // 4. Full columns for the representatives: VSL's, then (the VSL image
+  // handed out) VPL's clustering and columns.
+  job.begin(MrcsProgress::kColumns, uint64_t(job.H) * uint64_t(int(job.doVsl) + int(job.doVpl)));
   std::vector<GatherLight> repGl;
   for (const Representative& r : repVsl) {
     repGl.push_back(job.gl[r.light]);
     if (mrcs.spreadVslRadius) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
   }
-  representativeColumns(job, repVsl, repGl, repVpl, res.images);
-  res.columnSeconds = clock.lap();
+  representativeColumns(job, *job.vslOnly, kVslLayer, repVsl, repGl, res.images.vsl);
+  res.vslColumnSeconds = res.columnSeconds = clock.lap();
+  if (job.doVsl && job.doVpl && !job.stopped() && progress && progress->onVslImage) {
+    ManyLightImages vslImages;
+    vslImages.direct = res.images.direct;
+    vslImages.vsl = res.images.vsl;
+    for (Image* img : {&vslImages.vpl, &vslImages.vplUnclamped, &vslImages.vplDiffuse, &vslImages.lostToClamping,
+                       &vslImages.lostToDiffuse})
+      *img = Image(job.W, job.H);
+    progress->onVslImage(vslImages);
+    clock.lap();  // the caller's time, not MRCS's
+  }
+  if (job.doVpl && !job.stopped()) {
+    repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
+    res.clusterSeconds += clock.lap();
+  }
+  colVpl = {};
+  repGl.clear();
+  for (const Representative& r : repVpl) repGl.push_back(job.gl[r.light]);
+  if (!job.stopped()) representativeColumns(job, *job.vplOnly, job.vplLayer, repVpl, repGl, res.images.vpl);
+  res.columnSeconds += clock.lap();
   res.stopped = job.stopped();
   job.begin(MrcsProgress::kDone, 0);
   res.pairs = job.pairs.load();

@@ -20,10 +20,13 @@
 // fixed clustering, the estimate is unbiased over the representative choice.
 // Clustering distances use a 32-dimensional random projection of the reduced
 // columns (Johnson-Lindenstrauss) to keep the cost at O(N C 32).
-// VSL and VPL (the clamped, chosen-emission variant) are clustered separately.
+// VSL and VPL (the clamped, chosen-emission variant) are clustered separately,
+// from rows they share; VSL's clustering and columns come first, so that its
+// image is complete (MrcsProgress::onVslImage) before VPL's are begun.
 #pragma once
 
 #include <atomic>
+#include <functional>
 #include <mutex>
 #include <string>
 
@@ -56,7 +59,10 @@ struct MrcsSettings {
 
 struct MrcsResult {
   ManyLightImages images;  // direct, vsl, vpl; the other layers stay black
-  double rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
+  // Wall time of the stages (clustering and columns: both methods'; the
+  // time spent in MrcsProgress::onVslImage is in none of them).
+  double eyeSeconds = 0, rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
+  double vslColumnSeconds = 0;  // VSL's share of columnSeconds
   uint64_t pairs = 0;
   size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;  // lights dropped (dark at every row)
   bool stopped = false;
@@ -67,6 +73,9 @@ struct MrcsResult {
 // counted in its own units (image rows for the eye paths and the columns,
 // lights for the rows); clustering has no count. overall() weighs the stages
 // by the work plan() recorded when the render began.
+// With both methods, the columns stage renders VSL's columns first, then
+// clusters VPL's reduced columns and renders VPL's: the VSL image is complete
+// halfway through it, and is handed to onVslImage before VPL's work begins.
 struct MrcsProgress {
   enum Stage : int { kIdle, kEyePaths, kRows, kClustering, kColumns, kDone };
   // A render's size, from which its stages' weights follow.
@@ -78,6 +87,14 @@ struct MrcsProgress {
   };
   std::atomic<int> stage{kIdle};
   std::atomic<uint64_t> done{0}, total{0};
+  // Optional: called by renderMrcs on its calling thread once the VSL image
+  // is complete and VPL's clustering and columns are still to come (only when
+  // both methods are rendered, and not once stopped), with the direct and vsl
+  // layers set and the others black. No render thread runs meanwhile, and
+  // VPL's work waits for it to return (the studio renders a reference pass
+  // and publishes the VSL picture there). Set and cleared by the owner
+  // between renders, on the thread that calls renderMrcs.
+  std::function<void(const ManyLightImages&)> onVslImage;
   // Recorded by renderMrcs before its first stage.
   void plan(const Work& work);
   void begin(Stage s, uint64_t units);

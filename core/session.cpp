@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <new>
 #include <sstream>
 
@@ -19,6 +20,13 @@ namespace {
 
 // The path depth of the live path tracer and of the references it looks up.
 const int kReferenceDepth = RenderSettings().maxDepth;
+
+// "12.34 s", for the log's stage timings.
+std::string secondsText(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f s", s);
+  return text;
+}
 
 }  // namespace
 
@@ -262,10 +270,16 @@ bool Session::publish(std::shared_ptr<Snapshot> s) {
     // A snapshot of an older generation is stale: drop it.
     if (s->generation != generation_.load()) return false;
     s->serial = ++serial_;
+    if (publishHook_) publishHook_(*s);
     latest_ = std::move(s);
   }
   ++version_;
   return true;
+}
+
+void Session::setPublishHookForTesting(std::function<void(const Snapshot&)> hook) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  publishHook_ = std::move(hook);
 }
 
 // ---- [2] The worker loop -------------------------------------------------------------
@@ -448,6 +462,7 @@ bool Session::prepareSet(Worker& w, Job& job) {
   ManyLightRun prep;
   prep.set = traceVirtualLights(scene, w.ctx->accel(), w.ctx->lights(), lt, &stop_);
   if (stopped()) return false;
+  const double tracingSeconds = prep.set.seconds;
   setStage("k-NN radii", many.lights);
   Stopwatch knnClock;
   const float R = std::max(scene.boundingRadius(), 1e-6f);
@@ -466,6 +481,9 @@ bool Session::prepareSet(Worker& w, Job& job) {
     job.radiusMax = *hi;
   }
   job.mlSeconds += prep.set.seconds + prep.knnSeconds;
+  if (set.estimator.kind == EstimatorKind::Mrcs)  // a long render: its stages go to the log (logMrcsStep)
+    log::info("light set " + std::to_string(job.set + 1) + ": " + std::to_string(prep.set.lights.size()) +
+              " lights traced in " + secondsText(tracingSeconds) + ", k-NN radii in " + secondsText(prep.knnSeconds));
   job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &mrcsProgress_);
   setStage("rendering");
   return true;
@@ -525,6 +543,10 @@ void Session::retireSet(Job& job, bool completed) {
 // keeps the reference's samples); when the reference had no samples, it goes
 // out after one reference pass, not after the reference has caught up with
 // a long step (an MRCS light set: tens of seconds).
+// An MRCS light set's VSL image is complete well before its VPL image: the
+// first set's goes out from inside the step (showVslFirst), after that one
+// reference pass if the reference has none, and the whole picture at once
+// when the step ends. The live path tracer never runs beside the MRCS work.
 void Session::render(Worker& w, Job& job, uint64_t gen) {
   setStage("rendering");
   ReferenceRenderer& ref = *w.ref.pt;
@@ -535,6 +557,19 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     publish(makeSnapshot(w, job, gen));
     if (hasManyLight()) firstPicture = false;
   };
+  // Called by an MRCS step (mrcs.h) on this thread; cleared however render() ends.
+  Stopwatch stepClock;
+  double vslFirstSeconds = 0;  // spent in it (the reference pass and the snapshot)
+  mrcsProgress_.onVslImage = [&](const ManyLightImages& vslImages) {
+    if (!firstPicture || job.setsDone > 0) return;  // a later set: the completed sets' mean is shown
+    Stopwatch hookClock;
+    showVslFirst(w, job, gen, vslImages, stepClock.seconds());
+    vslFirstSeconds += hookClock.seconds();
+  };
+  struct ClearHook {
+    MrcsProgress& progress;
+    ~ClearHook() { progress.onVslImage = nullptr; }
+  } clearHook{mrcsProgress_};
   // A resumed job shows its picture under the new generation at once.
   if (!firstPicture) show();
   while (!stopped()) {
@@ -544,9 +579,13 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
         // The next independent light set (its preparation is many-light time).
         if (!prepareSet(w, job)) break;
       } else {
-        Stopwatch batchClock;
+        stepClock.reset();
+        vslFirstSeconds = 0;
         if (!job.ml->step(&stop_)) break;
-        job.mlSeconds += batchClock.seconds();
+        // The reference pass the VSL picture waited for is the reference's time.
+        const double stepSeconds = stepClock.seconds() - vslFirstSeconds;
+        job.mlSeconds += stepSeconds;
+        if (job.ml->kind() == EstimatorKind::Mrcs) logMrcsStep(job, stepSeconds);
         ++job.batch;
         if (job.ml->done()) retireSet(job, true);
       }
@@ -571,6 +610,30 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     if (stopped() || !progressed) break;
     show();
   }
+}
+
+// The first light set's VSL picture, while its MRCS step goes on to VPL:
+// after one reference pass if the reference has none (as render() does for
+// any first picture), with the VPL layers black (Snapshot::vplPending).
+void Session::showVslFirst(Worker& w, Job& job, uint64_t gen, const ManyLightImages& vslImages, double stepSeconds) {
+  log::info("light set " + std::to_string(job.set + 1) + ": MRCS VSL image after " + secondsText(stepSeconds));
+  ReferenceRenderer& ref = *w.ref.pt;
+  if (!w.converged && ref.spp() == 0) {
+    Stopwatch passClock;
+    if (!ref.stepPass(&stop_)) return;
+    log::info("reference: first pass in " + secondsText(passClock.seconds()));
+  }
+  if (!stopped()) publish(makeSnapshot(w, job, gen, &vslImages));
+}
+
+// The MRCS step's stages in the log (the measured breakdown of an MRCS
+// picture's wait; docs/PERFORMANCE.md).
+void Session::logMrcsStep(const Job& job, double stepSeconds) const {
+  const MrcsStats m = job.ml->mrcsStats();
+  const double eye = std::max(stepSeconds - m.rowSeconds - m.clusterSeconds - m.columnSeconds, 0.0);
+  log::info("light set " + std::to_string(job.set + 1) + ": MRCS " + secondsText(stepSeconds) +
+            " (eye paths and direct light " + secondsText(eye) + ", rows " + secondsText(m.rowSeconds) +
+            ", clustering " + secondsText(m.clusterSeconds) + ", columns " + secondsText(m.columnSeconds) + ")");
 }
 
 // ---- [5b] References ------------------------------------------------------------------
@@ -666,7 +729,8 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
   return true;
 }
 
-std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen) const {
+std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen,
+                                                const ManyLightImages* vslFirst) const {
   const ManyLightEstimator* ml = job.ml.get();  // the set in progress, if any
   static const ManyLightRun kNoSet;
   const ManyLightRun& prep = ml ? ml->run() : kNoSet;
@@ -683,7 +747,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   double liveNoise = -1;
   parallelFor(4, [&](size_t k) {
     if (k == 0)
-      snap->many = job.setsDone > 0 ? job.mean : ml->images();
+      snap->many = vslFirst ? *vslFirst : job.setsDone > 0 ? job.mean : ml->images();
     else if (k == 1)
       snap->ptDirect = ref.meanDirect();
     else if (k == 2)
@@ -737,7 +801,11 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->backgroundSpp = job.backgroundSpp;
   useReference(w, liveNoise, *snap);
   biasNoise(w, job, *snap);
-  recordError(w, job, liveNoise, *snap);
+  snap->vplPending = vslFirst != nullptr;
+  if (vslFirst)
+    snap->history = job.history;  // VPL's error is not measured yet
+  else
+    recordError(w, job, liveNoise, *snap);
   snap->manyLightDone = job.setsDone >= job.settings.lightSets;
   snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
   return snap;

@@ -27,6 +27,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -160,6 +161,12 @@ struct Snapshot {
   std::vector<ErrorSample> history;
   bool manyLightDone = false;  // every light set is done
   bool referenceDone = false;
+  // The first light set's VSL image is complete but its VPL image is not: an
+  // MRCS light set publishes its VSL picture before VPL's columns are
+  // rendered (mrcs.h, MrcsProgress::onVslImage). The VPL layers are black
+  // until then, the set's work (pairs, seconds, lights gathered) is counted
+  // once it completes, and no point is added to the history.
+  bool vplPending = false;
 };
 
 class Session {
@@ -215,6 +222,10 @@ class Session {
   bool shutdown(double seconds);
   // Tests: pretend this many bytes are available (0: ask the system).
   void setAvailableMemoryForTesting(uint64_t bytes) { memoryForTesting_.store(bytes); }
+  // Tests: called with every snapshot the worker publishes, in order, on the
+  // worker thread and before latest() can return it (so a test sees even a
+  // snapshot that is replaced at once). Null: none.
+  void setPublishHookForTesting(std::function<void(const Snapshot&)> hook);
 
  private:
   struct Job;
@@ -227,7 +238,10 @@ class Session {
   void retireSet(Job& job, bool completed);
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;
   void render(Worker& w, Job& job, uint64_t gen);
-  std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen) const;
+  void showVslFirst(Worker& w, Job& job, uint64_t gen, const ManyLightImages& vslImages, double stepSeconds);
+  void logMrcsStep(const Job& job, double stepSeconds) const;
+  std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen,
+                                         const ManyLightImages* vslFirst = nullptr) const;
   static void useReference(const Worker& w, double liveNoise, Snapshot& snap);
   static void recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap);
   void chooseReference(Worker& w, Job& job);
@@ -250,6 +264,7 @@ class Session {
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};
   std::shared_ptr<const Snapshot> latest_;
+  std::function<void(const Snapshot&)> publishHook_;  // tests
   uint64_t serial_ = 0;
   Status status_;
   std::thread worker_;

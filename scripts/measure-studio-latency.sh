@@ -10,8 +10,11 @@
 # drag:   the same, dragging the radius-scale slider six times (a press, which
 #         moves the value to the pointer, a quick drag, a 1 s rest, the release).
 # mrcs:   cornell-glossy at 512x512, 100,000 lights, MRCS 300 rows / 900
-#         clusters, one light set: the time to the first (complete) picture.
-# Run on an idle machine; prints the log lines and saves a screenshot.
+#         clusters, one light set: the time to the first picture (the complete
+#         VSL image; VPL's columns follow), the session's stage timings, the
+#         studio's CPU seconds then and the load average.
+# Run on an idle machine; prints the log lines and saves a screenshot (mrcs:
+# also one at the first picture, mrcs-first.png).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/latency}
@@ -25,7 +28,17 @@ if [ "$mode" = mrcs ]; then
   "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 512 --lights 100000 \
     --mrcs 300,900 --light-sets 1 >"$out/studio.log" 2>&1 &
   pid=$!
-  for _ in $(seq 1 300); do sleep 1; grep -q "first picture" "$out/studio.log" && break; done
+  for _ in $(seq 1 1500); do sleep 0.2; grep -q "first picture" "$out/studio.log" && break; done
+  # utime + stime of every thread (exited ones included), in clock ticks.
+  cpu=$(awk '{ print $14 + $15 }' /proc/$pid/stat 2>/dev/null)
+  echo "studio CPU at the first picture: $(awk -v t="${cpu:-0}" -v hz="$(getconf CLK_TCK)" 'BEGIN { printf "%.1f", t / hz }') s; load average $(cut -d' ' -f1-3 /proc/loadavg)"
+  sleep 2  # the frame that shows it (the log line is written when the UI pulls the snapshot)
+  import -window root "$out/$mode-first.png"
+  # Then the light set's end (VPL's columns), if this studio logs its stages.
+  for _ in $(seq 1 300); do
+    grep -q "light set 1: MRCS [0-9]" "$out/studio.log" || ! grep -q "light set 1:" "$out/studio.log" && break
+    sleep 1
+  done
   sleep 1
 else
   "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 256 >"$out/studio.log" 2>&1 &
@@ -53,7 +66,7 @@ wid=$(xdotool search --name '^vsl-studio$' | head -1)
 [ -n "$wid" ] && xdotool key --window "$wid" ctrl+q
 for _ in $(seq 1 50); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
 kill $pid 2>/dev/null
-grep -i "first picture" "$out/studio.log"
+grep -i "first picture\|light set [0-9]*:\|reference: first pass" "$out/studio.log"
 # change: the changes' values (generation 1 is the launch), their median and
 # how many are within 250 and 200 ms.
 if [ "$mode" != mrcs ]; then

@@ -228,6 +228,61 @@ TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
   }
 }
 
+// With both methods, the VSL image is complete before VPL is clustered and
+// its columns rendered: onVslImage sees it halfway through the columns stage,
+// bit for bit the render's final VSL and direct images with VPL still black,
+// and the render's images equal one made without the hook. It is not called
+// for one method alone, and a stop set inside it leaves VPL unrendered.
+TEST_P(MrcsRender, VslImageIsHandedOutBeforeTheVplColumns) {
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  ManyLightSettings s = smallRender();
+  MrcsSettings m{24, 60, 3};
+  m.spreadVslRadius = GetParam();
+  ManyLightRun run = prepareManyLights(c, s);
+  const MrcsResult plain = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m);
+  MrcsProgress progress;
+  int calls = 0;
+  ManyLightImages seen;
+  progress.onVslImage = [&](const ManyLightImages& im) {
+    ++calls;
+    seen = im;
+    EXPECT_EQ(progress.stage.load(), MrcsProgress::kColumns);
+    EXPECT_EQ(progress.done.load(), 16u) << "VSL's 16 image rows of the columns";
+    EXPECT_EQ(progress.total.load(), 32u) << "both methods' rows";
+  };
+  const MrcsResult r = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m, nullptr, &progress);
+  ASSERT_FALSE(r.stopped);
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(seen.vsl.rgb, r.images.vsl.rgb);
+  EXPECT_EQ(seen.direct.rgb, r.images.direct.rgb);
+  EXPECT_EQ(seen.vpl.rgb, Image(16, 16).rgb) << "VPL is black in the VSL-only picture";
+  EXPECT_EQ(r.images.vsl.rgb, plain.images.vsl.rgb);
+  EXPECT_EQ(r.images.vpl.rgb, plain.images.vpl.rgb);
+  EXPECT_EQ(r.images.direct.rgb, plain.images.direct.rgb);
+  EXPECT_EQ(r.pairs, plain.pairs);
+  EXPECT_GT(r.vslColumnSeconds, 0.0);
+  EXPECT_LE(r.vslColumnSeconds, r.columnSeconds);
+
+  // One method alone: nothing to hand out early.
+  ManyLightSettings vslOnly = s;
+  vslOnly.computeVpl = false;
+  calls = 0;
+  ASSERT_FALSE(
+      renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, vslOnly, m, nullptr, &progress).stopped);
+  EXPECT_EQ(calls, 0);
+
+  // A restart that arrives while the VSL picture is handed out stops the render there.
+  std::atomic<bool> stop{false};
+  progress.onVslImage = [&](const ManyLightImages&) { stop = true; };
+  const MrcsResult stopped = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m, &stop, &progress);
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_EQ(stopped.zeroColumnsVpl, 0u);
+  EXPECT_TRUE(stopped.images.vpl.rgb.empty()) << "VPL's columns were not rendered";
+}
+
 // The stage text a long MRCS render shows while it runs.
 TEST(MrcsClustering, ProgressNamesTheStageAndItsShare) {
   MrcsProgress p;

@@ -520,6 +520,58 @@ TEST(Session, MrcsLightSetsAverageIndependentMrcsRenders) {
   EXPECT_FALSE(sameImageSettings(s, moreRows));
 }
 
+// An MRCS light set's VSL image is complete before its VPL columns are
+// rendered: the first set's VSL picture is published first (after the one
+// reference pass a first picture waits for, and with the VPL layers black),
+// the whole picture as soon as the step ends (before the reference's further
+// passes), and both are bit for bit a direct renderMrcs call's images. Later
+// sets publish no VSL-only picture (the completed sets' mean is shown).
+TEST(Session, MrcsPublishesTheVslPictureBeforeTheVplColumns) {
+  TempCache cache;  // no cached reference: the live path tracer, which has no samples yet
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 11;
+  s.lightSets = 2;
+  s.maxReferenceSpp = 64;
+  s.estimator.kind = EstimatorKind::Mrcs;
+  s.estimator.mrcs.rows = 12;
+  s.estimator.mrcs.clusters = 40;
+  Session session;
+  std::vector<std::shared_ptr<const Snapshot>> published;  // every snapshot, in order (worker thread)
+  session.setPublishHookForTesting(
+      [&](const Snapshot& x) { published.push_back(std::make_shared<const Snapshot>(x)); });
+  uint64_t g = session.restart(s).value();
+  ASSERT_TRUE(waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; }));
+  session.setPublishHookForTesting(nullptr);  // the worker's publishes happened before latest() returned the last one
+  ASSERT_GE(published.size(), 3u);
+
+  Loaded l("cornell-glossy");
+  MrcsSettings mrcs = s.estimator.mrcs;
+  mrcs.seed = s.many.seed;
+  const ManyLightImages want = l.renderWithMrcs(s.many, mrcs);
+  // The first snapshot: the first set's VSL picture, VPL still to come.
+  const Snapshot& first = *published[0];
+  EXPECT_EQ(first.generation, g);
+  EXPECT_TRUE(first.vplPending);
+  EXPECT_EQ(first.many.vsl.rgb, want.vsl.rgb);
+  EXPECT_EQ(first.many.direct.rgb, want.direct.rgb);
+  EXPECT_EQ(first.many.vpl.rgb, Image(16, 16).rgb) << "VPL is black until its columns are rendered";
+  EXPECT_EQ(first.ptSpp, 1) << "one reference pass, so that no error is measured against a black image";
+  EXPECT_EQ(first.lightSetsDone, 0);
+  EXPECT_TRUE(first.history.empty()) << "no error point while VPL's is unknown";
+  // The second: the whole first set, as soon as the step ended.
+  const Snapshot& second = *published[1];
+  EXPECT_FALSE(second.vplPending);
+  EXPECT_EQ(second.lightSetsDone, 1);
+  EXPECT_EQ(second.many.vsl.rgb, want.vsl.rgb);
+  EXPECT_EQ(second.many.vpl.rgb, want.vpl.rgb);
+  EXPECT_EQ(second.ptSpp, 1) << "before the reference catches up with the step";
+  EXPECT_EQ(second.history.size(), 1u);
+  // Then the reference's further passes; the second set shows no VSL-only picture.
+  EXPECT_GT(published[2]->ptSpp, 1);
+  for (size_t i = 1; i < published.size(); ++i) EXPECT_FALSE(published[i]->vplPending) << i;
+  EXPECT_EQ(published.back()->lightSetsDone, 2);
+}
+
 // The consistent progressive VSL: light set k's radii are scaled by
 // progressiveRadiusFactor(k, alpha); the picture is the mean of brute-force
 // renders made directly with those radius scales.
