@@ -1313,12 +1313,24 @@ void cell(double v, double bestV, const char* fmt) {
 }
 }  // namespace
 
+namespace {
+// A method row the table shows (and ranks): MRCS gathers VSL and the clamped
+// VPL only, the other VPL layers are black; while an MRCS set's VPL columns
+// are still pending (Snapshot::vplPending) only VSL has a picture.
+bool metricShown(const Snapshot& s, int i) {
+  const Source src = kMetricSources[i];
+  if (s.vplPending && src != Source::Vsl) return false;
+  return s.settings.estimator.kind != EstimatorKind::Mrcs || src == Source::Vsl || src == Source::Vpl;
+}
+}  // namespace
+
 Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   TableState t;
   t.indirect = view_.component == Component::Indirect;
   t.noise = t.indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
   t.budget = equalTimeBudget(s.history);
   for (int i = 0; i < 4; ++i) {
+    if (!metricShown(s, i)) continue;
     t.best[0] = std::min(t.best[0], metrics_[i].average.rmse);
     t.best[1] = std::min(t.best[1], metrics_[i].average.relMse - t.noise);
     if (double e = t.atEqualTime(s, i); std::isfinite(e)) t.best[2] = std::min(t.best[2], e);
@@ -1333,7 +1345,7 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   t.flipFresh = t.flipHere && flip_->serial == s.serial;
   if (t.flipHere)
     for (int i = 0; i < 5; ++i)
-      if (i < 4 || s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
+      if (i < 4 ? metricShown(s, i) : s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
   for (const BiasNoise& b : s.biasNoise)
     if (b.renders >= 2) {
       t.bestBias = std::min(t.bestBias, std::abs(b.bias2 - t.noise));
@@ -1462,10 +1474,8 @@ void Studio::metricsTable(const Snapshot& s) {
   ImGui::TableSetupColumn("noise");
   ImGui::TableSetupColumn("FLIP");
   ImGui::TableHeadersRow();
-  // MRCS gathers VSL and the clamped VPL only: the other VPL layers are black.
-  const bool mrcs = s.settings.estimator.kind == EstimatorKind::Mrcs;
   for (int i = 0; i < 4; ++i)
-    if (!mrcs || kMetricSources[i] == Source::Vsl || kMetricSources[i] == Source::Vpl) methodRow(s, t, i);
+    if (metricShown(s, i)) methodRow(s, t, i);
   livePtRow(s, t);
   ImGui::EndTable();
 }
