@@ -36,6 +36,28 @@ ManyLightSettings smallRender() {
   s.seed = 7;
   return s;
 }
+
+// cornell-glossy with smallRender()'s light set traced, and MRCS at 24 rows
+// and 60 clusters (MIX 3), the VSL spread on or off.
+struct SmallMrcs {
+  std::unique_ptr<RenderContext> ctx;
+  ManyLightSettings s = smallRender();
+  MrcsSettings m{24, 60, 3};
+  ManyLightRun run;
+};
+SmallMrcs smallMrcs(bool spread) {
+  SmallMrcs r;
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  if (!ctx) {
+    ADD_FAILURE() << ctx.error();
+    return r;
+  }
+  r.ctx = std::move(*ctx);
+  r.m.spreadVslRadius = spread;
+  r.run = prepareManyLights(*r.ctx, r.s);
+  return r;
+}
 }  // namespace
 
 TEST(MrcsClustering, FewColumnsAreTheirOwnClusters) {
@@ -184,14 +206,12 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
 // polls it: it starts at 0, never decreases as the stages follow one
 // another, stays in [0, 1] and is 1 once the render is done.
 TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(ctx) << ctx.error();
-  const RenderContext& c = **ctx;
-  ManyLightSettings s = smallRender();
-  MrcsSettings m{24, 60, 3};
-  m.spreadVslRadius = GetParam();
-  ManyLightRun run = prepareManyLights(c, s);
+  SmallMrcs small = smallMrcs(GetParam());
+  ASSERT_TRUE(small.ctx);
+  const RenderContext& c = *small.ctx;
+  const ManyLightSettings& s = small.s;
+  const MrcsSettings& m = small.m;
+  const ManyLightRun& run = small.run;
   MrcsProgress progress;
   EXPECT_EQ(progress.overall(), 0.0) << "idle";
   // The poller keeps every change of (stage, overall) and checks each read
@@ -234,14 +254,12 @@ TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
 // and the render's images equal one made without the hook. It is not called
 // for one method alone, and a stop set inside it leaves VPL unrendered.
 TEST_P(MrcsRender, VslImageIsHandedOutBeforeTheVplColumns) {
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(ctx) << ctx.error();
-  const RenderContext& c = **ctx;
-  ManyLightSettings s = smallRender();
-  MrcsSettings m{24, 60, 3};
-  m.spreadVslRadius = GetParam();
-  ManyLightRun run = prepareManyLights(c, s);
+  SmallMrcs small = smallMrcs(GetParam());
+  ASSERT_TRUE(small.ctx);
+  const RenderContext& c = *small.ctx;
+  const ManyLightSettings& s = small.s;
+  const MrcsSettings& m = small.m;
+  const ManyLightRun& run = small.run;
   const MrcsResult plain = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m);
   MrcsProgress progress;
   int calls = 0;
