@@ -101,10 +101,6 @@ bool sameFile(const std::string& a, const std::string& b) {
   return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
 }
 
-}  // namespace
-
-namespace {
-
 struct NamedPath {
   std::string option, path;
 };

@@ -19,7 +19,6 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -97,8 +96,10 @@ struct Script {
                    100.0 * double(snap->lightsProcessed) / double(std::max<size_t>(snap->lightsTotal, 1)), snap->ptSpp,
                    snap->settings.maxReferenceSpp, el);
     }
+    // The render is done (or --after has passed): time for the export, or for
+    // the end of a headless run without one.
+    const bool ready = args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900;
     if (!args.exportDir.empty() && !exported) {
-      bool ready = args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900;
       if (ready) {
         std::string folder;
         std::vector<std::string> written;
@@ -124,8 +125,7 @@ struct Script {
     }
     // Headless with neither an export nor a frame count: the run ends when the
     // many-light render is done (or at --after), with the screenshot if asked.
-    if (headlessProgress && args.exportDir.empty() && args.frames == 0 &&
-        (args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900)) {
+    if (headlessProgress && args.exportDir.empty() && args.frames == 0 && ready) {
       if (!args.screenshot.empty() && !saveScreenshot(fbw, fbh)) failed = true;
       return true;
     }

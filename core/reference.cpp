@@ -1,7 +1,6 @@
 #include "core/reference.h"
 
 #include <cmath>
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>

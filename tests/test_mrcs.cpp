@@ -206,12 +206,10 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
 // polls it: it starts at 0, never decreases as the stages follow one
 // another, stays in [0, 1] and is 1 once the render is done.
 TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
-  SmallMrcs small = smallMrcs(GetParam());
+  const SmallMrcs small = smallMrcs(GetParam());
   ASSERT_TRUE(small.ctx);
-  const RenderContext& c = *small.ctx;
-  const ManyLightSettings& s = small.s;
-  const MrcsSettings& m = small.m;
-  const ManyLightRun& run = small.run;
+  const auto& [ctx, s, m, run] = small;
+  const RenderContext& c = *ctx;
   MrcsProgress progress;
   EXPECT_EQ(progress.overall(), 0.0) << "idle";
   // The poller keeps every change of (stage, overall) and checks each read
@@ -254,12 +252,10 @@ TEST_P(MrcsRender, OverallProgressRisesThroughTheStagesToOne) {
 // and the render's images equal one made without the hook. It is not called
 // for one method alone, and a stop set inside it leaves VPL unrendered.
 TEST_P(MrcsRender, VslImageIsHandedOutBeforeTheVplColumns) {
-  SmallMrcs small = smallMrcs(GetParam());
+  const SmallMrcs small = smallMrcs(GetParam());
   ASSERT_TRUE(small.ctx);
-  const RenderContext& c = *small.ctx;
-  const ManyLightSettings& s = small.s;
-  const MrcsSettings& m = small.m;
-  const ManyLightRun& run = small.run;
+  const auto& [ctx, s, m, run] = small;
+  const RenderContext& c = *ctx;
   const MrcsResult plain = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m);
   MrcsProgress progress;
   int calls = 0;
