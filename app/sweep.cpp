@@ -41,21 +41,24 @@ namespace {
 
 // A sweep method, parsed once from its name: what it renders, with which
 // estimator, and whether it runs in passes of independent light sets (the
-// progressive ones shrinking the VSL radius per pass).
+// progressive ones shrinking the VSL radius per pass; the "-sets" ones
+// stopping after --batches passes, as the studio's mean of light sets does).
 struct SweepMethod {
   const char* name;
   Method gather;  // Pt, Vsl or Vpl
   EstimatorKind estimator;
-  bool progressiveRadius, passes;
+  bool progressiveRadius, passes, passesCappedByBatches;
 };
 constexpr SweepMethod kSweepMethods[] = {
-    {"pt", Method::Pt, EstimatorKind::BruteForce, false, false},
-    {"vpl", Method::Vpl, EstimatorKind::BruteForce, false, false},
-    {"vsl", Method::Vsl, EstimatorKind::BruteForce, false, false},
-    {"vsl-progressive", Method::Vsl, EstimatorKind::BruteForce, true, true},
-    {"vsl-mrcs", Method::Vsl, EstimatorKind::Mrcs, false, true},
-    {"vpl-mrcs", Method::Vpl, EstimatorKind::Mrcs, false, true},
-    {"vsl-mrcs-progressive", Method::Vsl, EstimatorKind::Mrcs, true, true},
+    {"pt", Method::Pt, EstimatorKind::BruteForce, false, false, false},
+    {"vpl", Method::Vpl, EstimatorKind::BruteForce, false, false, false},
+    {"vsl", Method::Vsl, EstimatorKind::BruteForce, false, false, false},
+    {"vsl-progressive", Method::Vsl, EstimatorKind::BruteForce, true, true, false},
+    {"vsl-mrcs", Method::Vsl, EstimatorKind::Mrcs, false, true, false},
+    {"vpl-mrcs", Method::Vpl, EstimatorKind::Mrcs, false, true, false},
+    {"vsl-mrcs-progressive", Method::Vsl, EstimatorKind::Mrcs, true, true, false},
+    {"vsl-sets", Method::Vsl, EstimatorKind::BruteForce, false, true, true},
+    {"vpl-sets", Method::Vpl, EstimatorKind::BruteForce, false, true, true},
 };
 // The method of a name the command line accepted (CLI::IsMember); names
 // read back from a shard's CSV that are not methods of this version are
@@ -316,7 +319,9 @@ struct SweepContext {
   // Pass-based methods: independent light sets, each rendered in full, the
   // estimate being their mean. "-progressive" shrinks the radius per pass
   // (r^2 *= (i+alpha)/(i+1)); "-mrcs" renders each pass with matrix
-  // row-column sampling instead of the brute-force gather.
+  // row-column sampling instead of the brute-force gather; "-sets" stops
+  // after --batches passes (one eye sample per pixel each), so that its
+  // final image is the mean of that many light sets.
   void runPasses(const std::string& method, uint32_t n, float sc, int set) {
     const SweepMethod& sm = sweepMethod(method);
     Stopwatch clock;
@@ -339,7 +344,7 @@ struct SweepContext {
       for (float& x : mean.rgb) x /= float(pass + 1);
       double el = clock.seconds();
       record(method, n, sc, set, pass + 1, el, mean);
-      if (el >= a.time) break;
+      if (el >= a.time || (sm.passesCappedByBatches && pass + 1 >= a.batches)) break;
     }
     finish();
   }
@@ -828,7 +833,8 @@ Subcommand addSweepCommand(CLI::App& app) {
       ->add_option("--methods", sw.methods,
                    "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
                    "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
-                   "vsl-mrcs-progressive (both)")
+                   "vsl-mrcs-progressive (both); vsl-sets, vpl-sets (the mean of --batches independent light "
+                   "sets, as the studio's passes)")
       ->delimiter(',')
       ->check(CLI::IsMember(sweepMethodNames()))
       ->default_str("pt,vpl,vsl");
@@ -846,7 +852,9 @@ Subcommand addSweepCommand(CLI::App& app) {
   sweep->add_option("--alpha", sw.alpha, "vsl-progressive: r^2 shrinks by (i+alpha)/(i+1) per pass")
       ->default_str("0.7")
       ->check(CLI::Range(0.01, 0.99));
-  sweep->add_option("--batches", sw.batches, "Progressive batches per many-light run")
+  sweep
+      ->add_option("--batches", sw.batches,
+                   "Progressive batches per many-light run (for vsl-sets and vpl-sets: light sets averaged)")
       ->default_str("8")
       ->check(CLI::Range(1, 64));
   sweep->add_option("--mrcs", args->mrcs, "ROWS,CLUSTERS[,MIX] for the -mrcs methods")->default_str("300,900");

@@ -172,6 +172,31 @@ TEST_F(Cli, InfoListsScene) {
     EXPECT_NE(r.out.find(w), std::string::npos) << w << "\n" << r.out;
 }
 
+// vsl-sets and vpl-sets average --batches independent light sets (the studio's
+// passes): every run records exactly that many steps, the last one final,
+// however large the time budget.
+TEST_F(Cli, SweepSetsMethodsStopAfterBatchesLightSets) {
+  ASSERT_EQ(
+      run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
+      0);
+  Proc r = run("sweep " + scene("cornell-glossy") + " --methods vpl-sets,vsl-sets --lights 40 --time 1000 " +
+               "--batches 3 --sets 2 --reference " + file("ref.exr") + " -o " + file("sweep-sets"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream csv(file("sweep-sets/sweep.csv"));
+  std::string line;
+  std::getline(csv, line);
+  std::map<std::string, std::vector<int>> steps;  // method and set -> steps recorded
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f = csvFields(line);
+    ASSERT_EQ(f.size(), 15u) << line;
+    std::vector<int>& s = steps[f[0] + " " + f[3]];
+    s.push_back(std::stoi(f[4]));
+    EXPECT_EQ(f[10], s.back() == 3 ? "1" : "0") << "only the third light set's mean is final: " << line;
+  }
+  ASSERT_EQ(steps.size(), 4u);
+  for (const auto& [run, s] : steps) EXPECT_EQ(s, (std::vector<int>{1, 2, 3})) << run;
+}
+
 TEST_F(Cli, SweepWritesTablesAndPlots) {
   ASSERT_EQ(
       run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
