@@ -32,4 +32,18 @@ inline std::string nonFiniteOption(const CLI::App& app) {
   return {};
 }
 
+// A check for time budgets: a number of seconds in (0, 1e7], with a message
+// that says so (CLI::PositiveNumber prints the whole range of a double).
+inline CLI::Validator positiveSeconds() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != 0 || !(v > 0 && v <= 1e7))
+          return "must be a number of seconds in (0,1e7] (got '" + text + "')";
+        return {};
+      },
+      "SECONDS");
+}
+
 }  // namespace vsl

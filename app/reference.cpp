@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "app/cli.h"
+#include "app/finite_options.h"
 #include "core/log.h"
 #include "core/reference.h"
 #include "core/render_context.h"
@@ -136,11 +137,13 @@ Subcommand addReferenceCommand(CLI::App& app) {
   reference->add_option("scene", rfa.scene, "Scene file (.gltf or .glb)")->required();
   CLI::Option* spp =
       reference->add_option("--spp", rfa.settings.spp, "Samples per pixel (rounded up to even)")->default_str("1024");
-  reference->add_option("--time", rfa.settings.timeLimit, "Stop after this many seconds");
+  reference->add_option("--time", rfa.settings.timeLimit, "Stop after this many seconds")->check(positiveSeconds());
   reference->add_option("--target-relmse", rfa.target,
                         "Stop once the reference's own indirect relMSE, estimated from its halves, is at most this");
-  reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)");
-  reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)");
+  reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)")
+      ->check(CLI::Range(1, RenderSettings::kMaxResolution));
+  reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)")
+      ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   reference
       ->add_option("--seed", rfa.settings.seed,
                    "Random seed (default: one that neither the studio's live path tracer nor vsl sweep uses)")

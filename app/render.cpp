@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/cli.h"
+#include "app/finite_options.h"
 #include "app/render.h"
 #include "core/image_io.h"
 #include "core/log.h"
@@ -56,9 +57,12 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
       ->default_str("64");
   auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel (pt)")->default_str("64");
   render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
+      ->check(positiveSeconds())
       ->excludes(sppOpt);
-  render->add_option("--width", ra.settings.width, "Image width (default: from the scene, or 512)");
-  render->add_option("--height", ra.settings.height, "Image height (default: from the scene, or 512)");
+  render->add_option("--width", ra.settings.width, "Image width (default: from the scene, or 512)")
+      ->check(CLI::Range(1, RenderSettings::kMaxResolution));
+  render->add_option("--height", ra.settings.height, "Image height (default: from the scene, or 512)")
+      ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   render->add_option("--seed", ra.settings.seed, "Random seed")->default_str("0");
   render->add_option("--max-depth", ra.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   render->add_option("--component", ra.component, "Component for the default EXR layer and the PNG")

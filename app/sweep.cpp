@@ -33,6 +33,7 @@
 #include "core/many_light.h"
 #include "core/mrcs.h"
 #include "core/reference.h"
+#include "core/settings.h"
 #include "core/stopwatch.h"
 
 namespace vsl {
@@ -798,16 +799,21 @@ int mergeShards(const SweepArgs& a) {
 }  // namespace
 
 int runSweep(const SweepArgs& a) {
-  if (!a.merge.empty()) return mergeShards(a);
+  if (!a.merge.empty()) {
+    if (!a.scene.empty())
+      return failf(kExitBadArguments, "--merge joins shard directories and takes no scene (got '%s')", a.scene.c_str());
+    return mergeShards(a);
+  }
   if (a.scene.empty())
     return fail(kExitBadArguments,
                 "sweep needs a scene (or --merge DIR...)\n\nUsage: vsl sweep SCENE [--reference REF.exr] -o DIR "
                 "[--shard I/N] ...\n       vsl sweep --merge DIR... -o DIR");
   int shardIndex = 0, shardCount = 1;
   if (!a.shard.empty()) {
-    char tail = 0;
-    if (std::sscanf(a.shard.c_str(), "%d/%d%c", &shardIndex, &shardCount, &tail) != 2 || shardCount < 1 ||
-        shardIndex < 0 || shardIndex >= shardCount)
+    size_t pos = 0;
+    const bool read = readInt(a.shard, pos, shardIndex) && pos < a.shard.size() && a.shard[pos++] == '/' &&
+                      readInt(a.shard, pos, shardCount) && pos == a.shard.size();
+    if (!read || shardCount < 1 || shardIndex < 0 || shardIndex >= shardCount)
       return failf(kExitBadArguments, "--shard must be I/N with 0 <= I < N (got '%s')", a.shard.c_str());
   }
   SweepMeta meta;

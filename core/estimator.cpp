@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/settings.h"
 #include "core/stopwatch.h"
 
 namespace vsl {
@@ -38,11 +39,14 @@ std::optional<EstimatorKind> parseEstimatorKind(std::string_view name) { return 
 const char* estimatorName(EstimatorKind k) { return nameOf(kEstimatorNames, k); }
 
 bool parseMrcsText(const std::string& spec, MrcsSettings& out) {
-  const char* text = spec.c_str();
-  int used = 0, usedMix = 0;
-  if (std::sscanf(text, "%d,%d%n", &out.rows, &out.clusters, &used) != 2) return false;
-  if (text[used] != ',') return text[used] == 0;
-  return std::sscanf(text + used + 1, "%lf%n", &out.uniformMix, &usedMix) == 1 && text[used + 1 + usedMix] == 0;
+  size_t pos = 0;
+  if (!readInt(spec, pos, out.rows) || pos >= spec.size() || spec[pos++] != ',' || !readInt(spec, pos, out.clusters))
+    return false;
+  if (pos == spec.size()) return true;
+  if (spec[pos] != ',') return false;
+  const char* mix = spec.c_str() + pos + 1;
+  int usedMix = 0;
+  return std::sscanf(mix, "%lf%n", &out.uniformMix, &usedMix) == 1 && mix[usedMix] == 0;
 }
 
 Result<void> EstimatorSettings::validate() const {

@@ -1,5 +1,6 @@
 #include "core/settings.h"
 
+#include <charconv>
 #include <cmath>
 #include <sstream>
 
@@ -28,6 +29,17 @@ bool parseComponent(const std::string& s, Component* out) {
     *out = Component::Indirect;
   else
     return false;
+  return true;
+}
+
+bool readInt(std::string_view text, size_t& pos, int& out) {
+  if (pos > text.size()) return false;
+  int v = 0;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data() + pos, end, v);
+  if (ec != std::errc()) return false;
+  out = v;
+  pos = size_t(ptr - text.data());
   return true;
 }
 

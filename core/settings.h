@@ -4,10 +4,16 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 #include "core/result.h"
 
 namespace vsl {
+
+// Reads the decimal integer (optional '-', then digits) that starts at
+// text[pos] into out and moves pos past it; false, with pos unchanged, when
+// there is none or it does not fit in an int (no silent wrap-around).
+bool readInt(std::string_view text, size_t& pos, int& out);
 
 enum class Component { Full, Direct, Indirect };
 const char* componentName(Component c);

@@ -479,6 +479,31 @@ TEST_F(Cli, StudioRefusesBadEstimatorFlags) {
   }
 }
 
+// Numbers out of range are refused, never wrapped round or read as "the
+// default": a width or a time of zero, MRCS sizes and shard indices beyond
+// an int, and a scene beside --merge (which would be ignored). Exit 2, the
+// reason named, nothing written.
+TEST_F(Cli, OutOfRangeNumbersAreBadArguments) {
+  const std::string cg = scene("cornell-glossy");
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {"render " + cg + " --width 0 -o " + file("oor.exr"), "--width"},
+           {"render " + cg + " --height 0 -o " + file("oor.exr"), "--height"},
+           {"render " + cg + " --time 0 -o " + file("oor.exr"), "--time"},
+           {"reference " + cg + " --time 0 --no-cache -o " + file("oor.exr"), "--time"},
+           {"reference " + cg + " --width 0 --no-cache -o " + file("oor.exr"), "--width"},
+           {"render " + cg + " --method vsl --mrcs 4294967297,10 -o " + file("oor.exr"), "--mrcs must be"},
+           {"render " + cg + " --method vsl --mrcs 10,-4294967295 -o " + file("oor.exr"), "--mrcs must be"},
+           {"sweep " + cg + " --shard 4294967297/2 -o " + file("oor-sweep"), "--shard must be I/N"},
+           {"sweep " + cg + " --shard 1/2x -o " + file("oor-sweep"), "--shard must be I/N"},
+           {"sweep " + cg + " --merge " + file("oor-a") + " -o " + file("oor-sweep"), "takes no scene"}}) {
+    Proc r = run(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
+  EXPECT_FALSE(fs::exists(file("oor.exr")));
+  EXPECT_FALSE(fs::exists(file("oor-sweep")));
+}
+
 // NaN and infinity pass CLI11's range checks; every floating-point option of
 // vsl and vsl-studio refuses them (exit 2, the option named) before any work,
 // lists item by item, while finite values still run.
