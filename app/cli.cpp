@@ -116,12 +116,18 @@ void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std:
     for (const std::string& path : o->results()) {
       if (path.empty()) continue;
       if (output) outputs->push_back({name, path});
+      if (name == "--flip-png") outputs->push_back({"--flip-png's HDR map", flipHdrPngPath(path)});
       if (input) inputs->push_back({name, path});
     }
   }
 }
 
 }  // namespace
+
+std::string flipHdrPngPath(const std::string& flipPng) {
+  const bool png = flipPng.size() > 4 && flipPng.compare(flipPng.size() - 4, 4, ".png") == 0;
+  return (png ? flipPng.substr(0, flipPng.size() - 4) : flipPng) + "-hdr.png";
+}
 
 std::string clashingOutput(const CLI::App& subcommand) {
   std::vector<NamedPath> inputs, outputs;

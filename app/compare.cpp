@@ -81,10 +81,7 @@ int writeFlipMaps(const CompareArgs& a, const CompareFlip& f) {
     std::fprintf(stderr, "wrote %s (FLIP maps, layers: default=ldr, ldr, hdr)\n", a.flipExr.c_str());
   }
   if (!a.flipPng.empty()) {
-    std::string stem = a.flipPng.size() > 4 && a.flipPng.substr(a.flipPng.size() - 4) == ".png"
-                           ? a.flipPng.substr(0, a.flipPng.size() - 4)
-                           : a.flipPng;
-    for (auto [path, map] : {std::pair{a.flipPng, &f.ldr.map}, std::pair{stem + "-hdr.png", &f.hdr.map}}) {
+    for (auto [path, map] : {std::pair{a.flipPng, &f.ldr.map}, std::pair{flipHdrPngPath(a.flipPng), &f.hdr.map}}) {
       int rows = 0;
       std::vector<uint8_t> px = magmaWithBar(*map, &rows);
       if (Result<void> w = writePngRgb8(path, map->width, rows, px); !w) return fail(kExitBadInput, w.error());

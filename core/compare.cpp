@@ -1,6 +1,7 @@
 #include "core/compare.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <functional>
 #include <sstream>
@@ -109,12 +110,17 @@ ErrorImages errorImages(const Image& test, const Image& ref, RelMseEpsilon spec)
   const double epsilon = spec.resolve(ref);
   ErrorImages e{Image(test.width, test.height), Image(test.width, test.height), Image(test.width, test.height),
                 Image(test.width, test.height)};
+  // Values a float cannot hold (a tiny absolute eps over a black reference
+  // pixel) are written as the largest float; channels whose test or
+  // reference value is not finite are left 0, as the metrics skip them.
+  const auto toFloat = [](double v) { return float(std::clamp(v, -double(FLT_MAX), double(FLT_MAX))); };
   for (size_t i = 0; i < test.rgb.size(); ++i) {
+    if (!std::isfinite(test.rgb[i]) || !std::isfinite(ref.rgb[i])) continue;
     double d = double(test.rgb[i]) - ref.rgb[i];
-    e.signedDiff.rgb[i] = float(d);
-    e.absolute.rgb[i] = float(std::abs(d));
-    e.squared.rgb[i] = float(d * d);
-    e.relSquared.rgb[i] = float(d * d / (double(ref.rgb[i]) * ref.rgb[i] + epsilon));
+    e.signedDiff.rgb[i] = toFloat(d);
+    e.absolute.rgb[i] = toFloat(std::abs(d));
+    e.squared.rgb[i] = toFloat(d * d);
+    e.relSquared.rgb[i] = toFloat(d * d / (double(ref.rgb[i]) * ref.rgb[i] + epsilon));
   }
   return e;
 }

@@ -58,6 +58,8 @@ struct CompareResult {
 CompareResult compareImages(const Image& test, const Image& ref, RelMseEpsilon epsilon = {});
 
 // Per-pixel error images: signed difference, absolute, squared, relative squared.
+// Every value is finite: 0 where the test or the reference is not, at most
+// the largest float elsewhere.
 struct ErrorImages {
   Image signedDiff, absolute, squared, relSquared;
 };

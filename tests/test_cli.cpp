@@ -549,6 +549,9 @@ TEST_F(Cli, OutputsNeverOverwriteInputs) {
            {"compare " + file("s1.exr") + " " + file("s2.exr") + " --flip-exr " + dir.string() + "/./s2.exr",
             "is also the input"},
            {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("fz.gltf"), "is also the input"},
+           {"compare " + file("s1.exr") + " " + file("s2.exr") + " --flip-png " + file("m.png") + " --flip-exr " +
+                file("m-hdr.png"),
+            "--flip-png's HDR map " + file("m-hdr.png") + " is also --flip-exr"},
            {"render " + file("fz.gltf") + " --spp 1 --width 8 -o " + file("same.exr") + " --png " + file("same.exr"),
             "--png " + file("same.exr") + " is also --output"},
        }) {
@@ -560,6 +563,8 @@ TEST_F(Cli, OutputsNeverOverwriteInputs) {
   EXPECT_EQ(fs::file_size(file("s2.exr")), exrSize);
   EXPECT_EQ(fs::file_size(file("fz.gltf")), sceneSize);
   EXPECT_FALSE(fs::exists(file("same.exr")));
+  EXPECT_FALSE(fs::exists(file("m.png")));
+  EXPECT_FALSE(fs::exists(file("m-hdr.png")));
   // An output in a folder that does not exist, or that is a folder: an I/O
   // failure (exit 1), found before the render instead of after it.
   for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{

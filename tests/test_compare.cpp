@@ -4,8 +4,10 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <cfloat>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -70,6 +72,24 @@ TEST(Compare, AllBlackNeverRanksAboveTheRightMeanOnADimReference) {
   EXPECT_LT(n.average.relMse, b.average.relMse);
   // The absolute eps gets this wrong, which is why it is no longer the default.
   EXPECT_GT(compareImages(noisy, ref, 0.01).average.relMse, compareImages(black, ref, 0.01).average.relMse);
+}
+
+// Error images hold only finite values: a non-finite test or reference
+// channel gives 0 (the metrics skip it), and a relative squared error beyond
+// a float (a tiny absolute eps over a black reference) gives the largest float.
+TEST(Compare, ErrorImagesAreFinite) {
+  Image test(3, 1), ref(3, 1);
+  test.set(0, 0, Vec3(1.0f));
+  test.set(1, 0, Vec3(std::numeric_limits<float>::quiet_NaN()));
+  test.set(2, 0, Vec3(2.0f));
+  ref.set(2, 0, Vec3(std::numeric_limits<float>::infinity()));
+  ErrorImages e = errorImages(test, ref, 1e-300);
+  for (const Image* im : {&e.signedDiff, &e.absolute, &e.squared, &e.relSquared})
+    for (float v : im->rgb) EXPECT_TRUE(std::isfinite(v)) << v;
+  EXPECT_EQ(e.relSquared.at(0, 0).x, FLT_MAX);  // 1 / 1e-300
+  EXPECT_EQ(e.squared.at(0, 0).x, 1.0f);
+  EXPECT_EQ(e.absolute.at(1, 0).x, 0.0f);
+  EXPECT_EQ(e.signedDiff.at(2, 0).x, 0.0f);
 }
 
 TEST(Compare, BiasVarianceOfKnownImages) {
