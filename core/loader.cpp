@@ -16,6 +16,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -33,6 +35,10 @@ namespace {
 struct LoadError {
   std::string message;
 };
+
+// A JSON number that is an index into a glTF array (tinygltf keeps indices
+// in an int: larger values would wrap around).
+bool isIndexNumber(double v) { return v >= 0 && v <= double(INT32_MAX) && v == std::floor(v); }
 
 std::string quoted(const std::string& kind, int index, const std::string& name) {
   std::ostringstream s;
@@ -139,7 +145,8 @@ double readComponent(const unsigned char* p, int componentType, bool normalized)
 }
 
 // Reads an accessor as doubles, count x components, with every offset checked
-// against its buffer view and buffer.
+// against its buffer view and buffer (in an order that cannot overflow:
+// offsets may be near 2^64).
 // zeroBudget bounds accessors without a bufferView (all zeros): a file must
 // hold at least one byte per element it declares, so a 220-byte file cannot
 // make us zero-fill 100 GB.
@@ -175,10 +182,14 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
   uint64_t elem = uint64_t(nc) * cs;
   uint64_t stride = bv.byteStride ? bv.byteStride : elem;
   if (stride < elem) throw LoadError{where + ": byteStride smaller than the element size"};
-  if (uint64_t(bv.byteOffset) + bv.byteLength > buf.data.size())
+  if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset)
     throw LoadError{where + ": bufferView " + std::to_string(acc.bufferView) + " runs past the end of buffer " +
                     std::to_string(bv.buffer) + " (" + std::to_string(buf.data.size()) + " bytes)"};
   if (count > (uint64_t(1) << 32)) throw LoadError{where + ": count " + std::to_string(count) + " is absurd"};
+  if (acc.byteOffset > bv.byteLength)
+    throw LoadError{where + ": byteOffset " + std::to_string(acc.byteOffset) + " lies past the end of bufferView " +
+                    std::to_string(acc.bufferView) + " (" + std::to_string(bv.byteLength) + " bytes)"};
+  // No overflow: byteOffset <= byteLength < 2^32, stride <= 252, count <= 2^32.
   uint64_t need = uint64_t(acc.byteOffset) + stride * (count - 1) + elem;
   if (need > bv.byteLength)
     throw LoadError{where + ": needs " + std::to_string(need) + " bytes but its bufferView has " +
@@ -204,8 +215,9 @@ double numberOr(const tinygltf::Value& obj, const char* key, double fallback, co
 int textureIndexOf(const tinygltf::Value& obj, const char* key, const std::string& where) {
   if (!obj.IsObject() || !obj.Has(key)) return -1;
   const tinygltf::Value& t = obj.Get(key);
-  if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber())
-    throw LoadError{where + ": '" + key + "' must be an object with an integer 'index'"};
+  if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber() ||
+      !isIndexNumber(t.Get("index").GetNumberAsDouble()))
+    throw LoadError{where + ": '" + key + "' must be an object with an integer 'index' in [0, 2147483647]"};
   return int(t.Get("index").GetNumberAsDouble());
 }
 
@@ -741,8 +753,9 @@ struct Loader {
     if (n.camera >= 0) camera(n.camera, xf, where, opts.cameraName);
     for (auto& [name, ext] : n.extensions) {
       if (name == "KHR_lights_punctual") {
-        if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber())
-          throw LoadError{where + ": KHR_lights_punctual needs an integer 'light'"};
+        if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber() ||
+            !isIndexNumber(ext.Get("light").GetNumberAsDouble()))
+          throw LoadError{where + ": KHR_lights_punctual needs an integer 'light' in [0, 2147483647]"};
         light(int(ext.Get("light").GetNumberAsDouble()), xf, where);
       } else {
         warn(where + ": extension " + name + " is not supported (ignored)");
@@ -934,8 +947,9 @@ size_t jsonDepthExceeded(std::string_view text, size_t limit) {
 }
 
 // tinygltf silently keeps the default when a known property has the wrong
-// type ("roughnessFactor": "0.5"). Name such values instead.
-struct TypeChecker {
+// type ("roughnessFactor": "0.5"), reads an index of -1 as "absent" and
+// 2^32 as 0, and a negative byteOffset as 0. Name such values instead.
+struct JsonChecker {
   using json = nlohmann::json;
   std::string file;
 
@@ -969,6 +983,28 @@ struct TypeChecker {
       throw LoadError{where + ": '" + key + "' must be an array of " + std::to_string(n) + " numbers (got " + got(a) +
                       ")"};
   }
+  static bool isIndex(const json& v) {
+    if (v.is_number_unsigned()) return v.get<uint64_t>() <= uint64_t(INT32_MAX);
+    return v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() <= INT32_MAX;
+  }
+  // An index into one of the file's arrays.
+  void index(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !isIndex(obj[key]))
+      throw LoadError{where + ": '" + key + "' must be an index in [0, 2147483647] (got " + got(obj[key]) + ")"};
+  }
+  void indices(const json& obj, const char* key, const std::string& where) const {
+    if (!obj.contains(key)) return;
+    const json& a = obj[key];
+    bool ok = a.is_array();
+    for (size_t i = 0; ok && i < a.size(); ++i) ok = isIndex(a[i]);
+    if (!ok)
+      throw LoadError{where + ": '" + key + "' must be an array of indices in [0, 2147483647] (got " + got(a) + ")"};
+  }
+  void nonNegative(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_number_unsigned() &&
+        !(obj[key].is_number_integer() && obj[key].get<int64_t>() >= 0))
+      throw LoadError{where + ": '" + key + "' must be an integer >= 0 (got " + got(obj[key]) + ")"};
+  }
   const json& object(const json& obj, const char* key, const std::string& where) const {
     static const json empty = json::object();
     if (!obj.contains(key)) return empty;
@@ -990,6 +1026,8 @@ struct TypeChecker {
 
   void check(const json& doc) const {
     if (!doc.is_object()) return;  // tinygltf reports it
+    index(doc, "scene", file);
+    each(doc, "scenes", "scene", [&](const json& sc, const std::string& w) { indices(sc, "nodes", w); });
     each(doc, "materials", "material", [&](const json& m, const std::string& w) {
       const json& pbr = object(m, "pbrMetallicRoughness", w);
       numbers(pbr, "baseColorFactor", 4, w);
@@ -1004,25 +1042,43 @@ struct TypeChecker {
       numbers(n, "rotation", 4, w);
       numbers(n, "scale", 3, w);
       numbers(n, "matrix", 16, w);
-      integer(n, "mesh", w);
-      integer(n, "camera", w);
+      for (const char* k : {"mesh", "camera", "skin"}) index(n, k, w);
+      indices(n, "children", w);
     });
     each(doc, "cameras", "camera", [&](const json& c, const std::string& w) {
       const json& p = object(c, "perspective", w);
       for (const char* k : {"yfov", "aspectRatio", "znear", "zfar"}) number(p, k, w);
     });
     each(doc, "accessors", "accessor", [&](const json& a, const std::string& w) {
-      for (const char* k : {"bufferView", "byteOffset", "componentType", "count"}) integer(a, k, w);
+      index(a, "bufferView", w);
+      nonNegative(a, "byteOffset", w);
+      for (const char* k : {"componentType", "count"}) integer(a, k, w);
       boolean(a, "normalized", w);
     });
     each(doc, "bufferViews", "bufferView", [&](const json& v, const std::string& w) {
-      for (const char* k : {"buffer", "byteOffset", "byteLength", "byteStride"}) integer(v, k, w);
+      index(v, "buffer", w);
+      nonNegative(v, "byteOffset", w);
+      for (const char* k : {"byteLength", "byteStride"}) integer(v, k, w);
     });
+    each(doc, "textures", "texture", [&](const json& t, const std::string& w) {
+      for (const char* k : {"source", "sampler"}) index(t, k, w);
+    });
+    each(doc, "images", "image", [&](const json& im, const std::string& w) { index(im, "bufferView", w); });
     each(doc, "meshes", "mesh", [&](const json& mesh, const std::string& w) {
       each(mesh, "primitives", "primitive", [&](const json& prim, const std::string& pw) {
-        for (const char* k : {"indices", "material", "mode"}) integer(prim, k, w + " " + pw.substr(file.size() + 2));
+        std::string where = w + " " + pw.substr(file.size() + 2);
+        for (const char* k : {"indices", "material"}) index(prim, k, where);
+        integer(prim, "mode", where);
+        for (const auto& [name, acc] : object(prim, "attributes", where).items())
+          if (!isIndex(acc))
+            throw LoadError{where + ": attribute '" + name + "' must be an index in [0, 2147483647] (got " + got(acc) +
+                            ")"};
       });
     });
+    lights(doc);
+  }
+
+  void lights(const json& doc) const {
     const json& ext = object(doc, "extensions", file);
     const json& punctual = object(ext, "KHR_lights_punctual", file + ": KHR_lights_punctual");
     each(punctual, "lights", "light", [&](const json& l, const std::string& w) {
@@ -1148,7 +1204,7 @@ std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary
     throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it"};
   nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
-  if (!doc.is_discarded()) TypeChecker{path}.check(doc);
+  if (!doc.is_discarded()) JsonChecker{path}.check(doc);
   return bytes;
 }
 
@@ -1202,6 +1258,9 @@ void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string&
 // nobody's child.
 std::vector<int> rootNodes(const tinygltf::Model& model, const std::string& path) {
   std::vector<int> roots;
+  if (model.scenes.empty() && model.defaultScene >= 0)
+    throw LoadError{path + ": default scene " + std::to_string(model.defaultScene) +
+                    " does not exist (the file has no scenes)"};
   if (!model.scenes.empty()) {
     int si = model.defaultScene >= 0 ? model.defaultScene : 0;
     if (size_t(si) >= model.scenes.size())

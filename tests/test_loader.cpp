@@ -840,3 +840,128 @@ TEST_F(LoaderTest, TextureMemoryIsBounded) {
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().find("10000x10000 pixels is more than the texture limit"), std::string::npos) << r.error();
 }
+
+// ---- Files the Khronos validator refuses (loader hardening) ---------------------
+// Each file below is invalid glTF 2.0 per the Khronos glTF validator (checked
+// with scripts/validate-gltf.cjs on the same documents); each used to load,
+// silently or misread.
+
+namespace {
+
+// The first occurrence of needle in the error, or a failure naming both.
+::testing::AssertionResult errorHas(const SceneResult& r, const std::string& needle) {
+  if (r) return ::testing::AssertionFailure() << "loaded, expected an error containing: " << needle;
+  if (r.error().find(needle) == std::string::npos)
+    return ::testing::AssertionFailure() << "error \"" << r.error() << "\" lacks \"" << needle << "\"";
+  return ::testing::AssertionSuccess();
+}
+
+// quadDoc() with a second node, so that the quad still loads whatever the
+// second node holds.
+Doc twoNodeDoc(const json& other) {
+  Doc d = quadDoc();
+  json n = other;
+  n["name"] = "other";
+  d.j["nodes"] = {{{"name", "quad-node"}, {"mesh", 0}}, n};
+  d.j["scenes"][0]["nodes"] = {0, 1};
+  return d;
+}
+
+// Appends an accessor over new bytes (its own bufferView, with byteStride
+// when given); returns its index.
+template <typename T>
+int addAccessor(Doc& d, const std::vector<T>& data, int componentType, const std::string& type, size_t count,
+                bool normalized = false, size_t stride = 0) {
+  while (d.bin.size() % 4) d.bin.push_back(0);
+  size_t off = d.bin.size();
+  append(d.bin, data);
+  json view = {{"buffer", 0}, {"byteOffset", off}, {"byteLength", data.size() * sizeof(T)}};
+  if (stride) view["byteStride"] = stride;
+  d.j["bufferViews"].push_back(view);
+  json acc = {{"bufferView", d.j["bufferViews"].size() - 1},
+              {"componentType", componentType},
+              {"count", count},
+              {"type", type}};
+  if (normalized) acc["normalized"] = true;
+  d.j["accessors"].push_back(acc);
+  return int(d.j["accessors"].size() - 1);
+}
+
+}  // namespace
+
+// Defect 1: tinygltf stores -1 for "absent", so "mesh": -1 silently meant no
+// mesh; an index of 2^32 wrapped to 0 and instanced mesh 0; a primitive's
+// "indices": -1 made it non-indexed and "material": -1 the default material.
+TEST_F(LoaderTest, NegativeAndOverflowingIndicesAreRefused) {
+  SceneResult r = load(writeDoc(twoNodeDoc({{"mesh", -1}}), "mesh.gltf"));
+  EXPECT_TRUE(errorHas(r, "mesh.gltf: node 1 'other': 'mesh' must be an index in [0, 2147483647] (got -1)"));
+  r = load(writeDoc(twoNodeDoc({{"camera", -1}}), "camera.gltf"));
+  EXPECT_TRUE(errorHas(r, "camera.gltf: node 1 'other': 'camera' must be an index"));
+  r = load(writeDoc(twoNodeDoc({{"mesh", 4294967296}}), "wrap.gltf"));
+  EXPECT_TRUE(errorHas(r, "wrap.gltf: node 1 'other': 'mesh' must be an index in [0, 2147483647] (got 4294967296)"));
+  r = load(writeDoc(twoNodeDoc({{"children", {4294967296}}}), "child.gltf"));
+  EXPECT_TRUE(errorHas(r, "child.gltf: node 1 'other': 'children' must be an array of indices"));
+  Doc p = quadDoc();
+  p.j["meshes"][0]["primitives"][0]["indices"] = -1;
+  r = load(writeDoc(p, "indices.gltf"));
+  EXPECT_TRUE(errorHas(r, "indices.gltf: mesh 0 'quad' primitive 0: 'indices' must be an index"));
+  Doc m = quadDoc();
+  m.j["meshes"][0]["primitives"][0]["material"] = -1;
+  r = load(writeDoc(m, "material.gltf"));
+  EXPECT_TRUE(errorHas(r, "material.gltf: mesh 0 'quad' primitive 0: 'material' must be an index"));
+  Doc a = quadDoc();
+  a.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = -2;
+  r = load(writeDoc(a, "attribute.gltf"));
+  EXPECT_TRUE(errorHas(r, "attribute.gltf: mesh 0 'quad' primitive 0: attribute 'POSITION' must be an index"));
+  Doc s = quadDoc();
+  s.j["scenes"][0]["nodes"] = {-1};
+  r = load(writeDoc(s, "roots.gltf"));
+  EXPECT_TRUE(errorHas(r, "roots.gltf: scene 0: 'nodes' must be an array of indices"));
+  // The same documents with valid indices load.
+  SceneResult ok = load(writeDoc(twoNodeDoc({{"mesh", 0}}), "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 4u);
+}
+
+// Defect 2: a negative byteOffset read as 0 (tinygltf drops what is not
+// unsigned); own finding: offsets near 2^64 wrapped around in the bounds
+// check and read before the buffer.
+TEST_F(LoaderTest, NegativeAndWrappingByteOffsetsAreRefused) {
+  Doc v = quadDoc();
+  v.j["bufferViews"][1]["byteOffset"] = -4;
+  SceneResult r = load(writeDoc(v, "view.gltf"));
+  EXPECT_TRUE(errorHas(r, "view.gltf: bufferView 1: 'byteOffset' must be an integer >= 0 (got -4)"));
+  Doc a = quadDoc();
+  a.j["accessors"][0]["byteOffset"] = -4;
+  r = load(writeDoc(a, "accessor.gltf"));
+  EXPECT_TRUE(errorHas(r, "accessor.gltf: accessor 0: 'byteOffset' must be an integer >= 0 (got -4)"));
+  Doc w = quadDoc();
+  w.j["accessors"][0]["byteOffset"] = uint64_t(-4);
+  r = load(writeDoc(w, "wrap-accessor.gltf"));
+  EXPECT_TRUE(errorHas(r, "wrap-accessor.gltf: node 0 'quad-node' mesh 0 'quad' primitive 0 POSITION (accessor 0)"));
+  Doc x = quadDoc();
+  x.j["bufferViews"][0]["byteOffset"] = uint64_t(-8);
+  x.j["bufferViews"][0]["byteLength"] = 56;
+  r = load(writeDoc(x, "wrap-view.gltf"));
+  EXPECT_TRUE(errorHas(r,
+                       "wrap-view.gltf: node 0 'quad-node' mesh 0 'quad' primitive 0 POSITION (accessor 0): "
+                       "bufferView 0 runs past the end of buffer 0"));
+}
+
+// Defect 5: "scene": -1 loaded scene 0; own finding: "scene": 0 in a file
+// without scenes loaded every root node.
+TEST_F(LoaderTest, DefaultSceneIndexIsChecked) {
+  Doc d = quadDoc();
+  d.j["scene"] = -1;
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(d, "neg.gltf")), "neg.gltf: 'scene' must be an index in [0, 2147483647] (got -1)"));
+  Doc e = quadDoc();
+  e.j.erase("scenes");
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(e, "none.gltf")), "none.gltf: default scene 0 does not exist (the file has no scenes)"));
+  // Without "scene" and "scenes", every root node is rendered (valid glTF).
+  e.j.erase("scene");
+  SceneResult ok = load(writeDoc(e, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 2u);
+}
