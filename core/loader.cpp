@@ -87,6 +87,92 @@ int componentSize(int ct) {
   return 0;
 }
 
+const char* typeName(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR:
+      return "SCALAR";
+    case TINYGLTF_TYPE_VEC2:
+      return "VEC2";
+    case TINYGLTF_TYPE_VEC3:
+      return "VEC3";
+    case TINYGLTF_TYPE_VEC4:
+      return "VEC4";
+    case TINYGLTF_TYPE_MAT2:
+      return "MAT2";
+    case TINYGLTF_TYPE_MAT3:
+      return "MAT3";
+    case TINYGLTF_TYPE_MAT4:
+      return "MAT4";
+  }
+  return "unknown type";
+}
+
+const char* componentTypeName(int ct) {
+  switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+      return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+      return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_INT:
+      return "INT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return "FLOAT";
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
+      return "DOUBLE";
+  }
+  return "unknown componentType";
+}
+
+// What the loader reads from an accessor, and the formats (componentType,
+// normalized) glTF 2.0 allows for it. KHR_mesh_quantization, which allows
+// integer positions, normals, tangents and texture coordinates, is not
+// supported: such data would be misread, so it is refused.
+struct Semantic {
+  const char* name;  // "POSITION", "indices"
+  int type;          // TINYGLTF_TYPE_*
+  std::vector<std::pair<int, bool>> formats;
+  bool quantizable;  // KHR_mesh_quantization would allow more
+};
+
+const Semantic kPosition{"POSITION", TINYGLTF_TYPE_VEC3, {{TINYGLTF_COMPONENT_TYPE_FLOAT, false}}, true};
+const Semantic kNormal{"NORMAL", TINYGLTF_TYPE_VEC3, {{TINYGLTF_COMPONENT_TYPE_FLOAT, false}}, true};
+const Semantic kTangent{"TANGENT", TINYGLTF_TYPE_VEC4, {{TINYGLTF_COMPONENT_TYPE_FLOAT, false}}, true};
+const Semantic kTexCoord0{"TEXCOORD_0",
+                          TINYGLTF_TYPE_VEC2,
+                          {{TINYGLTF_COMPONENT_TYPE_FLOAT, false},
+                           {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, true},
+                           {TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, true}},
+                          true};
+const Semantic kIndices{"indices",
+                        TINYGLTF_TYPE_SCALAR,
+                        {{TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, false},
+                         {TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, false},
+                         {TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, false}},
+                        false};
+
+std::string formatName(int type, int componentType, bool normalized) {
+  return std::string(typeName(type)) + " " + componentTypeName(componentType) + (normalized ? " normalized" : "");
+}
+
+// Throws unless the accessor's format is one glTF 2.0 allows for sem.
+void checkFormat(const tinygltf::Accessor& acc, const Semantic& sem, const std::string& where) {
+  if (acc.type == sem.type)
+    for (auto [ct, normalized] : sem.formats)
+      if (acc.componentType == ct && acc.normalized == normalized) return;
+  std::string allowed;
+  for (auto [ct, normalized] : sem.formats)
+    allowed += (allowed.empty() ? "" : ", ") + formatName(sem.type, ct, normalized);
+  throw LoadError{where + ": " + formatName(acc.type, acc.componentType, acc.normalized) +
+                  " is not a glTF 2.0 format for " + sem.name + " (allowed: " + allowed +
+                  (sem.quantizable ? "; KHR_mesh_quantization is not supported)" : ")")};
+}
+
 // One component at p, of a glTF componentType; normalized integers map to
 // [0,1] (unsigned) or [-1,1] (signed), per the specification.
 double readComponent(const unsigned char* p, int componentType, bool normalized) {
@@ -144,13 +230,13 @@ double readComponent(const unsigned char* p, int componentType, bool normalized)
   return v;
 }
 
-// Reads an accessor as doubles, count x components, with every offset checked
-// against its buffer view and buffer (in an order that cannot overflow:
-// offsets may be near 2^64).
+// Reads an accessor of a format glTF 2.0 allows for sem as doubles, count x
+// components, with every offset checked against its buffer view and buffer
+// (in an order that cannot overflow: offsets may be near 2^64).
 // zeroBudget bounds accessors without a bufferView (all zeros): a file must
 // hold at least one byte per element it declares, so a 220-byte file cannot
 // make us zero-fill 100 GB.
-std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, int wantComponents,
+std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, const Semantic& sem,
                                  size_t* countOut, uint64_t zeroBudget) {
   if (index < 0 || size_t(index) >= model.accessors.size())
     throw LoadError{what + ": accessor " + std::to_string(index) + " does not exist"};
@@ -158,8 +244,7 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
   std::string where = what + " (accessor " + std::to_string(index) + ")";
   int nc = componentCount(acc.type), cs = componentSize(acc.componentType);
   if (nc == 0 || cs == 0) throw LoadError{where + ": unknown type or componentType"};
-  if (wantComponents > 0 && nc != wantComponents)
-    throw LoadError{where + ": expected " + std::to_string(wantComponents) + " components, got " + std::to_string(nc)};
+  checkFormat(acc, sem, where);
   if (acc.sparse.isSparse) throw LoadError{where + ": sparse accessors are not supported"};
   size_t count = acc.count;
   *countOut = count;
@@ -503,23 +588,23 @@ struct Loader {
     Attributes at;
     auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end()) throw LoadError{where + ": has no POSITION attribute"};
-    at.pos = readAccessor(model, it->second, where + " POSITION", 3, &at.count, inputBytes);
+    at.pos = readAccessor(model, it->second, where + " POSITION", kPosition, &at.count, inputBytes);
     if (at.count == 0) return at;
     for (size_t i = 0; i < at.pos.size(); ++i)
       if (!std::isfinite(at.pos[i])) throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
-    auto optional = [&](const char* name, int comps, std::vector<double>& out) {
-      auto a = prim.attributes.find(name);
+    auto optional = [&](const Semantic& sem, std::vector<double>& out) {
+      auto a = prim.attributes.find(sem.name);
       if (a == prim.attributes.end()) return false;
       size_t n = 0;
-      out = readAccessor(model, a->second, where + " " + name, comps, &n, inputBytes);
+      out = readAccessor(model, a->second, where + " " + sem.name, sem, &n, inputBytes);
       if (n != at.count)
-        throw LoadError{where + ": " + name + " has " + std::to_string(n) + " entries but POSITION has " +
+        throw LoadError{where + ": " + sem.name + " has " + std::to_string(n) + " entries but POSITION has " +
                         std::to_string(at.count)};
       return true;
     };
-    at.hasN = optional("NORMAL", 3, at.nrm);
-    at.hasT = optional("TANGENT", 4, at.tan);
-    at.hasUV = optional("TEXCOORD_0", 2, at.uv);
+    at.hasN = optional(kNormal, at.nrm);
+    at.hasT = optional(kTangent, at.tan);
+    at.hasUV = optional(kTexCoord0, at.uv);
     return at;
   }
 
@@ -533,12 +618,7 @@ struct Loader {
       return idx;
     }
     size_t ni = 0;
-    std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni, inputBytes);
-    const auto& acc = model.accessors[prim.indices];
-    if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-      throw LoadError{where + ": indices must be unsigned integers"};
+    std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", kIndices, &ni, inputBytes);
     idx.resize(ni);
     for (size_t i = 0; i < ni; ++i) {
       if (raw[i] >= double(nv))

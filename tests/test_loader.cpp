@@ -948,6 +948,65 @@ TEST_F(LoaderTest, NegativeAndWrappingByteOffsetsAreRefused) {
                        "bufferView 0 runs past the end of buffer 0"));
 }
 
+// Defect 3: POSITION as BYTE was read as integer coordinates, normalized
+// unsigned-byte indices as x/255; glTF 2.0 without KHR_mesh_quantization
+// allows FLOAT positions, normals and tangents only.
+TEST_F(LoaderTest, AttributeFormatsOutsideGltf20AreRefused) {
+  const std::string prefix = "node 0 'quad-node' mesh 0 'quad' primitive 0 ";
+  // Integer positions, 4-byte aligned: (0 0 0) (1 0 0) (1 1 0) (0 1 0).
+  const std::vector<int8_t> bytePos = {0, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0};
+  for (bool normalized : {false, true}) {
+    Doc d = quadDoc();
+    int acc = addAccessor(d, bytePos, 5120, "VEC3", 4, normalized, 4);
+    d.j["accessors"][acc]["min"] = {0, 0, 0};
+    d.j["accessors"][acc]["max"] = {1, 1, 0};
+    d.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = acc;
+    std::string name = normalized ? "byte-normalized.gltf" : "byte.gltf";
+    SceneResult r = load(writeDoc(d, name));
+    EXPECT_TRUE(errorHas(r, name + ": " + prefix + "POSITION (accessor 2): VEC3 BYTE" +
+                                (normalized ? " normalized" : "") + " is not a glTF 2.0 format for POSITION"));
+    if (!r) {
+      EXPECT_NE(r.error().find("KHR_mesh_quantization is not supported"), std::string::npos) << r.error();
+    }
+  }
+  Doc f = quadDoc();
+  f.j["accessors"][0]["normalized"] = true;
+  EXPECT_TRUE(errorHas(load(writeDoc(f, "float-normalized.gltf")), "VEC3 FLOAT normalized is not a glTF 2.0 format"));
+  Doc n = quadDoc();
+  int nrm = addAccessor(n, std::vector<int16_t>{0, 0, 32767, 0, 0, 0, 32767, 0, 0, 0, 32767, 0, 0, 0, 32767, 0}, 5122,
+                        "VEC3", 4, true, 8);
+  n.j["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = nrm;
+  EXPECT_TRUE(errorHas(load(writeDoc(n, "normal.gltf")), "NORMAL (accessor 2): VEC3 SHORT normalized is not"));
+  Doc t = quadDoc();
+  int tan = addAccessor(t, std::vector<float>(16, 0.0f), 5126, "MAT2", 4);
+  t.j["meshes"][0]["primitives"][0]["attributes"]["TANGENT"] = tan;
+  EXPECT_TRUE(errorHas(load(writeDoc(t, "tangent.gltf")), "TANGENT (accessor 2): MAT2 FLOAT is not"));
+  Doc u = quadDoc();
+  int uv = addAccessor(u, std::vector<uint8_t>{0, 0, 0, 0, 255, 0, 0, 0, 255, 255, 0, 0, 0, 255, 0, 0}, 5121, "VEC2", 4,
+                       false, 4);
+  u.j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = uv;
+  EXPECT_TRUE(errorHas(load(writeDoc(u, "uv.gltf")), "TEXCOORD_0 (accessor 2): VEC2 UNSIGNED_BYTE is not"));
+  // Normalized indices: index 3 as a normalized byte would read as 3/255.
+  Doc i = quadDoc();
+  int idx = addAccessor(i, std::vector<uint8_t>{0, 1, 2, 0, 2, 3}, 5121, "SCALAR", 6, true);
+  i.j["meshes"][0]["primitives"][0]["indices"] = idx;
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(i, "indices.gltf")), "indices (accessor 2): SCALAR UNSIGNED_BYTE normalized is not"));
+  // What glTF 2.0 allows still loads: normalized unsigned-byte UVs read as
+  // x/255, unsigned-byte indices.
+  Doc v = quadDoc();
+  int okUv = addAccessor(v, std::vector<uint8_t>{0, 0, 0, 0, 255, 0, 0, 0, 255, 255, 0, 0, 0, 255, 0, 0}, 5121, "VEC2",
+                         4, true, 4);
+  v.j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = okUv;
+  v.j["meshes"][0]["primitives"][0]["indices"] =
+      addAccessor(v, std::vector<uint8_t>{0, 1, 2, 0, 2, 3}, 5121, "SCALAR", 6);
+  SceneResult ok = load(writeDoc(v, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 2u);
+  EXPECT_FLOAT_EQ((*ok)->uvs[2].x, 1.0f);
+  EXPECT_FLOAT_EQ((*ok)->uvs[2].y, 1.0f);
+}
+
 // Defect 5: "scene": -1 loaded scene 0; own finding: "scene": 0 in a file
 // without scenes loaded every root node.
 TEST_F(LoaderTest, DefaultSceneIndexIsChecked) {
