@@ -36,6 +36,23 @@ struct LoadError {
   std::string message;
 };
 
+// What the JSON says that tinygltf's model cannot: tinygltf stores 0 both
+// for an absent aspectRatio or zfar and for an explicit 0 (which is invalid).
+struct JsonFacts {
+  struct Camera {
+    bool aspectRatio = false, zfar = false;  // given in the file
+  };
+  std::vector<Camera> cameras;  // by glTF camera index
+
+  Camera camera(int index) const { return index >= 0 && size_t(index) < cameras.size() ? cameras[index] : Camera{}; }
+};
+
+std::string formatNumber(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
 // A JSON number that is an index into a glTF array (tinygltf keeps indices
 // in an int: larger values would wrap around).
 bool isIndexNumber(double v) { return v >= 0 && v <= double(INT32_MAX) && v == std::floor(v); }
@@ -368,6 +385,7 @@ struct Loader {
   uint64_t texels = 0;      // texels of all textures so far
   uint64_t maxTexels = LoadOptions{}.maxTexels;
   size_t maxTriangles = LoadOptions{}.maxTriangles;
+  JsonFacts facts{};  // what tinygltf's model does not say
 
   void warn(const std::string& m) {
     if (warned.insert(m).second) scene.warnings.push_back(m);
@@ -800,8 +818,9 @@ struct Loader {
     }
     checkRange(gc.perspective.yfov, 1e-4, kPi - 1e-4, cw, "yfov");
     // aspectRatio sets the default image height (512 / aspect): keep both
-    // sides of the default image within [16, 16384] (0 = not given).
-    if (gc.perspective.aspectRatio != 0) checkRange(gc.perspective.aspectRatio, 1.0 / 32, 32, cw, "aspectRatio");
+    // sides of the default image within [16, 16384] (when not given, the
+    // image's own aspect is used; an explicit 0 is refused).
+    if (facts.camera(camIndex).aspectRatio) checkRange(gc.perspective.aspectRatio, 1.0 / 32, 32, cw, "aspectRatio");
     Camera c;
     c.name = gc.name.empty() ? "camera " + std::to_string(camIndex) : gc.name;
     double world[3];
@@ -1029,9 +1048,11 @@ size_t jsonDepthExceeded(std::string_view text, size_t limit) {
 // tinygltf silently keeps the default when a known property has the wrong
 // type ("roughnessFactor": "0.5"), reads an index of -1 as "absent" and
 // 2^32 as 0, and a negative byteOffset as 0. Name such values instead.
+// Records in facts what tinygltf loses.
 struct JsonChecker {
   using json = nlohmann::json;
   std::string file;
+  JsonFacts& facts;
 
   static std::string got(const json& v) {
     std::string d = v.dump();
@@ -1128,6 +1149,7 @@ struct JsonChecker {
     each(doc, "cameras", "camera", [&](const json& c, const std::string& w) {
       const json& p = object(c, "perspective", w);
       for (const char* k : {"yfov", "aspectRatio", "znear", "zfar"}) number(p, k, w);
+      facts.cameras.push_back({p.contains("aspectRatio"), p.contains("zfar")});
     });
     each(doc, "accessors", "accessor", [&](const json& a, const std::string& w) {
       index(a, "bufferView", w);
@@ -1273,7 +1295,7 @@ namespace {
 
 // The file's bytes (isBinary: a .glb), after the JSON checks that tinygltf
 // does not make (or makes with unbounded recursion).
-std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary) {
+std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary, JsonFacts& facts) {
   Result<std::vector<unsigned char>> read = readRegularFile(path);
   if (!read) throw LoadError{path + ": cannot be read (" + read.error() + ")"};
   std::vector<unsigned char> bytes = std::move(read).value();
@@ -1284,7 +1306,7 @@ std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary
     throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it"};
   nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
-  if (!doc.is_discarded()) JsonChecker{path}.check(doc);
+  if (!doc.is_discarded()) JsonChecker{path, facts}.check(doc);
   return bytes;
 }
 
@@ -1356,8 +1378,30 @@ std::vector<int> rootNodes(const tinygltf::Model& model, const std::string& path
   return roots;
 }
 
-// After the walk: something to render, finite power, a camera.
+// Every perspective camera, used or not, against the specification's ranges
+// (the camera a render uses also meets the renderer's limits, in
+// Loader::camera). yfov >= pi is only a validator warning: not refused here.
+void checkPerspectiveCameras(const tinygltf::Model& model, const JsonFacts& facts, const std::string& path) {
+  for (size_t i = 0; i < model.cameras.size(); ++i) {
+    const tinygltf::Camera& c = model.cameras[i];
+    if (c.type != "perspective") continue;
+    const tinygltf::PerspectiveCamera& p = c.perspective;
+    std::string where = path + ": " + quoted("camera", int(i), c.name);
+    auto positive = [&](double v, const char* what) {
+      if (!(v > 0)) throw LoadError{where + ": " + what + " must be greater than 0 (got " + formatNumber(v) + ")"};
+    };
+    positive(p.yfov, "yfov");
+    positive(p.znear, "znear");
+    if (facts.camera(int(i)).aspectRatio) positive(p.aspectRatio, "aspectRatio");
+    if (facts.camera(int(i)).zfar && !(p.zfar > p.znear))
+      throw LoadError{where + ": zfar must be greater than znear (got zfar " + formatNumber(p.zfar) + ", znear " +
+                      formatNumber(p.znear) + ")"};
+  }
+}
+
+// After the walk: valid cameras, something to render, finite power, a camera.
 void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOptions& options) {
+  checkPerspectiveCameras(L.model, L.facts, path);
   if (scene.triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
   checkEmittedPower(scene, path);
   bool anyEmitter = !scene.punctualLights.empty();
@@ -1377,7 +1421,8 @@ void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOpt
 SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
     bool isBinary = false;
-    std::vector<unsigned char> bytes = readSceneFile(path, isBinary);
+    JsonFacts facts;
+    std::vector<unsigned char> bytes = readSceneFile(path, isBinary, facts);
     tinygltf::Model model;
     std::string warn = parseGltf(path, bytes, isBinary, model);
 
@@ -1388,6 +1433,7 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
     for (const auto& b : model.buffers) L.inputBytes += b.data.size();
     L.maxTriangles = options.maxTriangles;
     L.maxTexels = options.maxTexels;
+    L.facts = std::move(facts);
     bytes = {};
     if (!warn.empty()) {
       std::istringstream ws(warn);

@@ -1007,6 +1007,39 @@ TEST_F(LoaderTest, AttributeFormatsOutsideGltf20AreRefused) {
   EXPECT_FLOAT_EQ((*ok)->uvs[2].y, 1.0f);
 }
 
+// Defect 4: an explicit aspectRatio of 0 read as "not given"; znear <= 0 and
+// zfar <= znear were never checked; a camera no node uses was not checked at all.
+TEST_F(LoaderTest, PerspectiveCameraParametersFollowTheSpec) {
+  Doc d = quadDoc();
+  d.j["nodes"] = {{{"mesh", 0}}, {{"name", "eye"}, {"camera", 0}, {"translation", {0.5, 0.5, 3}}}};
+  d.j["scenes"][0]["nodes"] = {0, 1};
+  auto withCamera = [&](const json& perspective, const std::string& name) {
+    Doc e = d;
+    e.j["cameras"] = {{{"name", "cam"}, {"type", "perspective"}, {"perspective", perspective}}};
+    return load(writeDoc(e, name));
+  };
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 0}}, "aspect.gltf"),
+                       "aspect.gltf: camera 0 'cam': aspectRatio must be in [0.03125,32] (got 0)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", 0}}, "znear0.gltf"),
+                       "znear0.gltf: camera 0 'cam': znear must be greater than 0 (got 0)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", -1}}, "znear.gltf"),
+                       "camera 0 'cam': znear must be greater than 0 (got -1)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", 0.1}, {"zfar", 0.05}}, "zfar.gltf"),
+                       "camera 0 'cam': zfar must be greater than znear (got zfar 0.05, znear 0.1)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0}, {"znear", 0.1}}, "yfov.gltf"), "camera 0 'cam': yfov must be in"));
+  // A camera no node uses is checked too.
+  Doc u = quadDoc();
+  u.j["cameras"] = {{{"name", "spare"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0}}}}};
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(u, "unused.gltf")), "unused.gltf: camera 0 'spare': znear must be greater than 0"));
+  u.j["cameras"][0]["perspective"] = {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", -2}};
+  EXPECT_TRUE(errorHas(load(writeDoc(u, "unused2.gltf")), "camera 0 'spare': aspectRatio must be greater than 0"));
+  // Valid: zfar above znear, no aspectRatio (the image's aspect is used).
+  SceneResult ok = withCamera({{"yfov", 0.5}, {"znear", 0.1}, {"zfar", 100}}, "ok.gltf");
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_FLOAT_EQ((*ok)->camera.aspect, 0.0f);
+}
+
 // Defect 5: "scene": -1 loaded scene 0; own finding: "scene": 0 in a file
 // without scenes loaded every root node.
 TEST_F(LoaderTest, DefaultSceneIndexIsChecked) {
