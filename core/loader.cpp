@@ -1047,8 +1047,8 @@ size_t jsonDepthExceeded(std::string_view text, size_t limit) {
 
 // tinygltf silently keeps the default when a known property has the wrong
 // type ("roughnessFactor": "0.5"), reads an index of -1 as "absent" and
-// 2^32 as 0, and a negative byteOffset as 0. Name such values instead.
-// Records in facts what tinygltf loses.
+// 2^32 as 0, and a negative byteOffset as 0. Name such values instead, and
+// refuse what is not glTF 2.0. Records in facts what tinygltf loses.
 struct JsonChecker {
   using json = nlohmann::json;
   std::string file;
@@ -1125,8 +1125,57 @@ struct JsonChecker {
     }
   }
 
+  // "major.minor", as the schema's pattern ^[0-9]+\.[0-9]+$ says.
+  static bool parseVersion(const json& v, int& major, int& minor) {
+    if (!v.is_string()) return false;
+    const std::string& t = v.get_ref<const std::string&>();
+    size_t dot = t.find('.');
+    auto digits = [](const std::string& d) {
+      return !d.empty() && d.size() <= 9 && d.find_first_not_of("0123456789") == std::string::npos;
+    };
+    if (dot == std::string::npos || !digits(t.substr(0, dot)) || !digits(t.substr(dot + 1))) return false;
+    major = std::stoi(t.substr(0, dot));
+    minor = std::stoi(t.substr(dot + 1));
+    return true;
+  }
+
+  // glTF 2.0 only: asset.version "2.x" (minor versions are forward
+  // compatible) and asset.minVersion at most "2.0". A glTF 1.0 file says
+  // "1.0", or has no version and keeps its objects in dictionaries: say so,
+  // instead of naming its first dictionary.
+  void asset(const json& doc) const {
+    const json& a = object(doc, "asset", file);
+    int major = 0, minor = 0;
+    bool given = a.contains("version"), parsed = given && parseVersion(a["version"], major, minor);
+    const char* dictionary = nullptr;
+    for (const char* k : {"meshes", "nodes", "accessors", "bufferViews", "buffers", "materials", "scenes"})
+      if (!dictionary && doc.contains(k) && doc[k].is_object()) dictionary = k;
+    if (major == 1 || (!parsed && dictionary)) {
+      std::string why = given ? "asset.version is " + got(a["version"]) : "it has no asset.version";
+      if (dictionary) why += std::string(", and '") + dictionary + "' is a dictionary as in glTF 1.0";
+      throw LoadError{file + ": glTF 1.0 is not supported; convert it to glTF 2.0 (" + why + ")"};
+    }
+    if (!given)
+      throw LoadError{file + ": asset.version is missing (a glTF 2.0 file has \"asset\": {\"version\": \"2.0\"})"};
+    if (!parsed)
+      throw LoadError{file + ": asset.version must be \"major.minor\", such as \"2.0\" (got " + got(a["version"]) +
+                      ")"};
+    if (major != 2)
+      throw LoadError{file + ": asset.version is " + got(a["version"]) + "; only glTF 2.0 (version 2.x) is supported"};
+    if (a.contains("minVersion")) {
+      int minMajor = 0, minMinor = 0;
+      if (!parseVersion(a["minVersion"], minMajor, minMinor))
+        throw LoadError{file + ": asset.minVersion must be \"major.minor\", such as \"2.0\" (got " +
+                        got(a["minVersion"]) + ")"};
+      if (minMajor > 2 || (minMajor == 2 && minMinor > 0))
+        throw LoadError{file + ": asset.minVersion is " + got(a["minVersion"]) +
+                        ": the file needs a loader for a later glTF than 2.0"};
+    }
+  }
+
   void check(const json& doc) const {
     if (!doc.is_object()) return;  // tinygltf reports it
+    asset(doc);
     index(doc, "scene", file);
     each(doc, "scenes", "scene", [&](const json& sc, const std::string& w) { indices(sc, "nodes", w); });
     each(doc, "materials", "material", [&](const json& m, const std::string& w) {
@@ -1301,6 +1350,15 @@ std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary
   std::vector<unsigned char> bytes = std::move(read).value();
   if (bytes.empty()) throw LoadError{path + ": file is empty"};
   isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  if (isBinary && bytes.size() >= 8) {  // tinygltf ignores the container version
+    uint32_t version;
+    std::memcpy(&version, bytes.data() + 4, 4);
+    if (version == 1)
+      throw LoadError{path + ": GLB container version 1 (glTF 1.0 binary) is not supported; convert it to glTF 2.0"};
+    if (version != 2)
+      throw LoadError{path + ": GLB container version " + std::to_string(version) +
+                      " is not supported (glTF 2.0 binary is version 2)"};
+  }
   std::string_view text = jsonText(bytes, isBinary);
   if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
     throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +

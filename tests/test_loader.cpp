@@ -1057,3 +1057,53 @@ TEST_F(LoaderTest, DefaultSceneIndexIsChecked) {
   ASSERT_TRUE(ok) << ok.error();
   EXPECT_EQ((*ok)->triangleCount(), 2u);
 }
+
+// Defect 6: asset.version "3.0" loaded, and glTF 1.0 files were refused for
+// their first dictionary ("'materials' must be an array").
+TEST_F(LoaderTest, OnlyGltf2IsAccepted) {
+  Doc d = quadDoc();
+  d.j["asset"]["version"] = "3.0";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "three.gltf")),
+                       "three.gltf: asset.version is \"3.0\"; only glTF 2.0 (version 2.x) is supported"));
+  d.j["asset"]["version"] = "1.0";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "one.gltf")), "one.gltf: glTF 1.0 is not supported; convert it to glTF 2.0"));
+  // A glTF 1.0 file: dictionaries instead of arrays.
+  json v1 = {{"asset", {{"version", "1.0"}}},
+             {"materials", {{"red", {{"values", {{"diffuse", {1, 0, 0, 1}}}}}}}},
+             {"meshes", {{"box", {{"primitives", json::array()}}}}}};
+  EXPECT_TRUE(
+      errorHas(load(write("v1.gltf", v1.dump())), "v1.gltf: glTF 1.0 is not supported; convert it to glTF 2.0"));
+  v1["asset"].erase("version");
+  EXPECT_TRUE(errorHas(load(write("v1b.gltf", v1.dump())), "v1b.gltf: glTF 1.0 is not supported"));
+  d.j["asset"]["version"] = "2";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "two.gltf")), "two.gltf: asset.version must be \"major.minor\""));
+  d.j["asset"].erase("version");
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "missing.gltf")), "missing.gltf: asset.version is missing"));
+  d.j["asset"]["version"] = "2.0";
+  d.j["asset"]["minVersion"] = "2.1";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "min.gltf")), "min.gltf: asset.minVersion is \"2.1\""));
+  // Minor versions of 2 are forward compatible, and minVersion 2.0 is fine.
+  d.j["asset"]["version"] = "2.1";
+  d.j["asset"]["minVersion"] = "2.0";
+  SceneResult ok = load(writeDoc(d, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+}
+
+// Defect 7: the GLB header's container version was ignored.
+TEST_F(LoaderTest, GlbContainerVersionMustBe2) {
+  Doc d = quadDoc();
+  for (uint32_t version : {1u, 99u}) {
+    std::string name = "v" + std::to_string(version) + ".glb";
+    std::string bytes = vsl::test::slurp(writeGlb(d, name));
+    std::memcpy(&bytes[4], &version, 4);
+    std::string path = write(name, bytes);
+    SceneResult r = load(path);
+    if (version == 1)
+      EXPECT_TRUE(errorHas(r, path + ": GLB container version 1 (glTF 1.0 binary) is not supported; convert it to "
+                                     "glTF 2.0"));
+    else
+      EXPECT_TRUE(errorHas(r, path + ": GLB container version 99 is not supported (glTF 2.0 binary is version 2)"));
+  }
+  SceneResult ok = load(writeGlb(d, "ok.glb"));
+  ASSERT_TRUE(ok) << ok.error();
+}
