@@ -53,6 +53,33 @@ std::string formatNumber(double v) {
   return s.str();
 }
 
+// Error text quotes at most this much of a URI: a data: URI can be megabytes.
+constexpr size_t kMaxQuotedUri = 60;
+
+std::string abbreviated(const std::string& s) {
+  return s.size() <= kMaxQuotedUri ? s : s.substr(0, kMaxQuotedUri) + "...";
+}
+
+// text with every data: URI in it cut to its first kMaxQuotedUri characters
+// (tinygltf quotes whole a data: URI that does not decode).
+std::string withDataUrisAbbreviated(const std::string& text) {
+  std::string out;
+  size_t i = 0;
+  while (i < text.size()) {
+    size_t at = text.find("data:", i);
+    if (at == std::string::npos) {
+      out.append(text, i, std::string::npos);
+      break;
+    }
+    size_t end = text.find_first_of(" \t\r\n'\"", at);
+    if (end == std::string::npos) end = text.size();
+    out.append(text, i, at - i);
+    out += abbreviated(text.substr(at, end - at));
+    i = end;
+  }
+  return out;
+}
+
 // A JSON number that is an index into a glTF array (tinygltf keeps indices
 // in an int: larger values would wrap around).
 bool isIndexNumber(double v) { return v >= 0 && v <= double(INT32_MAX) && v == std::floor(v); }
@@ -970,7 +997,7 @@ bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::s
   const auto* policy = static_cast<const UriPolicy*>(user);
   std::string uri = path.rfind(policy->rootPrefix, 0) == 0 ? path.substr(policy->rootPrefix.size()) : path;
   auto fail = [&](const std::string& why) {
-    if (err) *err += "URI '" + uri + "': " + why + "\n";
+    if (err) *err += "URI '" + abbreviated(uri) + "': " + why + "\n";
     return false;
   };
   if (uri.empty()) return fail("empty");
@@ -1389,9 +1416,10 @@ std::string parseGltf(const std::string& path, const std::vector<unsigned char>&
                                                 unsigned(bytes.size()), dir);
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-    throw LoadError{path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err)};
+    throw LoadError{path +
+                    ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : withDataUrisAbbreviated(err))};
   }
-  return warn;
+  return withDataUrisAbbreviated(warn);
 }
 
 // Refuses required extensions we do not model; warns about used ones,

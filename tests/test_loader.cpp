@@ -1107,3 +1107,25 @@ TEST_F(LoaderTest, GlbContainerVersionMustBe2) {
   SceneResult ok = load(writeGlb(d, "ok.glb"));
   ASSERT_TRUE(ok) << ok.error();
 }
+
+// Defect 8: a data: URI that failed to decode was quoted whole in the error
+// (megabytes for a real file); now at most its first 60 characters.
+TEST_F(LoaderTest, DataUriErrorsQuoteOnlyAPrefix) {
+  Doc d = quadDoc();
+  std::vector<uint8_t> big(3000, 7);
+  append(d.bin, big);
+  const std::string uri = "data:application/octet-stream;base64," + base64(d.bin);
+  for (int variant = 0; variant < 2; ++variant) {
+    Doc e = d;
+    std::string u = uri;
+    if (variant == 1) u[uri.size() / 2] = '*';  // bad base64
+    e.j["buffers"] = {{{"byteLength", d.bin.size() + (variant == 0 ? 4 : 0)}, {"uri", u}}};
+    std::string path = writeDoc(e, "uri" + std::to_string(variant) + ".gltf");
+    SceneResult r = load(path);
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().find(path), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_NE(r.error().find(u.substr(0, 60) + "..."), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_EQ(r.error().find(u.substr(0, 61)), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_LT(r.error().size(), 400u) << r.error().substr(0, 300);
+  }
+}
