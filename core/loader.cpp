@@ -16,6 +16,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -33,6 +35,54 @@ namespace {
 struct LoadError {
   std::string message;
 };
+
+// What the JSON says that tinygltf's model cannot: tinygltf stores 0 both
+// for an absent aspectRatio or zfar and for an explicit 0 (which is invalid).
+struct JsonFacts {
+  struct Camera {
+    bool aspectRatio = false, zfar = false;  // given in the file
+  };
+  std::vector<Camera> cameras;  // by glTF camera index
+
+  Camera camera(int index) const { return index >= 0 && size_t(index) < cameras.size() ? cameras[index] : Camera{}; }
+};
+
+std::string formatNumber(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// Error text quotes at most this much of a URI: a data: URI can be megabytes.
+constexpr size_t kMaxQuotedUri = 60;
+
+std::string abbreviated(const std::string& s) {
+  return s.size() <= kMaxQuotedUri ? s : s.substr(0, kMaxQuotedUri) + "...";
+}
+
+// text with every data: URI in it cut to its first kMaxQuotedUri characters
+// (tinygltf quotes whole a data: URI that does not decode).
+std::string withDataUrisAbbreviated(const std::string& text) {
+  std::string out;
+  size_t i = 0;
+  while (i < text.size()) {
+    size_t at = text.find("data:", i);
+    if (at == std::string::npos) {
+      out.append(text, i, std::string::npos);
+      break;
+    }
+    size_t end = text.find_first_of(" \t\r\n'\"", at);
+    if (end == std::string::npos) end = text.size();
+    out.append(text, i, at - i);
+    out += abbreviated(text.substr(at, end - at));
+    i = end;
+  }
+  return out;
+}
+
+// A JSON number that is an index into a glTF array (tinygltf keeps indices
+// in an int: larger values would wrap around).
+bool isIndexNumber(double v) { return v >= 0 && v <= double(INT32_MAX) && v == std::floor(v); }
 
 std::string quoted(const std::string& kind, int index, const std::string& name) {
   std::ostringstream s;
@@ -79,6 +129,92 @@ int componentSize(int ct) {
       return 8;
   }
   return 0;
+}
+
+const char* typeName(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR:
+      return "SCALAR";
+    case TINYGLTF_TYPE_VEC2:
+      return "VEC2";
+    case TINYGLTF_TYPE_VEC3:
+      return "VEC3";
+    case TINYGLTF_TYPE_VEC4:
+      return "VEC4";
+    case TINYGLTF_TYPE_MAT2:
+      return "MAT2";
+    case TINYGLTF_TYPE_MAT3:
+      return "MAT3";
+    case TINYGLTF_TYPE_MAT4:
+      return "MAT4";
+  }
+  return "unknown type";
+}
+
+const char* componentTypeName(int ct) {
+  switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+      return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+      return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_INT:
+      return "INT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return "FLOAT";
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
+      return "DOUBLE";
+  }
+  return "unknown componentType";
+}
+
+// What the loader reads from an accessor, and the formats (componentType,
+// normalized) glTF 2.0 allows for it. KHR_mesh_quantization, which allows
+// integer positions, normals, tangents and texture coordinates, is not
+// supported: such data would be misread, so it is refused.
+struct Semantic {
+  const char* name;  // "POSITION", "indices"
+  int type;          // TINYGLTF_TYPE_*
+  std::vector<std::pair<int, bool>> formats;
+  bool quantizable;  // KHR_mesh_quantization would allow more
+};
+
+const Semantic kPosition{"POSITION", TINYGLTF_TYPE_VEC3, {{TINYGLTF_COMPONENT_TYPE_FLOAT, false}}, true};
+const Semantic kNormal{"NORMAL", TINYGLTF_TYPE_VEC3, {{TINYGLTF_COMPONENT_TYPE_FLOAT, false}}, true};
+const Semantic kTangent{"TANGENT", TINYGLTF_TYPE_VEC4, {{TINYGLTF_COMPONENT_TYPE_FLOAT, false}}, true};
+const Semantic kTexCoord0{"TEXCOORD_0",
+                          TINYGLTF_TYPE_VEC2,
+                          {{TINYGLTF_COMPONENT_TYPE_FLOAT, false},
+                           {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, true},
+                           {TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, true}},
+                          true};
+const Semantic kIndices{"indices",
+                        TINYGLTF_TYPE_SCALAR,
+                        {{TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, false},
+                         {TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, false},
+                         {TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, false}},
+                        false};
+
+std::string formatName(int type, int componentType, bool normalized) {
+  return std::string(typeName(type)) + " " + componentTypeName(componentType) + (normalized ? " normalized" : "");
+}
+
+// Throws unless the accessor's format is one glTF 2.0 allows for sem.
+void checkFormat(const tinygltf::Accessor& acc, const Semantic& sem, const std::string& where) {
+  if (acc.type == sem.type)
+    for (auto [ct, normalized] : sem.formats)
+      if (acc.componentType == ct && acc.normalized == normalized) return;
+  std::string allowed;
+  for (auto [ct, normalized] : sem.formats)
+    allowed += (allowed.empty() ? "" : ", ") + formatName(sem.type, ct, normalized);
+  throw LoadError{where + ": " + formatName(acc.type, acc.componentType, acc.normalized) +
+                  " is not a glTF 2.0 format for " + sem.name + " (allowed: " + allowed +
+                  (sem.quantizable ? "; KHR_mesh_quantization is not supported)" : ")")};
 }
 
 // One component at p, of a glTF componentType; normalized integers map to
@@ -138,12 +274,13 @@ double readComponent(const unsigned char* p, int componentType, bool normalized)
   return v;
 }
 
-// Reads an accessor as doubles, count x components, with every offset checked
-// against its buffer view and buffer.
+// Reads an accessor of a format glTF 2.0 allows for sem as doubles, count x
+// components, with every offset checked against its buffer view and buffer
+// (in an order that cannot overflow: offsets may be near 2^64).
 // zeroBudget bounds accessors without a bufferView (all zeros): a file must
 // hold at least one byte per element it declares, so a 220-byte file cannot
 // make us zero-fill 100 GB.
-std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, int wantComponents,
+std::vector<double> readAccessor(const tinygltf::Model& model, int index, const std::string& what, const Semantic& sem,
                                  size_t* countOut, uint64_t zeroBudget) {
   if (index < 0 || size_t(index) >= model.accessors.size())
     throw LoadError{what + ": accessor " + std::to_string(index) + " does not exist"};
@@ -151,8 +288,7 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
   std::string where = what + " (accessor " + std::to_string(index) + ")";
   int nc = componentCount(acc.type), cs = componentSize(acc.componentType);
   if (nc == 0 || cs == 0) throw LoadError{where + ": unknown type or componentType"};
-  if (wantComponents > 0 && nc != wantComponents)
-    throw LoadError{where + ": expected " + std::to_string(wantComponents) + " components, got " + std::to_string(nc)};
+  checkFormat(acc, sem, where);
   if (acc.sparse.isSparse) throw LoadError{where + ": sparse accessors are not supported"};
   size_t count = acc.count;
   *countOut = count;
@@ -175,10 +311,14 @@ std::vector<double> readAccessor(const tinygltf::Model& model, int index, const 
   uint64_t elem = uint64_t(nc) * cs;
   uint64_t stride = bv.byteStride ? bv.byteStride : elem;
   if (stride < elem) throw LoadError{where + ": byteStride smaller than the element size"};
-  if (uint64_t(bv.byteOffset) + bv.byteLength > buf.data.size())
+  if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset)
     throw LoadError{where + ": bufferView " + std::to_string(acc.bufferView) + " runs past the end of buffer " +
                     std::to_string(bv.buffer) + " (" + std::to_string(buf.data.size()) + " bytes)"};
   if (count > (uint64_t(1) << 32)) throw LoadError{where + ": count " + std::to_string(count) + " is absurd"};
+  if (acc.byteOffset > bv.byteLength)
+    throw LoadError{where + ": byteOffset " + std::to_string(acc.byteOffset) + " lies past the end of bufferView " +
+                    std::to_string(acc.bufferView) + " (" + std::to_string(bv.byteLength) + " bytes)"};
+  // No overflow: byteOffset <= byteLength < 2^32, stride <= 252, count <= 2^32.
   uint64_t need = uint64_t(acc.byteOffset) + stride * (count - 1) + elem;
   if (need > bv.byteLength)
     throw LoadError{where + ": needs " + std::to_string(need) + " bytes but its bufferView has " +
@@ -204,8 +344,9 @@ double numberOr(const tinygltf::Value& obj, const char* key, double fallback, co
 int textureIndexOf(const tinygltf::Value& obj, const char* key, const std::string& where) {
   if (!obj.IsObject() || !obj.Has(key)) return -1;
   const tinygltf::Value& t = obj.Get(key);
-  if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber())
-    throw LoadError{where + ": '" + key + "' must be an object with an integer 'index'"};
+  if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber() ||
+      !isIndexNumber(t.Get("index").GetNumberAsDouble()))
+    throw LoadError{where + ": '" + key + "' must be an object with an integer 'index' in [0, 2147483647]"};
   return int(t.Get("index").GetNumberAsDouble());
 }
 
@@ -271,6 +412,7 @@ struct Loader {
   uint64_t texels = 0;      // texels of all textures so far
   uint64_t maxTexels = LoadOptions{}.maxTexels;
   size_t maxTriangles = LoadOptions{}.maxTriangles;
+  JsonFacts facts{};  // what tinygltf's model does not say
 
   void warn(const std::string& m) {
     if (warned.insert(m).second) scene.warnings.push_back(m);
@@ -491,23 +633,23 @@ struct Loader {
     Attributes at;
     auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end()) throw LoadError{where + ": has no POSITION attribute"};
-    at.pos = readAccessor(model, it->second, where + " POSITION", 3, &at.count, inputBytes);
+    at.pos = readAccessor(model, it->second, where + " POSITION", kPosition, &at.count, inputBytes);
     if (at.count == 0) return at;
     for (size_t i = 0; i < at.pos.size(); ++i)
       if (!std::isfinite(at.pos[i])) throw LoadError{where + ": POSITION[" + std::to_string(i / 3) + "] is not finite"};
-    auto optional = [&](const char* name, int comps, std::vector<double>& out) {
-      auto a = prim.attributes.find(name);
+    auto optional = [&](const Semantic& sem, std::vector<double>& out) {
+      auto a = prim.attributes.find(sem.name);
       if (a == prim.attributes.end()) return false;
       size_t n = 0;
-      out = readAccessor(model, a->second, where + " " + name, comps, &n, inputBytes);
+      out = readAccessor(model, a->second, where + " " + sem.name, sem, &n, inputBytes);
       if (n != at.count)
-        throw LoadError{where + ": " + name + " has " + std::to_string(n) + " entries but POSITION has " +
+        throw LoadError{where + ": " + sem.name + " has " + std::to_string(n) + " entries but POSITION has " +
                         std::to_string(at.count)};
       return true;
     };
-    at.hasN = optional("NORMAL", 3, at.nrm);
-    at.hasT = optional("TANGENT", 4, at.tan);
-    at.hasUV = optional("TEXCOORD_0", 2, at.uv);
+    at.hasN = optional(kNormal, at.nrm);
+    at.hasT = optional(kTangent, at.tan);
+    at.hasUV = optional(kTexCoord0, at.uv);
     return at;
   }
 
@@ -521,12 +663,7 @@ struct Loader {
       return idx;
     }
     size_t ni = 0;
-    std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", 1, &ni, inputBytes);
-    const auto& acc = model.accessors[prim.indices];
-    if (acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-        acc.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-      throw LoadError{where + ": indices must be unsigned integers"};
+    std::vector<double> raw = readAccessor(model, prim.indices, where + " indices", kIndices, &ni, inputBytes);
     idx.resize(ni);
     for (size_t i = 0; i < ni; ++i) {
       if (raw[i] >= double(nv))
@@ -708,8 +845,9 @@ struct Loader {
     }
     checkRange(gc.perspective.yfov, 1e-4, kPi - 1e-4, cw, "yfov");
     // aspectRatio sets the default image height (512 / aspect): keep both
-    // sides of the default image within [16, 16384] (0 = not given).
-    if (gc.perspective.aspectRatio != 0) checkRange(gc.perspective.aspectRatio, 1.0 / 32, 32, cw, "aspectRatio");
+    // sides of the default image within [16, 16384] (when not given, the
+    // image's own aspect is used; an explicit 0 is refused).
+    if (facts.camera(camIndex).aspectRatio) checkRange(gc.perspective.aspectRatio, 1.0 / 32, 32, cw, "aspectRatio");
     Camera c;
     c.name = gc.name.empty() ? "camera " + std::to_string(camIndex) : gc.name;
     double world[3];
@@ -741,8 +879,9 @@ struct Loader {
     if (n.camera >= 0) camera(n.camera, xf, where, opts.cameraName);
     for (auto& [name, ext] : n.extensions) {
       if (name == "KHR_lights_punctual") {
-        if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber())
-          throw LoadError{where + ": KHR_lights_punctual needs an integer 'light'"};
+        if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber() ||
+            !isIndexNumber(ext.Get("light").GetNumberAsDouble()))
+          throw LoadError{where + ": KHR_lights_punctual needs an integer 'light' in [0, 2147483647]"};
         light(int(ext.Get("light").GetNumberAsDouble()), xf, where);
       } else {
         warn(where + ": extension " + name + " is not supported (ignored)");
@@ -858,7 +997,7 @@ bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::s
   const auto* policy = static_cast<const UriPolicy*>(user);
   std::string uri = path.rfind(policy->rootPrefix, 0) == 0 ? path.substr(policy->rootPrefix.size()) : path;
   auto fail = [&](const std::string& why) {
-    if (err) *err += "URI '" + uri + "': " + why + "\n";
+    if (err) *err += "URI '" + abbreviated(uri) + "': " + why + "\n";
     return false;
   };
   if (uri.empty()) return fail("empty");
@@ -934,10 +1073,13 @@ size_t jsonDepthExceeded(std::string_view text, size_t limit) {
 }
 
 // tinygltf silently keeps the default when a known property has the wrong
-// type ("roughnessFactor": "0.5"). Name such values instead.
-struct TypeChecker {
+// type ("roughnessFactor": "0.5"), reads an index of -1 as "absent" and
+// 2^32 as 0, and a negative byteOffset as 0. Name such values instead, and
+// refuse what is not glTF 2.0. Records in facts what tinygltf loses.
+struct JsonChecker {
   using json = nlohmann::json;
   std::string file;
+  JsonFacts& facts;
 
   static std::string got(const json& v) {
     std::string d = v.dump();
@@ -969,6 +1111,28 @@ struct TypeChecker {
       throw LoadError{where + ": '" + key + "' must be an array of " + std::to_string(n) + " numbers (got " + got(a) +
                       ")"};
   }
+  static bool isIndex(const json& v) {
+    if (v.is_number_unsigned()) return v.get<uint64_t>() <= uint64_t(INT32_MAX);
+    return v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() <= INT32_MAX;
+  }
+  // An index into one of the file's arrays.
+  void index(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !isIndex(obj[key]))
+      throw LoadError{where + ": '" + key + "' must be an index in [0, 2147483647] (got " + got(obj[key]) + ")"};
+  }
+  void indices(const json& obj, const char* key, const std::string& where) const {
+    if (!obj.contains(key)) return;
+    const json& a = obj[key];
+    bool ok = a.is_array();
+    for (size_t i = 0; ok && i < a.size(); ++i) ok = isIndex(a[i]);
+    if (!ok)
+      throw LoadError{where + ": '" + key + "' must be an array of indices in [0, 2147483647] (got " + got(a) + ")"};
+  }
+  void nonNegative(const json& obj, const char* key, const std::string& where) const {
+    if (obj.contains(key) && !obj[key].is_number_unsigned() &&
+        !(obj[key].is_number_integer() && obj[key].get<int64_t>() >= 0))
+      throw LoadError{where + ": '" + key + "' must be an integer >= 0 (got " + got(obj[key]) + ")"};
+  }
   const json& object(const json& obj, const char* key, const std::string& where) const {
     static const json empty = json::object();
     if (!obj.contains(key)) return empty;
@@ -988,8 +1152,59 @@ struct TypeChecker {
     }
   }
 
+  // "major.minor", as the schema's pattern ^[0-9]+\.[0-9]+$ says.
+  static bool parseVersion(const json& v, int& major, int& minor) {
+    if (!v.is_string()) return false;
+    const std::string& t = v.get_ref<const std::string&>();
+    size_t dot = t.find('.');
+    auto digits = [](const std::string& d) {
+      return !d.empty() && d.size() <= 9 && d.find_first_not_of("0123456789") == std::string::npos;
+    };
+    if (dot == std::string::npos || !digits(t.substr(0, dot)) || !digits(t.substr(dot + 1))) return false;
+    major = std::stoi(t.substr(0, dot));
+    minor = std::stoi(t.substr(dot + 1));
+    return true;
+  }
+
+  // glTF 2.0 only: asset.version "2.x" (minor versions are forward
+  // compatible) and asset.minVersion at most "2.0". A glTF 1.0 file says
+  // "1.0", or has no version and keeps its objects in dictionaries: say so,
+  // instead of naming its first dictionary.
+  void asset(const json& doc) const {
+    const json& a = object(doc, "asset", file);
+    int major = 0, minor = 0;
+    bool given = a.contains("version"), parsed = given && parseVersion(a["version"], major, minor);
+    const char* dictionary = nullptr;
+    for (const char* k : {"meshes", "nodes", "accessors", "bufferViews", "buffers", "materials", "scenes"})
+      if (!dictionary && doc.contains(k) && doc[k].is_object()) dictionary = k;
+    if (major == 1 || (!parsed && dictionary)) {
+      std::string why = given ? "asset.version is " + got(a["version"]) : "it has no asset.version";
+      if (dictionary) why += std::string(", and '") + dictionary + "' is a dictionary as in glTF 1.0";
+      throw LoadError{file + ": glTF 1.0 is not supported; convert it to glTF 2.0 (" + why + ")"};
+    }
+    if (!given)
+      throw LoadError{file + ": asset.version is missing (a glTF 2.0 file has \"asset\": {\"version\": \"2.0\"})"};
+    if (!parsed)
+      throw LoadError{file + ": asset.version must be \"major.minor\", such as \"2.0\" (got " + got(a["version"]) +
+                      ")"};
+    if (major != 2)
+      throw LoadError{file + ": asset.version is " + got(a["version"]) + "; only glTF 2.0 (version 2.x) is supported"};
+    if (a.contains("minVersion")) {
+      int minMajor = 0, minMinor = 0;
+      if (!parseVersion(a["minVersion"], minMajor, minMinor))
+        throw LoadError{file + ": asset.minVersion must be \"major.minor\", such as \"2.0\" (got " +
+                        got(a["minVersion"]) + ")"};
+      if (minMajor > 2 || (minMajor == 2 && minMinor > 0))
+        throw LoadError{file + ": asset.minVersion is " + got(a["minVersion"]) +
+                        ": the file needs a loader for a later glTF than 2.0"};
+    }
+  }
+
   void check(const json& doc) const {
     if (!doc.is_object()) return;  // tinygltf reports it
+    asset(doc);
+    index(doc, "scene", file);
+    each(doc, "scenes", "scene", [&](const json& sc, const std::string& w) { indices(sc, "nodes", w); });
     each(doc, "materials", "material", [&](const json& m, const std::string& w) {
       const json& pbr = object(m, "pbrMetallicRoughness", w);
       numbers(pbr, "baseColorFactor", 4, w);
@@ -1004,25 +1219,44 @@ struct TypeChecker {
       numbers(n, "rotation", 4, w);
       numbers(n, "scale", 3, w);
       numbers(n, "matrix", 16, w);
-      integer(n, "mesh", w);
-      integer(n, "camera", w);
+      for (const char* k : {"mesh", "camera", "skin"}) index(n, k, w);
+      indices(n, "children", w);
     });
     each(doc, "cameras", "camera", [&](const json& c, const std::string& w) {
       const json& p = object(c, "perspective", w);
       for (const char* k : {"yfov", "aspectRatio", "znear", "zfar"}) number(p, k, w);
+      facts.cameras.push_back({p.contains("aspectRatio"), p.contains("zfar")});
     });
     each(doc, "accessors", "accessor", [&](const json& a, const std::string& w) {
-      for (const char* k : {"bufferView", "byteOffset", "componentType", "count"}) integer(a, k, w);
+      index(a, "bufferView", w);
+      nonNegative(a, "byteOffset", w);
+      for (const char* k : {"componentType", "count"}) integer(a, k, w);
       boolean(a, "normalized", w);
     });
     each(doc, "bufferViews", "bufferView", [&](const json& v, const std::string& w) {
-      for (const char* k : {"buffer", "byteOffset", "byteLength", "byteStride"}) integer(v, k, w);
+      index(v, "buffer", w);
+      nonNegative(v, "byteOffset", w);
+      for (const char* k : {"byteLength", "byteStride"}) integer(v, k, w);
     });
+    each(doc, "textures", "texture", [&](const json& t, const std::string& w) {
+      for (const char* k : {"source", "sampler"}) index(t, k, w);
+    });
+    each(doc, "images", "image", [&](const json& im, const std::string& w) { index(im, "bufferView", w); });
     each(doc, "meshes", "mesh", [&](const json& mesh, const std::string& w) {
       each(mesh, "primitives", "primitive", [&](const json& prim, const std::string& pw) {
-        for (const char* k : {"indices", "material", "mode"}) integer(prim, k, w + " " + pw.substr(file.size() + 2));
+        std::string where = w + " " + pw.substr(file.size() + 2);
+        for (const char* k : {"indices", "material"}) index(prim, k, where);
+        integer(prim, "mode", where);
+        for (const auto& [name, acc] : object(prim, "attributes", where).items())
+          if (!isIndex(acc))
+            throw LoadError{where + ": attribute '" + name + "' must be an index in [0, 2147483647] (got " + got(acc) +
+                            ")"};
       });
     });
+    lights(doc);
+  }
+
+  void lights(const json& doc) const {
     const json& ext = object(doc, "extensions", file);
     const json& punctual = object(ext, "KHR_lights_punctual", file + ": KHR_lights_punctual");
     each(punctual, "lights", "light", [&](const json& l, const std::string& w) {
@@ -1137,18 +1371,27 @@ namespace {
 
 // The file's bytes (isBinary: a .glb), after the JSON checks that tinygltf
 // does not make (or makes with unbounded recursion).
-std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary) {
+std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary, JsonFacts& facts) {
   Result<std::vector<unsigned char>> read = readRegularFile(path);
   if (!read) throw LoadError{path + ": cannot be read (" + read.error() + ")"};
   std::vector<unsigned char> bytes = std::move(read).value();
   if (bytes.empty()) throw LoadError{path + ": file is empty"};
   isBinary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  if (isBinary && bytes.size() >= 8) {  // tinygltf ignores the container version
+    uint32_t version;
+    std::memcpy(&version, bytes.data() + 4, 4);
+    if (version == 1)
+      throw LoadError{path + ": GLB container version 1 (glTF 1.0 binary) is not supported; convert it to glTF 2.0"};
+    if (version != 2)
+      throw LoadError{path + ": GLB container version " + std::to_string(version) +
+                      " is not supported (glTF 2.0 binary is version 2)"};
+  }
   std::string_view text = jsonText(bytes, isBinary);
   if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
     throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it"};
   nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
-  if (!doc.is_discarded()) TypeChecker{path}.check(doc);
+  if (!doc.is_discarded()) JsonChecker{path, facts}.check(doc);
   return bytes;
 }
 
@@ -1173,9 +1416,10 @@ std::string parseGltf(const std::string& path, const std::vector<unsigned char>&
                                                 unsigned(bytes.size()), dir);
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-    throw LoadError{path + ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : err)};
+    throw LoadError{path +
+                    ": not a valid glTF file: " + (err.empty() ? "unknown parse error" : withDataUrisAbbreviated(err))};
   }
-  return warn;
+  return withDataUrisAbbreviated(warn);
 }
 
 // Refuses required extensions we do not model; warns about used ones,
@@ -1202,6 +1446,9 @@ void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string&
 // nobody's child.
 std::vector<int> rootNodes(const tinygltf::Model& model, const std::string& path) {
   std::vector<int> roots;
+  if (model.scenes.empty() && model.defaultScene >= 0)
+    throw LoadError{path + ": default scene " + std::to_string(model.defaultScene) +
+                    " does not exist (the file has no scenes)"};
   if (!model.scenes.empty()) {
     int si = model.defaultScene >= 0 ? model.defaultScene : 0;
     if (size_t(si) >= model.scenes.size())
@@ -1217,8 +1464,30 @@ std::vector<int> rootNodes(const tinygltf::Model& model, const std::string& path
   return roots;
 }
 
-// After the walk: something to render, finite power, a camera.
+// Every perspective camera, used or not, against the specification's ranges
+// (the camera a render uses also meets the renderer's limits, in
+// Loader::camera). yfov >= pi is only a validator warning: not refused here.
+void checkPerspectiveCameras(const tinygltf::Model& model, const JsonFacts& facts, const std::string& path) {
+  for (size_t i = 0; i < model.cameras.size(); ++i) {
+    const tinygltf::Camera& c = model.cameras[i];
+    if (c.type != "perspective") continue;
+    const tinygltf::PerspectiveCamera& p = c.perspective;
+    std::string where = path + ": " + quoted("camera", int(i), c.name);
+    auto positive = [&](double v, const char* what) {
+      if (!(v > 0)) throw LoadError{where + ": " + what + " must be greater than 0 (got " + formatNumber(v) + ")"};
+    };
+    positive(p.yfov, "yfov");
+    positive(p.znear, "znear");
+    if (facts.camera(int(i)).aspectRatio) positive(p.aspectRatio, "aspectRatio");
+    if (facts.camera(int(i)).zfar && !(p.zfar > p.znear))
+      throw LoadError{where + ": zfar must be greater than znear (got zfar " + formatNumber(p.zfar) + ", znear " +
+                      formatNumber(p.znear) + ")"};
+  }
+}
+
+// After the walk: valid cameras, something to render, finite power, a camera.
 void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOptions& options) {
+  checkPerspectiveCameras(L.model, L.facts, path);
   if (scene.triangleCount() == 0) throw LoadError{path + ": the scene has no triangles to render"};
   checkEmittedPower(scene, path);
   bool anyEmitter = !scene.punctualLights.empty();
@@ -1238,7 +1507,8 @@ void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOpt
 SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
     bool isBinary = false;
-    std::vector<unsigned char> bytes = readSceneFile(path, isBinary);
+    JsonFacts facts;
+    std::vector<unsigned char> bytes = readSceneFile(path, isBinary, facts);
     tinygltf::Model model;
     std::string warn = parseGltf(path, bytes, isBinary, model);
 
@@ -1249,6 +1519,7 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
     for (const auto& b : model.buffers) L.inputBytes += b.data.size();
     L.maxTriangles = options.maxTriangles;
     L.maxTexels = options.maxTexels;
+    L.facts = std::move(facts);
     bytes = {};
     if (!warn.empty()) {
       std::istringstream ws(warn);

@@ -7,6 +7,11 @@
 // KHR_lights_punctual point and spot lights; perspective cameras.
 // Everything else a file uses is reported in Scene::warnings by element name;
 // invalid data makes loadScene() fail with a message naming file and element.
+// Only glTF 2.0 is read (asset.version 2.x, minVersion at most 2.0, GLB
+// container version 2), with the accessor formats core glTF 2.0 allows for
+// each attribute (KHR_mesh_quantization is not supported); indices and
+// offsets the validator would refuse (negative, or past 2^31 - 1 for indices)
+// and perspective cameras outside the specification's ranges are refused.
 //
 // This header needs only a declaration of Scene, so core/scene.h includes it.
 #pragma once

@@ -840,3 +840,292 @@ TEST_F(LoaderTest, TextureMemoryIsBounded) {
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().find("10000x10000 pixels is more than the texture limit"), std::string::npos) << r.error();
 }
+
+// ---- Files the Khronos validator refuses (loader hardening) ---------------------
+// Each file below is invalid glTF 2.0 per the Khronos glTF validator (checked
+// with scripts/validate-gltf.cjs on the same documents); each used to load,
+// silently or misread.
+
+namespace {
+
+// The first occurrence of needle in the error, or a failure naming both.
+::testing::AssertionResult errorHas(const SceneResult& r, const std::string& needle) {
+  if (r) return ::testing::AssertionFailure() << "loaded, expected an error containing: " << needle;
+  if (r.error().find(needle) == std::string::npos)
+    return ::testing::AssertionFailure() << "error \"" << r.error() << "\" lacks \"" << needle << "\"";
+  return ::testing::AssertionSuccess();
+}
+
+// quadDoc() with a second node, so that the quad still loads whatever the
+// second node holds.
+Doc twoNodeDoc(const json& other) {
+  Doc d = quadDoc();
+  json n = other;
+  n["name"] = "other";
+  d.j["nodes"] = {{{"name", "quad-node"}, {"mesh", 0}}, n};
+  d.j["scenes"][0]["nodes"] = {0, 1};
+  return d;
+}
+
+// Appends an accessor over new bytes (its own bufferView, with byteStride
+// when given); returns its index.
+template <typename T>
+int addAccessor(Doc& d, const std::vector<T>& data, int componentType, const std::string& type, size_t count,
+                bool normalized = false, size_t stride = 0) {
+  while (d.bin.size() % 4) d.bin.push_back(0);
+  size_t off = d.bin.size();
+  append(d.bin, data);
+  json view = {{"buffer", 0}, {"byteOffset", off}, {"byteLength", data.size() * sizeof(T)}};
+  if (stride) view["byteStride"] = stride;
+  d.j["bufferViews"].push_back(view);
+  json acc = {{"bufferView", d.j["bufferViews"].size() - 1},
+              {"componentType", componentType},
+              {"count", count},
+              {"type", type}};
+  if (normalized) acc["normalized"] = true;
+  d.j["accessors"].push_back(acc);
+  return int(d.j["accessors"].size() - 1);
+}
+
+}  // namespace
+
+// Defect 1: tinygltf stores -1 for "absent", so "mesh": -1 silently meant no
+// mesh; an index of 2^32 wrapped to 0 and instanced mesh 0; a primitive's
+// "indices": -1 made it non-indexed and "material": -1 the default material.
+TEST_F(LoaderTest, NegativeAndOverflowingIndicesAreRefused) {
+  SceneResult r = load(writeDoc(twoNodeDoc({{"mesh", -1}}), "mesh.gltf"));
+  EXPECT_TRUE(errorHas(r, "mesh.gltf: node 1 'other': 'mesh' must be an index in [0, 2147483647] (got -1)"));
+  r = load(writeDoc(twoNodeDoc({{"camera", -1}}), "camera.gltf"));
+  EXPECT_TRUE(errorHas(r, "camera.gltf: node 1 'other': 'camera' must be an index"));
+  r = load(writeDoc(twoNodeDoc({{"mesh", 4294967296}}), "wrap.gltf"));
+  EXPECT_TRUE(errorHas(r, "wrap.gltf: node 1 'other': 'mesh' must be an index in [0, 2147483647] (got 4294967296)"));
+  r = load(writeDoc(twoNodeDoc({{"children", {4294967296}}}), "child.gltf"));
+  EXPECT_TRUE(errorHas(r, "child.gltf: node 1 'other': 'children' must be an array of indices"));
+  Doc p = quadDoc();
+  p.j["meshes"][0]["primitives"][0]["indices"] = -1;
+  r = load(writeDoc(p, "indices.gltf"));
+  EXPECT_TRUE(errorHas(r, "indices.gltf: mesh 0 'quad' primitive 0: 'indices' must be an index"));
+  Doc m = quadDoc();
+  m.j["meshes"][0]["primitives"][0]["material"] = -1;
+  r = load(writeDoc(m, "material.gltf"));
+  EXPECT_TRUE(errorHas(r, "material.gltf: mesh 0 'quad' primitive 0: 'material' must be an index"));
+  Doc a = quadDoc();
+  a.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = -2;
+  r = load(writeDoc(a, "attribute.gltf"));
+  EXPECT_TRUE(errorHas(r, "attribute.gltf: mesh 0 'quad' primitive 0: attribute 'POSITION' must be an index"));
+  Doc s = quadDoc();
+  s.j["scenes"][0]["nodes"] = {-1};
+  r = load(writeDoc(s, "roots.gltf"));
+  EXPECT_TRUE(errorHas(r, "roots.gltf: scene 0: 'nodes' must be an array of indices"));
+  // The same documents with valid indices load.
+  SceneResult ok = load(writeDoc(twoNodeDoc({{"mesh", 0}}), "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 4u);
+}
+
+// Defect 2: a negative byteOffset read as 0 (tinygltf drops what is not
+// unsigned); own finding: offsets near 2^64 wrapped around in the bounds
+// check and read before the buffer.
+TEST_F(LoaderTest, NegativeAndWrappingByteOffsetsAreRefused) {
+  Doc v = quadDoc();
+  v.j["bufferViews"][1]["byteOffset"] = -4;
+  SceneResult r = load(writeDoc(v, "view.gltf"));
+  EXPECT_TRUE(errorHas(r, "view.gltf: bufferView 1: 'byteOffset' must be an integer >= 0 (got -4)"));
+  Doc a = quadDoc();
+  a.j["accessors"][0]["byteOffset"] = -4;
+  r = load(writeDoc(a, "accessor.gltf"));
+  EXPECT_TRUE(errorHas(r, "accessor.gltf: accessor 0: 'byteOffset' must be an integer >= 0 (got -4)"));
+  Doc w = quadDoc();
+  w.j["accessors"][0]["byteOffset"] = uint64_t(-4);
+  r = load(writeDoc(w, "wrap-accessor.gltf"));
+  EXPECT_TRUE(errorHas(r, "wrap-accessor.gltf: node 0 'quad-node' mesh 0 'quad' primitive 0 POSITION (accessor 0)"));
+  Doc x = quadDoc();
+  x.j["bufferViews"][0]["byteOffset"] = uint64_t(-8);
+  x.j["bufferViews"][0]["byteLength"] = 56;
+  r = load(writeDoc(x, "wrap-view.gltf"));
+  EXPECT_TRUE(errorHas(r,
+                       "wrap-view.gltf: node 0 'quad-node' mesh 0 'quad' primitive 0 POSITION (accessor 0): "
+                       "bufferView 0 runs past the end of buffer 0"));
+}
+
+// Defect 3: POSITION as BYTE was read as integer coordinates, normalized
+// unsigned-byte indices as x/255; glTF 2.0 without KHR_mesh_quantization
+// allows FLOAT positions, normals and tangents only.
+TEST_F(LoaderTest, AttributeFormatsOutsideGltf20AreRefused) {
+  const std::string prefix = "node 0 'quad-node' mesh 0 'quad' primitive 0 ";
+  // Integer positions, 4-byte aligned: (0 0 0) (1 0 0) (1 1 0) (0 1 0).
+  const std::vector<int8_t> bytePos = {0, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0};
+  for (bool normalized : {false, true}) {
+    Doc d = quadDoc();
+    int acc = addAccessor(d, bytePos, 5120, "VEC3", 4, normalized, 4);
+    d.j["accessors"][acc]["min"] = {0, 0, 0};
+    d.j["accessors"][acc]["max"] = {1, 1, 0};
+    d.j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = acc;
+    std::string name = normalized ? "byte-normalized.gltf" : "byte.gltf";
+    SceneResult r = load(writeDoc(d, name));
+    EXPECT_TRUE(errorHas(r, name + ": " + prefix + "POSITION (accessor 2): VEC3 BYTE" +
+                                (normalized ? " normalized" : "") + " is not a glTF 2.0 format for POSITION"));
+    if (!r) {
+      EXPECT_NE(r.error().find("KHR_mesh_quantization is not supported"), std::string::npos) << r.error();
+    }
+  }
+  Doc f = quadDoc();
+  f.j["accessors"][0]["normalized"] = true;
+  EXPECT_TRUE(errorHas(load(writeDoc(f, "float-normalized.gltf")), "VEC3 FLOAT normalized is not a glTF 2.0 format"));
+  Doc n = quadDoc();
+  int nrm = addAccessor(n, std::vector<int16_t>{0, 0, 32767, 0, 0, 0, 32767, 0, 0, 0, 32767, 0, 0, 0, 32767, 0}, 5122,
+                        "VEC3", 4, true, 8);
+  n.j["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = nrm;
+  EXPECT_TRUE(errorHas(load(writeDoc(n, "normal.gltf")), "NORMAL (accessor 2): VEC3 SHORT normalized is not"));
+  Doc t = quadDoc();
+  int tan = addAccessor(t, std::vector<float>(16, 0.0f), 5126, "MAT2", 4);
+  t.j["meshes"][0]["primitives"][0]["attributes"]["TANGENT"] = tan;
+  EXPECT_TRUE(errorHas(load(writeDoc(t, "tangent.gltf")), "TANGENT (accessor 2): MAT2 FLOAT is not"));
+  Doc u = quadDoc();
+  int uv = addAccessor(u, std::vector<uint8_t>{0, 0, 0, 0, 255, 0, 0, 0, 255, 255, 0, 0, 0, 255, 0, 0}, 5121, "VEC2", 4,
+                       false, 4);
+  u.j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = uv;
+  EXPECT_TRUE(errorHas(load(writeDoc(u, "uv.gltf")), "TEXCOORD_0 (accessor 2): VEC2 UNSIGNED_BYTE is not"));
+  // Normalized indices: index 3 as a normalized byte would read as 3/255.
+  Doc i = quadDoc();
+  int idx = addAccessor(i, std::vector<uint8_t>{0, 1, 2, 0, 2, 3}, 5121, "SCALAR", 6, true);
+  i.j["meshes"][0]["primitives"][0]["indices"] = idx;
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(i, "indices.gltf")), "indices (accessor 2): SCALAR UNSIGNED_BYTE normalized is not"));
+  // What glTF 2.0 allows still loads: normalized unsigned-byte UVs read as
+  // x/255, unsigned-byte indices.
+  Doc v = quadDoc();
+  int okUv = addAccessor(v, std::vector<uint8_t>{0, 0, 0, 0, 255, 0, 0, 0, 255, 255, 0, 0, 0, 255, 0, 0}, 5121, "VEC2",
+                         4, true, 4);
+  v.j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = okUv;
+  v.j["meshes"][0]["primitives"][0]["indices"] =
+      addAccessor(v, std::vector<uint8_t>{0, 1, 2, 0, 2, 3}, 5121, "SCALAR", 6);
+  SceneResult ok = load(writeDoc(v, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 2u);
+  EXPECT_FLOAT_EQ((*ok)->uvs[2].x, 1.0f);
+  EXPECT_FLOAT_EQ((*ok)->uvs[2].y, 1.0f);
+}
+
+// Defect 4: an explicit aspectRatio of 0 read as "not given"; znear <= 0 and
+// zfar <= znear were never checked; a camera no node uses was not checked at all.
+TEST_F(LoaderTest, PerspectiveCameraParametersFollowTheSpec) {
+  Doc d = quadDoc();
+  d.j["nodes"] = {{{"mesh", 0}}, {{"name", "eye"}, {"camera", 0}, {"translation", {0.5, 0.5, 3}}}};
+  d.j["scenes"][0]["nodes"] = {0, 1};
+  auto withCamera = [&](const json& perspective, const std::string& name) {
+    Doc e = d;
+    e.j["cameras"] = {{{"name", "cam"}, {"type", "perspective"}, {"perspective", perspective}}};
+    return load(writeDoc(e, name));
+  };
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 0}}, "aspect.gltf"),
+                       "aspect.gltf: camera 0 'cam': aspectRatio must be in [0.03125,32] (got 0)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", 0}}, "znear0.gltf"),
+                       "znear0.gltf: camera 0 'cam': znear must be greater than 0 (got 0)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", -1}}, "znear.gltf"),
+                       "camera 0 'cam': znear must be greater than 0 (got -1)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0.5}, {"znear", 0.1}, {"zfar", 0.05}}, "zfar.gltf"),
+                       "camera 0 'cam': zfar must be greater than znear (got zfar 0.05, znear 0.1)"));
+  EXPECT_TRUE(errorHas(withCamera({{"yfov", 0}, {"znear", 0.1}}, "yfov.gltf"), "camera 0 'cam': yfov must be in"));
+  // A camera no node uses is checked too.
+  Doc u = quadDoc();
+  u.j["cameras"] = {{{"name", "spare"}, {"type", "perspective"}, {"perspective", {{"yfov", 0.5}, {"znear", 0}}}}};
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(u, "unused.gltf")), "unused.gltf: camera 0 'spare': znear must be greater than 0"));
+  u.j["cameras"][0]["perspective"] = {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", -2}};
+  EXPECT_TRUE(errorHas(load(writeDoc(u, "unused2.gltf")), "camera 0 'spare': aspectRatio must be greater than 0"));
+  // Valid: zfar above znear, no aspectRatio (the image's aspect is used).
+  SceneResult ok = withCamera({{"yfov", 0.5}, {"znear", 0.1}, {"zfar", 100}}, "ok.gltf");
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_FLOAT_EQ((*ok)->camera.aspect, 0.0f);
+}
+
+// Defect 5: "scene": -1 loaded scene 0; own finding: "scene": 0 in a file
+// without scenes loaded every root node.
+TEST_F(LoaderTest, DefaultSceneIndexIsChecked) {
+  Doc d = quadDoc();
+  d.j["scene"] = -1;
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(d, "neg.gltf")), "neg.gltf: 'scene' must be an index in [0, 2147483647] (got -1)"));
+  Doc e = quadDoc();
+  e.j.erase("scenes");
+  EXPECT_TRUE(
+      errorHas(load(writeDoc(e, "none.gltf")), "none.gltf: default scene 0 does not exist (the file has no scenes)"));
+  // Without "scene" and "scenes", every root node is rendered (valid glTF).
+  e.j.erase("scene");
+  SceneResult ok = load(writeDoc(e, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ((*ok)->triangleCount(), 2u);
+}
+
+// Defect 6: asset.version "3.0" loaded, and glTF 1.0 files were refused for
+// their first dictionary ("'materials' must be an array").
+TEST_F(LoaderTest, OnlyGltf2IsAccepted) {
+  Doc d = quadDoc();
+  d.j["asset"]["version"] = "3.0";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "three.gltf")),
+                       "three.gltf: asset.version is \"3.0\"; only glTF 2.0 (version 2.x) is supported"));
+  d.j["asset"]["version"] = "1.0";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "one.gltf")), "one.gltf: glTF 1.0 is not supported; convert it to glTF 2.0"));
+  // A glTF 1.0 file: dictionaries instead of arrays.
+  json v1 = {{"asset", {{"version", "1.0"}}},
+             {"materials", {{"red", {{"values", {{"diffuse", {1, 0, 0, 1}}}}}}}},
+             {"meshes", {{"box", {{"primitives", json::array()}}}}}};
+  EXPECT_TRUE(
+      errorHas(load(write("v1.gltf", v1.dump())), "v1.gltf: glTF 1.0 is not supported; convert it to glTF 2.0"));
+  v1["asset"].erase("version");
+  EXPECT_TRUE(errorHas(load(write("v1b.gltf", v1.dump())), "v1b.gltf: glTF 1.0 is not supported"));
+  d.j["asset"]["version"] = "2";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "two.gltf")), "two.gltf: asset.version must be \"major.minor\""));
+  d.j["asset"].erase("version");
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "missing.gltf")), "missing.gltf: asset.version is missing"));
+  d.j["asset"]["version"] = "2.0";
+  d.j["asset"]["minVersion"] = "2.1";
+  EXPECT_TRUE(errorHas(load(writeDoc(d, "min.gltf")), "min.gltf: asset.minVersion is \"2.1\""));
+  // Minor versions of 2 are forward compatible, and minVersion 2.0 is fine.
+  d.j["asset"]["version"] = "2.1";
+  d.j["asset"]["minVersion"] = "2.0";
+  SceneResult ok = load(writeDoc(d, "ok.gltf"));
+  ASSERT_TRUE(ok) << ok.error();
+}
+
+// Defect 7: the GLB header's container version was ignored.
+TEST_F(LoaderTest, GlbContainerVersionMustBe2) {
+  Doc d = quadDoc();
+  for (uint32_t version : {1u, 99u}) {
+    std::string name = "v" + std::to_string(version) + ".glb";
+    std::string bytes = vsl::test::slurp(writeGlb(d, name));
+    std::memcpy(&bytes[4], &version, 4);
+    std::string path = write(name, bytes);
+    SceneResult r = load(path);
+    if (version == 1)
+      EXPECT_TRUE(errorHas(r, path + ": GLB container version 1 (glTF 1.0 binary) is not supported; convert it to "
+                                     "glTF 2.0"));
+    else
+      EXPECT_TRUE(errorHas(r, path + ": GLB container version 99 is not supported (glTF 2.0 binary is version 2)"));
+  }
+  SceneResult ok = load(writeGlb(d, "ok.glb"));
+  ASSERT_TRUE(ok) << ok.error();
+}
+
+// Defect 8: a data: URI that failed to decode was quoted whole in the error
+// (megabytes for a real file); now at most its first 60 characters.
+TEST_F(LoaderTest, DataUriErrorsQuoteOnlyAPrefix) {
+  Doc d = quadDoc();
+  std::vector<uint8_t> big(3000, 7);
+  append(d.bin, big);
+  const std::string uri = "data:application/octet-stream;base64," + base64(d.bin);
+  for (int variant = 0; variant < 2; ++variant) {
+    Doc e = d;
+    std::string u = uri;
+    if (variant == 1) u[uri.size() / 2] = '*';  // bad base64
+    e.j["buffers"] = {{{"byteLength", d.bin.size() + (variant == 0 ? 4 : 0)}, {"uri", u}}};
+    std::string path = writeDoc(e, "uri" + std::to_string(variant) + ".gltf");
+    SceneResult r = load(path);
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().find(path), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_NE(r.error().find(u.substr(0, 60) + "..."), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_EQ(r.error().find(u.substr(0, 61)), std::string::npos) << r.error().substr(0, 300);
+    EXPECT_LT(r.error().size(), 400u) << r.error().substr(0, 300);
+  }
+}
