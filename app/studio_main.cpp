@@ -486,7 +486,7 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--reference", a.reference,
                  "A converged reference EXR of the render's size with an 'indirect' layer (vsl reference writes one); "
                  "default: a matching cached reference, else the live path tracer. Headless, a file that cannot be "
-                 "used (another size, no indirect layer) ends the run with exit status 1")
+                 "used (another size or scene, no indirect layer) ends the run with exit status 1")
       ->check(CLI::ExistingFile);
   app.add_option("--light-sets", a.lightSets,
                  "Independent light sets to render and average; from two on, each method's bias and noise are "

@@ -413,6 +413,8 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
   if (!a.reference.empty()) {
     Result<Reference> read = readReference(a.reference, 0, 0);
     if (!read) return fail(kExitBadInput, read.error());
+    if (Result<void> same = checkReferenceScene(*read, scene, a.reference); !same)
+      return fail(kExitBadInput, same.error());
     out.ref = std::move(read).value();
   } else {
     int w = a.width, h = 0;

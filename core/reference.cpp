@@ -167,6 +167,30 @@ std::string referenceCacheDir() {
   return ".vsl-cache/references";
 }
 
+namespace {
+
+// The scene hash of a key "NAME-HASH-WxH-dD" (NAME may hold '-'); "" when the
+// key has no such form.
+std::string keySceneHash(const std::string& key) {
+  size_t depth = key.rfind('-');
+  if (depth == std::string::npos || depth == 0) return {};
+  size_t size = key.rfind('-', depth - 1);
+  if (size == std::string::npos || size == 0) return {};
+  size_t hash = key.rfind('-', size - 1);
+  if (hash == std::string::npos) return {};
+  return key.substr(hash + 1, size - hash - 1);
+}
+
+}  // namespace
+
+Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const std::string& path) {
+  if (ref.key.empty()) return {};
+  const std::string want = referenceKey(scene, ref.width, ref.height, RenderSettings().maxDepth);
+  if (keySceneHash(ref.key) == keySceneHash(want)) return {};
+  return Error(path + ": rendered from another scene or camera than " + scene.path + " (its key " + ref.key +
+               ", this scene's " + want + "); render one of this scene with `vsl reference " + scene.path + "`");
+}
+
 std::string referenceCachePath(const std::string& key) { return referenceCacheDir() + "/" + key + ".exr"; }
 
 // ---- Files ----------------------------------------------------------------------------

@@ -102,6 +102,10 @@ class ReferenceRenderer {
 // bytes and the loaded geometry and textures (which covers external buffers
 // and images), the camera's name and pose, the resolution and the path depth.
 std::string referenceKey(const Scene& scene, int width, int height, int maxDepth);
+// Success unless ref carries a key (vsl reference writes one) whose scene
+// hash differs from scene's: then an error naming path, both keys and the
+// fix. A reference without a key (another renderer's EXR) cannot be checked.
+Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const std::string& path);
 std::string referenceCacheDir();
 std::string referenceCachePath(const std::string& key);
 

@@ -656,10 +656,11 @@ void Session::chooseReference(Worker& w, Job& job) {
   std::string refused;
   if (!file.empty()) {
     Result<vsl::Reference> r = readReference(file, width, height);
-    if (r)
+    Result<void> same = r ? checkReferenceScene(*r, w.ctx->scene(), file) : Result<void>{};
+    if (r && same)
       chosen = std::make_shared<vsl::Reference>(std::move(r).value());
     else
-      refused = "reference not used: " + r.error();
+      refused = "reference not used: " + (r ? same.error() : r.error());
   } else {
     chosen = findCachedReference(w.cacheKey, width, height);
   }

@@ -504,6 +504,22 @@ TEST_F(Cli, OutOfRangeNumbersAreBadArguments) {
   EXPECT_FALSE(fs::exists(file("oor-sweep")));
 }
 
+// A reference rendered from another scene is refused by the sweep (exit 1,
+// both keys named) instead of measuring every method against the wrong image;
+// one of the same scene is taken.
+TEST_F(Cli, SweepRefusesAReferenceOfAnotherScene) {
+  ASSERT_EQ(
+      run("reference " + scene("furnace") + " --width 8 --height 8 --spp 2 --no-cache -o " + file("fref.exr")).code, 0);
+  Proc r = run("sweep " + scene("cornell-glossy") + " --methods vpl --lights 20 --sets 1 --time 0.1 --reference " +
+               file("fref.exr") + " -o " + file("other-sweep"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("rendered from another scene or camera"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("furnace-"), std::string::npos) << r.out;
+  r = run("sweep " + scene("furnace") + " --methods vpl --lights 20 --sets 1 --time 0.1 --reference " +
+          file("fref.exr") + " -o " + file("same-sweep"));
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
 // NaN and infinity pass CLI11's range checks; every floating-point option of
 // vsl and vsl-studio refuses them (exit 2, the option named) before any work,
 // lists item by item, while finite values still run.

@@ -17,6 +17,7 @@
 #include "core/compare.h"
 #include "core/flip.h"
 #include "core/image_io.h"
+#include "core/reference.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
@@ -553,11 +554,18 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
   EXPECT_NE(c["metricsAgainstReferenceCrop"]["VSL"]["indirect"]["relMSE"].get<double>(),
             j["metricsAgainstReference"]["VSL"]["indirect"]["relMSE"].get<double>());
 
-  // A crop outside the image fails the export with the reason.
+  // A crop outside the image fails the export with the reason, after the
+  // images were written; the failed export's folder goes with them.
+  auto entries = [&] {
+    return std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator());
+  };
+  const auto before = entries();
   v.crop = ui::CropRect{100, 50, 8, 8};
   exported = studio->exportAll(dir, &written, &folder);
   EXPECT_FALSE(exported);
   EXPECT_NE(exported.error().find("lies outside"), std::string::npos) << exported.error();
+  EXPECT_NE(exported.error().find("nothing was exported"), std::string::npos) << exported.error();
+  EXPECT_EQ(entries(), before) << "a failed export leaves no folder";
 }
 
 // Shift+drag on an image draws the crop rectangle over the pixels it
@@ -634,7 +642,7 @@ StudioRun runStudio(const std::string& configDir, const std::string& args) {
 
 // A headless run given a reference it cannot use ends at once with exit
 // status 1, naming the file and the reason (another size, no indirect
-// layer), and exports nothing; a reference file that does not exist is a bad
+// layer, another scene), and exports nothing; a reference file that does not exist is a bad
 // argument (exit status 2).
 TEST(StudioCli, HeadlessRunWithARefusedReferenceFails) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-reference-cli";
@@ -654,6 +662,17 @@ TEST(StudioCli, HeadlessRunWithARefusedReferenceFails) {
   r = runStudio(dir + "/config", common + " --reference " + noIndirect);
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find(noIndirect + ": no 'indirect' layer"), std::string::npos) << r.out;
+  // A reference `vsl reference` made of another scene (its key's scene hash
+  // is not this scene's).
+  Reference other;
+  other.width = other.height = 16;
+  other.full = other.direct = other.indirect = Image(16, 16);
+  other.key = "furnace-0123456789abcdef-16x16-d64";
+  const std::string otherScene = dir + "/other-scene.exr";
+  ASSERT_TRUE(writeReference(otherScene, other, "furnace.gltf"));
+  r = runStudio(dir + "/config", common + " --reference " + otherScene);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(otherScene + ": rendered from another scene or camera"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir + "/out")) << "nothing is exported";
   r = runStudio(dir + "/config", common + " --reference " + dir + "/missing.exr");
   EXPECT_EQ(r.code, 2) << r.out;

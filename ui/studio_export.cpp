@@ -395,12 +395,19 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
 }
 
 Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>* written, std::string* folderOut) {
-  auto fail = [](const std::string& e) -> Result<void> { return Error(e); };
-  if (!snap_ || snap_->width == 0) return fail("nothing to export yet");
+  if (!snap_ || snap_->width == 0) return Error("nothing to export yet");
   const Snapshot& s = *snap_;
   Result<std::filesystem::path> made = makeExportFolder(dir, exportStem());
-  if (!made) return fail(made.error());
+  if (!made) return Error(made.error());
   const std::filesystem::path folder = *made;
+  // An export that fails part-way leaves nothing behind: its new folder goes,
+  // with whatever was written into it, and the message says so.
+  auto fail = [&folder](const std::string& e) -> Result<void> {
+    std::error_code ec;
+    std::filesystem::remove_all(folder, ec);
+    return Error(e + (ec ? " (and " + folder.string() + " could not be removed: " + ec.message() + ")"
+                         : " (nothing was exported)"));
+  };
   std::vector<std::string> files;
   auto path = [&](const std::string& name) { return (folder / name).string(); };
 
@@ -414,7 +421,7 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
   if (!view_.crop.empty()) {
     Image full;
     const Image* refFull = referenceImage(view_.component, full);
-    if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return w;
+    if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return fail(w.error());
   }
 
   const nlohmann::json j = exportMetricsJson(*errorMapMax, *flipJson, cropJson);
