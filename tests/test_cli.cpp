@@ -54,6 +54,25 @@ class Cli : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir); }
   std::string file(const std::string& n) { return (dir / n).string(); }
+  // Runs `vsl sweep` on cornell-glossy with args against a 16x16 render of it
+  // (ref.exr), writing to the folder out; returns sweep.csv's header and its
+  // rows' fields (empty after a failure, which is reported).
+  std::vector<std::vector<std::string>> sweepCsv(const std::string& args, const std::string& out, std::string* header) {
+    Proc r =
+        run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr"));
+    EXPECT_EQ(r.code, 0) << r.out;
+    r = run("sweep " + scene("cornell-glossy") + " " + args + " --reference " + file("ref.exr") + " -o " + file(out));
+    EXPECT_EQ(r.code, 0) << r.out;
+    std::vector<std::vector<std::string>> rows;
+    std::ifstream csv(file(out + "/sweep.csv"));
+    std::getline(csv, *header);
+    for (std::string line; std::getline(csv, line);) {
+      rows.push_back(csvFields(line));
+      EXPECT_EQ(rows.back().size(), 15u) << line;
+      if (rows.back().size() != 15u) return {};
+    }
+    return rows;
+  }
 };
 
 }  // namespace
@@ -176,53 +195,38 @@ TEST_F(Cli, InfoListsScene) {
 // passes): every run records exactly that many steps, the last one final,
 // however large the time budget.
 TEST_F(Cli, SweepSetsMethodsStopAfterBatchesLightSets) {
-  ASSERT_EQ(
-      run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
-      0);
-  Proc r = run("sweep " + scene("cornell-glossy") + " --methods vpl-sets,vsl-sets --lights 40 --time 1000 " +
-               "--batches 3 --sets 2 --reference " + file("ref.exr") + " -o " + file("sweep-sets"));
-  ASSERT_EQ(r.code, 0) << r.out;
-  std::ifstream csv(file("sweep-sets/sweep.csv"));
-  std::string line;
-  std::getline(csv, line);
+  std::string header;
   std::map<std::string, std::vector<int>> steps;  // method and set -> steps recorded
-  while (std::getline(csv, line)) {
-    std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 15u) << line;
+  for (const std::vector<std::string>& f :
+       sweepCsv("--methods vpl-sets,vsl-sets --lights 40 --time 1000 --batches 3 --sets 2", "sweep-sets", &header)) {
     std::vector<int>& s = steps[f[0] + " " + f[3]];
     s.push_back(std::stoi(f[4]));
-    EXPECT_EQ(f[10], s.back() == 3 ? "1" : "0") << "only the third light set's mean is final: " << line;
+    EXPECT_EQ(f[10], s.back() == 3 ? "1" : "0") << "only the third light set's mean is final: " << f[0] << " " << f[3];
   }
   ASSERT_EQ(steps.size(), 4u);
   for (const auto& [run, s] : steps) EXPECT_EQ(s, (std::vector<int>{1, 2, 3})) << run;
 }
 
 TEST_F(Cli, SweepWritesTablesAndPlots) {
-  ASSERT_EQ(
-      run("render " + scene("cornell-glossy") + " --spp 16 --width 16 --height 16 --seed 0 -o " + file("ref.exr")).code,
-      0);
-  Proc r = run("sweep " + scene("cornell-glossy") + " --methods pt,vpl,vsl,vsl-mrcs --lights 40,80 --radius-scale 1 " +
-               "--time 0.2 --mrcs 20,10 --batches 2 --sets 3 --reference " + file("ref.exr") + " -o " + file("sweep"));
-  ASSERT_EQ(r.code, 0) << r.out;
-  std::ifstream csv(file("sweep/sweep.csv"));
-  std::string line;
-  std::getline(csv, line);
-  EXPECT_EQ(line,
+  std::string header, line;
+  const std::vector<std::vector<std::string>> points = sweepCsv(
+      "--methods pt,vpl,vsl,vsl-mrcs --lights 40,80 --radius-scale 1 --time 0.2 --mrcs 20,10 --batches 2 --sets 3",
+      "sweep", &header);
+  EXPECT_EQ(header,
             "method,lights,radius_scale,set,step,seconds,relmse,rmse,mean,worst1_share,final,relmse_minus_ref_noise,"
             "flip_ldr,bias2,variance");
   std::map<std::string, int> finals;
   // Final relMSE per configuration, one per independent light set.
   std::map<std::string, std::vector<double>> finalRel;
-  while (std::getline(csv, line)) {
-    std::vector<std::string> f = csvFields(line);
-    ASSERT_EQ(f.size(), 15u) << line;
+  for (const std::vector<std::string>& f : points) {
+    const std::string row = f[0] + " " + f[1] + " set " + f[3] + " step " + f[4];
     double worst = std::stod(f[9]);
-    EXPECT_TRUE(worst >= 0.01 - 1e-9 && worst <= 1) << "the worst 1% hold at least 1% of the error: " << line;
+    EXPECT_TRUE(worst >= 0.01 - 1e-9 && worst <= 1) << "the worst 1% hold at least 1% of the error: " << row;
     if (f[10] == "1") {
       finals[f[0]]++;
       finalRel[f[0] + " " + f[1]].push_back(std::stod(f[6]));
     }
-    EXPECT_EQ(f[6], f[11]) << "without --reference-b nothing is subtracted: " << line;
+    EXPECT_EQ(f[6], f[11]) << "without --reference-b nothing is subtracted: " << row;
   }
   EXPECT_EQ(finals["pt"], 3);
   EXPECT_EQ(finals["vpl"], 6);
@@ -266,8 +270,8 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
   ASSERT_EQ(c.code, 0) << c.out;
   double ab = nlohmann::json::parse(c.out.substr(c.out.find('{')))["average"]["relMSE"];
   ASSERT_GT(ab, 0);
-  r = run("sweep " + scene("cornell-glossy") + " --methods pt --time 0.1 --reference " + file("ref.exr") +
-          " --reference-b " + file("refB.exr") + " -o " + file("sweepB"));
+  Proc r = run("sweep " + scene("cornell-glossy") + " --methods pt --time 0.1 --reference " + file("ref.exr") +
+               " --reference-b " + file("refB.exr") + " -o " + file("sweepB"));
   ASSERT_EQ(r.code, 0) << r.out;
   auto jb = nlohmann::json::parse(std::ifstream(file("sweepB/sweep.json")));
   EXPECT_NEAR(double(jb["referenceNoiseRelMSE"]), ab / 2, 1e-9 * ab);
