@@ -28,6 +28,9 @@ namespace vsl {
 void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
   cmd->add_flag("--clipped-disk", m.clippedDisk,
                 "VSL: spread the flux over the part of the disk on the receiver's side of its tangent plane");
+  cmd->add_flag("--vsl-lobe-samples", m.vslLobeSamples,
+                "VSL: the automatic sample count is scaled down where both BRDF lobes are broad compared with the "
+                "cone (the integrand hardly varies there); still unbiased");
   cmd->add_option("--continue-alpha", m.continueAlpha,
                   "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
       ->default_str(std::to_string(ManyLightSettings().continueAlpha))

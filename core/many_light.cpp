@@ -67,6 +67,7 @@ std::string ManyLightSettings::describe() const {
   else
     s << clamp;
   if (clippedDisk) s << " --clipped-disk";
+  if (vslLobeSamples) s << " --vsl-lobe-samples";
   if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;

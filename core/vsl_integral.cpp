@@ -19,6 +19,11 @@ int vslAutoSamples(double oneMinusCos) {
   return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));
 }
 
+int vslLobeAwareSamples(int n, double mass) {
+  if (!(mass < kVslStrategyMass)) return n;
+  return std::max(1, int(std::lround(double(n) * std::max(mass, 0.0) / kVslStrategyMass)));
+}
+
 double vslClippedDiskArea(double r, double h) {
   if (!(r > 0)) return 0;
   double t = h / r;
@@ -46,13 +51,15 @@ struct VslCone {
     // The cone's axis; a point exactly at the light looks along its normal.
     axis = d > 0 ? toLight / float(d) : x.frame.n;
     omc = vslConeOneMinusCos(radius, d);
-    n = options.samplesPerStrategy > 0 ? options.samplesPerStrategy : vslAutoSamples(omc);
     pdfCone = 1.0 / (2.0 * M_PI * omc);
     frame = Frame(axis);
     // Strategies 2 and 3 only where their samples can land in the cone.
     const double coneSolidAngle = 2.0 * M_PI * omc;
-    useX = double(x.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
-    useP = double(p.f.pdfBound()) * coneSolidAngle > kVslStrategyMass;
+    const double massX = double(x.f.pdfBound()) * coneSolidAngle, massP = double(p.f.pdfBound()) * coneSolidAngle;
+    useX = massX > kVslStrategyMass;
+    useP = massP > kVslStrategyMass;
+    n = options.samplesPerStrategy > 0 ? options.samplesPerStrategy : vslAutoSamples(omc);
+    if (options.samplesPerStrategy <= 0 && options.lobeAwareCount) n = vslLobeAwareSamples(n, std::max(massX, massP));
   }
   // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
   bool inCone(const Vec3& l) const { return 0.5 * double(lengthSquared(l - axis)) <= omc; }

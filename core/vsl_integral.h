@@ -59,6 +59,8 @@ constexpr double kVslStrategyMass = 0.05;
 struct VslOptions {
   int samplesPerStrategy = 0;  // <= 0: automatic (see above)
   bool clippedDisk = false;    // divide by the clipped disk's area instead of pi r^2
+  // Lobe-aware automatic count (off by default; see vslLobeAwareSamples).
+  bool lobeAwareCount = false;
 };
 
 // 1 - cos of the cone's half-angle for a sphere of radius r at distance d
@@ -66,6 +68,14 @@ struct VslOptions {
 double vslConeOneMinusCos(double r, double d);
 // Auto sample count per strategy for a cone: 1 + floor(100 theta / (pi/2)).
 int vslAutoSamples(double oneMinusCos);
+// The lobe-aware automatic count: where both BRDFs are broad compared with
+// the cone, so that neither could put more than kVslStrategyMass of its
+// samples into it (mass = the larger pdf bound x the cone's solid angle),
+// the integrand hardly varies over the cone and the angle's count n is
+// scaled down in proportion, to n x mass / kVslStrategyMass (at least 1);
+// otherwise n. Any count gives an unbiased estimate; this one spends the
+// samples where a lobe is narrow enough to vary across the cone.
+int vslLobeAwareSamples(int n, double mass);
 // Area of the disk of radius r whose centre lies at signed distance h on the
 // kept side of a line (the receiver's tangent plane): pi r^2 for h >= r, 0 for
 // h <= -r.

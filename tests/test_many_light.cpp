@@ -324,6 +324,49 @@ TEST(VslIntegralStats, MatchesDenseQuadrature) {
   }
 }
 
+// The lobe-aware count: the angle's count where a lobe could put at least
+// kVslStrategyMass of its samples into the cone, scaled down in proportion
+// below that (at least 1). Two rough (diffuse) lobes and a 5-degree cone:
+// one cone sample instead of six, and the estimate is still unbiased
+// (z-test against the dense quadrature); a narrow lobe keeps the full count.
+TEST(VslIntegralStats, LobeAwareCountIsSmallerForBroadLobesAndUnbiased) {
+  EXPECT_EQ(vslLobeAwareSamples(17, kVslStrategyMass), 17);
+  EXPECT_EQ(vslLobeAwareSamples(17, 0.5), 17);
+  EXPECT_EQ(vslLobeAwareSamples(20, 0.5 * kVslStrategyMass), 10);
+  EXPECT_EQ(vslLobeAwareSamples(6, 0.01 * kVslStrategyMass), 1);
+  EXPECT_EQ(vslLobeAwareSamples(6, 0), 1);
+  Vec3 toLight(0.3f, 0.1f, 1.0f);
+  Vec3 l = normalize(toLight);
+  const double r = length(toLight) * std::sin(5 * M_PI / 180);  // a 5-degree cone
+  Vec3 np = normalize(Vec3(0.2f, 0.0f, -1.0f));
+  for (float roughX : {1.0f, 0.05f}) {
+    VslReceiver x = receiver(Brdf::fromGltf(Vec3(0.8f), 0.0f, roughX, 0), Vec3(0, 0, 1), reflect(l, Vec3(0, 0, 1)));
+    VslEmitter p = emitter(Brdf::fromGltf(Vec3(0.7f), 0.0f, 1.0f, 0), np, reflect(-l, np));
+    VslOptions lobe;
+    lobe.lobeAwareCount = true;
+    Rng g0(1, 1), g1(1, 1);
+    const int angleEvaluations = vslTransfer(x, p, toLight, r, {}, g0).evaluations;
+    const int lobeEvaluations = vslTransfer(x, p, toLight, r, lobe, g1).evaluations;
+    if (roughX == 1.0f) {
+      EXPECT_EQ(angleEvaluations, 6);  // cone samples only: both lobes are broad
+      EXPECT_EQ(lobeEvaluations, 1);
+    } else {
+      EXPECT_EQ(lobeEvaluations, angleEvaluations) << "a narrow receiver lobe keeps the full count";
+    }
+    Vec3 ref = coneReference(x, p, toLight, r, 1000000);
+    const int runs = 20000;
+    double s = 0, s2 = 0;
+    for (int i = 0; i < runs; ++i) {
+      Rng g(i, 9);
+      double v = vslTransfer(x, p, toLight, r, lobe, g).transfer.y;
+      s += v;
+      s2 += v * v;
+    }
+    double mean = s / runs, se = std::sqrt(std::max(s2 / runs - mean * mean, 0.0) / runs);
+    EXPECT_NEAR(mean, ref.y, 4 * se + 2e-3 * ref.y) << "receiver roughness " << roughX;
+  }
+}
+
 // BRDF sampling restricted to the cone: the directions that land inside it
 // follow the BRDF pdf restricted to the cone (chi-square).
 TEST(VslIntegralStats, BrdfSamplingRestrictedToConeChiSquare) {
