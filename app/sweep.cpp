@@ -43,7 +43,7 @@ namespace {
 // A sweep method, parsed once from its name: what it renders, with which
 // estimator, and whether it runs in passes of independent light sets (the
 // progressive ones shrinking the VSL radius per pass; the "-sets" ones
-// stopping after --batches passes, as the studio's mean of light sets does).
+// stopping after --batches passes of one batch each: the mean of that many light sets).
 struct SweepMethod {
   const char* name;
   Method gather;  // Pt, Vsl or Vpl
@@ -842,7 +842,7 @@ Subcommand addSweepCommand(CLI::App& app) {
                    "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
                    "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
                    "vsl-mrcs-progressive (both); vsl-sets, vpl-sets (the mean of --batches independent light "
-                   "sets, as the studio's passes)")
+                   "sets, one eye sample per pixel each)")
       ->delimiter(',')
       ->check(CLI::IsMember(sweepMethodNames()))
       ->default_str("pt,vpl,vsl");
