@@ -321,8 +321,8 @@ struct SweepContext {
   // estimate being their mean. "-progressive" shrinks the radius per pass
   // (r^2 *= (i+alpha)/(i+1)); "-mrcs" renders each pass with matrix
   // row-column sampling instead of the brute-force gather; "-sets" stops
-  // after --batches passes (one eye sample per pixel each), so that its
-  // final image is the mean of that many light sets.
+  // after --batches passes (one eye sample per pixel each), and only then (not
+  // at --time), so that its final image is the mean of that many light sets.
   void runPasses(const std::string& method, uint32_t n, float sc, int set) {
     const SweepMethod& sm = sweepMethod(method);
     Stopwatch clock;
@@ -345,7 +345,7 @@ struct SweepContext {
       for (float& x : mean.rgb) x /= float(pass + 1);
       double el = clock.seconds();
       record(method, n, sc, set, pass + 1, el, mean);
-      if (el >= a.time || (sm.passesCappedByBatches && pass + 1 >= a.batches)) break;
+      if (sm.passesCappedByBatches ? pass + 1 >= a.batches : el >= a.time) break;
     }
     finish();
   }
@@ -437,6 +437,8 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
   if (!a.referenceB.empty()) {
     Result<Reference> b = readReference(a.referenceB, ref.width, ref.height);
     if (!b) return fail(kExitBadInput, b.error());
+    if (Result<void> same = checkReferenceScene(*b, scene, a.referenceB); !same)
+      return fail(kExitBadInput, same.error());
     out.noise = 0.5 * compareImages(b->indirect, ref).average.relMse;
     std::fprintf(stderr, "sweep: reference noise relMSE(B, A) / 2 = %.5f (errors below it are not resolved)\n",
                  out.noise);
@@ -842,7 +844,7 @@ Subcommand addSweepCommand(CLI::App& app) {
                    "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
                    "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
                    "vsl-mrcs-progressive (both); vsl-sets, vpl-sets (the mean of --batches independent light "
-                   "sets, one eye sample per pixel each)")
+                   "sets, one eye sample per pixel each; not capped by --time)")
       ->delimiter(',')
       ->check(CLI::IsMember(sweepMethodNames()))
       ->default_str("pt,vpl,vsl");

@@ -111,9 +111,12 @@ ErrorImages errorImages(const Image& test, const Image& ref, RelMseEpsilon spec)
   ErrorImages e{Image(test.width, test.height), Image(test.width, test.height), Image(test.width, test.height),
                 Image(test.width, test.height)};
   // Values a float cannot hold (a tiny absolute eps over a black reference
-  // pixel) are written as the largest float; channels whose test or
-  // reference value is not finite are left 0, as the metrics skip them.
-  const auto toFloat = [](double v) { return float(std::clamp(v, -double(FLT_MAX), double(FLT_MAX))); };
+  // pixel) are written as the largest float, 0 / 0 (eps 0 there) as 0;
+  // channels whose test or reference value is not finite are left 0, as the
+  // metrics skip them.
+  const auto toFloat = [](double v) {
+    return std::isnan(v) ? 0.0f : float(std::clamp(v, -double(FLT_MAX), double(FLT_MAX)));
+  };
   for (size_t i = 0; i < test.rgb.size(); ++i) {
     if (!std::isfinite(test.rgb[i]) || !std::isfinite(ref.rgb[i])) continue;
     double d = double(test.rgb[i]) - ref.rgb[i];

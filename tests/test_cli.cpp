@@ -193,12 +193,12 @@ TEST_F(Cli, InfoListsScene) {
 
 // vsl-sets and vpl-sets average --batches independent light sets (the studio's
 // passes): every run records exactly that many steps, the last one final,
-// however large the time budget.
+// however short the time budget (--time caps the other methods).
 TEST_F(Cli, SweepSetsMethodsStopAfterBatchesLightSets) {
   std::string header;
   std::map<std::string, std::vector<int>> steps;  // method and set -> steps recorded
   for (const std::vector<std::string>& f :
-       sweepCsv("--methods vpl-sets,vsl-sets --lights 40 --time 1000 --batches 3 --sets 2", "sweep-sets", &header)) {
+       sweepCsv("--methods vpl-sets,vsl-sets --lights 40 --time 0.01 --batches 3 --sets 2", "sweep-sets", &header)) {
     std::vector<int>& s = steps[f[0] + " " + f[3]];
     s.push_back(std::stoi(f[4]));
     EXPECT_EQ(f[10], s.back() == 3 ? "1" : "0") << "only the third light set's mean is final: " << f[0] << " " << f[3];
@@ -508,8 +508,8 @@ TEST_F(Cli, OutOfRangeNumbersAreBadArguments) {
   EXPECT_FALSE(fs::exists(file("oor-sweep")));
 }
 
-// A reference rendered from another scene is refused by the sweep (exit 1,
-// both keys named) instead of measuring every method against the wrong image;
+// A reference (or second reference) rendered from another scene is refused by
+// the sweep (exit 1, both keys named) instead of measuring every method against the wrong image;
 // one of the same scene is taken.
 TEST_F(Cli, SweepRefusesAReferenceOfAnotherScene) {
   ASSERT_EQ(
@@ -522,6 +522,15 @@ TEST_F(Cli, SweepRefusesAReferenceOfAnotherScene) {
   r = run("sweep " + scene("furnace") + " --methods vpl --lights 20 --sets 1 --time 0.1 --reference " +
           file("fref.exr") + " -o " + file("same-sweep"));
   EXPECT_EQ(r.code, 0) << r.out;
+  // The second reference, which measures the first one's noise, too.
+  ASSERT_EQ(
+      run("reference " + scene("cornell-glossy") + " --width 8 --height 8 --spp 2 --no-cache -o " + file("cref.exr"))
+          .code,
+      0);
+  r = run("sweep " + scene("furnace") + " --methods vpl --lights 20 --sets 1 --time 0.1 --reference " +
+          file("fref.exr") + " --reference-b " + file("cref.exr") + " -o " + file("other-b-sweep"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(file("cref.exr") + ": rendered from another scene or camera"), std::string::npos) << r.out;
 }
 
 // NaN and infinity pass CLI11's range checks; every floating-point option of

@@ -90,6 +90,9 @@ TEST(Compare, ErrorImagesAreFinite) {
   EXPECT_EQ(e.squared.at(0, 0).x, 1.0f);
   EXPECT_EQ(e.absolute.at(1, 0).x, 0.0f);
   EXPECT_EQ(e.signedDiff.at(2, 0).x, 0.0f);
+  // An absolute eps of 0 over a pixel black in both: 0 / 0 gives 0.
+  ErrorImages z = errorImages(Image(1, 1), Image(1, 1), 0.0);
+  EXPECT_EQ(z.relSquared.at(0, 0).x, 0.0f);
 }
 
 TEST(Compare, BiasVarianceOfKnownImages) {
