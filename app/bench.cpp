@@ -150,8 +150,9 @@ struct GatherBench {
   double pairsPerSecond, raysPerSecond, seconds, raw;
 };
 
-// Many-light gather: VPL only, VSL only and VSL with the lobe-aware sample
-// count (vsl_integral.h), one light set, one batch each.
+// Many-light gather: VPL only, VSL only (the default, lobe-aware sample count)
+// and VSL with the authors' count (vsl_integral.h), one light set, one batch
+// each.
 // The machine is shared: raw Embree is measured again right after each
 // gather, and the ratio uses the mean of the two measurements around it.
 std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, const LightSampler& lights,
@@ -188,8 +189,8 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
   // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
   // (eight 16x16 tiles, so that two threads share the work evenly).
   for (int variant = 0; variant < 3; ++variant) {
-    const bool vsl = variant > 0, lobe = variant == 2;
-    const char* name = lobe ? "VSL-lobe" : vsl ? "VSL" : "VPL";
+    const bool vsl = variant > 0, lobe = variant != 2;
+    const char* name = !lobe ? "VSL-auth" : vsl ? "VSL" : "VPL";
     gather(name, vsl, lobe, 1000, a.size / 2);
     gather(name, vsl, lobe, 4000, a.size / 2);
     gather(name, vsl, lobe, 1000, a.size);

@@ -53,8 +53,11 @@ Result<void> ManyLightSettings::validate() const {
 
 std::string ManyLightSettings::describe() const {
   std::ostringstream s;
-  s << "--lights " << lights << " --seed " << seed << " --width " << width << " --height " << height << " --batches "
-    << batches << " --direct-samples " << directSamples;
+  s << "--lights " << lights << " --seed " << seed;
+  // A size of 0 means "the scene's"; the CLI refuses --width 0, so it is left out.
+  if (width > 0) s << " --width " << width;
+  if (height > 0) s << " --height " << height;
+  s << " --batches " << batches << " --direct-samples " << directSamples;
   if (globalRadius > 0)
     s << " --radius " << globalRadius;
   else
@@ -67,7 +70,7 @@ std::string ManyLightSettings::describe() const {
   else
     s << clamp;
   if (clippedDisk) s << " --clipped-disk";
-  if (vslLobeSamples) s << " --vsl-lobe-samples";
+  s << " --vsl-count " << (vslLobeSamples ? "lobe" : "authors");
   if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;

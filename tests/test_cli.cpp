@@ -466,6 +466,31 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   EXPECT_GT(j["seconds"]["bvh"].get<double>(), 0);
 }
 
+// VSL's automatic sample count: the lobe-aware one by default, the authors'
+// with --vsl-count authors (more integrand evaluations on cornell-glossy's broad
+// lobes, the same light set), recorded in the settings; anything else exits 2.
+// The settings string can be pasted back: no size of 0 ("the scene's").
+TEST_F(Cli, VslCountIsChosenAndRecorded) {
+  const std::string common = "render " + scene("cornell-glossy") +
+                             " --method vsl --lights 10000 --width 16 --batches 1 --direct-samples 1 --seed 4";
+  auto settingsOf = [&](const std::string& extra, const std::string& name) {
+    Proc r = run(common + extra + " -o " + file(name + ".exr") + " --json " + file(name + ".json"));
+    EXPECT_EQ(r.code, 0) << r.out;
+    return nlohmann::json::parse(std::ifstream(file(name + ".json")));
+  };
+  auto lobe = settingsOf("", "lobe"), authors = settingsOf(" --vsl-count authors", "authors");
+  const std::string s = lobe["settings"];
+  EXPECT_NE(s.find("--vsl-count lobe"), std::string::npos) << s;
+  EXPECT_EQ(s.find("--height"), std::string::npos) << s;
+  EXPECT_NE(authors["settings"].get<std::string>().find("--vsl-count authors"), std::string::npos);
+  EXPECT_EQ(lobe["lights"], authors["lights"]);
+  EXPECT_LT(lobe["vslEvaluations"].get<double>(), 0.9 * authors["vslEvaluations"].get<double>());
+  Proc r = run(common + " --vsl-count fast -o " + file("bad.exr"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--vsl-count"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(file("bad.exr")));
+}
+
 // vsl-studio refuses a bad estimator on its command line before opening
 // anything: exit 2 and the setting's valid range.
 TEST_F(Cli, StudioRefusesBadEstimatorFlags) {
