@@ -14,6 +14,11 @@ double vslConeOneMinusCos(double r, double d) {
 }
 
 int vslAutoSamples(double oneMinusCos) {
+  // Below theta = pi/200 (0.9 degrees) the count is 1: most pairs at 100,000
+  // lights, answered without the asin. The bound sits a hair inside that
+  // angle, so the rule below decides every cone near it exactly as before.
+  static const double kOneSample = 2.0 * std::pow(std::sin(0.5 * 0.99999 * M_PI / 200.0), 2);
+  if (oneMinusCos < kOneSample) return 1;
   // theta = 2 asin(sqrt((1 - cos) / 2)) keeps precision for tiny cones.
   double theta = 2.0 * std::asin(std::sqrt(std::clamp(0.5 * oneMinusCos, 0.0, 1.0)));
   return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));

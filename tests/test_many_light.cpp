@@ -189,6 +189,14 @@ TEST(VslIntegral, ConeSolidAngleIsPreciseForTinyCones) {
   EXPECT_EQ(vslAutoSamples(omc(45)), 51);
   EXPECT_EQ(vslAutoSamples(1.0), 101);
   EXPECT_EQ(vslAutoSamples(vslConeOneMinusCos(std::sin(10 * M_PI / 180), 1)), 12);
+  // The one-sample shortcut below 0.9 degrees agrees with the rule on both
+  // sides of its bound.
+  for (double deg = 0.85; deg < 0.95; deg += 0.0001) {
+    const double theta = 2.0 * std::asin(std::sqrt(0.5 * omc(deg)));
+    EXPECT_EQ(vslAutoSamples(omc(deg)), 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9))) << deg;
+  }
+  EXPECT_EQ(vslAutoSamples(omc(0.89)), 1);
+  EXPECT_EQ(vslAutoSamples(omc(0.91)), 2);
 }
 
 // The clipped disk's area: pi r^2 when the receiver's tangent plane misses the
