@@ -2,7 +2,8 @@
 # Issue 10's interactivity figures, measured by the studio itself (its log's
 # "first picture ... ms after the settings changed", from a control's last
 # change, the settle delay included, to the first snapshot of the new
-# settings reaching the UI thread). Needs Xvfb, openbox, xdotool, ImageMagick.
+# settings reaching the UI thread). Needs Xvfb, openbox, xdotool, ImageMagick
+# (`bash scripts/setup.sh --measure` installs them).
 #   xvfb-run -a -s "-screen 0 1600x1000x24" bash scripts/measure-studio-latency.sh [OUT] [change|drag|mrcs]
 # change: cornell-glossy at 256 px; clicks the seed "+" button six times, 2 s
 #         apart (the button sits at (220, 549) in the 1600x1000 window's layout;

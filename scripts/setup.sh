@@ -14,7 +14,15 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev xvfb xauth gnuplot-nox
 )
 # scripts/fuzz.sh: clang and its libFuzzer runtime (only with --fuzz).
-if [ "${1:-}" = "--fuzz" ]; then PACKAGES+=(clang-14 libclang-rt-14-dev); fi
+# scripts/measure-studio-latency.sh: drives the studio and takes screenshots
+# (only with --measure).
+for arg in "$@"; do
+  case $arg in
+    --fuzz) PACKAGES+=(clang-14 libclang-rt-14-dev) ;;
+    --measure) PACKAGES+=(xdotool imagemagick openbox) ;;
+    *) echo "setup: unknown option '$arg' (--fuzz, --measure)" >&2; exit 2 ;;
+  esac
+done
 command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)
 command -v npm >/dev/null 2>&1 || PACKAGES+=(npm)
 

@@ -332,6 +332,36 @@ TEST_F(StudioFrame, StalePanelsAreDimmedAndBadged) {
   EXPECT_FALSE(studio->panelStale(0));
 }
 
+// While an MRCS light set's clamped-VPL columns are still rendering
+// (Snapshot::vplPending) the VPL panel shows a waiting box, never its black
+// layers as if they were the picture; VSL and the reference are drawn.
+TEST_F(StudioFrame, PendingVplPanelWaitsInsteadOfShowingBlack) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide3;
+  v.component = Component::Indirect;
+  v.panels[0] = ui::Source::Vsl;
+  v.panels[1] = ui::Source::Vpl;
+  v.panels[2] = ui::Source::Reference;
+  auto centre = [&](const std::vector<uint8_t>& px, int i) {
+    const auto& d = studio->drawnImages()[i];
+    return pixel(px, int(d.p0.x + 0.6f * (d.p1.x - d.p0.x)), int(d.p0.y + 0.6f * (d.p1.y - d.p0.y)));
+  };
+  auto px = renderFrames();
+  const Vec3 vplShown = centre(px, 1), grey = srgb8(Vec3(0.2f));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(vplShown[c], grey[c], 2) << "the VPL image when it is in";
+
+  auto snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->vplPending = true;
+  studio->setSnapshotForTesting(snap);
+  px = renderFrames();
+  const Vec3 waiting = centre(px, 1);
+  EXPECT_LT(waiting.x + waiting.y + waiting.z, 60.0f) << "no image in the pending VPL panel";
+  const Vec3 ref = centre(px, 2), greyRef = srgb8(Vec3(0.25f));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(ref[c], greyRef[c], 2) << "the reference is still drawn";
+  const Vec3 vsl = centre(px, 0);
+  EXPECT_GT(vsl.x + vsl.y + vsl.z, 200.0f) << "VSL is still drawn";
+}
+
 // T swaps the two methods in a 2-up view (never the same one twice) and
 // toggles VSL and VPL in a single view; number keys pick panel 1's image.
 TEST_F(StudioInput, KeysNeverShowOneMethodTwice) {

@@ -910,13 +910,22 @@ void Studio::statusBar() {
   const Snapshot& s = *snap_;
   char overlay[64], detail[160];
   float fm = s.lightsTotal ? float(double(s.lightsProcessed) / double(s.lightsTotal)) : 0.0f;
-  std::snprintf(overlay, sizeof overlay, "VSL+VPL %.0f%%", 100 * fm);
-  ImGui::ProgressBar(fm, ImVec2(130, 0), overlay);
-  ImGui::SameLine();
-  std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s lights/s  %s", s.lightsProcessed,
-                s.lightsTotal, std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
-                humanCount(s.lightsPerSecond).c_str(),
-                s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
+  if (s.vplPending) {
+    // An MRCS light set shows VSL before its clamped-VPL columns: no rate or
+    // time left is known for the set yet (the status line names the stage).
+    ImGui::ProgressBar(0.5f, ImVec2(130, 0), "VSL in, VPL next");
+    ImGui::SameLine();
+    std::snprintf(detail, sizeof detail, "set %d / %d: VSL's MRCS picture is in, clamped VPL's columns follow",
+                  std::min(s.lightSetsDone + 1, s.lightSets), s.lightSets);
+  } else {
+    std::snprintf(overlay, sizeof overlay, "VSL+VPL %.0f%%", 100 * fm);
+    ImGui::ProgressBar(fm, ImVec2(130, 0), overlay);
+    ImGui::SameLine();
+    std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s lights/s  %s", s.lightsProcessed,
+                  s.lightsTotal, std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
+                  humanCount(s.lightsPerSecond).c_str(),
+                  s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
+  }
   ImGui::TextUnformatted(detail);
   ImGui::SameLine(0, 24);
   float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
@@ -995,6 +1004,13 @@ void Studio::viewsPanel() {
   const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
+  // While an MRCS set's VPL columns render, only VSL and the reference have a picture.
+  auto vplPending = [&](Source s) { return snap_->vplPending && s != Source::Vsl && s != Source::Reference; };
+  auto waitBox = [&](ImVec2 p0, ImVec2 p1, const char* text) {
+    dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
+    dl->AddText(ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), text);
+  };
+  const char* kVplPendingText = "waiting for its MRCS columns (VSL's come first)";
   auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
   for (int i = 0; i < n; ++i) {
@@ -1003,8 +1019,14 @@ void Studio::viewsPanel() {
     if (view_.mode == ViewMode::Wipe) {
       Source a = view_.panels[0], b = view_.panels[1];
       float sx = p0.x + view_.wipe * w, su = uv0.x + view_.wipe * (uv1.x - uv0.x);
-      if (!flipPending(a)) drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
-      if (!flipPending(b)) drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
+      if (vplPending(a))
+        waitBox(p0, ImVec2(sx, p1.y), kVplPendingText);
+      else if (!flipPending(a))
+        drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
+      if (vplPending(b))
+        waitBox(ImVec2(sx, p0.y), p1, kVplPendingText);
+      else if (!flipPending(b))
+        drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
       drawn_.push_back({ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, b});
       if (sourceStale(a)) staleMark(dl, p0, ImVec2(sx, p1.y));
@@ -1014,9 +1036,10 @@ void Studio::viewsPanel() {
                   (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
     } else {
       Source s = view_.panels[i];
-      if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
-        dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
-        dl->AddText(ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), "computing FLIP ...");
+      if (vplPending(s)) {
+        waitBox(p0, p1, kVplPendingText);
+      } else if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
+        waitBox(p0, p1, "computing FLIP ...");
       } else {
         drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
       }
