@@ -59,7 +59,9 @@ constexpr double kVslStrategyMass = 0.05;
 struct VslOptions {
   int samplesPerStrategy = 0;  // <= 0: automatic (see above)
   bool clippedDisk = false;    // divide by the clipped disk's area instead of pi r^2
-  // Lobe-aware automatic count (off by default; see vslLobeAwareSamples).
+  // Lobe-aware automatic count (see vslLobeAwareSamples). Off here, so that
+  // the bare quadrature is the authors' rule; the renderers' default turns it
+  // on (ManyLightSettings::vslLobeSamples).
   bool lobeAwareCount = false;
 };
 

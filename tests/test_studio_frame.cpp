@@ -360,6 +360,40 @@ TEST_F(StudioFrame, PendingVplPanelWaitsInsteadOfShowingBlack) {
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(ref[c], greyRef[c], 2) << "the reference is still drawn";
   const Vec3 vsl = centre(px, 0);
   EXPECT_GT(vsl.x + vsl.y + vsl.z, 200.0f) << "VSL is still drawn";
+  EXPECT_FALSE(studio->hasPicture(ui::Source::Vpl, Component::Indirect));
+  EXPECT_FALSE(studio->hasPicture(ui::Source::Vpl, Component::Full));
+  EXPECT_TRUE(studio->hasPicture(ui::Source::Vpl, Component::Direct)) << "the direct image is in for both";
+
+  // The direct component: the VPL panel shows the (shared) direct image.
+  v.component = Component::Direct;
+  snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->many.direct = snap->many.vpl;  // 0.2 grey
+  snap->refDirect = snap->many.vpl;
+  studio->setSnapshotForTesting(snap);
+  px = renderFrames();
+  const Vec3 direct = centre(px, 1);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(direct[c], grey[c], 2) << "the direct image is drawn while VPL is pending";
+
+  // Under MRCS, the VPL variants MRCS never renders are boxes, not black
+  // pictures, and stay out of the crops.
+  v.component = Component::Indirect;
+  snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->vplPending = false;
+  snap->settings.estimator.kind = EstimatorKind::Mrcs;
+  snap->many.vplUnclamped = snap->many.vpl;  // 0.2 grey: would show if drawn
+  studio->setSnapshotForTesting(snap);
+  studio->applySettings(snap->settings);
+  v.panels[1] = ui::Source::VplUnclamped;
+  px = renderFrames();
+  const Vec3 unclamped = centre(px, 1);
+  EXPECT_LT(unclamped.x + unclamped.y + unclamped.z, 60.0f) << "no picture for a layer MRCS does not render";
+  EXPECT_TRUE(studio->hasPicture(ui::Source::Vpl, Component::Indirect));
+  const auto crops = studio->buildCrops(ui::CropRect{10, 4, 16, 8}, Component::Indirect, nullptr);
+  EXPECT_EQ(crops.size(), 5u) << "the reference, then VSL and clamped VPL with their error maps";
+  for (const auto& item : crops)
+    EXPECT_TRUE(item.source == ui::Source::Reference || item.source == ui::Source::Vsl ||
+                item.source == ui::Source::Vpl)
+        << "crop of a source MRCS does not render: " << int(item.source);
 }
 
 // T swaps the two methods in a 2-up view (never the same one twice) and
@@ -472,6 +506,7 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
   EXPECT_TRUE(j["settings"]["clamp"].contains("bound"));
   EXPECT_TRUE(j["machine"].contains("renderThreads"));
   EXPECT_TRUE(j["settings"]["vslSamples"].contains("meanPerPair"));
+  EXPECT_EQ(j["settings"]["vslSamples"]["autoCount"], "lobe") << "which automatic count the export used";
 }
 
 // The export records the light sets and each method's bias and noise where

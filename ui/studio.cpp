@@ -348,6 +348,18 @@ bool Studio::panelStale(int i) const {
   return sourceStale(view_.panels[std::clamp(i, 0, 2)]);
 }
 
+bool Studio::hasPicture(Source s, Component c) const {
+  if (!snap_) return false;
+  if (c == Component::Direct || s == Source::Vsl || s == Source::Reference) return true;
+  if (snap_->settings.estimator.kind == EstimatorKind::Mrcs && s != Source::Vpl) return false;
+  return !snap_->vplPending;
+}
+
+const char* Studio::missingPictureText(Source s) const {
+  return s == Source::Vpl ? "waiting for its MRCS columns (VSL's come first)"
+                          : "not rendered by MRCS (VSL and clamped VPL only)";
+}
+
 const Image* Studio::referenceImage(Component c, Image& scratch) const {
   const Snapshot& s = *snap_;
   switch (c) {
@@ -1000,17 +1012,16 @@ void Studio::viewsPanel() {
   // One colour scale for every map on screen, so panels compare fairly.
   float sharedMax = 0;
   for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
-    if (isMethod(view_.panels[i])) sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
+    if (isMethod(view_.panels[i]) && hasPicture(view_.panels[i], view_.component))
+      sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
   const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
-  // While an MRCS set's VPL columns render, only VSL and the reference have a picture.
-  auto vplPending = [&](Source s) { return snap_->vplPending && s != Source::Vsl && s != Source::Reference; };
+  auto missing = [&](Source s) { return !hasPicture(s, view_.component); };
   auto waitBox = [&](ImVec2 p0, ImVec2 p1, const char* text) {
     dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
     dl->AddText(ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), text);
   };
-  const char* kVplPendingText = "waiting for its MRCS columns (VSL's come first)";
   auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
   for (int i = 0; i < n; ++i) {
@@ -1019,12 +1030,12 @@ void Studio::viewsPanel() {
     if (view_.mode == ViewMode::Wipe) {
       Source a = view_.panels[0], b = view_.panels[1];
       float sx = p0.x + view_.wipe * w, su = uv0.x + view_.wipe * (uv1.x - uv0.x);
-      if (vplPending(a))
-        waitBox(p0, ImVec2(sx, p1.y), kVplPendingText);
+      if (missing(a))
+        waitBox(p0, ImVec2(sx, p1.y), missingPictureText(a));
       else if (!flipPending(a))
         drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
-      if (vplPending(b))
-        waitBox(ImVec2(sx, p0.y), p1, kVplPendingText);
+      if (missing(b))
+        waitBox(ImVec2(sx, p0.y), p1, missingPictureText(b));
       else if (!flipPending(b))
         drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
@@ -1036,8 +1047,8 @@ void Studio::viewsPanel() {
                   (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
     } else {
       Source s = view_.panels[i];
-      if (vplPending(s)) {
-        waitBox(p0, p1, kVplPendingText);
+      if (missing(s)) {
+        waitBox(p0, p1, missingPictureText(s));
       } else if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
         waitBox(p0, p1, "computing FLIP ...");
       } else {
@@ -1714,6 +1725,7 @@ std::vector<Studio::CropItem> Studio::buildCrops(const CropRect& rect, Component
   // (as in the exported full-size maps).
   float autoMax = 0;
   for (Source m : kMetricSources) {
+    if (!hasPicture(m, c)) continue;  // nothing to crop (MRCS)
     Image scratch;
     const Image* img = componentImage(m, c, scratch);
     CropItem item{m, false, cropImage(*img, r), true, {}};

@@ -151,6 +151,13 @@ class Studio {
   const std::string& errorDialog() const { return errorDialog_; }
   // Panel i's image does not belong to the current settings.
   bool panelStale(int i) const;
+  // False for a source the snapshot has no picture of in component c: under
+  // MRCS the VPL variants other than clamped VPL and the lost-energy images
+  // (never rendered), and clamped VPL while its columns are pending
+  // (Snapshot::vplPending). Such a source is drawn as a labelled box and kept
+  // out of colour scales and crops. missingPictureText says why.
+  bool hasPicture(Source s, Component c) const;
+  const char* missingPictureText(Source s) const;
   // Applies settings as if set in the controls (tests and the command line).
   void applySettings(const StudioSettings& settings);
   // The settings the session renders now (the last accepted ones).
