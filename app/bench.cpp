@@ -189,12 +189,12 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
   // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
   // (eight 16x16 tiles, so that two threads share the work evenly).
   for (int variant = 0; variant < 3; ++variant) {
-    const bool vsl = variant > 0, lobe = variant != 2;
-    const char* name = !lobe ? "VSL-auth" : vsl ? "VSL" : "VPL";
-    gather(name, vsl, lobe, 1000, a.size / 2);
-    gather(name, vsl, lobe, 4000, a.size / 2);
-    gather(name, vsl, lobe, 1000, a.size);
-    gather(name, vsl, lobe, 100000, 64, 32);
+    const bool vsl = variant > 0, authors = variant == 2;
+    const char* name = authors ? "VSL-auth" : vsl ? "VSL" : "VPL";
+    gather(name, vsl, !authors, 1000, a.size / 2);
+    gather(name, vsl, !authors, 4000, a.size / 2);
+    gather(name, vsl, !authors, 1000, a.size);
+    gather(name, vsl, !authors, 100000, 64, 32);
   }
   return gathers;
 }

@@ -360,6 +360,8 @@ const char* Studio::missingPictureText(Source s) const {
                           : "not rendered by MRCS (VSL and clamped VPL only)";
 }
 
+bool Studio::metricShown(int i) const { return hasPicture(kMetricSources[i], Component::Indirect); }
+
 const Image* Studio::referenceImage(Component c, Image& scratch) const {
   const Snapshot& s = *snap_;
   switch (c) {
@@ -1347,24 +1349,13 @@ void cell(double v, double bestV, const char* fmt) {
 }
 }  // namespace
 
-namespace {
-// A method row the table shows (and ranks): MRCS gathers VSL and the clamped
-// VPL only, the other VPL layers are black; while an MRCS set's VPL columns
-// are still pending (Snapshot::vplPending) only VSL has a picture.
-bool metricShown(const Snapshot& s, int i) {
-  const Source src = kMetricSources[i];
-  if (s.vplPending && src != Source::Vsl) return false;
-  return s.settings.estimator.kind != EstimatorKind::Mrcs || src == Source::Vsl || src == Source::Vpl;
-}
-}  // namespace
-
 Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   TableState t;
   t.indirect = view_.component == Component::Indirect;
   t.noise = t.indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
   t.budget = equalTimeBudget(s.history);
   for (int i = 0; i < 4; ++i) {
-    if (!metricShown(s, i)) continue;
+    if (!metricShown(i)) continue;
     t.best[0] = std::min(t.best[0], metrics_[i].average.rmse);
     t.best[1] = std::min(t.best[1], metrics_[i].average.relMse - t.noise);
     if (double e = t.atEqualTime(s, i); std::isfinite(e)) t.best[2] = std::min(t.best[2], e);
@@ -1379,7 +1370,7 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   t.flipFresh = t.flipHere && flip_->serial == s.serial;
   if (t.flipHere)
     for (int i = 0; i < 5; ++i)
-      if (i < 4 ? metricShown(s, i) : s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
+      if (i < 4 ? metricShown(i) : s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
   for (const BiasNoise& b : s.biasNoise)
     if (b.renders >= 2) {
       t.bestBias = std::min(t.bestBias, std::abs(b.bias2 - t.noise));
@@ -1509,7 +1500,7 @@ void Studio::metricsTable(const Snapshot& s) {
   ImGui::TableSetupColumn("FLIP");
   ImGui::TableHeadersRow();
   for (int i = 0; i < 4; ++i)
-    if (metricShown(s, i)) methodRow(s, t, i);
+    if (metricShown(i)) methodRow(s, t, i);
   livePtRow(s, t);
   ImGui::EndTable();
 }

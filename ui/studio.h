@@ -158,6 +158,9 @@ class Studio {
   // out of colour scales and crops. missingPictureText says why.
   bool hasPicture(Source s, Component c) const;
   const char* missingPictureText(Source s) const;
+  // A method row the metrics table shows (and ranks): kMetricSources[i] has
+  // an indirect picture of its own (the direct image is every method's).
+  bool metricShown(int i) const;
   // Applies settings as if set in the controls (tests and the command line).
   void applySettings(const StudioSettings& settings);
   // The settings the session renders now (the last accepted ones).
