@@ -116,12 +116,11 @@ Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, 
 void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
                         double acc[kGatherLayers][3], GatherCounters& c) const {
   PairGeometry g;
-  if (!connect(gp, L, g, c)) return;
-  addVpl(gp, L, g, acc, c);
-  addVsl(gp, L, g, lightId, pixel, acc, c);
+  if (connect(gp, L, g, c)) addConnected(gp, L, g, lightId, pixel, acc, c);
 }
 
-bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, GatherCounters& c) const {
+bool Gatherer::orient(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, Ray& ray, bool& needsRay,
+                      GatherCounters& c) const {
   ++c.pairs;
   g.d = L.p - gp.p;
   g.d2 = lengthSquared(g.d);
@@ -138,14 +137,35 @@ bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry
   // never pay for them.
   if (!(g.d2 > 0 && g.cosX > 0 && cosXg > 0 && g.cosP > 0 && cosPg > 0)) return false;
   if (!computeVpl_ && !computeVsl_) return false;
-  // One visibility ray feeds every estimate.
-  // segmentRay with both ends' offsets precomputed (the same values).
-  Ray s;
-  if (segmentRayBetween(gp.pOff, L.pOff, s)) {
-    ++c.shadowRays;
-    if (accel_.occluded(s)) return false;
-  }
+  // One visibility ray feeds every estimate: segmentRay with both ends'
+  // offsets precomputed (the same values).
+  needsRay = segmentRayBetween(gp.pOff, L.pOff, ray);
+  if (needsRay) ++c.shadowRays;
   return true;
+}
+
+bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, GatherCounters& c) const {
+  Ray s;
+  bool needsRay = false;
+  if (!orient(gp, L, g, s, needsRay, c)) return false;
+  return !(needsRay && accel_.occluded(s));
+}
+
+void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo,
+                           uint8_t* visible, ConnectScratch& scratch, GatherCounters& c) const {
+  scratch.rays.resize(gps.size());
+  scratch.rayOf.resize(gps.size());
+  size_t nRays = 0;
+  for (size_t i = 0; i < gps.size(); ++i) {
+    bool needsRay = false;
+    visible[i] = gps[i] && orient(*gps[i], L, geo[i], scratch.rays[nRays], needsRay, c);
+    if (visible[i] && needsRay) scratch.rayOf[nRays++] = uint32_t(i);
+  }
+  if (nRays == 0) return;
+  scratch.blocked.resize(nRays);
+  accel_.occluded(std::span<const Ray>(scratch.rays.data(), nRays), std::span<uint8_t>(scratch.blocked.data(), nRays));
+  for (size_t r = 0; r < nRays; ++r)
+    if (scratch.blocked[r]) visible[scratch.rayOf[r]] = 0;
 }
 
 namespace {

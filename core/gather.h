@@ -4,6 +4,9 @@
 // See many_light.h for the methods and their bias.
 #pragma once
 
+#include <span>
+#include <vector>
+
 #include "core/accel.h"
 #include "core/lights.h"
 #include "core/many_light.h"
@@ -85,6 +88,25 @@ class Gatherer {
   // shadow ray; false: the pair contributes nothing), then each estimator's
   // transfer. addVpl and addVsl do nothing for an estimator not computed.
   bool connect(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, GatherCounters& c) const;
+  // connect() for one light against many gather points, with the shadow rays
+  // traced as one coherent batch (Accel::occluded on a span: 2-4x the rays/s
+  // of one call per ray when the points are neighbouring pixels). Sets
+  // visible[i] and, where it is set, geo[i], exactly as connect(*gps[i], L,
+  // geo[i], c) would (a null gps[i] is not visible); the counters add up the
+  // same. `scratch` holds the rays between calls (any thread's own).
+  struct ConnectScratch {
+    std::vector<Ray> rays;
+    std::vector<uint32_t> rayOf;
+    std::vector<uint8_t> blocked;
+  };
+  void connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo, uint8_t* visible,
+                   ConnectScratch& scratch, GatherCounters& c) const;
+  // Both transfers of a connected pair: evaluate() after connect().
+  void addConnected(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId,
+                    uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const {
+    addVpl(gp, L, g, acc, c);
+    addVsl(gp, L, g, lightId, pixel, acc, c);
+  }
   void addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, double acc[kGatherLayers][3],
               GatherCounters& c) const;
   void addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId, uint64_t pixel,
@@ -98,6 +120,11 @@ class Gatherer {
   // pixel's own estimate of the light there, with no later passes to average
   // it (one sample made glossy floors' reflections of lit walls speckled).
   static constexpr int kSharedLightSamples = 16;
+  // connect() up to its shadow ray: false if the pair contributes nothing;
+  // otherwise needsRay says whether `ray` must be unoccluded (the ends may
+  // coincide, and then nothing can block them).
+  bool orient(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, Ray& ray, bool& needsRay,
+              GatherCounters& c) const;
   Vec3 nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const;
 
   const Scene& scene_;

@@ -200,12 +200,11 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
 
 // ---- [4] Gather ---------------------------------------------------------------------
 
-// Pixels of a tile against blocks of lights: a block (kLightBlock x ~200
-// bytes) stays in cache while every gather point of the tile visits it, so
-// large batches are not streamed from memory once per pixel.
+// The pixels of a tile against one light at a time: the tile's gather
+// points stay in cache, each light is read once per tile, and the tile's
+// shadow rays toward one light go to Embree as one coherent batch.
 void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, int x0,
                                    int y0, int x1, int y1) {
-  constexpr size_t kLightBlock = 256;
   Stopwatch tileClock;
   GatherCounters c;
   const int tw = x1 - x0, n = tw * (y1 - y0);
@@ -225,43 +224,50 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
     batch.shared[pix] = gps[size_t(i)].shared();
   }
-  // Each gather point against each block in three timed parts: the shared
-  // connection (orientation, shadow ray), then VPL's and VSL's own
-  // transfers, so that each method is charged its own time (four clock
-  // reads per gather point and block of lights).
-  PairGeometry geo[kLightBlock];
-  uint32_t visible[kLightBlock];
+  // Each light against the tile's gather points in three timed parts: the
+  // shared connection (orientation, the batch of shadow rays), then VPL's
+  // and VSL's own transfers, so that each method is charged its own time
+  // (three clock reads per light and tile). Each pixel adds the lights in
+  // order, as a pixel-by-pixel loop would.
+  const size_t np = size_t(n) * kMaxGatherPoints;
+  std::vector<const GatherPoint*> pts(np, nullptr);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < gps[size_t(i)].count; ++k)
+      if (gps[size_t(i)].points[k].valid) pts[size_t(i) * kMaxGatherPoints + size_t(k)] = &gps[size_t(i)].points[k];
+  std::vector<PairGeometry> geo(np);
+  std::vector<uint8_t> visible(np);
+  std::vector<uint32_t> list(np);
+  Gatherer::ConnectScratch scratch;
   double vplOwn = 0, vslOwn = 0;
-  for (size_t l0 = 0; l0 < nb; l0 += kLightBlock) {
-    const size_t l1 = std::min(nb, l0 + kLightBlock);
-    for (int i = 0; i < n; ++i) {
-      // A restart waits for at most a row of pixels against one block.
-      if (i % 16 == 0 && stop && stop->load(std::memory_order_relaxed)) {
-        batch.abandoned = true;
-        return;
+  for (size_t l = 0; l < nb; ++l) {
+    // A restart waits for at most 16 lights against the tile.
+    if (l % 16 == 0 && stop && stop->load(std::memory_order_relaxed)) {
+      batch.abandoned = true;
+      return;
+    }
+    const GatherLight& L = batch.lights[l];
+    gatherer.connectMany(pts, L, geo.data(), visible.data(), scratch, c);
+    size_t nv = 0;
+    for (size_t i = 0; i < np; ++i)
+      if (visible[i]) list[nv++] = uint32_t(i);
+    // No point sees the light: no transfer to time (a clock read costs
+    // ~30 ns).
+    if (nv == 0) continue;
+    Stopwatch own;
+    if (settings_.computeVpl) {
+      for (size_t v = 0; v < nv; ++v) {
+        const size_t i = list[v];
+        gatherer.addVpl(*pts[i], L, geo[i], acc[i / kMaxGatherPoints].v, c);
       }
-      for (int k = 0; k < gps[size_t(i)].count; ++k) {
-        const GatherPoint& gp = gps[size_t(i)].points[k];
-        if (!gp.valid) continue;
-        size_t nv = 0;
-        for (size_t l = l0; l < l1; ++l)
-          if (gatherer.connect(gp, batch.lights[l], geo[nv], c)) visible[nv++] = uint32_t(l);
-        // No light visible: no transfer to time (a clock read costs ~30 ns,
-        // as much as a small batch's transfers).
-        if (nv == 0) continue;
-        Stopwatch own;
-        if (settings_.computeVpl) {
-          for (size_t v = 0; v < nv; ++v) gatherer.addVpl(gp, batch.lights[visible[v]], geo[v], acc[size_t(i)].v, c);
-          vplOwn += own.lap();
-        }
-        if (settings_.computeVsl) {
-          const uint64_t stream = gatherStream(pixelOf(i), k);
-          for (size_t v = 0; v < nv; ++v)
-            gatherer.addVsl(gp, batch.lights[visible[v]], geo[v], order_[batch.begin + visible[v]], stream,
-                            acc[size_t(i)].v, c);
-          vslOwn += own.seconds();
-        }
+      vplOwn += own.lap();
+    }
+    if (settings_.computeVsl) {
+      for (size_t v = 0; v < nv; ++v) {
+        const size_t i = list[v];
+        const uint64_t stream = gatherStream(pixelOf(int(i / kMaxGatherPoints)), int(i % kMaxGatherPoints));
+        gatherer.addVsl(*pts[i], L, geo[i], order_[batch.begin + l], stream, acc[i / kMaxGatherPoints].v, c);
       }
+      vslOwn += own.seconds();
     }
   }
   for (int i = 0; i < n; ++i) {

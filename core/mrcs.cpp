@@ -409,18 +409,34 @@ void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector
   colVsl.assign(job.doVsl ? job.N * R : 0, 0.0f);
   colVpl.assign(job.doVpl ? job.N * R : 0, 0.0f);
   job.begin(MrcsProgress::kRows, job.N);
+  // Each light against all the rows' gather points, its shadow rays traced
+  // as one batch (they share the light's end).
+  std::vector<const GatherPoint*> pts(size_t(R) * kMaxGatherPoints, nullptr);
+  for (int r = 0; r < R; ++r) {
+    const EyeSample& es = job.gps[rowPix[r]];
+    for (int k = 0; k < es.count; ++k)
+      if (es.points[k].valid) pts[size_t(r) * kMaxGatherPoints + size_t(k)] = &es.points[k];
+  }
   parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
     GatherCounters cnt;
+    std::vector<PairGeometry> geo(pts.size());
+    std::vector<uint8_t> visible(pts.size());
+    std::vector<double> acc(size_t(R) * kGatherLayers * 3);
+    Gatherer::ConnectScratch scratch;
     for (size_t j = j0; j < j1; ++j) {
       if (job.stopped()) return;
+      job.both->connectMany(pts, job.gl[j], geo.data(), visible.data(), scratch, cnt);
+      std::fill(acc.begin(), acc.end(), 0.0);
+      auto accOf = [&](int r) { return reinterpret_cast<double(*)[3]>(&acc[size_t(r) * kGatherLayers * 3]); };
+      for (size_t i = 0; i < pts.size(); ++i) {
+        if (!visible[i]) continue;
+        const int r = int(i / kMaxGatherPoints), k = int(i % kMaxGatherPoints);
+        job.both->addConnected(*pts[i], job.gl[j], geo[i], j, gatherStream(rowPix[r], k), accOf(r), cnt);
+      }
       for (int r = 0; r < R; ++r) {
-        const EyeSample& es = job.gps[rowPix[r]];
-        if (!es.anyValid()) continue;
-        double acc[kGatherLayers][3] = {};
-        for (int k = 0; k < es.count; ++k)
-          if (es.points[k].valid) job.both->evaluate(es.points[k], job.gl[j], j, gatherStream(rowPix[r], k), acc, cnt);
         auto lum = [&](int layer) {
-          return float(0.2126 * acc[layer][0] + 0.7152 * acc[layer][1] + 0.0722 * acc[layer][2]);
+          const double* a = accOf(r)[layer];
+          return float(0.2126 * a[0] + 0.7152 * a[1] + 0.0722 * a[2]);
         };
         if (job.doVsl) colVsl[j * R + r] = lum(kVslLayer);
         if (job.doVpl) colVpl[j * R + r] = lum(job.vplLayer);
@@ -440,24 +456,43 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
                            const std::vector<GatherLight>& repGl, Image& out) {
   out = Image(job.W, job.H);
   const bool counted = !reps.empty();
+  // A row of pixels against one representative at a time, so that its
+  // shadow rays go to Embree as one coherent batch; each pixel still adds the
+  // representatives in order, so the sums are those of a pixel-by-pixel loop.
   parallelFor(size_t(job.H), [&](size_t y) {
     if (job.stopped()) return;
     GatherCounters cnt;
+    const size_t n = size_t(job.W) * kMaxGatherPoints;
+    std::vector<const GatherPoint*> pts(n, nullptr);
+    std::vector<double> sums(3 * n, 0.0);
+    std::vector<PairGeometry> geo(n);
+    std::vector<uint8_t> visible(n);
+    Gatherer::ConnectScratch scratch;
+    const size_t row = y * size_t(job.W);
     for (int x = 0; x < job.W; ++x) {
-      size_t pix = y * job.W + x;
-      const EyeSample& es = job.gps[pix];
+      const EyeSample& es = job.gps[row + size_t(x)];
+      for (int g = 0; g < es.count; ++g)
+        if (es.points[g].valid) pts[size_t(x) * kMaxGatherPoints + size_t(g)] = &es.points[g];
+    }
+    for (size_t q = 0; q < reps.size(); ++q) {
+      if (job.stopped()) return;
+      const Representative& r = reps[q];
+      gatherer.connectMany(pts, repGl[q], geo.data(), visible.data(), scratch, cnt);
+      for (size_t i = 0; i < n; ++i) {
+        if (!visible[i]) continue;
+        double acc[kGatherLayers][3] = {};
+        const size_t pix = row + i / kMaxGatherPoints;
+        gatherer.addConnected(*pts[i], repGl[q], geo[i], r.light, gatherStream(pix, int(i % kMaxGatherPoints)), acc,
+                              cnt);
+        for (int k = 0; k < 3; ++k) sums[3 * i + size_t(k)] += r.weight * acc[layer][k];
+      }
+    }
+    for (int x = 0; x < job.W; ++x) {
+      const EyeSample& es = job.gps[row + size_t(x)];
       Vec3 L = es.shared();
       for (int g = 0; g < es.count; ++g) {
-        const GatherPoint& gp = es.points[g];
-        if (!gp.valid) continue;
-        const uint64_t stream = gatherStream(pix, g);
-        double s[3] = {};
-        for (size_t q = 0; q < reps.size(); ++q) {
-          const Representative& r = reps[q];
-          double acc[kGatherLayers][3] = {};
-          gatherer.evaluate(gp, repGl[q], r.light, stream, acc, cnt);
-          for (int k = 0; k < 3; ++k) s[k] += r.weight * acc[layer][k];
-        }
+        if (!es.points[g].valid) continue;
+        const double* s = &sums[3 * (size_t(x) * kMaxGatherPoints + size_t(g))];
         L += Vec3(float(s[0]), float(s[1]), float(s[2]));
       }
       out.set(x, int(y), isFinite(L) ? L : Vec3(0.0f));

@@ -777,6 +777,69 @@ TEST(ManyLight, NoLightThroughThinSheets) {
   }
 }
 
+// The batched connection (one light against many gather points, shadow
+// rays traced as one batch) agrees with connect() pair by pair: the same
+// visibility, the same geometry and the same counters, on kitchen's gather
+// points of neighbouring pixels (coherent batches, as the gathers use) and
+// on scattered ones, with null entries for points that do not exist.
+TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
+  Loaded l = loadAsset("kitchen", 64);
+  ASSERT_TRUE(l.context);
+  ManyLightSettings s;
+  s.lights = 2000;
+  s.seed = 5;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  ASSERT_GT(run.set.lights.size(), 1000u);
+  Gatherer g(*l.scene, *l.accel, *l.lights, s, 1.0f, true, true);
+  GatherCounters eyeCounters;
+  std::vector<EyeSample> eyes;
+  for (int y = 0; y < l.height; ++y)
+    for (int x = 0; x < l.width; ++x) {
+      Rng rng = Rng::forItem(uint64_t(y * l.width + x), 0, 2, 1);
+      eyes.push_back(g.eyePath(x, y, l.width, l.height, rng, eyeCounters));
+    }
+  Rng pick(3, 4);
+  std::vector<const GatherPoint*> rowPts, scattered;
+  for (const EyeSample& es : eyes) rowPts.push_back(es.points[0].valid ? &es.points[0] : nullptr);
+  for (int i = 0; i < 300; ++i) {
+    const EyeSample& es = eyes[pick.uniformInt(uint32_t(eyes.size()))];
+    scattered.push_back(es.points[0].valid && i % 7 ? &es.points[0] : nullptr);
+  }
+  size_t visibleSeen = 0, blockedSeen = 0;
+  Gatherer::ConnectScratch scratch;
+  for (const auto* pts : {&rowPts, &scattered})
+    for (size_t j = 0; j < run.set.lights.size(); j += 37) {
+      const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
+      std::vector<PairGeometry> geo(pts->size());
+      std::vector<uint8_t> visible(pts->size());
+      GatherCounters batched, single;
+      g.connectMany(*pts, L, geo.data(), visible.data(), scratch, batched);
+      for (size_t i = 0; i < pts->size(); ++i) {
+        if (!(*pts)[i]) {
+          ASSERT_EQ(visible[i], 0) << "a missing point is not visible";
+          continue;
+        }
+        PairGeometry one;
+        const bool v = g.connect(*(*pts)[i], L, one, single);
+        ASSERT_EQ(bool(visible[i]), v) << "light " << j << ", point " << i;
+        if (!v) {
+          ++blockedSeen;
+          continue;
+        }
+        ++visibleSeen;
+        EXPECT_EQ(one.d2, geo[i].d2);
+        EXPECT_EQ(one.cosX, geo[i].cosX);
+        EXPECT_EQ(one.cosP, geo[i].cosP);
+        EXPECT_EQ(one.l.x, geo[i].l.x);
+      }
+      EXPECT_EQ(batched.pairs, single.pairs);
+      EXPECT_EQ(batched.shadowRays, single.shadowRays);
+    }
+  std::printf("%zu visible and %zu rejected pairs agree\n", visibleSeen, blockedSeen);
+  EXPECT_GT(visibleSeen, 10000u);
+  EXPECT_GT(blockedSeen, 10000u);
+}
+
 // Each method's own clock (ManyLightStats): the gather's wall time less the
 // other method's own transfer, so each is at most the wall time, together
 // they cover it, and a method that is not computed costs the other nothing
