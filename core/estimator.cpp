@@ -2,6 +2,7 @@
 //           [5] the factory
 #include "core/estimator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -73,8 +74,10 @@ std::string EstimatorSettings::describe() const {
 
 // ---- [2] Light sets --------------------------------------------------------------------
 
-LightSetSettings lightSetSettings(const ManyLightSettings& base, const EstimatorSettings& est, int k) {
+LightSetSettings lightSetSettings(const ManyLightSettings& base, const EstimatorSettings& est, int k, int sets) {
   LightSetSettings out{base, est};
+  if (est.kind == EstimatorKind::Mrcs && sets > 1)
+    out.many.directSamples = std::max(1, (base.directSamples + sets - 1) / sets);
   out.many.seed = base.seed + uint64_t(k);
   if (est.progressiveRadius) {
     const float f = progressiveRadiusFactor(k, est.alpha);

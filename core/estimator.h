@@ -66,14 +66,19 @@ struct EstimatorSettings {
   std::string describe() const;   // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7"
 };
 
-// Light set k of a progressive run (0-based): seed base.seed + k, radii
-// shrunk per EstimatorSettings::progressiveRadius, and MRCS seeded with the
-// set's seed. Both the studio's Session and tests use it.
+// Light set k of a progressive run of `sets` light sets (0-based): seed
+// base.seed + k, radii shrunk per EstimatorSettings::progressiveRadius, and
+// MRCS seeded with the set's seed. An MRCS set also gets its share of the
+// direct-light samples, ceil(base.directSamples / sets): MRCS renders a set's
+// direct light in one step before its picture (at 512x512, 64 samples per
+// pixel took 4 s of a 27 s first picture), where brute force spreads them
+// over its batches; the mean of all sets then has base.directSamples or more.
+// Both the studio's Session and tests use it.
 struct LightSetSettings {
   ManyLightSettings many;
   EstimatorSettings estimator;
 };
-LightSetSettings lightSetSettings(const ManyLightSettings& base, const EstimatorSettings& est, int k);
+LightSetSettings lightSetSettings(const ManyLightSettings& base, const EstimatorSettings& est, int k, int sets = 1);
 
 // Light tracing and radii on a context (prepareManyLights, many_light.h).
 ManyLightRun prepareManyLights(const RenderContext& ctx, const ManyLightSettings& settings,

@@ -451,7 +451,7 @@ bool Session::prepareSet(Worker& w, Job& job) {
   const StudioSettings& s = job.settings;
   job.ml.reset();
   job.batch = 0;
-  const LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set);
+  const LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set, s.lightSets);
   const ManyLightSettings& many = set.many;
   const Scene& scene = w.ctx->scene();
   setStage("tracing lights", many.lights);

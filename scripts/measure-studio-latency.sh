@@ -11,9 +11,11 @@
 # drag:   the same, dragging the radius-scale slider six times (a press, which
 #         moves the value to the pointer, a quick drag, a 1 s rest, the release).
 # mrcs:   cornell-glossy at 512x512, 100,000 lights, MRCS 300 rows / 900
-#         clusters, one light set: the time to the first picture (the complete
-#         VSL image; VPL's columns follow), the session's stage timings, the
-#         studio's CPU seconds then and the load average.
+#         clusters, the studio's default 8 light sets (LIGHT_SETS=1 for one):
+#         the time to the first picture (the first set's complete VSL image,
+#         100,000 VSLs; VPL's columns follow), the session's stage timings,
+#         the studio's CPU seconds then and the load average. Each MRCS set
+#         renders its share of the 64 direct-light samples per pixel (8 of 8).
 # Run on an idle machine; prints the log lines and saves a screenshot (mrcs:
 # also one at the first picture, mrcs-first.png).
 set -uo pipefail
@@ -27,7 +29,7 @@ openbox >/dev/null 2>&1 &
 sleep 1
 if [ "$mode" = mrcs ]; then
   "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 512 --lights 100000 \
-    --mrcs 300,900 --light-sets 1 >"$out/studio.log" 2>&1 &
+    --mrcs 300,900 --light-sets "${LIGHT_SETS:-8}" >"$out/studio.log" 2>&1 &
   pid=$!
   for _ in $(seq 1 1500); do sleep 0.2; grep -q "first picture" "$out/studio.log" && break; done
   # utime + stime of every thread (exited ones included), in clock ticks.

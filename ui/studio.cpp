@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
@@ -1291,8 +1292,11 @@ void Studio::metricsSummary(const Snapshot& s, bool stale) {
     ImGui::TextColored(ImVec4(1, 0.75f, 0.2f, 1), "[stale]");
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("These numbers belong to the previous settings");
   }
-  ImGui::TextWrapped("gather %.2f M pairs/s  tracing %.2f s  k-NN %.2f s  non-finite %llu", s.pairsPerSecond * 1e-6,
-                     s.lightTracingSeconds, s.knnSeconds, (unsigned long long)s.nonFinite);
+  // No gather time yet (an MRCS step counts its pairs when it ends): no rate.
+  char rate[32] = "-";
+  if (s.gatherSeconds > 0) std::snprintf(rate, sizeof rate, "%.2f", s.pairsPerSecond * 1e-6);
+  ImGui::TextWrapped("gather %s M pairs/s  tracing %.2f s  k-NN %.2f s  non-finite %llu", rate, s.lightTracingSeconds,
+                     s.knnSeconds, (unsigned long long)s.nonFinite);
   ImGui::TextWrapped("UI frame %.1f ms  change -> picture %.0f ms  launch -> picture %.0f ms", lastFrameMs_,
                      restartToPictureMs_, launchToPictureMs_);
   ImGui::PopTextWrapPos();

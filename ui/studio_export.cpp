@@ -262,6 +262,8 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"seed", m.seed},
           {"batches", m.batches},
           {"directSamples", m.directSamples},
+          {"directSamplesPerLightSet",
+           lightSetSettings(m, s.settings.estimator, 0, s.settings.lightSets).many.directSamples},
           {"lightMaxDepth", m.lightMaxDepth},
           {"maxReferenceSpp", s.settings.maxReferenceSpp},
           {"lightSets", s.settings.lightSets},
