@@ -152,7 +152,17 @@ bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry
 }
 
 void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo,
-                           uint8_t* visible, ConnectScratch& scratch, GatherCounters& c) const {
+                           uint8_t* visible, ConnectScratch& scratch, GatherCounters& c,
+                           std::span<const uint8_t> known) const {
+  if (!known.empty()) {
+    VSL_CHECK_EQ(known.size(), gps.size());
+    Ray unused;
+    for (size_t i = 0; i < gps.size(); ++i) {
+      bool needsRay = false;
+      visible[i] = known[i] && gps[i] && orient(*gps[i], L, geo[i], unused, needsRay, c);
+    }
+    return;
+  }
   scratch.rays.resize(gps.size());
   scratch.rayOf.resize(gps.size());
   size_t nRays = 0;

@@ -93,14 +93,17 @@ class Gatherer {
   // of one call per ray when the points are neighbouring pixels). Sets
   // visible[i] and, where it is set, geo[i], exactly as connect(*gps[i], L,
   // geo[i], c) would (a null gps[i] is not visible); the counters add up the
-  // same. `scratch` holds the rays between calls (any thread's own).
+  // same. `scratch` holds the rays between calls (any thread's own). With
+  // `known` (one entry per point: an earlier call's visible[i] for the same
+  // light), no ray is traced: a pair is visible where it passes the
+  // orientation tests and known[i] is set.
   struct ConnectScratch {
     std::vector<Ray> rays;
     std::vector<uint32_t> rayOf;
     std::vector<uint8_t> blocked;
   };
   void connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo, uint8_t* visible,
-                   ConnectScratch& scratch, GatherCounters& c) const;
+                   ConnectScratch& scratch, GatherCounters& c, std::span<const uint8_t> known = {}) const;
   // Both transfers of a connected pair: evaluate() after connect().
   void addConnected(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId,
                     uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const {

@@ -403,47 +403,54 @@ std::vector<size_t> pickRows(const MrcsJob& job, int rows, Rng& rng) {
   return rowPix;
 }
 
-void reducedColumns(MrcsJob& job, const std::vector<size_t>& rowPix, std::vector<float>& colVsl,
-                    std::vector<float>& colVpl) {
+// One method's reduced columns (`gatherer`'s `layer`) into col. Each light
+// meets all the rows' gather points at once, its shadow rays traced as one
+// batch (they share the light's end). With `reuse` false the rays are traced
+// and, if `visibility` is given, their outcomes kept in it (a bit per light
+// and row point); with `reuse` true the kept outcomes stand in for the rays,
+// so that a second method's rows cost no ray and count no pair again.
+void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std::vector<size_t>& rowPix,
+                    std::vector<float>& col, std::vector<uint8_t>* visibility, bool reuse) {
   const int R = int(rowPix.size());
-  colVsl.assign(job.doVsl ? job.N * R : 0, 0.0f);
-  colVpl.assign(job.doVpl ? job.N * R : 0, 0.0f);
-  job.begin(MrcsProgress::kRows, job.N);
-  // Each light against all the rows' gather points, its shadow rays traced
-  // as one batch (they share the light's end).
+  col.assign(job.N * size_t(R), 0.0f);
   std::vector<const GatherPoint*> pts(size_t(R) * kMaxGatherPoints, nullptr);
   for (int r = 0; r < R; ++r) {
     const EyeSample& es = job.gps[rowPix[r]];
     for (int k = 0; k < es.count; ++k)
       if (es.points[k].valid) pts[size_t(r) * kMaxGatherPoints + size_t(k)] = &es.points[k];
   }
+  const size_t bytesPerLight = (pts.size() + 7) / 8;
+  if (visibility && !reuse) visibility->assign(job.N * bytesPerLight, 0);
   parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
     GatherCounters cnt;
     std::vector<PairGeometry> geo(pts.size());
-    std::vector<uint8_t> visible(pts.size());
+    std::vector<uint8_t> visible(pts.size()), known(reuse ? pts.size() : 0);
     std::vector<double> acc(size_t(R) * kGatherLayers * 3);
     Gatherer::ConnectScratch scratch;
     for (size_t j = j0; j < j1; ++j) {
       if (job.stopped()) return;
-      job.both->connectMany(pts, job.gl[j], geo.data(), visible.data(), scratch, cnt);
+      uint8_t* bits = visibility ? &(*visibility)[j * bytesPerLight] : nullptr;
+      if (reuse)
+        for (size_t i = 0; i < pts.size(); ++i) known[i] = (bits[i / 8] >> (i % 8)) & 1;
+      gatherer.connectMany(pts, job.gl[j], geo.data(), visible.data(), scratch, cnt, known);
+      if (bits && !reuse)
+        for (size_t i = 0; i < pts.size(); ++i) bits[i / 8] |= uint8_t(visible[i] << (i % 8));
       std::fill(acc.begin(), acc.end(), 0.0);
       auto accOf = [&](int r) { return reinterpret_cast<double(*)[3]>(&acc[size_t(r) * kGatherLayers * 3]); };
       for (size_t i = 0; i < pts.size(); ++i) {
         if (!visible[i]) continue;
         const int r = int(i / kMaxGatherPoints), k = int(i % kMaxGatherPoints);
-        job.both->addConnected(*pts[i], job.gl[j], geo[i], j, gatherStream(rowPix[r], k), accOf(r), cnt);
+        gatherer.addConnected(*pts[i], job.gl[j], geo[i], j, gatherStream(rowPix[r], k), accOf(r), cnt);
       }
       for (int r = 0; r < R; ++r) {
-        auto lum = [&](int layer) {
-          const double* a = accOf(r)[layer];
-          return float(0.2126 * a[0] + 0.7152 * a[1] + 0.0722 * a[2]);
-        };
-        if (job.doVsl) colVsl[j * R + r] = lum(kVslLayer);
-        if (job.doVpl) colVpl[j * R + r] = lum(job.vplLayer);
+        const double* a = accOf(r)[layer];
+        col[j * R + r] = float(0.2126 * a[0] + 0.7152 * a[1] + 0.0722 * a[2]);
       }
     }
-    job.advance(j1 - j0);
-    job.pairs.fetch_add(cnt.pairs);
+    if (!reuse) {
+      job.advance(j1 - j0);
+      job.pairs.fetch_add(cnt.pairs);
+    }
   });
 }
 
@@ -543,8 +550,15 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
   const std::vector<size_t> rowPix = pickRows(job, mrcs.rows, rng);
   const int R = int(rowPix.size());
+  // VSL's rows first, keeping their rays' outcomes for VPL's rows, which
+  // wait until the VSL image is out (with VPL alone, its rows trace them).
   std::vector<float> colVsl, colVpl;
-  reducedColumns(job, rowPix, colVsl, colVpl);
+  std::vector<uint8_t> rowVisibility;
+  job.begin(MrcsProgress::kRows, job.N);
+  if (job.doVsl)
+    reducedColumns(job, *job.vslOnly, kVslLayer, rowPix, colVsl, job.doVpl ? &rowVisibility : nullptr, false);
+  else if (job.doVpl)
+    reducedColumns(job, *job.vplOnly, job.vplLayer, rowPix, colVpl, nullptr, false);
   res.rowSeconds = clock.lap();
   if (job.stopped()) {
     res.stopped = true;
@@ -581,6 +595,11 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
       *img = Image(job.W, job.H);
     progress->onVslImage(vslImages);
     clock.lap();  // the caller's time, not MRCS's
+  }
+  if (job.doVsl && job.doVpl && !job.stopped()) {
+    reducedColumns(job, *job.vplOnly, job.vplLayer, rowPix, colVpl, &rowVisibility, true);
+    rowVisibility = {};
+    res.rowSeconds += clock.lap();
   }
   if (job.doVpl && !job.stopped()) {
     repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);

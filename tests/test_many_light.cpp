@@ -781,7 +781,8 @@ TEST(ManyLight, NoLightThroughThinSheets) {
 // rays traced as one batch) agrees with connect() pair by pair: the same
 // visibility, the same geometry and the same counters, on kitchen's gather
 // points of neighbouring pixels (coherent batches, as the gathers use) and
-// on scattered ones, with null entries for points that do not exist.
+// on scattered ones, with null entries for points that do not exist; and
+// with the outcomes of an earlier call given instead of tracing.
 TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
   Loaded l = loadAsset("kitchen", 64);
   ASSERT_TRUE(l.context);
@@ -834,6 +835,17 @@ TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
       }
       EXPECT_EQ(batched.pairs, single.pairs);
       EXPECT_EQ(batched.shadowRays, single.shadowRays);
+      // Kept outcomes stand in for the rays (MRCS's second method's rows):
+      // the same pairs, none traced.
+      std::vector<uint8_t> again(pts->size());
+      std::vector<PairGeometry> geo2(pts->size());
+      GatherCounters reused;
+      g.connectMany(*pts, L, geo2.data(), again.data(), scratch, reused, visible);
+      EXPECT_EQ(again, visible);
+      for (size_t i = 0; i < pts->size(); ++i)
+        if (again[i]) {
+          EXPECT_EQ(geo2[i].d2, geo[i].d2);
+        }
     }
   std::printf("%zu visible and %zu rejected pairs agree\n", visibleSeen, blockedSeen);
   EXPECT_GT(visibleSeen, 10000u);

@@ -495,12 +495,12 @@ TEST(Session, MrcsLightSetsAverageIndependentMrcsRenders) {
   EXPECT_GT(snap->pairs, 0u);
   Loaded l("cornell-glossy");
   std::vector<ManyLightImages> renders;
-  for (uint64_t k = 0; k < 2; ++k) {
-    ManyLightSettings m = s.many;
-    m.seed = s.many.seed + k;
-    MrcsSettings mrcs = s.estimator.mrcs;
-    mrcs.seed = m.seed;
-    renders.push_back(l.renderWithMrcs(m, mrcs));
+  for (int k = 0; k < 2; ++k) {
+    const LightSetSettings set = lightSetSettings(s.many, s.estimator, k, s.lightSets);
+    EXPECT_EQ(set.many.seed, s.many.seed + uint64_t(k));
+    EXPECT_EQ(set.estimator.mrcs.seed, set.many.seed);
+    EXPECT_EQ(set.many.directSamples, (s.many.directSamples + 1) / 2) << "each set its share of the direct samples";
+    renders.push_back(l.renderWithMrcs(set.many, set.estimator.mrcs));
   }
   EXPECT_NE(renders[0].vsl.rgb, renders[1].vsl.rgb) << "independent sets";
   auto layer = [&](Image ManyLightImages::*which) {
@@ -545,9 +545,8 @@ TEST(Session, MrcsPublishesTheVslPictureBeforeTheVplColumns) {
   ASSERT_GE(published.size(), 3u);
 
   Loaded l("cornell-glossy");
-  MrcsSettings mrcs = s.estimator.mrcs;
-  mrcs.seed = s.many.seed;
-  const ManyLightImages want = l.renderWithMrcs(s.many, mrcs);
+  const LightSetSettings set0 = lightSetSettings(s.many, s.estimator, 0, s.lightSets);
+  const ManyLightImages want = l.renderWithMrcs(set0.many, set0.estimator.mrcs);
   // The first snapshot: the first set's VSL picture, VPL still to come.
   const Snapshot& first = *published[0];
   EXPECT_EQ(first.generation, g);
