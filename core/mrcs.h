@@ -21,8 +21,11 @@
 // Clustering distances use a 32-dimensional random projection of the reduced
 // columns (Johnson-Lindenstrauss) to keep the cost at O(N C 32).
 // VSL and VPL (the clamped, chosen-emission variant) are clustered separately,
-// from rows they share; VSL's clustering and columns come first, so that its
-// image is complete (MrcsProgress::onVslImage) before VPL's are begun.
+// from the same rows: VSL's rows, clustering and columns come first, so that
+// its image is complete (MrcsProgress::onVslImage) before VPL's are begun;
+// VPL's rows then reuse the visibility VSL's rows traced. Shadow rays go to
+// Embree in coherent batches (Gatherer::connectMany): a light against all
+// the rows' points, a representative against an image row.
 #pragma once
 
 #include <atomic>
@@ -59,8 +62,8 @@ struct MrcsSettings {
 
 struct MrcsResult {
   ManyLightImages images;  // direct, vsl, vpl; the other layers stay black
-  // Wall time of the stages (clustering and columns: both methods'; the
-  // time spent in MrcsProgress::onVslImage is in none of them).
+  // Wall time of the stages (rows, clustering and columns: both methods';
+  // the time spent in MrcsProgress::onVslImage is in none of them).
   double eyeSeconds = 0, rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
   double vslColumnSeconds = 0;  // VSL's share of columnSeconds
   uint64_t pairs = 0;
@@ -73,9 +76,11 @@ struct MrcsResult {
 // counted in its own units (image rows for the eye paths and the columns,
 // lights for the rows); clustering has no count. overall() weighs the stages
 // by the work plan() recorded when the render began.
-// With both methods, the columns stage renders VSL's columns first, then
-// clusters VPL's reduced columns and renders VPL's: the VSL image is complete
-// halfway through it, and is handed to onVslImage before VPL's work begins.
+// With both methods, the rows stage computes VSL's rows only, and the
+// columns stage renders VSL's columns first, then computes VPL's rows (from
+// the visibility VSL's rows kept: no rays, no progress counted), clusters
+// them and renders VPL's columns: the VSL image is complete halfway through
+// it, and is handed to onVslImage before VPL's work begins.
 struct MrcsProgress {
   enum Stage : int { kIdle, kEyePaths, kRows, kClustering, kColumns, kDone };
   // A render's size, from which its stages' weights follow.
