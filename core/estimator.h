@@ -18,8 +18,9 @@
 // k's settings so that the studio and the sweep agree on them.
 //
 // Thread-safety: an estimator is driven from one thread; step() itself runs
-// in parallel (parallel.h). Its stop flag is checked between tiles and
-// blocks of lights (brute force) and between MRCS's stages and tiles.
+// in parallel (parallel.h). Its stop flag is checked every 16 lights within
+// a tile (brute force), and per light (rows) and per representative and
+// image row (columns) in MRCS.
 #pragma once
 
 #include <atomic>
@@ -71,8 +72,10 @@ struct EstimatorSettings {
 // MRCS seeded with the set's seed. An MRCS set also gets its share of the
 // direct-light samples, ceil(base.directSamples / sets): MRCS renders a set's
 // direct light in one step before its picture (at 512x512, 64 samples per
-// pixel took 4 s of a 27 s first picture), where brute force spreads them
-// over its batches; the mean of all sets then has base.directSamples or more.
+// pixel took 4.6 s of a 27 s first picture), where brute force spreads them
+// over its batches; the mean of `sets` sets then has base.directSamples or
+// more. The studio fixes `sets` when a render begins (a later change of the
+// set count keeps each set's share).
 // Both the studio's Session and tests use it.
 struct LightSetSettings {
   ManyLightSettings many;

@@ -156,10 +156,12 @@ void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const Gather
                            std::span<const uint8_t> known) const {
   if (!known.empty()) {
     VSL_CHECK_EQ(known.size(), gps.size());
+    // The pairs and rays were counted when known[] was traced.
+    GatherCounters uncounted;
     Ray unused;
     for (size_t i = 0; i < gps.size(); ++i) {
       bool needsRay = false;
-      visible[i] = known[i] && gps[i] && orient(*gps[i], L, geo[i], unused, needsRay, c);
+      visible[i] = known[i] && gps[i] && orient(*gps[i], L, geo[i], unused, needsRay, uncounted);
     }
     return;
   }

@@ -95,7 +95,8 @@ class Gatherer {
   // geo[i], c) would (a null gps[i] is not visible); the counters add up the
   // same. `scratch` holds the rays between calls (any thread's own). With
   // `known` (one entry per point: an earlier call's visible[i] for the same
-  // light), no ray is traced: a pair is visible where it passes the
+  // light), no ray is traced and nothing is counted (the earlier call
+  // counted the pairs and rays): a pair is visible where it passes the
   // orientation tests and known[i] is set.
   struct ConnectScratch {
     std::vector<Ray> rays;

@@ -2,6 +2,7 @@
 //           [5] images  [6] prepareManyLights
 #include "core/many_light.h"
 
+#include <algorithm>
 #include <chrono>
 #include <mutex>
 #include <numeric>
@@ -227,49 +228,60 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   // Each light against the tile's gather points in three timed parts: the
   // shared connection (orientation, the batch of shadow rays), then VPL's
   // and VSL's own transfers, so that each method is charged its own time
-  // (three clock reads per light and tile). Each pixel adds the lights in
-  // order, as a pixel-by-pixel loop would.
-  const size_t np = size_t(n) * kMaxGatherPoints;
-  std::vector<const GatherPoint*> pts(np, nullptr);
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < gps[size_t(i)].count; ++k)
-      if (gps[size_t(i)].points[k].valid) pts[size_t(i) * kMaxGatherPoints + size_t(k)] = &gps[size_t(i)].points[k];
-  std::vector<PairGeometry> geo(np);
-  std::vector<uint8_t> visible(np);
-  std::vector<uint32_t> list(np);
+  // (three clock reads per light and tile). A pixel adds what it gathers in
+  // the order it always has, block of kOrderBlock lights by block: its first
+  // gather point's lights, then its split-off point's (ManyLightSettings::
+  // splitAlpha), so the sums are those of a pixel-by-pixel loop.
+  constexpr size_t kOrderBlock = 256;
+  std::vector<const GatherPoint*> pts[kMaxGatherPoints];
+  bool any[kMaxGatherPoints] = {};
+  for (int k = 0; k < kMaxGatherPoints; ++k) {
+    pts[k].assign(size_t(n), nullptr);
+    for (int i = 0; i < n; ++i)
+      if (k < gps[size_t(i)].count && gps[size_t(i)].points[k].valid) {
+        pts[k][size_t(i)] = &gps[size_t(i)].points[k];
+        any[k] = true;
+      }
+  }
+  const size_t tilePoints = static_cast<size_t>(n);
+  std::vector<PairGeometry> geo(tilePoints);
+  std::vector<uint8_t> visible(tilePoints);
+  std::vector<uint32_t> list(tilePoints);
   Gatherer::ConnectScratch scratch;
   double vplOwn = 0, vslOwn = 0;
-  for (size_t l = 0; l < nb; ++l) {
-    // A restart waits for at most 16 lights against the tile.
-    if (l % 16 == 0 && stop && stop->load(std::memory_order_relaxed)) {
-      batch.abandoned = true;
-      return;
-    }
-    const GatherLight& L = batch.lights[l];
-    gatherer.connectMany(pts, L, geo.data(), visible.data(), scratch, c);
-    size_t nv = 0;
-    for (size_t i = 0; i < np; ++i)
-      if (visible[i]) list[nv++] = uint32_t(i);
-    // No point sees the light: no transfer to time (a clock read costs
-    // ~30 ns).
-    if (nv == 0) continue;
-    Stopwatch own;
-    if (settings_.computeVpl) {
-      for (size_t v = 0; v < nv; ++v) {
-        const size_t i = list[v];
-        gatherer.addVpl(*pts[i], L, geo[i], acc[i / kMaxGatherPoints].v, c);
+  size_t checked = 0;
+  for (size_t l0 = 0; l0 < nb; l0 += kOrderBlock)
+    for (int k = 0; k < kMaxGatherPoints; ++k) {
+      if (!any[k]) continue;
+      for (size_t l = l0; l < std::min(nb, l0 + kOrderBlock); ++l) {
+        // A restart waits for at most 16 lights against the tile.
+        if (checked++ % 16 == 0 && stop && stop->load(std::memory_order_relaxed)) {
+          batch.abandoned = true;
+          return;
+        }
+        const GatherLight& L = batch.lights[l];
+        gatherer.connectMany(pts[k], L, geo.data(), visible.data(), scratch, c);
+        size_t nv = 0;
+        for (size_t i = 0; i < tilePoints; ++i)
+          if (visible[i]) list[nv++] = uint32_t(i);
+        // No point sees the light: no transfer to time (a clock read costs
+        // ~30 ns).
+        if (nv == 0) continue;
+        Stopwatch own;
+        if (settings_.computeVpl) {
+          for (size_t v = 0; v < nv; ++v) gatherer.addVpl(*pts[k][list[v]], L, geo[list[v]], acc[list[v]].v, c);
+          vplOwn += own.lap();
+        }
+        if (settings_.computeVsl) {
+          for (size_t v = 0; v < nv; ++v) {
+            const size_t i = list[v];
+            gatherer.addVsl(*pts[k][i], L, geo[i], order_[batch.begin + l], gatherStream(pixelOf(int(i)), k), acc[i].v,
+                            c);
+          }
+          vslOwn += own.seconds();
+        }
       }
-      vplOwn += own.lap();
     }
-    if (settings_.computeVsl) {
-      for (size_t v = 0; v < nv; ++v) {
-        const size_t i = list[v];
-        const uint64_t stream = gatherStream(pixelOf(int(i / kMaxGatherPoints)), int(i % kMaxGatherPoints));
-        gatherer.addVsl(*pts[i], L, geo[i], order_[batch.begin + l], stream, acc[i / kMaxGatherPoints].v, c);
-      }
-      vslOwn += own.seconds();
-    }
-  }
   for (int i = 0; i < n; ++i) {
     const auto& a = acc[size_t(i)].v;
     for (int k = 0; k < kGatherLayers; ++k)

@@ -336,7 +336,7 @@ namespace {
 
 // What the MRCS stages share: the image, the light set decoded for
 // gathering, one gather point set per pixel, and the three gatherers (both
-// estimators for the rows, each alone for its own columns).
+// estimators for the eye paths, each alone for its own rows and columns).
 struct MrcsJob {
   int W = 0, H = 0;
   size_t N = 0;

@@ -93,7 +93,7 @@ struct MrcsProgress {
   std::atomic<int> stage{kIdle};
   std::atomic<uint64_t> done{0}, total{0};
   // Optional: called by renderMrcs on its calling thread once the VSL image
-  // is complete and VPL's clustering and columns are still to come (only when
+  // is complete and VPL's rows, clustering and columns are still to come (only when
   // both methods are rendered, and not once stopped), with the direct and vsl
   // layers set and the others black. No render thread runs meanwhile, and
   // VPL's work waits for it to return (the studio renders a reference pass

@@ -74,6 +74,10 @@ struct Session::Job {
   int set = 0;
   std::unique_ptr<ManyLightEstimator> ml;  // the set in progress (it owns its lights), if any
   int batch = 0;
+  // The set count the render began with: each MRCS set's share of the direct
+  // samples follows it (lightSetSettings) and stays fixed if the count
+  // changes later, so that every set's direct light has as many samples.
+  int directShareSets = 1;
   // The completed sets: their count, work, per-pixel sums (double, in set
   // order) and the indirect images of each (biasVariance needs them all).
   int setsDone = 0;
@@ -420,6 +424,7 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
 std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& s) {
   auto job = std::make_unique<Job>();
   job->settings = s;
+  job->directShareSets = s.lightSets;
   job->clock.reset();
   if (!prepareSet(w, *job)) return nullptr;
   job->width = job->ml->width();
@@ -451,7 +456,7 @@ bool Session::prepareSet(Worker& w, Job& job) {
   const StudioSettings& s = job.settings;
   job.ml.reset();
   job.batch = 0;
-  const LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set, s.lightSets);
+  const LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set, job.directShareSets);
   const ManyLightSettings& many = set.many;
   const Scene& scene = w.ctx->scene();
   setStage("tracing lights", many.lights);
@@ -758,6 +763,8 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   });
   snap->lightSets = job.settings.lightSets;
   snap->lightSetsDone = job.setsDone;
+  snap->directSamplesPerSet =
+      lightSetSettings(job.settings.many, job.settings.estimator, 0, job.directShareSets).many.directSamples;
   snap->ptSpp = ref.spp();
   // Work over every set: the completed ones and the one in progress.
   ManyLightStats none;

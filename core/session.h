@@ -124,6 +124,7 @@ struct Snapshot {
   ManyLightImages many;
   int lightSets = 1;                              // asked for (settings.lightSets)
   int lightSetsDone = 0;                          // completed: `many` is their mean
+  int directSamplesPerSet = 0;                    // each set's direct-light samples (lightSetSettings)
   BiasNoise biasNoise[int(BiasNoiseRow::Count)];  // the path tracer's against a converged reference only
   Image ptDirect, ptIndirect;                     // the live path tracer (mean of its two halves)
   int ptSpp = 0;

@@ -842,6 +842,8 @@ TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
       GatherCounters reused;
       g.connectMany(*pts, L, geo2.data(), again.data(), scratch, reused, visible);
       EXPECT_EQ(again, visible);
+      EXPECT_EQ(reused.pairs, 0u);
+      EXPECT_EQ(reused.shadowRays, 0u);
       for (size_t i = 0; i < pts->size(); ++i)
         if (again[i]) {
           EXPECT_EQ(geo2[i].d2, geo[i].d2);

@@ -367,8 +367,9 @@ TEST(MrcsClustering, LightSetSettingsSeedAndShrinkEachSet) {
   EXPECT_EQ(k3.many.radiusScale, 2.0f);
   // MRCS spreads the direct-light samples over the sets (at least one each,
   // at least the asked total); brute force keeps them all in every set.
+  m.directSamples = 24;
+  EXPECT_EQ(lightSetSettings(m, e, 0).many.directSamples, 24) << "one set";
   m.directSamples = 64;
-  EXPECT_EQ(k0.many.directSamples, m.directSamples) << "one set";
   EXPECT_EQ(lightSetSettings(m, e, 2, 8).many.directSamples, 8);
   EXPECT_EQ(lightSetSettings(m, e, 2, 6).many.directSamples, 11);
   EXPECT_EQ(lightSetSettings(m, e, 0, 100).many.directSamples, 1);

@@ -262,8 +262,7 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"seed", m.seed},
           {"batches", m.batches},
           {"directSamples", m.directSamples},
-          {"directSamplesPerLightSet",
-           lightSetSettings(m, s.settings.estimator, 0, s.settings.lightSets).many.directSamples},
+          {"directSamplesPerLightSet", s.directSamplesPerSet},
           {"lightMaxDepth", m.lightMaxDepth},
           {"maxReferenceSpp", s.settings.maxReferenceSpp},
           {"lightSets", s.settings.lightSets},
@@ -365,10 +364,14 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
           {"mean", r.average.meanTest}, {"rmse", r.average.rmse}, {"relMSE", r.average.relMse}};
     }
   }
+  // The first light set as the CLI renders it (an MRCS set's share of the
+  // direct samples).
+  ManyLightSettings firstSet = s.settings.many;
+  if (s.directSamplesPerSet > 0) firstSet.directSamples = s.directSamplesPerSet;
   return {{"version", VSL_VERSION},
           {"scene", s.settings.scene},
           {"exportedUtc", utcStamp()},
-          {"replay", "vsl render " + s.settings.scene + " --method all " + s.settings.many.describe() +
+          {"replay", "vsl render " + s.settings.scene + " --method all " + firstSet.describe() +
                          (s.settings.estimator.kind == EstimatorKind::Mrcs
                               ? " --mrcs " + std::to_string(s.settings.estimator.mrcs.rows) + "," +
                                     std::to_string(s.settings.estimator.mrcs.clusters)
