@@ -49,6 +49,8 @@ struct EyeSample {
       if (points[k].valid) return true;
     return false;
   }
+  // Point k if it is used and valid, else null (the gather loops' entries).
+  const GatherPoint* point(int k) const { return k < count && points[k].valid ? &points[k] : nullptr; }
 };
 // The VSL quadrature stream of gather point k of a pixel (k = 0: the pixel).
 inline uint64_t gatherStream(uint64_t pixel, int k) { return k == 0 ? pixel : pixel ^ (uint64_t(k) << 48); }

@@ -237,11 +237,10 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   bool any[kMaxGatherPoints] = {};
   for (int k = 0; k < kMaxGatherPoints; ++k) {
     pts[k].assign(size_t(n), nullptr);
-    for (int i = 0; i < n; ++i)
-      if (k < gps[size_t(i)].count && gps[size_t(i)].points[k].valid) {
-        pts[k][size_t(i)] = &gps[size_t(i)].points[k];
-        any[k] = true;
-      }
+    for (int i = 0; i < n; ++i) {
+      pts[k][size_t(i)] = gps[size_t(i)].point(k);
+      any[k] = any[k] || pts[k][size_t(i)];
+    }
   }
   const size_t tilePoints = static_cast<size_t>(n);
   std::vector<PairGeometry> geo(tilePoints);

@@ -414,11 +414,9 @@ void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std
   const int R = int(rowPix.size());
   col.assign(job.N * size_t(R), 0.0f);
   std::vector<const GatherPoint*> pts(size_t(R) * kMaxGatherPoints, nullptr);
-  for (int r = 0; r < R; ++r) {
-    const EyeSample& es = job.gps[rowPix[r]];
-    for (int k = 0; k < es.count; ++k)
-      if (es.points[k].valid) pts[size_t(r) * kMaxGatherPoints + size_t(k)] = &es.points[k];
-  }
+  for (int r = 0; r < R; ++r)
+    for (int k = 0; k < kMaxGatherPoints; ++k)
+      pts[size_t(r) * kMaxGatherPoints + size_t(k)] = job.gps[rowPix[r]].point(k);
   const size_t bytesPerLight = (pts.size() + 7) / 8;
   if (visibility && !reuse) visibility->assign(job.N * bytesPerLight, 0);
   parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
@@ -476,11 +474,9 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
     std::vector<uint8_t> visible(n);
     Gatherer::ConnectScratch scratch;
     const size_t row = y * size_t(job.W);
-    for (int x = 0; x < job.W; ++x) {
-      const EyeSample& es = job.gps[row + size_t(x)];
-      for (int g = 0; g < es.count; ++g)
-        if (es.points[g].valid) pts[size_t(x) * kMaxGatherPoints + size_t(g)] = &es.points[g];
-    }
+    for (int x = 0; x < job.W; ++x)
+      for (int g = 0; g < kMaxGatherPoints; ++g)
+        pts[size_t(x) * kMaxGatherPoints + size_t(g)] = job.gps[row + size_t(x)].point(g);
     for (size_t q = 0; q < reps.size(); ++q) {
       if (job.stopped()) return;
       const Representative& r = reps[q];
@@ -498,7 +494,7 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
       const EyeSample& es = job.gps[row + size_t(x)];
       Vec3 L = es.shared();
       for (int g = 0; g < es.count; ++g) {
-        if (!es.points[g].valid) continue;
+        if (!es.point(g)) continue;
         const double* s = &sums[3 * (size_t(x) * kMaxGatherPoints + size_t(g))];
         L += Vec3(float(s[0]), float(s[1]), float(s[2]));
       }

@@ -801,7 +801,7 @@ TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
     }
   Rng pick(3, 4);
   std::vector<const GatherPoint*> rowPts, scattered;
-  for (const EyeSample& es : eyes) rowPts.push_back(es.points[0].valid ? &es.points[0] : nullptr);
+  for (const EyeSample& es : eyes) rowPts.push_back(es.point(0));
   for (int i = 0; i < 300; ++i) {
     const EyeSample& es = eyes[pick.uniformInt(uint32_t(eyes.size()))];
     scattered.push_back(es.points[0].valid && i % 7 ? &es.points[0] : nullptr);
