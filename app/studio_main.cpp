@@ -56,6 +56,8 @@ struct Args {
   bool lightSetsGiven = false;
   float splitAlpha = ManyLightSettings().splitAlpha;  // lobe splitting (0 = off)
   bool splitAlphaGiven = false;
+  float lobeFloor = ManyLightSettings().lobeFloor;  // VSL lobe floor (0 = off)
+  bool lobeFloorGiven = false;
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -173,6 +175,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.batches = 16;
   o.settings.many.directSamples = 64;
   o.settings.many.splitAlpha = a.splitAlpha;
+  o.settings.many.lobeFloor = a.lobeFloor;
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -219,6 +222,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
   }
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
   if (a.splitAlphaGiven) s.many.splitAlpha = a.splitAlpha;
+  if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
   if (a.estimatorGiven) s.estimator = a.estimator;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
@@ -498,6 +502,11 @@ void addOptions(CLI::App& app, Args& a) {
                  "diffuse lobe and continue the eye path with the specular lobe; 0 = off (the \"split alpha\" control)")
       ->default_str(std::to_string(ManyLightSettings().splitAlpha))
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--lobe-floor", a.lobeFloor,
+                 "VSL: each light's GGX alpha at least F x the cone's half-angle (radians): narrow lights seen "
+                 "through wider cones light receivers as spheres, not beams; 0 = off (the \"lobe floor\" control)")
+      ->default_str("0")
+      ->check(CLI::Range(0.0, 100.0));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -560,6 +569,7 @@ int main(int argc, char** argv) {
   a.widthGiven = app.count("--width") > 0;
   a.lightSetsGiven = app.count("--light-sets") > 0;
   a.splitAlphaGiven = app.count("--split-alpha") > 0;
+  a.lobeFloorGiven = app.count("--lobe-floor") > 0;
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return 2;

@@ -50,6 +50,11 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                   "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")
       ->default_str("0")
       ->check(CLI::Range(0.0, 100.0));
+  cmd->add_option("--lobe-floor", m.lobeFloor,
+                  "VSL: each light's GGX alpha at least F x the cone's half-angle (radians), so a narrow light "
+                  "seen through a wider cone lights the receiver as a sphere, not a beam; 0 = off")
+      ->default_str("0")
+      ->check(CLI::Range(0.0, 100.0));
 }
 
 bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {

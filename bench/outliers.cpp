@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
   app.add_option("--alpha", alpha, "Narrow: GGX alpha (narrower axis) below this")->check(CLI::Range(0.0, 1.0));
   app.add_option("--list", list, "Print this many worst pixels")->check(CLI::Range(0, 10000));
   app.add_option("--split-alpha", s.splitAlpha, "Lobe splitting (as in vsl render)")->check(CLI::Range(0.0, 1.0));
+  app.add_option("--lobe-floor", s.lobeFloor, "Lobe floor (as in vsl render)")->check(CLI::Range(0.0, 100.0));
   app.add_option("--lobe-radius", s.lobeRadius, "Lobe-aware minimum radius (as in vsl render)")
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--radius-scale", s.radiusScale, "VSL radius scale (as in vsl render)")

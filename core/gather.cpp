@@ -28,6 +28,7 @@ Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& l
       continueAlpha_(settings.continueAlpha),
       splitAlpha_(settings.splitAlpha),
       lobeRadius_(settings.lobeRadius),
+      lobeFloor_(settings.lobeFloor),
       computeVsl_(computeVsl),
       computeVpl_(computeVpl),
       seed_(settings.seed) {}
@@ -216,7 +217,9 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   if (!computeVsl_) return;
   Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
   float radius = lobeRadius_ > 0 ? std::max(L.radius, lobeRadius_ * g.dist * L.alpha) : L.radius;
-  VslResult r = vslTransferBlock(gp.rx, L.em, g.d, radius, vsl_, prng);
+  VslEmitter floored;
+  const bool useFloor = vslLobeFloor(L.em, radius, g.dist, lobeFloor_, floored);
+  VslResult r = vslTransferBlock(gp.rx, useFloor ? floored : L.em, g.d, radius, vsl_, prng);
   c.vslEvaluations += uint64_t(r.evaluations);
   addLayer(acc, kVslLayer, gp.beta * L.Phi * r.transfer, c);
 }

@@ -138,7 +138,7 @@ class Gatherer {
   const LightSampler& lights_;
   float clamp_;
   VslOptions vsl_;
-  float continueAlpha_, splitAlpha_, lobeRadius_;
+  float continueAlpha_, splitAlpha_, lobeRadius_, lobeFloor_;
   bool computeVsl_, computeVpl_;
   uint64_t seed_;
 };

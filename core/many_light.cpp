@@ -42,6 +42,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "clamp: must be a number, 'auto' or 'off'";
   else if (!(lobeRadius >= 0 && lobeRadius <= 100))
     e << "lobe-radius: must be in [0,100] (got " << lobeRadius << ")";
+  else if (!(lobeFloor >= 0 && lobeFloor <= 100))
+    e << "lobe-floor: must be in [0,100] (got " << lobeFloor << ")";
   else if (!(continueAlpha >= 0 && continueAlpha <= 1))
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (!(splitAlpha >= 0 && splitAlpha <= 1))
@@ -73,6 +75,7 @@ std::string ManyLightSettings::describe() const {
   if (clippedDisk) s << " --clipped-disk";
   s << " --vsl-count " << (vslLobeSamples ? "lobe" : "authors");
   if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
+  if (lobeFloor > 0) s << " --lobe-floor " << lobeFloor;
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
   if (diffuseOnly) s << " --diffuse-vpl";

@@ -74,6 +74,12 @@ struct ManyLightSettings {
   // light's emission lobe (a VSL whose cone is narrower than that lobe is a
   // spiky unclamped VPL). Trades those spikes for blur.
   float lobeRadius = 0;
+  // Lobe floor (0 = off): a light's GGX lobe is at least lobeFloor x the
+  // cone's half-angle wide (alpha, radians) for each receiver, so that a
+  // narrow light seen through a wider cone lights the receiver as a sphere
+  // would, not as a beam (vslLobeFloor in vsl_integral.h). Trades the beams'
+  // spikes for blur of glossy-to-glossy reflections (docs/VSL-QUALITY.md).
+  float lobeFloor = 0;
   // Eye paths continue through pure metals whose GGX alpha is below this
   // along both axes, instead of gathering there (see "Gathering" above).
   // 0.02 (roughness < 0.14) by measurement: on cornell-glossy with a

@@ -37,6 +37,19 @@ double vslClippedDiskArea(double r, double h) {
   return r * r * (0.5 * M_PI + std::asin(t) + t * std::sqrt(1.0 - t * t));
 }
 
+bool vslLobeFloor(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
+  if (!(factor > 0)) return false;
+  const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
+  const float floor = float(std::min(1.0, factor * theta));
+  Brdf b = p.f.brdf();
+  if (!(b.ggx.ax < floor || b.ggx.ay < floor)) return false;
+  b.ggx.ax = std::max(b.ggx.ax, floor);
+  b.ggx.ay = std::max(b.ggx.ay, floor);
+  out.f = BrdfAt(b, p.f.w());
+  out.frame = p.frame;
+  return true;
+}
+
 namespace {
 
 // Marks a BRDF sample whose value and pdf are not evaluated yet (block form).

@@ -88,6 +88,19 @@ struct VslResult {
   int evaluations = 0;
 };
 
+// The lobe floor (a regularisation of the light's lobe, off unless asked
+// for): where a GGX axis of the light's BRDF is narrower than factor x theta
+// (alpha against the cone's half-angle theta in radians, asin(r/d), pi/2
+// inside the sphere; at most 1), out is the light with that axis widened to
+// it, and the result true; otherwise false and out untouched. A light whose
+// lobe is narrower than the cone lights a receiver like a beam from the
+// sphere (all its flux in a few degrees), so its contribution is a rare,
+// large spike; with the floor it spreads over about the cone, as a sphere's
+// worth of neighbouring lights with their own incoming directions would.
+// Biased, like the radius, and consistent like it: theta, and so the floor,
+// shrinks to zero with the radius (r -> 0 gives the unchanged light).
+bool vslLobeFloor(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
+
 // toLight = p - x. The scalar reference form.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                       const VslOptions& options, Rng& rng);

@@ -568,6 +568,7 @@ TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
            {render + " --exposure nan", "--exposure: must be a finite number (got 'nan')"},
            {render + " --exposure -inf", "--exposure: must be a finite number (got '-inf')"},
            {render + " --split-alpha nan", "--split-alpha: must be a finite number"},
+           {render + " --lobe-floor nan", "--lobe-floor: must be a finite number"},
            {render + " --radius-scale 1e999", "--radius-scale: must be a finite number (got '1e999')"},
            {"sweep " + scene("cornell-glossy") + " --radius-scale 1,nan -o " + file("nf-sweep"),
             "--radius-scale: must be a finite number (got 'nan')"}}) {
@@ -581,7 +582,7 @@ TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
   EXPECT_EQ(ok.code, 0) << ok.out;
   const std::string studio = std::string(VSL_BINARY_DIR) + "/bin/vsl-studio";
   if (!fs::exists(studio)) GTEST_SKIP() << "built without the UI";
-  for (const char* args : {"--after nan", "--split-alpha nan", "--progressive-radius nan"}) {
+  for (const char* args : {"--after nan", "--split-alpha nan", "--lobe-floor nan", "--progressive-radius nan"}) {
     Proc r = shell(studio + " --headless " + args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find("must be a finite number"), std::string::npos) << args << "\n" << r.out;

@@ -375,6 +375,82 @@ TEST(VslIntegralStats, LobeAwareCountIsSmallerForBroadLobesAndUnbiased) {
   }
 }
 
+// The lobe floor widens only lobes narrower than factor x the cone's
+// half-angle, to exactly that (at most 1), and vanishes with the radius, so
+// the VSL -> VPL limit is the same with it.
+TEST(VslIntegral, LobeFloorWidensNarrowLobesOnlyAndVanishesWithTheRadius) {
+  const Vec3 n(0, 0, 1), wi = normalize(Vec3(0.3f, 0, 1));
+  VslEmitter narrow = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.15f, 0), n, wi);  // alpha 0.0225
+  VslEmitter broad = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.8f, 0), n, wi);    // alpha 0.64
+  VslEmitter out;
+  ASSERT_TRUE(vslLobeFloor(narrow, 0.3, 1.0, 1.0, out));
+  EXPECT_FLOAT_EQ(out.f.brdf().ggx.ax, float(std::asin(0.3)));
+  EXPECT_FLOAT_EQ(out.f.brdf().ggx.ay, float(std::asin(0.3)));
+  EXPECT_EQ(out.f.brdf().metallic, 1.0f);
+  EXPECT_FLOAT_EQ(out.f.w().z, narrow.f.w().z);
+  EXPECT_FLOAT_EQ(out.frame.n.z, 1.0f);
+  ASSERT_TRUE(vslLobeFloor(narrow, 2.0, 1.0, 1.0, out));  // inside the sphere: pi/2, capped at 1
+  EXPECT_FLOAT_EQ(out.f.brdf().ggx.ax, 1.0f);
+  EXPECT_FALSE(vslLobeFloor(narrow, 0.3, 1.0, 0.0, out));   // off
+  EXPECT_FALSE(vslLobeFloor(broad, 0.3, 1.0, 1.0, out));    // already wider than the cone
+  EXPECT_FALSE(vslLobeFloor(narrow, 1e-3, 1.0, 1.0, out));  // r -> 0: the light unchanged
+  // An anisotropic lobe keeps its wide axis.
+  Brdf brushedBrdf = Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.15f, 0);
+  brushedBrdf.ggx.ax = 0.6f;
+  VslEmitter brushed = emitter(brushedBrdf, n, wi);
+  const Brdf& bb = brushed.f.brdf();
+  ASSERT_TRUE(vslLobeFloor(brushed, 0.2, 1.0, 1.0, out));
+  EXPECT_FLOAT_EQ(std::max(out.f.brdf().ggx.ax, out.f.brdf().ggx.ay), std::max(bb.ggx.ax, bb.ggx.ay));
+  EXPECT_FLOAT_EQ(std::min(out.f.brdf().ggx.ax, out.f.brdf().ggx.ay), float(std::asin(0.2)));
+}
+
+// What the floor is for: a narrow metal light seen through 11.5-degree cones
+// lights its receivers as a beam (most of its flux within a few degrees);
+// with the floor at 1 its peak transfer falls to under half, while the
+// transfer integrated over every direction around the light (its emitted
+// energy, for Lambertian receivers facing it) changes only as the widened
+// lobe's albedo does (GGX without multiple scattering loses some energy as
+// alpha grows): the two ratios agree within 2%.
+TEST(VslIntegralStats, LobeFloorSpreadsABeamAndKeepsItsEnergy) {
+  const Vec3 n(0, 0, 1);
+  VslEmitter p = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.15f, 0), n, normalize(Vec3(0.3f, 0, 1)));
+  const double D = 1.0, r = 0.2;
+  VslEmitter floored;
+  ASSERT_TRUE(vslLobeFloor(p, r, D, 1.0, floored));
+  const Brdf lambert = Brdf::fromGltf(Vec3(0.8f), 0.0f, 1.0f, 0);
+  const int nTheta = 60, nPhi = 120;
+  double energy[2] = {0, 0}, peak[2] = {0, 0};
+  for (int i = 0; i < nTheta; ++i)
+    for (int j = 0; j < nPhi; ++j) {
+      const double th = (i + 0.5) * 0.5 * M_PI / nTheta, ph = (j + 0.5) * 2 * M_PI / nPhi;
+      const Vec3 w(float(std::sin(th) * std::cos(ph)), float(std::sin(th) * std::sin(ph)), float(std::cos(th)));
+      VslReceiver x = receiver(lambert, -w, -w);  // at p + D w, facing p
+      const double dOmega = std::sin(th) * (0.5 * M_PI / nTheta) * (2 * M_PI / nPhi);
+      for (int k = 0; k < 2; ++k) {
+        Rng g(uint64_t(i * nPhi + j), 11);
+        const double t = vslTransfer(x, k ? floored : p, -w * float(D), r, {32}, g).transfer.y;
+        energy[k] += t * dOmega;
+        peak[k] = std::max(peak[k], t);
+      }
+    }
+  // The two lobes' albedos at the light's incoming direction, by sampling.
+  double albedo[2] = {0, 0};
+  const int nAlbedo = 400000;
+  for (int k = 0; k < 2; ++k) {
+    Rng g(5, 17);
+    const BrdfAt& f = k ? floored.f : p.f;
+    for (int i = 0; i < nAlbedo; ++i)
+      if (auto s = f.sample(g.uniform(), {g.uniform(), g.uniform()}); s && s->pdf > 0)
+        albedo[k] += double(s->f.y) * double(s->wi.z) / double(s->pdf) / nAlbedo;
+  }
+  std::printf("lobe floor: energy %.5g -> %.5g (albedo %.5g -> %.5g), peak transfer %.5g -> %.5g\n", energy[0],
+              energy[1], albedo[0], albedo[1], peak[0], peak[1]);
+  ASSERT_GT(energy[0], 0);
+  EXPECT_NEAR((energy[1] / energy[0]) / (albedo[1] / albedo[0]), 1.0, 0.02);
+  EXPECT_GT(energy[1] / energy[0], 0.9);
+  EXPECT_LT(peak[1], 0.5 * peak[0]);
+}
+
 // BRDF sampling restricted to the cone: the directions that land inside it
 // follow the BRDF pdf restricted to the cone (chi-square).
 TEST(VslIntegralStats, BrdfSamplingRestrictedToConeChiSquare) {

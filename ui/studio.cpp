@@ -614,6 +614,13 @@ bool Studio::virtualLightControls() {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
   errorField("lobe-radius");
+  changed |=
+      track("lobe-floor", ImGui::SliderFloat("lobe floor", &m.lobeFloor, 0.0f, 2.0f, m.lobeFloor > 0 ? "%.2f" : "off"));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "Each light's GGX alpha at least F x the cone's half-angle: narrow lights seen through wide cones "
+        "glow as spheres instead of beams (fewer speckles, blurrier glossy reflections).");
+  errorField("lobe-floor");
   return changed;
 }
 
@@ -1876,6 +1883,7 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"vslSamples", m.vslSamples},
                         {"clippedDisk", m.clippedDisk},
                         {"lobeRadius", m.lobeRadius},
+                        {"lobeFloor", m.lobeFloor},
                         {"continueAlpha", m.continueAlpha},
                         {"splitAlpha", m.splitAlpha},
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
@@ -1953,6 +1961,7 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     readField(js, "vslSamples", &m.vslSamples);
     readField(js, "clippedDisk", &m.clippedDisk);
     readField(js, "lobeRadius", &m.lobeRadius);
+    readField(js, "lobeFloor", &m.lobeFloor);
     readField(js, "continueAlpha", &m.continueAlpha);
     readField(js, "splitAlpha", &m.splitAlpha);
     if (js.contains("clamp"))
