@@ -75,7 +75,8 @@ struct ManyLightSettings {
   // spiky unclamped VPL). Trades those spikes for blur.
   float lobeRadius = 0;
   // Lobe floor (0 = off): a light's GGX lobe is at least lobeFloor x the
-  // cone's half-angle wide (alpha, radians) for each receiver, so that a
+  // half-angle of the cone to its own sphere wide (alpha, radians; at most
+  // kVslLobeFloorMaxAlpha) for each receiver, so that a
   // narrow light seen through a wider cone lights the receiver as a sphere
   // would, not as a beam (vslLobeFloor in vsl_integral.h). Trades the beams'
   // spikes for blur of glossy-to-glossy reflections (docs/VSL-QUALITY.md).

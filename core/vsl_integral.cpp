@@ -40,7 +40,7 @@ double vslClippedDiskArea(double r, double h) {
 bool vslLobeFloor(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
   if (!(factor > 0)) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
-  const float floor = float(std::min(1.0, factor * theta));
+  const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();
   if (!(b.ggx.ax < floor || b.ggx.ay < floor)) return false;
   b.ggx.ax = std::max(b.ggx.ax, floor);

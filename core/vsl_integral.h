@@ -91,8 +91,10 @@ struct VslResult {
 // The lobe floor (a regularisation of the light's lobe, off unless asked
 // for): where a GGX axis of the light's BRDF is narrower than factor x theta
 // (alpha against the cone's half-angle theta in radians, asin(r/d), pi/2
-// inside the sphere; at most 1), out is the light with that axis widened to
-// it, and the result true; otherwise false and out untouched. A light whose
+// inside the sphere; at most kVslLobeFloorMaxAlpha), out is the light with
+// that axis widened to it, and the result true; otherwise false and out
+// untouched. p.f must be a whole BRDF (an emitter always is): the widened
+// one is rebuilt from p.f.brdf() and would lose a lobe restriction. A light whose
 // lobe is narrower than the cone lights a receiver like a beam from the
 // sphere (all its flux in a few degrees), so its contribution is a rare,
 // large spike; with the floor it spreads over about the cone, as a sphere's
@@ -100,6 +102,11 @@ struct VslResult {
 // Biased, like the radius, and consistent like it: theta, and so the floor,
 // shrinks to zero with the radius (r -> 0 gives the unchanged light).
 bool vslLobeFloor(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
+// The floor's bound: GGX without multiple scattering loses energy as alpha
+// grows (a white-ish metal reflects 0.90 of its light at alpha 0.02 and 0.70
+// at 0.4), so receivers near or inside a sphere, whose cones are wide, would
+// see a darkened light; 0.3 covers hall's 17-degree cones.
+constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 
 // toLight = p - x. The scalar reference form.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,

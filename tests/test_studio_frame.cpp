@@ -752,7 +752,7 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   std::filesystem::create_directories(dir);
   const std::string common = "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " +
                              dir + "/out --split-alpha ";
-  StudioRun r = runStudio(dir + "/config", common + "0.05");
+  StudioRun r = runStudio(dir + "/config", common + "0.05 --lobe-floor 1");
   ASSERT_EQ(r.code, 0) << r.out;
   int exports = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir + "/out")) {
@@ -760,6 +760,7 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
     ASSERT_TRUE(js) << e.path();
     const std::string replay = nlohmann::json::parse(js)["replay"].get<std::string>();
     EXPECT_NE(replay.find("--split-alpha 0.05"), std::string::npos) << replay;
+    EXPECT_NE(replay.find("--lobe-floor 1"), std::string::npos) << replay;
     ++exports;
   }
   EXPECT_EQ(exports, 1);
