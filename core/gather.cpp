@@ -220,7 +220,7 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   // The floor follows the light's own radius, not the lobe-aware one (which
   // does not shrink with the light count), so that it vanishes as r does.
   VslEmitter floored;
-  const bool useFloor = vslLobeFloor(L.em, L.radius, g.dist, lobeFloor_, floored);
+  const bool useFloor = vslLobeFloor(gp.rx, L.em, L.radius, g.dist, lobeFloor_, floored);
   VslResult r = vslTransferBlock(gp.rx, useFloor ? floored : L.em, g.d, radius, vsl_, prng);
   c.vslEvaluations += uint64_t(r.evaluations);
   addLayer(acc, kVslLayer, gp.beta * L.Phi * r.transfer, c);

@@ -146,6 +146,8 @@ class BrdfAt {
   // positive and finite (callers that evaluate in blocks do those later).
   bool sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const;
   float specularProbability() const { return ps_; }
+  // False for a BRDF restricted to its diffuse lobe (diffuseLobe()).
+  bool specularOn() const { return specularOn_; }
   // An upper bound of pdf(wi) over all directions wi.
   float pdfBound() const { return pdfBound_; }
 

@@ -37,8 +37,10 @@ double vslClippedDiskArea(double r, double h) {
   return r * r * (0.5 * M_PI + std::asin(t) + t * std::sqrt(1.0 - t * t));
 }
 
-bool vslLobeFloor(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
+bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
   if (!(factor > 0)) return false;
+  const GGX& rx = x.f.brdf().ggx;
+  if (x.f.specularOn() && std::min(rx.ax, rx.ay) < kVslLobeFloorMinReceiverAlpha) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
   const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();

@@ -101,12 +101,23 @@ struct VslResult {
 // worth of neighbouring lights with their own incoming directions would.
 // Biased, like the radius, and consistent like it: theta, and so the floor,
 // shrinks to zero with the radius (r -> 0 gives the unchanged light).
-bool vslLobeFloor(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
+// Receivers whose gathered lobe is narrower than kVslLobeFloorMinReceiverAlpha
+// on either GGX axis see the light unchanged (see below).
+bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
 // The floor's bound: GGX without multiple scattering loses energy as alpha
 // grows (a white-ish metal reflects 0.90 of its light at alpha 0.02 and 0.70
 // at 0.4), so receivers near or inside a sphere, whose cones are wide, would
 // see a darkened light; 0.3 covers hall's 17-degree cones.
 constexpr float kVslLobeFloorMaxAlpha = 0.3f;
+// The floor's receivers: only those whose gathered lobe is at least this wide
+// on its narrower GGX axis (a receiver restricted to its diffuse lobe counts as
+// wide). A near-mirror receiver (a polished table, a brushed panel across its
+// brushing) sees a narrow light's beam as the reference does, a caustic of a
+// narrow chain of reflections; a widened light sends that chain's light where
+// the reference has none (tableau at 10,000 lights: indirect mean +12.8% and
+// median relMSE 0.49 -> 0.89 with the floor at every receiver; with this bound,
+// 0.49 unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
+constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
 
 // toLight = p - x. The scalar reference form.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,

@@ -376,14 +376,30 @@ TEST(VslIntegralStats, LobeAwareCountIsSmallerForBroadLobesAndUnbiased) {
 }
 
 // The lobe floor widens only lobes narrower than factor x the cone's
-// half-angle, to exactly that (at most 1), and vanishes with the radius, so
-// the VSL -> VPL limit is the same with it.
+// half-angle, to exactly that (at most kVslLobeFloorMaxAlpha), vanishes with
+// the radius, so the VSL -> VPL limit is the same with it, and leaves the light
+// unchanged for receivers whose gathered lobe is narrow on either axis.
 TEST(VslIntegral, LobeFloorWidensNarrowLobesOnlyAndVanishesWithTheRadius) {
   const Vec3 n(0, 0, 1), wi = normalize(Vec3(0.3f, 0, 1));
   VslEmitter narrow = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.15f, 0), n, wi);  // alpha 0.0225
   VslEmitter broad = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.8f, 0), n, wi);    // alpha 0.64
   VslEmitter out;
-  ASSERT_TRUE(vslLobeFloor(narrow, 0.25, 1.0, 1.0, out));
+  // Receivers: a Lambertian (alpha 1), one just at the bound, and narrow ones.
+  const Vec3 wo = normalize(Vec3(-0.2f, 0.1f, 1));
+  const VslReceiver lambert = receiver(Brdf::fromGltf(Vec3(0.8f), 0.0f, 1.0f, 0), n, wo);
+  Brdf atBound = Brdf::fromGltf(Vec3(0.8f), 1.0f, 0.5f, 0);
+  atBound.ggx.ax = atBound.ggx.ay = kVslLobeFloorMinReceiverAlpha;
+  Brdf justBelow = atBound;
+  justBelow.ggx.ay = std::nextafter(kVslLobeFloorMinReceiverAlpha, 0.0f);  // brushed: narrow on one axis
+  justBelow.ggx.ax = 0.6f;
+  const Brdf polished = Brdf::fromGltf(Vec3(0.5f), 0.0f, 0.1f, 0);  // a dielectric, alpha 0.01
+  VslReceiver polishedDiffuse = receiver(polished, n, wo);
+  polishedDiffuse.f = polishedDiffuse.f.diffuseLobe();  // a split gather point's gathered lobe
+  EXPECT_TRUE(vslLobeFloor(receiver(atBound, n, wo), narrow, 0.25, 1.0, 1.0, out));
+  EXPECT_FALSE(vslLobeFloor(receiver(justBelow, n, wo), narrow, 0.25, 1.0, 1.0, out));
+  EXPECT_FALSE(vslLobeFloor(receiver(polished, n, wo), narrow, 0.25, 1.0, 1.0, out));
+  EXPECT_TRUE(vslLobeFloor(polishedDiffuse, narrow, 0.25, 1.0, 1.0, out));
+  ASSERT_TRUE(vslLobeFloor(lambert, narrow, 0.25, 1.0, 1.0, out));
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ax, float(std::asin(0.25)));
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ay, float(std::asin(0.25)));
   EXPECT_EQ(out.f.brdf().metallic, 1.0f);
@@ -393,18 +409,18 @@ TEST(VslIntegral, LobeFloorWidensNarrowLobesOnlyAndVanishesWithTheRadius) {
     EXPECT_EQ(out.frame.s[c], narrow.frame.s[c]);
     EXPECT_EQ(out.frame.t[c], narrow.frame.t[c]);
   }
-  ASSERT_TRUE(vslLobeFloor(narrow, 2.0, 1.0, 1.0, out));  // inside the sphere: pi/2, capped
+  ASSERT_TRUE(vslLobeFloor(lambert, narrow, 2.0, 1.0, 1.0, out));  // inside the sphere: pi/2, capped
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ax, kVslLobeFloorMaxAlpha);
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ay, kVslLobeFloorMaxAlpha);
-  EXPECT_FALSE(vslLobeFloor(narrow, 0.3, 1.0, 0.0, out));   // off
-  EXPECT_FALSE(vslLobeFloor(broad, 0.3, 1.0, 1.0, out));    // already wider than the cone
-  EXPECT_FALSE(vslLobeFloor(narrow, 1e-3, 1.0, 1.0, out));  // r -> 0: the light unchanged
+  EXPECT_FALSE(vslLobeFloor(lambert, narrow, 0.3, 1.0, 0.0, out));   // off
+  EXPECT_FALSE(vslLobeFloor(lambert, broad, 0.3, 1.0, 1.0, out));    // already wider than the cone
+  EXPECT_FALSE(vslLobeFloor(lambert, narrow, 1e-3, 1.0, 1.0, out));  // r -> 0: the light unchanged
   // An anisotropic lobe keeps its wide axis.
   Brdf brushedBrdf = Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.15f, 0);
   brushedBrdf.ggx.ax = 0.6f;
   VslEmitter brushed = emitter(brushedBrdf, n, wi);
   const Brdf& bb = brushed.f.brdf();
-  ASSERT_TRUE(vslLobeFloor(brushed, 0.2, 1.0, 1.0, out));
+  ASSERT_TRUE(vslLobeFloor(lambert, brushed, 0.2, 1.0, 1.0, out));
   EXPECT_FLOAT_EQ(std::max(out.f.brdf().ggx.ax, out.f.brdf().ggx.ay), std::max(bb.ggx.ax, bb.ggx.ay));
   EXPECT_FLOAT_EQ(std::min(out.f.brdf().ggx.ax, out.f.brdf().ggx.ay), float(std::asin(0.2)));
 }
@@ -421,8 +437,8 @@ TEST(VslIntegralStats, LobeFloorSpreadsABeamAndKeepsItsEnergy) {
   VslEmitter p = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.15f, 0), n, normalize(Vec3(0.3f, 0, 1)));
   const double D = 1.0, r = 0.2;
   VslEmitter floored;
-  ASSERT_TRUE(vslLobeFloor(p, r, D, 1.0, floored));
   const Brdf lambert = Brdf::fromGltf(Vec3(0.8f), 0.0f, 1.0f, 0);
+  ASSERT_TRUE(vslLobeFloor(receiver(lambert, n, n), p, r, D, 1.0, floored));
   const int nTheta = 60, nPhi = 120;
   double energy[2] = {0, 0}, peak[2] = {0, 0};
   for (int i = 0; i < nTheta; ++i)

@@ -758,9 +758,14 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   for (const auto& e : std::filesystem::directory_iterator(dir + "/out")) {
     std::ifstream js(e.path() / "metrics.json");
     ASSERT_TRUE(js) << e.path();
-    const std::string replay = nlohmann::json::parse(js)["replay"].get<std::string>();
+    const nlohmann::json metrics = nlohmann::json::parse(js);
+    const std::string replay = metrics["replay"].get<std::string>();
     EXPECT_NE(replay.find("--split-alpha 0.05"), std::string::npos) << replay;
     EXPECT_NE(replay.find("--lobe-floor 1"), std::string::npos) << replay;
+    // The export's settings name them too.
+    EXPECT_FLOAT_EQ(metrics["settings"]["splitAlpha"].get<float>(), 0.05f);
+    EXPECT_FLOAT_EQ(metrics["settings"]["lobeFloor"].get<float>(), 1.0f);
+    EXPECT_FLOAT_EQ(metrics["settings"]["continueAlpha"].get<float>(), ManyLightSettings::kDefaultContinueAlpha);
     ++exports;
   }
   EXPECT_EQ(exports, 1);
