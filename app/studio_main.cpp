@@ -504,7 +504,8 @@ void addOptions(CLI::App& app, Args& a) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--lobe-floor", a.lobeFloor,
                  "VSL: each light's GGX alpha at least F x the cone's half-angle (radians): narrow lights seen "
-                 "through wider cones light receivers as spheres, not beams; 0 = off (the \"lobe floor\" control)")
+                 "through wider cones light receivers as spheres, not beams (not at receivers whose lobe is "
+                 "narrower than alpha 0.05); 0 = off (the \"lobe floor\" control)")
       ->default_str("0")
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--background-reference", a.backgroundReference,

@@ -76,10 +76,11 @@ struct ManyLightSettings {
   float lobeRadius = 0;
   // Lobe floor (0 = off): a light's GGX lobe is at least lobeFloor x the
   // half-angle of the cone to its own sphere wide (alpha, radians; at most
-  // kVslLobeFloorMaxAlpha) for each receiver, so that a
-  // narrow light seen through a wider cone lights the receiver as a sphere
-  // would, not as a beam (vslLobeFloor in vsl_integral.h). Trades the beams'
-  // spikes for blur of glossy-to-glossy reflections (docs/VSL-QUALITY.md).
+  // kVslLobeFloorMaxAlpha) for each receiver, so that a narrow light seen
+  // through a wider cone lights the receiver as a sphere would, not as a beam
+  // (vslLobeFloor in vsl_integral.h; not at receivers narrower than
+  // kVslLobeFloorMinReceiverAlpha). Trades the beams' spikes for blur of
+  // glossy-to-glossy reflections (docs/VSL-QUALITY.md).
   float lobeFloor = 0;
   // Eye paths continue through pure metals whose GGX alpha is below this
   // along both axes, instead of gathering there (see "Gathering" above).
