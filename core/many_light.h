@@ -91,7 +91,7 @@ struct ManyLightSettings {
   float continueAlpha = kDefaultContinueAlpha;
   static constexpr float kDefaultContinueAlpha = 0.02f;
   // Lobe splitting (0 = off): at a gather point whose specular lobe is
-  // narrower than this along its narrower GGX axis, the diffuse lobe is
+  // narrower than this along both GGX axes, the diffuse lobe is
   // gathered there and the specular lobe continues the eye path to a second
   // gather point (a metal, which has no diffuse lobe, continues whole). A
   // lobe narrower than the VSL cones sees each light's sphere as a bright

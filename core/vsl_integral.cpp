@@ -39,8 +39,9 @@ double vslClippedDiskArea(double r, double h) {
 
 bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
   if (!(factor > 0)) return false;
-  const GGX& rx = x.f.brdf().ggx;
-  if (x.f.specularOn() && std::min(rx.ax, rx.ay) < kVslLobeFloorMinReceiverAlpha) return false;
+  const Brdf& xb = x.f.brdf();
+  const bool xHasSpecular = x.f.specularOn() && (xb.metallic > 0 || xb.specularWeight > 0);
+  if (xHasSpecular && std::min(xb.ggx.ax, xb.ggx.ay) < kVslLobeFloorMinReceiverAlpha) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
   const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();

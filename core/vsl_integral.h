@@ -110,13 +110,13 @@ bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, doub
 // see a darkened light; 0.3 covers hall's 17-degree cones.
 constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 // The floor's receivers: only those whose gathered lobe is at least this wide
-// on its narrower GGX axis (a receiver restricted to its diffuse lobe counts as
-// wide). A near-mirror receiver (a polished table, a brushed panel across its
-// brushing) sees a narrow light's beam as the reference does, a caustic of a
-// narrow chain of reflections; a widened light sends that chain's light where
-// the reference has none (tableau at 10,000 lights: indirect mean +12.8% and
-// median relMSE 0.49 -> 0.89 with the floor at every receiver; with this bound,
-// 0.49 unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
+// on its narrower GGX axis (a receiver restricted to its diffuse lobe, or
+// without a specular lobe, counts as wide; a glossy dielectric gathered whole,
+// not split, loses the floor for its diffuse lobe too). A near-mirror receiver (a polished table, a brushed panel
+// across its brushing) sees a narrow light's beam as the reference does, a caustic of a narrow chain of reflections; a
+// widened light sends that chain's light where the reference has none (tableau at 10,000 lights: indirect mean +12.8%
+// and median relMSE 0.49 -> 0.89 with the floor at every receiver; with this bound, 0.49 unchanged, while hall keeps
+// its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
 constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
 
 // toLight = p - x. The scalar reference form.

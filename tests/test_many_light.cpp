@@ -399,6 +399,8 @@ TEST(VslIntegral, LobeFloorWidensNarrowLobesOnlyAndVanishesWithTheRadius) {
   EXPECT_FALSE(vslLobeFloor(receiver(justBelow, n, wo), narrow, 0.25, 1.0, 1.0, out));
   EXPECT_FALSE(vslLobeFloor(receiver(polished, n, wo), narrow, 0.25, 1.0, 1.0, out));
   EXPECT_TRUE(vslLobeFloor(polishedDiffuse, narrow, 0.25, 1.0, 1.0, out));
+  const Brdf noSpecular = Brdf::fromGltf(Vec3(0.5f), 0.0f, 0.1f, 0, 0.0f);  // a Lambertian with alpha 0.01
+  EXPECT_TRUE(vslLobeFloor(receiver(noSpecular, n, wo), narrow, 0.25, 1.0, 1.0, out));
   ASSERT_TRUE(vslLobeFloor(lambert, narrow, 0.25, 1.0, 1.0, out));
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ax, float(std::asin(0.25)));
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ay, float(std::asin(0.25)));

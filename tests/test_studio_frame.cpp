@@ -765,6 +765,8 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
     // The export's settings name them too.
     EXPECT_FLOAT_EQ(metrics["settings"]["splitAlpha"].get<float>(), 0.05f);
     EXPECT_FLOAT_EQ(metrics["settings"]["lobeFloor"].get<float>(), 1.0f);
+    EXPECT_FLOAT_EQ(metrics["settings"]["lobeRadius"].get<float>(), 0.0f);
+    EXPECT_EQ(metrics["settings"]["clippedDisk"], false);
     EXPECT_FLOAT_EQ(metrics["settings"]["continueAlpha"].get<float>(), ManyLightSettings::kDefaultContinueAlpha);
     ++exports;
   }

@@ -619,7 +619,8 @@ bool Studio::virtualLightControls() {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Each light's GGX alpha at least F x the cone's half-angle: narrow lights seen through wide cones "
-        "glow as spheres instead of beams (fewer speckles, blurrier glossy reflections).");
+        "glow as spheres instead of beams (fewer speckles, blurrier glossy reflections); not at near-mirror "
+        "receivers (alpha below 0.05).");
   errorField("lobe-floor");
   return changed;
 }
