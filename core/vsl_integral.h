@@ -94,8 +94,8 @@ struct VslResult {
 // inside the sphere; at most kVslLobeFloorMaxAlpha), out is the light with
 // that axis widened to it, and the result true; otherwise false and out
 // untouched. p.f must be a whole BRDF (an emitter always is): the widened
-// one is rebuilt from p.f.brdf() and would lose a lobe restriction. A light whose
-// lobe is narrower than the cone lights a receiver like a beam from the
+// one is rebuilt from p.f.brdf() and would lose a lobe restriction. A light
+// whose lobe is narrower than the cone lights a receiver like a beam from the
 // sphere (all its flux in a few degrees), so its contribution is a rare,
 // large spike; with the floor it spreads over about the cone, as a sphere's
 // worth of neighbouring lights with their own incoming directions would.
@@ -112,11 +112,13 @@ constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 // The floor's receivers: only those whose gathered lobe is at least this wide
 // on its narrower GGX axis (a receiver restricted to its diffuse lobe, or
 // without a specular lobe, counts as wide; a glossy dielectric gathered whole,
-// not split, loses the floor for its diffuse lobe too). A near-mirror receiver (a polished table, a brushed panel
-// across its brushing) sees a narrow light's beam as the reference does, a caustic of a narrow chain of reflections; a
-// widened light sends that chain's light where the reference has none (tableau at 10,000 lights: indirect mean +12.8%
-// and median relMSE 0.49 -> 0.89 with the floor at every receiver; with this bound, 0.49 unchanged, while hall keeps
-// its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
+// not split, loses the floor for its diffuse lobe too). A near-mirror receiver
+// (a polished table, a brushed panel across its brushing) sees a narrow
+// light's beam as the reference does, a caustic of a narrow chain of
+// reflections; a widened light sends that chain's light where the reference
+// has none (tableau at 10,000 lights: indirect mean +12.8% and median relMSE
+// 0.49 -> 0.89 with the floor at every receiver; with this bound, 0.49
+// unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
 constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
 
 // toLight = p - x. The scalar reference form.
