@@ -32,6 +32,14 @@ inline std::string nonFiniteOption(const CLI::App& app) {
   return {};
 }
 
+// A default value as --help prints it: the shortest form that reads back the
+// same ("1", "0.05"), not std::to_string's "1.000000".
+inline std::string defaultText(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
 // A check for time budgets: a number of seconds in (0, 1e7], with a message
 // that says so (CLI::PositiveNumber prints the whole range of a double).
 inline CLI::Validator positiveSeconds() {

@@ -503,10 +503,10 @@ void addOptions(CLI::App& app, Args& a) {
       ->default_str(std::to_string(ManyLightSettings().splitAlpha))
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--lobe-floor", a.lobeFloor,
-                 "VSL: each light's GGX alpha at least F x the cone's half-angle (radians): narrow lights seen "
-                 "through wider cones light receivers as spheres, not beams (not at receivers whose lobe is "
-                 "narrower than alpha 0.05); 0 = off (the \"lobe floor\" control)")
-      ->default_str("0")
+                 "VSL: each metal light's GGX alpha at least F x the cone's half-angle (radians): narrow lights "
+                 "seen through wider cones light receivers as spheres, not beams (not for dielectric lights, not "
+                 "at receivers whose lobe is narrower than alpha 0.05); 0 = off (the \"lobe floor\" control)")
+      ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")

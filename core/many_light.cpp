@@ -75,7 +75,7 @@ std::string ManyLightSettings::describe() const {
   if (clippedDisk) s << " --clipped-disk";
   s << " --vsl-count " << (vslLobeSamples ? "lobe" : "authors");
   if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
-  if (lobeFloor > 0) s << " --lobe-floor " << lobeFloor;
+  s << " --lobe-floor " << lobeFloor;
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
   if (diffuseOnly) s << " --diffuse-vpl";

@@ -45,6 +45,7 @@ bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, doub
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
   const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();
+  if (b.metallic < kVslLobeFloorMinLightMetallic) return false;
   if (!(b.ggx.ax < floor || b.ggx.ay < floor)) return false;
   b.ggx.ax = std::max(b.ggx.ax, floor);
   b.ggx.ay = std::max(b.ggx.ay, floor);

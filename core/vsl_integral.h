@@ -102,7 +102,8 @@ struct VslResult {
 // Biased, like the radius, and consistent like it: theta, and so the floor,
 // shrinks to zero with the radius (r -> 0 gives the unchanged light).
 // Receivers whose gathered lobe is narrower than kVslLobeFloorMinReceiverAlpha
-// on either GGX axis see the light unchanged (see below).
+// on either GGX axis, and lights that are not metal (metallic below
+// kVslLobeFloorMinLightMetallic), are left unchanged (see below).
 bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
 // The floor's bound: GGX without multiple scattering loses energy as alpha
 // grows (a white-ish metal reflects 0.90 of its light at alpha 0.02 and 0.70
@@ -120,6 +121,17 @@ constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 // 0.49 -> 0.89 with the floor at every receiver; with this bound, 0.49
 // unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
 constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
+// The floor's lights: only metals. A metal puts all its reflected flux into
+// its GGX lobe, so a narrow one is a beam; a dielectric's specular lobe holds
+// a few percent of its flux (Fresnel about 0.04 head-on) beside a diffuse lobe
+// that is not narrow, and its glossy bounce (cornell-glossy's polished floor
+// lighting the walls) is light the reference has where the floor would blur
+// it. Measured at 10,000 lights, 64 px, five light sets (docs/VSL-QUALITY.md,
+// session 27): the floor on every light cost cornell-glossy's mean of eight
+// sets 7% (0.0233 -> 0.0250); on metal lights only it is even (0.0232), hall
+// keeps all of its gain (0.244 -> 0.118) and kitchen 60% of it (0.0505 ->
+// 0.0436, against 0.0390 on every light).
+constexpr float kVslLobeFloorMinLightMetallic = 0.5f;
 
 // toLight = p - x. The scalar reference form.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,

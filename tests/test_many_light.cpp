@@ -401,6 +401,19 @@ TEST(VslIntegral, LobeFloorWidensNarrowLobesOnlyAndVanishesWithTheRadius) {
   EXPECT_TRUE(vslLobeFloor(polishedDiffuse, narrow, 0.25, 1.0, 1.0, out));
   const Brdf noSpecular = Brdf::fromGltf(Vec3(0.5f), 0.0f, 0.1f, 0, 0.0f);  // a Lambertian with alpha 0.01
   EXPECT_TRUE(vslLobeFloor(receiver(noSpecular, n, wo), narrow, 0.25, 1.0, 1.0, out));
+  // Lights: metals only (metallic at least kVslLobeFloorMinLightMetallic); a
+  // polished dielectric light is left as it is.
+  const Vec3 dielectricColour(0.9f);
+  const VslReceiver lambertFacing = receiver(Brdf::fromGltf(Vec3(0.8f), 0.0f, 1.0f, 0), n, wo);
+  EXPECT_FALSE(vslLobeFloor(lambertFacing, emitter(Brdf::fromGltf(dielectricColour, 0.0f, 0.15f, 0), n, wi), 0.25, 1.0,
+                            1.0, out));
+  EXPECT_FALSE(vslLobeFloor(
+      lambertFacing,
+      emitter(Brdf::fromGltf(dielectricColour, std::nextafter(kVslLobeFloorMinLightMetallic, 0.0f), 0.15f, 0), n, wi),
+      0.25, 1.0, 1.0, out));
+  EXPECT_TRUE(vslLobeFloor(lambertFacing,
+                           emitter(Brdf::fromGltf(dielectricColour, kVslLobeFloorMinLightMetallic, 0.15f, 0), n, wi),
+                           0.25, 1.0, 1.0, out));
   ASSERT_TRUE(vslLobeFloor(lambert, narrow, 0.25, 1.0, 1.0, out));
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ax, float(std::asin(0.25)));
   EXPECT_FLOAT_EQ(out.f.brdf().ggx.ay, float(std::asin(0.25)));
@@ -841,9 +854,9 @@ std::shared_ptr<Scene> backLitSheet(bool doubleSided) {
 
 }  // namespace
 
-// The lobe floor in the renderer: at 0 it is off (the same images bit for
-// bit); on, only the VSL layers change, and on cornell-glossy, whose floor
-// holds lights on a narrow lobe (alpha 0.0225), they change.
+// The lobe floor in the renderer: on by default at 1; at 0 it is off; on,
+// only the VSL layers change, and on cornell-glossy, whose metal box holds
+// lights on a lobe (alpha 0.0625) narrower than 600 lights' cones, they change.
 TEST(ManyLight, LobeFloorChangesVslOnly) {
   Loaded l = loadAsset("cornell-glossy", 16);
   ASSERT_TRUE(l.context);
@@ -853,12 +866,14 @@ TEST(ManyLight, LobeFloorChangesVslOnly) {
   s.batches = 1;
   s.directSamples = 1;
   s.seed = 4;
-  const ManyLightImages off = renderMany(l, s);
+  EXPECT_EQ(s.lobeFloor, 1.0f) << "on by default";
+  const ManyLightImages byDefault = renderMany(l, s);
   s.lobeFloor = 0;
-  const ManyLightImages zero = renderMany(l, s);
+  EXPECT_NE(s.describe().find("--lobe-floor 0"), std::string::npos) << s.describe();
+  const ManyLightImages off = renderMany(l, s);
   s.lobeFloor = 1;
   const ManyLightImages on = renderMany(l, s);
-  EXPECT_EQ(zero.vsl.rgb, off.vsl.rgb);
+  EXPECT_EQ(byDefault.vsl.rgb, on.vsl.rgb);
   EXPECT_EQ(on.vpl.rgb, off.vpl.rgb);
   EXPECT_EQ(on.vplUnclamped.rgb, off.vplUnclamped.rgb);
   EXPECT_NE(on.vsl.rgb, off.vsl.rgb);

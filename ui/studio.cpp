@@ -618,9 +618,9 @@ bool Studio::virtualLightControls() {
       track("lobe-floor", ImGui::SliderFloat("lobe floor", &m.lobeFloor, 0.0f, 2.0f, m.lobeFloor > 0 ? "%.2f" : "off"));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
-        "Each light's GGX alpha at least F x the cone's half-angle: narrow lights seen through wide cones "
-        "glow as spheres instead of beams (fewer speckles, blurrier glossy reflections); not at near-mirror "
-        "receivers (alpha below 0.05).");
+        "Each metal light's GGX alpha at least F x the cone's half-angle: narrow metal lights seen through "
+        "wide cones glow as spheres instead of beams (fewer speckles, blurrier glossy reflections); not for "
+        "dielectric lights, not at near-mirror receivers (alpha below 0.05). Default 1; 0 = off.");
   errorField("lobe-floor");
   return changed;
 }
