@@ -38,14 +38,14 @@ double vslClippedDiskArea(double r, double h) {
 }
 
 bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
-  if (!(factor > 0)) return false;
+  // The cheap tests first: this runs for every pair that reaches the VSL.
+  if (!(factor > 0) || p.f.brdf().metallic < kVslLobeFloorMinLightMetallic) return false;
   const Brdf& xb = x.f.brdf();
   const bool xHasSpecular = x.f.specularOn() && (xb.metallic > 0 || xb.specularWeight > 0);
   if (xHasSpecular && std::min(xb.ggx.ax, xb.ggx.ay) < kVslLobeFloorMinReceiverAlpha) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
   const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();
-  if (b.metallic < kVslLobeFloorMinLightMetallic) return false;
   if (!(b.ggx.ax < floor || b.ggx.ay < floor)) return false;
   b.ggx.ax = std::max(b.ggx.ax, floor);
   b.ggx.ay = std::max(b.ggx.ay, floor);
