@@ -500,7 +500,7 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--split-alpha", a.splitAlpha,
                  "Gather points whose specular lobe is narrower than this (GGX alpha, on both axes) gather their "
                  "diffuse lobe and continue the eye path with the specular lobe; 0 = off (the \"split alpha\" control)")
-      ->default_str(std::to_string(ManyLightSettings().splitAlpha))
+      ->default_str(defaultText(ManyLightSettings().splitAlpha))
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--lobe-floor", a.lobeFloor,
                  "VSL: each metal light's GGX alpha at least F x the cone's half-angle (radians): narrow lights "

@@ -39,12 +39,12 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
       ->default_str(ManyLightSettings().vslLobeSamples ? "lobe" : "authors");
   cmd->add_option("--continue-alpha", m.continueAlpha,
                   "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
-      ->default_str(std::to_string(ManyLightSettings().continueAlpha))
+      ->default_str(defaultText(ManyLightSettings().continueAlpha))
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--split-alpha", m.splitAlpha,
                   "Gather points whose specular lobe is narrower than this (GGX alpha, on both axes) gather "
                   "their diffuse lobe and continue the eye path with the specular lobe; 0 = off")
-      ->default_str(std::to_string(ManyLightSettings().splitAlpha))
+      ->default_str(defaultText(ManyLightSettings().splitAlpha))
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--lobe-radius", m.lobeRadius,
                   "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")

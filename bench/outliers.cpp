@@ -12,7 +12,9 @@
 // light: its depth, lobe, radius, cone half-angle and the receiver's lobe.
 //   vsl_outliers SCENE.gltf REFERENCE.exr [--seed 1] [--lights 10000]
 //                [--width 64] [--alpha 0.05] [--list 0] [--split-alpha 0]
-//                [--lobe-radius 0] [--lobe-floor 0] [--radius-scale 1]
+//                [--lobe-radius 0] [--lobe-floor 1] [--radius-scale 1]
+// (the defaults of vsl render; the tables in docs/VSL-QUALITY.md before
+// session 27 were made with the floor off, --lobe-floor 0)
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>

@@ -88,8 +88,8 @@ struct VslResult {
   int evaluations = 0;
 };
 
-// The lobe floor (a regularisation of the light's lobe, off unless asked
-// for): where a GGX axis of the light's BRDF is narrower than factor x theta
+// The lobe floor (a regularisation of the light's lobe; the renderers turn
+// it on by default, ManyLightSettings::lobeFloor): where a GGX axis of the light's BRDF is narrower than factor x theta
 // (alpha against the cone's half-angle theta in radians, asin(r/d), pi/2
 // inside the sphere; at most kVslLobeFloorMaxAlpha), out is the light with
 // that axis widened to it, and the result true; otherwise false and out
@@ -121,8 +121,8 @@ constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 // 0.49 -> 0.89 with the floor at every receiver; with this bound, 0.49
 // unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
 constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
-// The floor's lights: only metals. A metal puts all its reflected flux into
-// its GGX lobe, so a narrow one is a beam; a dielectric's specular lobe holds
+// The floor's lights: only metals. A pure metal puts all its reflected flux
+// into its GGX lobe (at metallic 0.5, half of it), so a narrow one is a beam; a dielectric's specular lobe holds
 // a few percent of its flux (Fresnel about 0.04 head-on) beside a diffuse lobe
 // that is not narrow, and its glossy bounce (cornell-glossy's polished floor
 // lighting the walls) is light the reference has where the floor would blur

@@ -10,7 +10,9 @@
 # lights with the default settings), equal (each method's best configuration
 # at an equal time budget). Environment: TIME (budget, default 10), MRCS, SETS (default 5), SPP
 # (reference samples per pixel for each of the two references, default 4096),
-# SCENES (default: cornell-glossy tableau kitchen hall), VSL (the binary).
+# SCENES (default: cornell-glossy tableau kitchen hall), VSL (the binary),
+# EXTRA (options added to every sweep; EXTRA='--lobe-floor 0' reproduces the
+# tables made before the lobe floor became a default in session 27).
 # Every sweep writes OUT_DIR/<scene>-<study>/summary.csv; finished steps are
 # skipped, so an interrupted run resumes.
 set -euo pipefail
@@ -45,7 +47,7 @@ sweep_args() {  # sweep_args NAME PATH SUBDIR ARGS...
   shift 3
   if [ -e "$dir/summary.csv" ]; then echo "skip $dir"; return; fi
   "$VSL" sweep "$path" --reference "$OUT/$name-refA.exr" --reference-b "$OUT/$name-refB.exr" --sets "$SETS" \
-    -o "$dir" "$@" | tee "$dir.txt"
+    -o "$dir" "$@" ${EXTRA:-} | tee "$dir.txt"
 }
 
 for study in $STUDIES; do

@@ -752,7 +752,7 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   std::filesystem::create_directories(dir);
   const std::string common = "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " +
                              dir + "/out --split-alpha ";
-  StudioRun r = runStudio(dir + "/config", common + "0.05 --lobe-floor 1");
+  StudioRun r = runStudio(dir + "/config", common + "0.05 --lobe-floor 0.5");
   ASSERT_EQ(r.code, 0) << r.out;
   int exports = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir + "/out")) {
@@ -761,10 +761,10 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
     const nlohmann::json metrics = nlohmann::json::parse(js);
     const std::string replay = metrics["replay"].get<std::string>();
     EXPECT_NE(replay.find("--split-alpha 0.05"), std::string::npos) << replay;
-    EXPECT_NE(replay.find("--lobe-floor 1"), std::string::npos) << replay;
+    EXPECT_NE(replay.find("--lobe-floor 0.5"), std::string::npos) << replay;
     // The export's settings name them too.
     EXPECT_FLOAT_EQ(metrics["settings"]["splitAlpha"].get<float>(), 0.05f);
-    EXPECT_FLOAT_EQ(metrics["settings"]["lobeFloor"].get<float>(), 1.0f);
+    EXPECT_FLOAT_EQ(metrics["settings"]["lobeFloor"].get<float>(), 0.5f);
     EXPECT_FLOAT_EQ(metrics["settings"]["lobeRadius"].get<float>(), 0.0f);
     EXPECT_EQ(metrics["settings"]["clippedDisk"], false);
     EXPECT_FLOAT_EQ(metrics["settings"]["continueAlpha"].get<float>(), ManyLightSettings::kDefaultContinueAlpha);
@@ -834,6 +834,21 @@ TEST(LastSession, RoundTripAndCorruptFiles) {
   EXPECT_EQ(rv.mode, ui::ViewMode::Wipe);
   EXPECT_EQ(rv.panels[0], ui::Source::VplDiffuse);
   EXPECT_EQ(rv.exposure, 1.5f);
+  EXPECT_EQ(r.many.lobeFloor, s.many.lobeFloor);
+
+  // The lobe floor: an explicit 0 is kept; a version-1 file's 0 (the default
+  // when it was written) gives way to today's default; its other values stay.
+  s.many.lobeFloor = 0;
+  ASSERT_TRUE(ui::saveLastSession(path, s, v));
+  ASSERT_TRUE(ui::loadLastSession(path, &r, &rv, &warning)) << warning;
+  EXPECT_EQ(r.many.lobeFloor, 0.0f);
+  for (float old : {0.0f, 0.5f}) {
+    std::ofstream(path, std::ios::trunc) << "{\"version\": 1, \"scene\": \"x.gltf\", \"settings\": {\"lobeFloor\": "
+                                         << old << "}}";
+    StudioSettings fresh;
+    ASSERT_TRUE(ui::loadLastSession(path, &fresh, &rv, &warning)) << warning;
+    EXPECT_EQ(fresh.many.lobeFloor, old == 0 ? ManyLightSettings::kDefaultLobeFloor : old);
+  }
 
   // Nothing saved: false without a warning.
   StudioSettings d;

@@ -1868,7 +1868,7 @@ std::string lastSessionPath() {
 
 Result<void> saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v) {
   const ManyLightSettings& m = s.many;
-  nlohmann::json j = {{"version", 1},
+  nlohmann::json j = {{"version", kLastSessionVersion},
                       {"scene", std::filesystem::absolute(s.scene).lexically_normal().string()},
                       {"settings",
                        {{"lights", m.lights},
@@ -1962,7 +1962,13 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     readField(js, "vslSamples", &m.vslSamples);
     readField(js, "clippedDisk", &m.clippedDisk);
     readField(js, "lobeRadius", &m.lobeRadius);
-    readField(js, "lobeFloor", &m.lobeFloor);
+    // Version 1 files were written while the floor was off by default: their
+    // 0 is that default, not a choice, and gives way to today's.
+    int version = 1;
+    readField(j, "version", &version);
+    float lobeFloor = m.lobeFloor;
+    readField(js, "lobeFloor", &lobeFloor);
+    if (version >= 2 || lobeFloor != 0) m.lobeFloor = lobeFloor;
     readField(js, "continueAlpha", &m.continueAlpha);
     readField(js, "splitAlpha", &m.splitAlpha);
     if (js.contains("clamp"))

@@ -90,6 +90,10 @@ struct ViewState {
 std::string lastSessionPath();
 // Written atomically (writeTextFile); creates the folder. An error on failure.
 Result<void> saveLastSession(const std::string& path, const StudioSettings& settings, const ViewState& view);
+// Written as kLastSessionVersion. Version 2 (session 27): the lobe floor's
+// default became 1, so a version-1 file's lobe floor of 0 (the old default)
+// is not restored.
+constexpr int kLastSessionVersion = 2;
 // Reads the file over *settings and *view (fields it lacks keep their
 // values). False when there is nothing to restore: *warning is "" for a
 // missing file, else the reason (unreadable, corrupt, invalid settings), and
