@@ -37,12 +37,16 @@ double vslClippedDiskArea(double r, double h) {
   return r * r * (0.5 * M_PI + std::asin(t) + t * std::sqrt(1.0 - t * t));
 }
 
-bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
-  // The cheap tests first: this runs for every pair that reaches the VSL.
-  if (!(factor > 0) || p.f.brdf().metallic < kVslLobeFloorMinLightMetallic) return false;
+bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p) {
+  // The cheap test first: this runs for every pair that reaches the VSL.
+  if (p.f.brdf().metallic < kVslLobeFloorMinLightMetallic) return false;
   const Brdf& xb = x.f.brdf();
   const bool xHasSpecular = x.f.specularOn() && (xb.metallic > 0 || xb.specularWeight > 0);
-  if (xHasSpecular && std::min(xb.ggx.ax, xb.ggx.ay) < kVslLobeFloorMinReceiverAlpha) return false;
+  return !(xHasSpecular && std::min(xb.ggx.ax, xb.ggx.ay) < kVslLobeFloorMinReceiverAlpha);
+}
+
+bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
+  if (!(factor > 0) || !vslLobeFloorApplies(x, p)) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
   const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();

@@ -132,6 +132,19 @@ constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
 // keeps all of its gain (0.244 -> 0.118) and kitchen 60% of it (0.0505 ->
 // 0.0436, against 0.0390 on every light).
 constexpr float kVslLobeFloorMinLightMetallic = 0.5f;
+// Does the floor apply to this pair: a metal light (above) and a receiver at
+// least kVslLobeFloorMinReceiverAlpha wide (or without a specular lobe)?
+bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p);
+// The floor's sphere: where the floor is on and applies to a pair, the
+// light's sphere is this many times its k-NN radius for that receiver, and
+// the floor follows that radius. A metal light's flux leaves in its lobe
+// alone, so its sphere's error is variance more than blur; the wider sphere
+// averages it over more of the surface the light stands for. Consistent like
+// the radius (r -> 0 as the light count grows). Measured at 10,000 lights,
+// five light sets (docs/VSL-QUALITY.md, session 27): hall 0.118 -> 0.0997 at
+// 64 px (clamped VPL 0.1016) and 0.168 -> 0.146 at 256 px; cornell-glossy,
+// kitchen and tableau within 1.5% of the floor alone.
+constexpr float kVslLobeFloorRadiusScale = 1.5f;
 
 // toLight = p - x. The scalar reference form.
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,

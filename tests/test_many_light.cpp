@@ -400,6 +400,13 @@ TEST(VslIntegral, LobeFloorWidensNarrowLobesOnlyAndVanishesWithTheRadius) {
   EXPECT_FALSE(vslLobeFloor(receiver(justBelow, n, wo), narrow, 0.25, 1.0, 1.0, out));
   EXPECT_FALSE(vslLobeFloor(receiver(polished, n, wo), narrow, 0.25, 1.0, 1.0, out));
   EXPECT_TRUE(vslLobeFloor(polishedDiffuse, narrow, 0.25, 1.0, 1.0, out));
+  // Where it applies (the gather's wider sphere follows this too), whatever the
+  // light's width: a metal light at a wide receiver, broad or narrow.
+  EXPECT_TRUE(vslLobeFloorApplies(receiver(atBound, n, wo), narrow));
+  EXPECT_TRUE(vslLobeFloorApplies(polishedDiffuse, broad));
+  EXPECT_FALSE(vslLobeFloorApplies(receiver(justBelow, n, wo), broad));
+  EXPECT_FALSE(vslLobeFloorApplies(receiver(polished, n, wo), narrow));
+  EXPECT_FALSE(vslLobeFloorApplies(polishedDiffuse, emitter(Brdf::fromGltf(Vec3(0.9f), 0.0f, 0.15f, 0), n, wi)));
   const Brdf noSpecular = Brdf::fromGltf(Vec3(0.5f), 0.0f, 0.1f, 0, 0.0f);  // a Lambertian with alpha 0.01
   EXPECT_TRUE(vslLobeFloor(receiver(noSpecular, n, wo), narrow, 0.25, 1.0, 1.0, out));
   // Lights: metals only (metallic at least kVslLobeFloorMinLightMetallic); a
