@@ -505,7 +505,8 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--lobe-floor", a.lobeFloor,
                  "VSL: each metal light's GGX alpha at least F x the cone's half-angle (radians): narrow lights "
                  "seen through wider cones light receivers as spheres, not beams (not for dielectric lights, not "
-                 "at receivers whose lobe is narrower than alpha 0.05); 0 = off (the \"lobe floor\" control)")
+                 "at receivers whose lobe is narrower than alpha 0.05; where it applies, the light's sphere is 1.5x "
+                 "wider too); 0 = off (the \"lobe floor\" control)")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--background-reference", a.backgroundReference,

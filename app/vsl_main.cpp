@@ -53,7 +53,8 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
   cmd->add_option("--lobe-floor", m.lobeFloor,
                   "VSL: each metal light's GGX alpha at least F x the cone's half-angle (radians), so a narrow "
                   "light seen through a wider cone lights the receiver as a sphere, not a beam (not for dielectric "
-                  "lights, not at receivers whose lobe is narrower than alpha 0.05); 0 = off")
+                  "lights, not at receivers whose lobe is narrower than alpha 0.05); where it applies, the light's "
+                  "sphere is 1.5x wider too; 0 = off")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
       ->check(CLI::Range(0.0, 100.0));
 }

@@ -79,8 +79,9 @@ struct ManyLightSettings {
   // most kVslLobeFloorMaxAlpha) for each receiver, so that a narrow light
   // seen through a wider cone lights the receiver as a sphere would, not as
   // a beam (vslLobeFloor in vsl_integral.h; not at receivers narrower than
-  // kVslLobeFloorMinReceiverAlpha, not for dielectric lights). Trades the
-  // beams' spikes for blur of glossy-to-glossy reflections. On (1) by default
+  // kVslLobeFloorMinReceiverAlpha, not for dielectric lights); where it
+  // applies, the light's sphere is kVslLobeFloorRadiusScale x wider too.
+  // Trades the beams' spikes for blur of glossy-to-glossy reflections. On (1) by default
   // since it spares dielectric lights: at 10,000 lights, five light sets,
   // hall's median indirect relMSE halves and no bundled scene loses
   // (docs/VSL-QUALITY.md, session 27).

@@ -620,7 +620,8 @@ bool Studio::virtualLightControls() {
     ImGui::SetTooltip(
         "Each metal light's GGX alpha at least F x the cone's half-angle: narrow metal lights seen through "
         "wide cones glow as spheres instead of beams (fewer speckles, blurrier glossy reflections); not for "
-        "dielectric lights, not at near-mirror receivers (alpha below 0.05). Default 1; 0 = off.");
+        "dielectric lights, not at near-mirror receivers (alpha below 0.05); there the light's sphere is 1.5x "
+        "wider too. Default 1; 0 = off.");
   errorField("lobe-floor");
   return changed;
 }
