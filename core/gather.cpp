@@ -218,13 +218,13 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
   // Where the lobe floor applies, the light's sphere is wider too
   // (kVslLobeFloorRadiusScale).
-  const float lightRadius =
-      lobeFloor_ > 0 && vslLobeFloorApplies(gp.rx, L.em) ? L.radius * kVslLobeFloorRadiusScale : L.radius;
+  const bool floorApplies = lobeFloor_ > 0 && vslLobeFloorApplies(gp.rx, L.em);
+  const float lightRadius = floorApplies ? L.radius * kVslLobeFloorRadiusScale : L.radius;
   float radius = lobeRadius_ > 0 ? std::max(lightRadius, lobeRadius_ * g.dist * L.alpha) : lightRadius;
   // The floor follows the light's own radius, not the lobe-aware one (which
   // does not shrink with the light count), so that it vanishes as r does.
   VslEmitter floored;
-  const bool useFloor = vslLobeFloor(gp.rx, L.em, lightRadius, g.dist, lobeFloor_, floored);
+  const bool useFloor = floorApplies && vslWidenLobe(L.em, lightRadius, g.dist, lobeFloor_, floored);
   VslResult r = vslTransferBlock(gp.rx, useFloor ? floored : L.em, g.d, radius, vsl_, prng);
   c.vslEvaluations += uint64_t(r.evaluations);
   addLayer(acc, kVslLayer, gp.beta * L.Phi * r.transfer, c);

@@ -46,7 +46,11 @@ bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p) {
 }
 
 bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
-  if (!(factor > 0) || !vslLobeFloorApplies(x, p)) return false;
+  return factor > 0 && vslLobeFloorApplies(x, p) && vslWidenLobe(p, radius, d, factor, out);
+}
+
+bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
+  if (!(factor > 0)) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
   const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
   Brdf b = p.f.brdf();

@@ -89,8 +89,8 @@ struct VslResult {
 };
 
 // The lobe floor (a regularisation of the light's lobe; the renderers turn
-// it on by default, ManyLightSettings::lobeFloor): where a GGX axis of the light's BRDF is narrower than factor x theta
-// (alpha against the cone's half-angle theta in radians, asin(r/d), pi/2
+// it on by default, ManyLightSettings::lobeFloor): where a GGX axis of the
+// light's BRDF is narrower than factor x theta (alpha against the cone's half-angle theta in radians, asin(r/d), pi/2
 // inside the sphere; at most kVslLobeFloorMaxAlpha), out is the light with
 // that axis widened to it, and the result true; otherwise false and out
 // untouched. p.f must be a whole BRDF (an emitter always is): the widened
@@ -105,6 +105,9 @@ struct VslResult {
 // on either GGX axis, and lights that are not metal (metallic below
 // kVslLobeFloorMinLightMetallic), are left unchanged (see below).
 bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
+// vslLobeFloor without its test of the pair (vslLobeFloorApplies, below), for
+// a caller that has made that test already.
+bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
 // The floor's bound: GGX without multiple scattering loses energy as alpha
 // grows (a white-ish metal reflects 0.90 of its light at alpha 0.02 and 0.70
 // at 0.4), so receivers near or inside a sphere, whose cones are wide, would
@@ -122,8 +125,8 @@ constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 // unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
 constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
 // The floor's lights: only metals. A pure metal puts all its reflected flux
-// into its GGX lobe (at metallic 0.5, half of it), so a narrow one is a beam; a dielectric's specular lobe holds
-// a few percent of its flux (Fresnel about 0.04 head-on) beside a diffuse lobe
+// into its GGX lobe (at metallic 0.5, half of it), so a narrow one is a beam;
+// a dielectric's specular lobe holds a few percent of its flux (Fresnel about 0.04 head-on) beside a diffuse lobe
 // that is not narrow, and its glossy bounce (cornell-glossy's polished floor
 // lighting the walls) is light the reference has where the floor would blur
 // it. Measured at 10,000 lights, 64 px, five light sets (docs/VSL-QUALITY.md,
