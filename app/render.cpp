@@ -37,8 +37,6 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render->add_option("--knn", ra.many.knn, "k for the VSL radius")->default_str("10");
   render->add_option("--radius", ra.many.globalRadius,
                      "One global VSL radius, as a fraction of the scene's bounding radius (replaces k-NN radii)");
-  render->add_option("--vsl-samples", ra.vslSamples, "VSL cone-integral samples per strategy: auto or N")
-      ->default_str("auto");
   render
       ->add_option("--clamp", ra.clamp,
                    "VPL clamp: bound on the luminance of f_x cos f_p cos / d^2 per light; auto (scene-relative) or "
@@ -94,21 +92,6 @@ int parseClamp(const std::string& text, float& clamp) {
   return 0;
 }
 
-// --vsl-samples: auto (0) or a count in [1, 4096]. Returns 0, or the exit
-// code after reporting.
-int parseVslSamples(const std::string& text, int& samples) {
-  if (text == "auto") {
-    samples = 0;
-    return 0;
-  }
-  char* end = nullptr;
-  long n = std::strtol(text.c_str(), &end, 10);
-  if (end == text.c_str() || *end != 0 || n < 1 || n > 4096)
-    return failf(kExitBadArguments, "--vsl-samples must be 'auto' or in [1,4096] (got '%s')", text.c_str());
-  samples = int(n);
-  return 0;
-}
-
 // Fills a.many and a.mrcs for the many-light methods from the command line.
 // Returns 0, or the exit code after reporting.
 int resolveManyLightArgs(RenderArgs& a) {
@@ -119,7 +102,6 @@ int resolveManyLightArgs(RenderArgs& a) {
   m.width = a.settings.width;
   m.height = a.settings.height;
   if (int rc = parseClamp(a.clamp, m.clamp); rc != 0) return rc;
-  if (int rc = parseVslSamples(a.vslSamples, m.vslSamples); rc != 0) return rc;
   if (Result<void> v = m.validate(); !v) return fail(kExitBadArguments, v.error());
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;

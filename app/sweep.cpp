@@ -1,7 +1,12 @@
 // `vsl sweep`: runs a grid of methods, light counts and radius scales against
 // a reference EXR and charts what each gives up for speed. Every progressive
-// step is a point (compute seconds, relMSE of the indirect image); the last
-// point of each run is its final result. Each configuration runs with
+// step is a point (compute seconds, relMSE of the indirect image). A run's
+// final result is its last point within the time budget (--time, 2% slack for
+// the path tracer's last pass), so that methods are compared at equal time
+// even where a batch or an MRCS pass ends well past the budget (its point is
+// charted, not final); a run with no point inside the budget has its first
+// point final, and the -sets methods, which --time does not cap, their last.
+// Each configuration runs with
 // --sets independent light sets (or path-tracer seeds), and its finals are
 // summarised by the median, the quartiles and the worst 1% of pixels' share of
 // the squared error (summary.csv), the LDR-FLIP of the final images, and the
@@ -240,12 +245,22 @@ struct SweepContext {
   int W, H;
   std::vector<Point>& pts;
   Image refSrgb;                     // the reference as LDR-FLIP sees it
-  Image lastImage;                   // the latest recorded image
   std::vector<Image> finals;         // this configuration's final images, one per run
   std::vector<size_t> finalIndices;  // and their points
+  static constexpr size_t kNoPoint = size_t(-1);
+  Image runFinalImage;         // the current run's final candidate's image
+  size_t runFinal = kNoPoint;  // and its point
 
-  void record(const std::string& method, uint32_t n, float sc, int set, int step, double seconds, const Image& img) {
-    lastImage = img;
+  // The latest point of a run capped by --time that may be its final one.
+  double budget() const { return a.time * 1.02; }
+  // Records a point; it becomes the run's final candidate unless the run is
+  // time-capped, already has a candidate and this point is past the budget.
+  void record(const std::string& method, uint32_t n, float sc, int set, int step, double seconds, const Image& img,
+              bool timeCapped) {
+    if (!timeCapped || runFinal == kNoPoint || seconds <= budget()) {
+      runFinal = pts.size();
+      runFinalImage = img;
+    }
     CompareResult c = compareImages(img, ref);
     pts.push_back({method, n, sc, set, step, seconds, c.average.relMse, c.average.rmse, c.average.meanTest,
                    worstPixelShare(img, ref), false});
@@ -253,13 +268,15 @@ struct SweepContext {
     std::fprintf(stderr, "sweep: %-34s set %d step %3d  %8.2f s  relMSE %.5f\n", p.series().c_str(), set, step, seconds,
                  p.relMse);
   }
-  // Marks the run's last point final, with the LDR-FLIP of its image.
+  // Marks the run's final candidate final, with the LDR-FLIP of its image.
   void finish() {
-    if (pts.empty()) return;
-    pts.back().final = true;
-    pts.back().flip = flipLdr(toSrgbImage(lastImage), refSrgb).mean;
-    finals.push_back(lastImage);
-    finalIndices.push_back(pts.size() - 1);
+    if (runFinal == kNoPoint) return;
+    Point& p = pts[runFinal];
+    p.final = true;
+    p.flip = flipLdr(toSrgbImage(runFinalImage), refSrgb).mean;
+    finals.push_back(std::move(runFinalImage));
+    finalIndices.push_back(runFinal);
+    runFinal = kNoPoint;
   }
   // After a configuration's independent runs: bias2 and variance of their finals.
   void endConfiguration() {
@@ -309,7 +326,7 @@ struct SweepContext {
       el += passTime.seconds();
       bool last = el >= a.time;
       if (pass + 1 == next || last) {
-        record("pt", 0, 0, set, pass + 1, el, ind.image());
+        record("pt", 0, 0, set, pass + 1, el, ind.image(), true);
         next *= 2;
       }
       if (last) break;
@@ -344,7 +361,7 @@ struct SweepContext {
       Image mean = sum;
       for (float& x : mean.rgb) x /= float(pass + 1);
       double el = clock.seconds();
-      record(method, n, sc, set, pass + 1, el, mean);
+      record(method, n, sc, set, pass + 1, el, mean, !sm.passesCappedByBatches);
       if (sm.passesCappedByBatches ? pass + 1 >= a.batches : el >= a.time) break;
     }
     finish();
@@ -361,7 +378,7 @@ struct SweepContext {
     while (est->step()) {
       ManyLightImages im = est->images();
       double el = clock.seconds();
-      record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl);
+      record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl, a.time > 0);
       if (a.time > 0 && el >= a.time) break;
     }
     finish();
@@ -481,7 +498,7 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
   const int W = ref->width, H = ref->height;
   const CompareResult self = compareImages(*ref, *ref);
-  SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}};
+  SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}, SweepContext::kNoPoint};
   runConfigurations(ctx, shardIndex, shardCount);
   meta = {a.scene,
           reference.name,
@@ -856,7 +873,10 @@ Subcommand addSweepCommand(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::Range(1e-6, 1e6))
       ->default_str("1");
-  sweep->add_option("--time", sw.time, "Path-tracer budget and cap per run, seconds")
+  sweep
+      ->add_option("--time", sw.time,
+                   "Budget per run, seconds: each run's final result is its last point within it (2% slack; not the "
+                   "-sets methods)")
       ->default_str("30")
       ->check(CLI::Range(0.01, 1e6));
   sweep->add_option("--alpha", sw.alpha, "vsl-progressive: r^2 shrinks by (i+alpha)/(i+1) per pass")

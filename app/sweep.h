@@ -21,7 +21,7 @@ struct SweepArgs {
   float alpha = 0.7f;  // for vsl-progressive
   std::vector<uint32_t> lights = {1000, 10000};
   std::vector<float> radiusScales = {1.0f};
-  double time = 30;  // seconds: the path tracer's budget, and a cap per many-light run
+  double time = 30;  // seconds per run: the budget its final point keeps (sweep.cpp)
   int batches = 8;
   MrcsSettings mrcs;  // for the -mrcs methods (seed: per pass)
   uint64_t seed = 1;  // differ from the reference's seed, or the path tracer replays it

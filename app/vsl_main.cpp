@@ -26,6 +26,19 @@ namespace vsl {
 // ---- Options shared by render and sweep ---------------------------------------
 
 void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
+  cmd->add_option_function<std::string>(
+         "--vsl-samples", [&m](const std::string& v) { m.vslSamples = v == "auto" ? 0 : std::stoi(v); },
+         "VSL cone-integral samples per strategy: auto (see --vsl-count) or N in [1, 4096]")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            if (v == "auto") return {};
+            char* end = nullptr;
+            const long n = std::strtol(v.c_str(), &end, 10);
+            if (end != v.c_str() && *end == 0 && n >= 1 && n <= 4096) return {};
+            return "must be 'auto' or in [1,4096] (got '" + v + "')";
+          },
+          "auto|N"))
+      ->default_str("auto");
   cmd->add_flag("--clipped-disk", m.clippedDisk,
                 "VSL: spread the flux over the part of the disk on the receiver's side of its tangent plane");
   // The automatic count: the lobe-aware one by default (the same error as the

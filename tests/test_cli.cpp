@@ -191,6 +191,21 @@ TEST_F(Cli, InfoListsScene) {
     EXPECT_NE(r.out.find(w), std::string::npos) << w << "\n" << r.out;
 }
 
+// Equal time: each run's final point is its last within the budget (--time,
+// 2% slack), or its first if none is; later points are charted only.
+static void expectFinalsWithinBudget(const std::vector<std::vector<std::string>>& points, double time) {
+  std::map<std::string, std::vector<const std::vector<std::string>*>> runs;  // configuration and set -> points
+  for (const std::vector<std::string>& f : points) runs[f[0] + " " + f[1] + " set " + f[3]].push_back(&f);
+  for (const auto& [run, pts] : runs) {
+    size_t want = 0;
+    for (size_t i = 0; i < pts.size(); ++i)
+      if (std::stod((*pts[i])[5]) <= time * 1.02) want = i;
+    for (size_t i = 0; i < pts.size(); ++i)
+      EXPECT_EQ((*pts[i])[10], i == want ? "1" : "0")
+          << run << " step " << (*pts[i])[4] << " at " << (*pts[i])[5] << " s, budget " << time << " s";
+  }
+}
+
 // vsl-sets and vpl-sets average --batches independent light sets (the studio's
 // passes): every run records exactly that many steps, the last one final,
 // however short the time budget (--time caps the other methods).
@@ -205,6 +220,17 @@ TEST_F(Cli, SweepSetsMethodsStopAfterBatchesLightSets) {
   }
   ASSERT_EQ(steps.size(), 4u);
   for (const auto& [run, s] : steps) EXPECT_EQ(s, (std::vector<int>{1, 2, 3})) << run;
+}
+
+// A batch or an MRCS pass that ends well past the budget is charted, but the
+// run's result is its last point within the budget: methods are compared at
+// equal time.
+TEST_F(Cli, SweepFinalsAreAtEqualTime) {
+  std::string header;
+  const std::vector<std::vector<std::string>> points = sweepCsv(
+      "--methods pt,vsl,vsl-mrcs --lights 3000 --batches 4 --mrcs 20,40 --time 0.05 --sets 2", "sweep-eq", &header);
+  ASSERT_FALSE(points.empty());
+  expectFinalsWithinBudget(points, 0.05);
 }
 
 TEST_F(Cli, SweepWritesTablesAndPlots) {
@@ -228,6 +254,7 @@ TEST_F(Cli, SweepWritesTablesAndPlots) {
     }
     EXPECT_EQ(f[6], f[11]) << "without --reference-b nothing is subtracted: " << row;
   }
+  expectFinalsWithinBudget(points, 0.2);
   EXPECT_EQ(finals["pt"], 3);
   EXPECT_EQ(finals["vpl"], 6);
   EXPECT_EQ(finals["vsl"], 6);
@@ -485,6 +512,19 @@ TEST_F(Cli, VslCountIsChosenAndRecorded) {
   EXPECT_NE(authors["settings"].get<std::string>().find("--vsl-count authors"), std::string::npos);
   EXPECT_EQ(lobe["lights"], authors["lights"]);
   EXPECT_LT(lobe["vslEvaluations"].get<double>(), 0.9 * authors["vslEvaluations"].get<double>());
+  // A fixed count replaces the automatic one, and the sweep takes it too.
+  auto two = settingsOf(" --vsl-samples 2", "two");
+  EXPECT_NE(two["settings"].get<std::string>().find("--vsl-samples 2"), std::string::npos) << two["settings"];
+  EXPECT_EQ(two["lights"], lobe["lights"]);
+  EXPECT_LT(two["vslEvaluations"].get<double>(), 0.9 * lobe["vslEvaluations"].get<double>());
+  ASSERT_EQ(run("render " + scene("cornell-glossy") + " --spp 4 --width 16 --height 16 -o " + file("ref.exr")).code, 0);
+  ASSERT_EQ(
+      run("sweep " + scene("cornell-glossy") + " --methods vsl --lights 40 --sets 1 --time 0.05 --vsl-samples 3 " +
+          "--reference " + file("ref.exr") + " -o " + file("sw"))
+          .code,
+      0);
+  auto sw = nlohmann::json::parse(std::ifstream(file("sw/sweep.json")));
+  EXPECT_NE(sw["settings"].get<std::string>().find("--vsl-samples 3"), std::string::npos) << sw["settings"];
   Proc r = run(common + " --vsl-count fast -o " + file("bad.exr"));
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--vsl-count"), std::string::npos) << r.out;
@@ -524,7 +564,11 @@ TEST_F(Cli, OutOfRangeNumbersAreBadArguments) {
            {"render " + cg + " --method vsl --mrcs 10,-4294967295 -o " + file("oor.exr"), "--mrcs must be"},
            {"sweep " + cg + " --shard 4294967297/2 -o " + file("oor-sweep"), "--shard must be I/N"},
            {"sweep " + cg + " --shard 1/2x -o " + file("oor-sweep"), "--shard must be I/N"},
-           {"sweep " + cg + " --merge " + file("oor-a") + " -o " + file("oor-sweep"), "takes no scene"}}) {
+           {"sweep " + cg + " --merge " + file("oor-a") + " -o " + file("oor-sweep"), "takes no scene"},
+           {"render " + cg + " --method vsl --vsl-samples 0 -o " + file("oor.exr"), "--vsl-samples"},
+           {"render " + cg + " --method vsl --vsl-samples 4097 -o " + file("oor.exr"), "--vsl-samples"},
+           {"render " + cg + " --method vsl --vsl-samples 3x -o " + file("oor.exr"), "--vsl-samples"},
+           {"sweep " + cg + " --vsl-samples -1 -o " + file("oor-sweep"), "--vsl-samples"}}) {
     Proc r = run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
