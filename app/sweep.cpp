@@ -146,6 +146,7 @@ struct SweepMeta {
   std::vector<uint32_t> lights;
   std::vector<float> radiusScales;
   int shardIndex = 0, shardCount = 1;
+  double time = 0;  // --time: the budget the finals keep (0: a sweep.json from before session 28)
 };
 
 // ---- CSV of the points: written by every run, read back by --merge --------
@@ -309,7 +310,8 @@ struct SweepContext {
     return m;
   }
 
-  // The path tracer, measured at 1, 2, 4, ... passes and at the budget.
+  // The path tracer, measured at 1, 2, 4, ... passes and at the budget (the
+  // pass that reaches it and the one before).
   void runPt(int set) {
     RenderSettings rs;
     rs.width = W;
@@ -323,9 +325,12 @@ struct SweepContext {
     for (int pass = 0;; ++pass) {
       Stopwatch passTime;
       pt.renderPass(pass, d, ind, c);
-      el += passTime.seconds();
+      const double dt = passTime.seconds();
+      el += dt;
       bool last = el >= a.time;
-      if (pass + 1 == next || last) {
+      // Also the pass before the last one (by the last pass's time), in case
+      // the last ends past the budget and cannot be the final point.
+      if (pass + 1 == next || last || el + dt >= a.time) {
         record("pt", 0, 0, set, pass + 1, el, ind.image(), true);
         next *= 2;
       }
@@ -500,22 +505,9 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   const CompareResult self = compareImages(*ref, *ref);
   SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}, SweepContext::kNoPoint};
   runConfigurations(ctx, shardIndex, shardCount);
-  meta = {a.scene,
-          reference.name,
-          a.referenceB,
-          a.many.describe(),
-          W,
-          H,
-          a.sets,
-          self.epsilon,
-          self.average.meanRef,
-          reference.noise,
-          self.epsilonSpec,
-          a.methods,
-          a.lights,
-          a.radiusScales,
-          shardIndex,
-          shardCount};
+  meta = {a.scene,      reference.name,       a.referenceB,    a.many.describe(), W,         H,        a.sets,
+          self.epsilon, self.average.meanRef, reference.noise, self.epsilonSpec,  a.methods, a.lights, a.radiusScales,
+          shardIndex,   shardCount,           a.time};
   // Summaries are taken from the points as the CSV holds them, so a merged
   // run reproduces them exactly.
   std::vector<Point> exact;
@@ -621,6 +613,7 @@ nlohmann::json pointsJson(const SweepMeta& meta, const std::vector<Point>& pts) 
       {"flipPixelsPerDegree", kFlipPixelsPerDegree},
       {"referenceIndirectMean", meta.refMean},
       {"settings", meta.settings},
+      {"time", meta.time},
       {"grid", {{"methods", meta.methods}, {"lights", meta.lights}, {"radiusScales", meta.radiusScales}}},
       {"points", nlohmann::json::array()},
       {"summary", nlohmann::json::array()}};
@@ -747,6 +740,7 @@ Result<void> readShard(const std::string& dir, SweepMeta& meta, std::vector<Poin
     meta.reference = j.at("reference");
     meta.referenceB = j.value("referenceB", std::string());
     meta.settings = j.at("settings");
+    meta.time = j.value("time", 0.0);
     meta.width = j.at("width");
     meta.height = j.at("height");
     meta.sets = j.at("sets");
@@ -784,8 +778,9 @@ int mergeShards(const SweepArgs& a) {
     } else if (m.scene != meta.scene || m.reference != meta.reference || m.width != meta.width ||
                m.height != meta.height || m.sets != meta.sets || m.settings != meta.settings ||
                m.methods != meta.methods || m.lights != meta.lights || m.radiusScales != meta.radiusScales ||
-               m.shardCount != meta.shardCount || m.epsilon != meta.epsilon) {
-      return failf(kExitBadInput, "%s: another sweep (scene, reference, grid, settings or shard count differ from %s)",
+               m.shardCount != meta.shardCount || m.epsilon != meta.epsilon || m.time != meta.time) {
+      return failf(kExitBadInput,
+                   "%s: another sweep (scene, reference, grid, settings, time budget or shard count differ from %s)",
                    dir.c_str(), a.merge[0].c_str());
     }
     if (m.shardIndex < 0 || m.shardIndex >= int(seen.size()) || seen[size_t(m.shardIndex)]++)

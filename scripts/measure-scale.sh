@@ -66,6 +66,6 @@ log "brute force 100k: $(seconds "$OUT/brute.json") s, relMSE vs reference $(rel
 log "MRCS vs brute force directly: relMSE $(relmse "$OUT/mrcs.exr" "$OUT/brute.exr")"
 for scene in kitchen tableau; do
   log "$scene sweep (final points, relMSE against reference A):"
-  grep ',1$' "$OUT/sweep-$scene/sweep.csv" | tee -a "$RES"
+  awk -F, 'NR > 1 && $11 == 1' "$OUT/sweep-$scene/sweep.csv" | tee -a "$RES"
 done
 echo "results in $RES"

@@ -330,5 +330,14 @@ TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
       vslOut("sweep --merge " + (d / "s0").string() + " " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
   EXPECT_EQ(vslOut("sweep --merge " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
   EXPECT_EQ(vslOut(grid + (d / "x").string() + " --shard 2/2").code, 2);
+  // The finals keep the time budget, so shards run with another are refused.
+  EXPECT_EQ(double(jm["time"]), 1000.0);
+  std::string grid999 = grid;
+  grid999.replace(grid999.find("--time 1000"), 11, "--time 999");
+  ASSERT_EQ(vslOut(grid999 + (d / "t1").string() + " --shard 1/2").code, 0);
+  Proc t =
+      vslOut("sweep --merge " + (d / "s0").string() + " " + (d / "t1").string() + " -o " + (d / "x").string(), true);
+  EXPECT_EQ(t.code, 1) << t.out;
+  EXPECT_NE(t.out.find("time budget"), std::string::npos) << t.out;
   fs::remove_all(d);
 }
