@@ -3,8 +3,9 @@
 // step is a point (compute seconds, relMSE of the indirect image). A run's
 // final result is its last point within the time budget (--time, 2% slack for
 // the path tracer's last pass), so that methods are compared at equal time
-// even where a batch or an MRCS pass ends well past the budget (its point is
-// charted, not final); a run with no point inside the budget has its first
+// even where a batch or an MRCS pass ends past the budget (its point is
+// charted, not final; a run does not start a step its last one predicts to
+// end past the budget); a run with no point inside the budget has its first
 // point final, and the -sets methods, which --time does not cap, their last.
 // Each configuration runs with
 // --sets independent light sets (or path-tracer seeds), and its finals are
@@ -254,6 +255,11 @@ struct SweepContext {
 
   // The latest point of a run capped by --time that may be its final one.
   double budget() const { return a.time * 1.02; }
+  // Does a step of dt seconds started at el end within the budget? A run does
+  // not start a step that would not (predicted from its last step's length:
+  // batches grow and passes cost alike, so the next takes at least about as
+  // long), since the point it would give could not be the run's final one.
+  bool nextFits(double el, double dt) const { return el + dt <= budget(); }
   // Records a point; it becomes the run's final candidate unless the run is
   // time-capped, already has a candidate and this point is past the budget.
   void record(const std::string& method, uint32_t n, float sc, int set, int step, double seconds, const Image& img,
@@ -310,8 +316,8 @@ struct SweepContext {
     return m;
   }
 
-  // The path tracer, measured at 1, 2, 4, ... passes and at the budget (the
-  // pass that reaches it and the one before).
+  // The path tracer, measured at 1, 2, 4, ... passes and at its last pass,
+  // the one after which another would end past the budget.
   void runPt(int set) {
     RenderSettings rs;
     rs.width = W;
@@ -327,12 +333,10 @@ struct SweepContext {
       pt.renderPass(pass, d, ind, c);
       const double dt = passTime.seconds();
       el += dt;
-      bool last = el >= a.time;
-      // Also the pass before the last one (by the last pass's time), in case
-      // the last ends past the budget and cannot be the final point.
-      if (pass + 1 == next || last || el + dt >= a.time) {
+      const bool last = !nextFits(el, dt);
+      if (pass + 1 == next || last) {
         record("pt", 0, 0, set, pass + 1, el, ind.image(), true);
-        next *= 2;
+        if (pass + 1 == next) next *= 2;
       }
       if (last) break;
     }
@@ -349,6 +353,7 @@ struct SweepContext {
     const SweepMethod& sm = sweepMethod(method);
     Stopwatch clock;
     Image sum(W, H);
+    double before = 0;  // the clock when this pass started
     for (int pass = 0;; ++pass) {
       ManyLightSettings m = manySettings(method, n, sc, seedOf(set, pass));
       m.batches = 1;
@@ -367,7 +372,8 @@ struct SweepContext {
       for (float& x : mean.rgb) x /= float(pass + 1);
       double el = clock.seconds();
       record(method, n, sc, set, pass + 1, el, mean, !sm.passesCappedByBatches);
-      if (sm.passesCappedByBatches ? pass + 1 >= a.batches : el >= a.time) break;
+      if (sm.passesCappedByBatches ? pass + 1 >= a.batches : !nextFits(el, el - before)) break;
+      before = el;
     }
     finish();
   }
@@ -380,11 +386,13 @@ struct SweepContext {
     m.batches = a.batches;
     Stopwatch clock;
     std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, EstimatorSettings{});
+    double before = clock.seconds();  // when this step started (light tracing and k-NN are done)
     while (est->step()) {
       ManyLightImages im = est->images();
       double el = clock.seconds();
-      record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl, a.time > 0);
-      if (a.time > 0 && el >= a.time) break;
+      record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl, true);
+      if (!nextFits(el, el - before)) break;
+      before = el;
     }
     finish();
   }

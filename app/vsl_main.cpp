@@ -25,17 +25,29 @@ namespace vsl {
 
 // ---- Options shared by render and sweep ---------------------------------------
 
+namespace {
+// --vsl-samples: "auto" (0) or a count in [1, 4096]; false for anything else.
+bool parseVslSamples(const std::string& v, int& out) {
+  if (v == "auto") {
+    out = 0;
+    return true;
+  }
+  char* end = nullptr;
+  const long n = std::strtol(v.c_str(), &end, 10);
+  if (end == v.c_str() || *end != 0 || n < 1 || n > 4096) return false;
+  out = int(n);
+  return true;
+}
+}  // namespace
+
 void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
   cmd->add_option_function<std::string>(
-         "--vsl-samples", [&m](const std::string& v) { m.vslSamples = v == "auto" ? 0 : std::stoi(v); },
+         "--vsl-samples", [&m](const std::string& v) { parseVslSamples(v, m.vslSamples); },
          "VSL cone-integral samples per strategy: auto (see --vsl-count) or N in [1, 4096]")
       ->check(CLI::Validator(
           [](std::string& v) -> std::string {
-            if (v == "auto") return {};
-            char* end = nullptr;
-            const long n = std::strtol(v.c_str(), &end, 10);
-            if (end != v.c_str() && *end == 0 && n >= 1 && n <= 4096) return {};
-            return "must be 'auto' or in [1,4096] (got '" + v + "')";
+            int n = 0;
+            return parseVslSamples(v, n) ? std::string() : "must be 'auto' or in [1,4096] (got '" + v + "')";
           },
           "auto|N"))
       ->default_str("auto");

@@ -100,6 +100,12 @@ const AlbedoTable& albedoTable() {
   return table;
 }
 
+}  // namespace
+
+void prepareMaterialTables() { albedoTable(); }
+
+namespace {
+
 AlbedoRow albedoRow(float alpha) {
   float fa = clamp(std::sqrt(std::max(alpha, 0.0f)), 0.0f, 1.0f) * (kTableAlpha - 1);
   int a0 = std::min(int(fa), kTableAlpha - 2);

