@@ -239,6 +239,17 @@ std::vector<size_t> paretoFront(const std::vector<T>& pts, const std::vector<siz
   return front;
 }
 
+// A series ("vsl N=3000 s=1") as a file name ("vsl-N3000-s1").
+std::string finalImageName(const std::string& series) {
+  std::string out;
+  for (char ch : series)
+    if (ch == ' ')
+      out += '-';
+    else if (std::isalnum(static_cast<unsigned char>(ch)) || ch == '.' || ch == '-')
+      out += ch;
+  return out;
+}
+
 // Everything one run needs: the scene, the reference and the arguments.
 struct SweepContext {
   const SweepArgs& a;
@@ -285,8 +296,10 @@ struct SweepContext {
     finalIndices.push_back(runFinal);
     runFinal = kNoPoint;
   }
-  // After a configuration's independent runs: bias2 and variance of their finals.
+  // After a configuration's independent runs: bias2 and variance of their
+  // finals, and the first run's final image written to look at.
   void endConfiguration() {
+    if (!finals.empty()) writeFinalImage(pts[finalIndices.front()].series(), finals.front());
     if (finals.size() >= 2) {
       std::vector<const Image*> imgs;
       for (const Image& f : finals) imgs.push_back(&f);
@@ -298,6 +311,25 @@ struct SweepContext {
     }
     finals.clear();
     finalIndices.clear();
+  }
+  // finals/NAME.exr (layers indirect and default) and finals/NAME.png
+  // (exposure 0, the tone map LDR-FLIP sees), NAME the series made
+  // file-safe. A failed write is reported and remembered (the sweep's tables
+  // are still written, then the sweep exits 1).
+  std::string imageError;
+  void writeFinalImage(const std::string& series, const Image& img) {
+    const std::filesystem::path dir = std::filesystem::path(a.outDir) / "finals";
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    Result<void> w = ec ? Result<void>(Error(dir.string() + ": cannot create the directory (" + ec.message() + ")"))
+                        : Result<void>();
+    const std::string base = (dir / finalImageName(series)).string();
+    if (w) w = writeExr(base + ".exr", {{"", img}, {"indirect", img}});
+    if (w) w = writePng(base + ".png", img, 0.0f);
+    if (!w) {
+      std::fprintf(stderr, "sweep: %s\n", w.error().c_str());
+      if (imageError.empty()) imageError = w.error();
+    }
   }
   // Independent runs differ in every seed.
   uint64_t seedOf(int set, int pass = 0) const {
@@ -498,7 +530,9 @@ void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
 }
 
 // Runs this shard's part of the grid; fills the points and what the outputs need.
-int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts) {
+// imageError: the first final image that could not be written, if any.
+int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts,
+            std::string& imageError) {
   Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(a.scene);
   if (!loaded) return fail(kExitBadInput, loaded.error());
   const RenderContext& context = **loaded;
@@ -511,8 +545,10 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   if (ec) return failf(kExitBadInput, "%s: cannot create the directory (%s)", a.outDir.c_str(), ec.message().c_str());
   const int W = ref->width, H = ref->height;
   const CompareResult self = compareImages(*ref, *ref);
-  SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}, SweepContext::kNoPoint};
+  SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}, SweepContext::kNoPoint, {}};
+  ctx.writeFinalImage("reference", *ref);
   runConfigurations(ctx, shardIndex, shardCount);
+  imageError = ctx.imageError;
   meta = {a.scene,      reference.name,       a.referenceB,    a.many.describe(), W,         H,        a.sets,
           self.epsilon, self.average.meanRef, reference.noise, self.epsilonSpec,  a.methods, a.lights, a.radiusScales,
           shardIndex,   shardCount,           a.time};
@@ -723,7 +759,8 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
   if (int rc = writePlots(meta, pts, summary, finals, fronts, dir); rc != 0) return rc;
   printSummary(meta, summary);
   std::fprintf(stderr,
-               "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png, flip_vs_time.png}\n",
+               "wrote %s/{sweep.csv, summary.csv, sweep.json, error_vs_time.png, pareto.png, flip_vs_time.png, "
+               "finals/}\n",
                outDir.c_str());
   return 0;
 }
@@ -796,6 +833,22 @@ int mergeShards(const SweepArgs& a) {
                    m.shardCount);
     shardPts.push_back(std::move(pts));
   }
+  // Each shard's final images (a configuration lives in one shard; the
+  // reference's image is the same in every shard).
+  const std::filesystem::path finalsOut = std::filesystem::path(a.outDir) / "finals";
+  for (const std::string& dir : a.merge) {
+    const std::filesystem::path from = std::filesystem::path(dir) / "finals";
+    std::error_code ec;
+    if (!std::filesystem::is_directory(from, ec)) continue;
+    std::filesystem::create_directories(finalsOut, ec);
+    if (!ec)
+      std::filesystem::copy(
+          from, finalsOut, std::filesystem::copy_options::overwrite_existing | std::filesystem::copy_options::recursive,
+          ec);
+    if (ec)
+      return failf(kExitBadInput, "%s: cannot copy its final images to %s (%s)", from.c_str(), finalsOut.c_str(),
+                   ec.message().c_str());
+  }
   for (size_t i = 0; i < seen.size(); ++i)
     if (!seen[i]) return failf(kExitBadInput, "shard %zu/%d is missing", i, meta.shardCount);
   // Configuration by configuration, in grid order (a configuration lives in one shard).
@@ -842,8 +895,11 @@ int runSweep(const SweepArgs& a) {
   }
   SweepMeta meta;
   std::vector<Point> pts;
-  if (int rc = runGrid(a, shardIndex, shardCount, meta, pts); rc != 0) return rc;
-  return writeOutputs(meta, pts, a.outDir);
+  std::string imageError;
+  if (int rc = runGrid(a, shardIndex, shardCount, meta, pts, imageError); rc != 0) return rc;
+  if (int rc = writeOutputs(meta, pts, a.outDir); rc != 0) return rc;
+  if (!imageError.empty()) return fail(kExitBadInput, imageError + " (the tables above were written)");
+  return 0;
 }
 
 // The command line of `vsl sweep`: the grid's arguments and the -mrcs settings,

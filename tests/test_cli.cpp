@@ -12,6 +12,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
 
 #include "core/image_io.h"
 #include "tests/run_vsl.h"
@@ -260,6 +261,34 @@ TEST_F(Cli, SweepFinalsAreAtEqualTime) {
   std::map<std::string, int> steps;
   for (const std::vector<std::string>& f : many) steps[f[0] + " set " + f[3]]++;
   for (const auto& [run, n] : steps) EXPECT_GE(n, 3) << run << ": the check above needs a few steps";
+  // Each configuration's first final image is written to look at: its
+  // relMSE against the reference is the CSV's.
+  for (const auto& [name, method, lights] : {std::tuple<std::string, std::string, std::string>{"pt", "pt", "0"},
+                                             {"vsl-N3000-s1", "vsl", "3000"},
+                                             {"vsl-mrcs-N3000-s1", "vsl-mrcs", "3000"}}) {
+    const std::string exr = file("sweep-eq/finals/" + name + ".exr");
+    EXPECT_TRUE(std::filesystem::exists(file("sweep-eq/finals/" + name + ".png"))) << name;
+    Proc c = run("compare " + exr + " " + file("ref.exr") + " --layer indirect --json --no-flip");
+    ASSERT_EQ(c.code, 0) << name << ": " << c.out;
+    const double rel = nlohmann::json::parse(c.out.substr(c.out.find('{')))["average"]["relMSE"];
+    int found = 0;
+    for (const std::vector<std::string>& f : points)
+      if (f[0] == method && f[1] == lights && f[3] == "0" && f[10] == "1") {
+        EXPECT_NEAR(rel, std::stod(f[6]), 1e-4 * std::stod(f[6])) << name;
+        ++found;
+      }
+    EXPECT_EQ(found, 1) << name;
+  }
+  EXPECT_TRUE(std::filesystem::exists(file("sweep-eq/finals/reference.png")));
+  // An image that cannot be written is reported (exit 1) and the tables are
+  // still written.
+  std::filesystem::create_directories(file("sweep-ro"));
+  std::ofstream(file("sweep-ro/finals")) << "a file where the directory would go";
+  Proc r = run("sweep " + scene("cornell-glossy") + " --methods vpl --lights 40 --time 0.05 --sets 1 --reference " +
+               file("ref.exr") + " -o " + file("sweep-ro"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("finals"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(file("sweep-ro/summary.csv")));
 }
 
 TEST_F(Cli, SweepWritesTablesAndPlots) {

@@ -325,6 +325,15 @@ TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
     EXPECT_GT(double(row["flipLdrMedian"]), 0) << row;
   }
   for (const char* png : {"merged/pareto.png", "merged/flip_vs_time.png"}) EXPECT_TRUE(fs::exists(d / png)) << png;
+  // Every configuration's final image, as the unsharded run wrote it.
+  int images = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(d / "all/finals")) {
+    const fs::path merged = d / "merged/finals" / e.path().filename();
+    ASSERT_TRUE(fs::exists(merged)) << merged;
+    EXPECT_EQ(slurp(merged), slurp(e.path())) << merged;
+    ++images;
+  }
+  EXPECT_EQ(images, 2 * 7);  // EXR and PNG of six configurations and the reference
   // A shard given twice, or one missing, is refused; so is a malformed --shard.
   EXPECT_EQ(
       vslOut("sweep --merge " + (d / "s0").string() + " " + (d / "s0").string() + " -o " + (d / "x").string()).code, 1);
