@@ -150,17 +150,17 @@ struct GatherBench {
   double pairsPerSecond, raysPerSecond, seconds, raw;
 };
 
-// Many-light gather: VPL only, VSL only (the default, lobe-aware sample count)
-// and VSL with the authors' count (vsl_integral.h), one light set, one batch
+// Many-light gather: VPL only, VSL only (the default automatic count) and VSL
+// with each other automatic count (vsl_integral.h), one light set, one batch
 // each.
 // The machine is shared: raw Embree is measured again right after each
 // gather, and the ratio uses the mean of the two measurements around it.
 std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                       OcclusionBench& occlusion, double rawBefore, const BenchArgs& a) {
   std::vector<GatherBench> gathers;
-  auto gather = [&](const std::string& name, bool vsl, bool lobe, uint32_t n, int sz, int szY = 0) {
+  auto gather = [&](const std::string& name, bool vsl, VslCount count, uint32_t n, int sz, int szY = 0) {
     ManyLightSettings m;
-    m.vslLobeSamples = lobe;
+    m.vslCount = count;
     m.lights = n;
     m.width = sz;
     m.height = szY > 0 ? szY : sz;
@@ -180,7 +180,7 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
     gathers.push_back(
         {name, uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec, st.shadowRays / sec, sec, raw});
     std::printf(
-        "%-8s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
+        "%-11s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
         "%.2f s\n",
         name.c_str(), uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec * 1e-6, st.pairs / sec / raw,
         st.shadowRays / sec * 1e-6, st.shadowRays / sec / raw, raw * 1e-6, sec);
@@ -188,13 +188,17 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
   // Few lights (wide VSL cones, all in cache), more lights, a larger image,
   // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
   // (eight 16x16 tiles, so that two threads share the work evenly).
-  for (int variant = 0; variant < 3; ++variant) {
-    const bool vsl = variant > 0, authors = variant == 2;
-    const char* name = authors ? "VSL-auth" : vsl ? "VSL" : "VPL";
-    gather(name, vsl, !authors, 1000, a.size / 2);
-    gather(name, vsl, !authors, 4000, a.size / 2);
-    gather(name, vsl, !authors, 1000, a.size);
-    gather(name, vsl, !authors, 100000, 64, 32);
+  // VPL, VSL with the default count, then VSL with each other automatic count.
+  const VslCount dflt = ManyLightSettings().vslCount;
+  std::vector<std::pair<std::string, VslCount>> variants = {{"VPL", dflt}, {"VSL", dflt}};
+  for (VslCount c : {VslCount::Authors, VslCount::Lobe, VslCount::Shares})
+    if (c != dflt) variants.push_back({std::string("VSL-") + vslCountName(c), c});
+  for (const auto& [name, count] : variants) {
+    const bool vsl = name != "VPL";
+    gather(name, vsl, count, 1000, a.size / 2);
+    gather(name, vsl, count, 4000, a.size / 2);
+    gather(name, vsl, count, 1000, a.size);
+    gather(name, vsl, count, 100000, 64, 32);
   }
   return gathers;
 }

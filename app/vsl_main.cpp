@@ -57,11 +57,17 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
   // authors' count on the four bundled scenes in 20-30% less time where lobes
   // are broad; docs/VSL-QUALITY.md), or the authors' count unchanged.
   cmd->add_option_function<std::string>(
-         "--vsl-count", [&m](const std::string& v) { m.vslLobeSamples = v == "lobe"; },
+         "--vsl-count",
+         [&m](const std::string& v) {
+           for (VslCount c : {VslCount::Authors, VslCount::Lobe, VslCount::Shares})
+             if (v == vslCountName(c)) m.vslCount = c;
+         },
          "VSL's automatic sample count: lobe (the authors' count, scaled down where both BRDF lobes are broad "
-         "compared with the cone; still unbiased) or authors (1 + floor(100 theta / (pi/2)) per strategy)")
-      ->check(CLI::IsMember({"lobe", "authors"}))
-      ->default_str(ManyLightSettings().vslLobeSamples ? "lobe" : "authors");
+         "compared with the cone), authors (1 + floor(100 theta / (pi/2)) per strategy), or shares (the lobe "
+         "count, with fewer samples for a strategy that fits the cone badly: a BRDF lobe broader than the cone, the "
+         "cone where a lobe is narrower); all unbiased")
+      ->check(CLI::IsMember({"lobe", "authors", "shares"}))
+      ->default_str(vslCountName(ManyLightSettings().vslCount));
   cmd->add_option("--continue-alpha", m.continueAlpha,
                   "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
       ->default_str(defaultText(ManyLightSettings().continueAlpha))

@@ -73,7 +73,7 @@ std::string ManyLightSettings::describe() const {
   else
     s << clamp;
   if (clippedDisk) s << " --clipped-disk";
-  s << " --vsl-count " << (vslLobeSamples ? "lobe" : "authors");
+  s << " --vsl-count " << vslCountName(vslCount);
   if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
   s << " --lobe-floor " << lobeFloor;
   s << " --continue-alpha " << continueAlpha;

@@ -62,12 +62,12 @@ struct ManyLightSettings {
   int directSamples = 64;  // direct-light samples per pixel over the whole render
   int lightMaxDepth = 16;
   // VSL
-  float radiusScale = 1.0f;    // s
-  int knn = 10;                // k
-  float globalRadius = 0;      // > 0: one radius = globalRadius x scene bounding radius
-  int vslSamples = 0;          // per strategy; 0 = auto (grows with the cone angle)
-  bool clippedDisk = false;    // VSL normalised by the clipped disk's area (vsl_integral.h)
-  bool vslLobeSamples = true;  // the lobe-aware automatic count (vsl_integral.h); false: the authors'
+  float radiusScale = 1.0f;            // s
+  int knn = 10;                        // k
+  float globalRadius = 0;              // > 0: one radius = globalRadius x scene bounding radius
+  int vslSamples = 0;                  // per strategy; 0 = auto (grows with the cone angle)
+  bool clippedDisk = false;            // VSL normalised by the clipped disk's area (vsl_integral.h)
+  VslCount vslCount = VslCount::Lobe;  // the automatic count (vsl_integral.h)
   // Lobe-aware minimum radius (0 = off): for a receiver at distance d, the
   // radius is at least lobeRadius x d x alpha, alpha the narrower GGX axis of
   // the light's specular lobe, so that the cone is about as wide as the
@@ -104,7 +104,7 @@ struct ManyLightSettings {
   // above.
   float splitAlpha = kDefaultSplitAlpha;
   static constexpr float kDefaultSplitAlpha = 0.0f;
-  VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslLobeSamples}; }
+  VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslCount}; }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
   bool diffuseOnly = false;  // diffuse-only emission for "the" VPL image

@@ -24,6 +24,24 @@ int vslAutoSamples(double oneMinusCos) {
   return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));
 }
 
+const char* vslCountName(VslCount c) {
+  switch (c) {
+    case VslCount::Authors:
+      return "authors";
+    case VslCount::Lobe:
+      return "lobe";
+    case VslCount::Shares:
+      return "shares";
+  }
+  return "?";
+}
+
+VslStrategyCounts vslStrategyCounts(int n, double massX, double massP, bool useX, bool useP) {
+  auto share = [n](double w) { return std::max(1, int(std::lround(double(n) * std::min(1.0, std::max(w, 0.0))))); };
+  const double widest = std::max({useX ? massX : 0.0, useP ? massP : 0.0, 1.0});
+  return {share(1.0 / widest), useX ? share(massX) : 0, useP ? share(massP) : 0};
+}
+
 int vslLobeAwareSamples(int n, double mass) {
   if (!(mass < kVslStrategyMass)) return n;
   return std::max(1, int(std::lround(double(n) * std::max(mass, 0.0) / kVslStrategyMass)));
@@ -73,8 +91,9 @@ struct VslCone {
   double d, omc, pdfCone;
   Vec3 axis;
   Frame frame;
-  int n;
+  int n;  // rounds: the largest count
   bool useX, useP;
+  int nCone, nX, nP;  // samples per strategy (0: not used)
 
   VslCone(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius, const VslOptions& options) {
     d = length(toLight);
@@ -88,9 +107,19 @@ struct VslCone {
     const double massX = double(x.f.pdfBound()) * coneSolidAngle, massP = double(p.f.pdfBound()) * coneSolidAngle;
     useX = massX > kVslStrategyMass;
     useP = massP > kVslStrategyMass;
-    n = options.samplesPerStrategy > 0 ? options.samplesPerStrategy : vslAutoSamples(omc);
-    if (options.samplesPerStrategy <= 0 && options.lobeAwareCount) n = vslLobeAwareSamples(n, std::max(massX, massP));
+    const bool automatic = options.samplesPerStrategy <= 0;
+    n = automatic ? vslAutoSamples(omc) : options.samplesPerStrategy;
+    if (automatic && options.count != VslCount::Authors) n = vslLobeAwareSamples(n, std::max(massX, massP));
+    VslStrategyCounts c{n, useX ? n : 0, useP ? n : 0};
+    if (automatic && options.count == VslCount::Shares) c = vslStrategyCounts(n, massX, massP, useX, useP);
+    nCone = c.cone;
+    nX = c.x;
+    nP = c.p;
+    n = std::max({nCone, nX, nP});  // rounds: round i draws strategy s if i < its count
   }
+  int draws() const { return nCone + nX + nP; }
+  // The balance heuristic's denominator: sum over strategies of count x pdf.
+  double pdfSum(double pdfX, double pdfP) const { return nCone * pdfCone + nX * pdfX + nP * pdfP; }
   // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
   bool inCone(const Vec3& l) const { return 0.5 * double(lengthSquared(l - axis)) <= omc; }
 
@@ -113,11 +142,12 @@ struct VslCone {
   // kPendingPdf (the block form evaluates them with the others and drops the
   // sample then if sample() would have failed).
   template <bool kDefer, typename Visit>
-  void drawRound(const VslReceiver& x, const VslEmitter& p, Rng& rng, Visit&& visit) const {
+  void drawRound(int round, const VslReceiver& x, const VslEmitter& p, Rng& rng, Visit&& visit) const {
     // Strategy 1: uniform in the cone.
-    visit(frame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr, nullptr);
+    if (round < nCone)
+      visit(frame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr, nullptr);
     // Strategy 2: the receiver's BRDF.
-    if (useX) {
+    if (round < nX) {
       if (auto s = sampleBrdf<kDefer>(x.f, rng))
         visit(x.frame.toWorld(s->wi), false, &*s, nullptr);
       else
@@ -125,7 +155,7 @@ struct VslCone {
     }
     // Strategy 3: the light's BRDF about its incoming direction (emission
     // leaves p along w; the receiver sees it along l = -w).
-    if (useP) {
+    if (round < nP) {
       if (auto s = sampleBrdf<kDefer>(p.f, rng))
         visit(-p.frame.toWorld(s->wi), false, nullptr, &*s);
       else
@@ -147,12 +177,13 @@ struct VslCone {
     }
   }
 
-  // Balance heuristic with n samples per strategy: (1/n) sum f / sum_j pdf_j.
+  // Balance heuristic with n_j samples of strategy j: sum f / sum_j n_j pdf_j
+  // (the counts are in pdfSum).
   Vec3 normalise(const double sum[3], const VslReceiver& x, const Vec3& toLight, double radius,
                  const VslOptions& options) const {
     double area = options.clippedDisk ? vslClippedDiskArea(radius, dot(toLight, x.ng)) : M_PI * radius * radius;
     if (!(area > 0)) return Vec3(0.0f);
-    double norm = 1.0 / (double(n) * area);
+    double norm = 1.0 / area;
     Vec3 t(float(sum[0] * norm), float(sum[1] * norm), float(sum[2] * norm));
     return isFinite(t) ? t : Vec3(0.0f);
   }
@@ -185,9 +216,9 @@ VslResult scalarQuadrature(const VslReceiver& x, const VslEmitter& p, const VslC
     Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, cone.useP ? &pdfP : nullptr).total();
     if (fromX) pdfX = fromX->pdf;
     if (fromP) pdfP = fromP->pdf;
-    addBalanced(fx * fp * (lx.z * lp.z), cone.pdfCone + double(pdfX) + double(pdfP), sum);
+    addBalanced(fx * fp * (lx.z * lp.z), cone.pdfSum(pdfX, pdfP), sum);
   };
-  for (int i = 0; i < cone.n; ++i) cone.drawRound<false>(x, p, rng, accumulate);
+  for (int i = 0; i < cone.n; ++i) cone.drawRound<false>(i, x, p, rng, accumulate);
   res.transfer = cone.normalise(sum, x, toLight, radius, options);
   return res;
 }
@@ -243,7 +274,7 @@ struct VslPending {
       float pp = haveP[i] ? pdfP[i] : cone.useP ? epPdf[i] : 0.0f;
       // sample() fails on a pdf that is not positive and finite.
       if ((sampledX[i] && !(px > 0 && std::isfinite(px))) || (sampledP[i] && !(pp > 0 && std::isfinite(pp)))) continue;
-      addBalanced(fxv * fpv * (lx[2][i] * lp[2][i]), cone.pdfCone + double(px) + double(pp), sum);
+      addBalanced(fxv * fpv * (lx[2][i] * lp[2][i]), cone.pdfSum(px, pp), sum);
     }
     n = 0;
   }
@@ -257,8 +288,7 @@ VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3
   // Fewer than four samples in all would be evaluated one by one anyway
   // (BrdfAt::evalTotals): the scalar form does that without the block's
   // bookkeeping (most pairs at 100,000 lights). Both give the same bits.
-  if (cone.n * (1 + int(cone.useX) + int(cone.useP)) < 4)
-    return scalarQuadrature(x, p, cone, toLight, radius, options, rng);
+  if (cone.draws() < 4) return scalarQuadrature(x, p, cone, toLight, radius, options, rng);
   VslResult res;
   double sum[3] = {0, 0, 0};
   VslPending pending;
@@ -269,7 +299,7 @@ VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3
     if (cone.accept(x, p, l, coneSample, fromX, fromP, lx, lp)) pending.push(lx, lp, fromX, fromP);
   };
   for (int i = 0; i < cone.n; ++i) {
-    cone.drawRound<true>(x, p, rng, collect);
+    cone.drawRound<true>(i, x, p, rng, collect);
     if (pending.n > VslPending::kCapacity - 3) pending.flush(x, p, cone, sum);
   }
   pending.flush(x, p, cone, sum);

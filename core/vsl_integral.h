@@ -10,7 +10,7 @@
 // As r -> 0, T_VSL -> f_x cos_x f_p cos_p / d^2, the unclamped VPL transfer.
 //
 // Quadrature: Monte Carlo with up to three strategies combined by the balance
-// heuristic, n samples each: uniform directions in C, sampling f_x, and
+// heuristic, n samples each (see VslCount for how the counts may differ): uniform directions in C, sampling f_x, and
 // sampling f_p about the light's incoming direction (BRDF samples outside C
 // contribute zero). Auto sample counts grow with the cone's half-angle theta,
 // as in the authors' shader: n = 1 + floor(100 theta / (pi/2)) per strategy,
@@ -56,13 +56,20 @@ struct VslEmitter {
 // See "Strategy selection" above.
 constexpr double kVslStrategyMass = 0.05;
 
+// The automatic sample count, used where VslOptions::samplesPerStrategy <= 0.
+enum class VslCount {
+  Authors,  // the cone angle's count n, for every strategy (vslAutoSamples)
+  Lobe,     // n scaled down where both lobes are broad (vslLobeAwareSamples), for every strategy
+  Shares,   // the lobe-aware n, shared out by how well each strategy fits the cone (vslStrategyCounts)
+};
+const char* vslCountName(VslCount c);  // "authors", "lobe", "shares"
+
 struct VslOptions {
-  int samplesPerStrategy = 0;  // <= 0: automatic (see above)
+  int samplesPerStrategy = 0;  // <= 0: automatic (count)
   bool clippedDisk = false;    // divide by the clipped disk's area instead of pi r^2
-  // Lobe-aware automatic count (see vslLobeAwareSamples). Off here, so that
-  // the bare quadrature is the authors' rule; the renderers' default turns it
-  // on (ManyLightSettings::vslLobeSamples).
-  bool lobeAwareCount = false;
+  // The authors' rule here, so that the bare quadrature is theirs; the
+  // renderers choose their own default (ManyLightSettings::vslCount).
+  VslCount count = VslCount::Authors;
 };
 
 // 1 - cos of the cone's half-angle for a sphere of radius r at distance d
@@ -78,6 +85,20 @@ int vslAutoSamples(double oneMinusCos);
 // otherwise n. Any count gives an unbiased estimate; this one spends the
 // samples where a lobe is narrow enough to vary across the cone.
 int vslLobeAwareSamples(int n, double mass);
+// The shares count (VslCount::Shares): each strategy's samples where they pay.
+// A BRDF strategy's samples land in the cone with probability at most its
+// mass m (pdf bound x the cone's solid angle), so it gets n x min(1, m): few
+// where its lobe is broad compared with the cone (most of its samples would be
+// drawn, tested and dropped). The cone strategy gets n x min(1, 1 / M), M the
+// larger mass of the BRDF strategies in use: few where a lobe narrower than the
+// cone holds the integrand, which that lobe's own samples find. Each at least
+// 1 (the cone strategy keeps the estimate unbiased on its own), rounded; the
+// balance heuristic weighs the strategies by count x pdf (Veach 1997). Any
+// counts give an unbiased estimate.
+struct VslStrategyCounts {
+  int cone = 0, x = 0, p = 0;  // 0: strategy not used
+};
+VslStrategyCounts vslStrategyCounts(int n, double massX, double massP, bool useX, bool useP);
 // Area of the disk of radius r whose centre lies at signed distance h on the
 // kept side of a line (the receiver's tangent plane): pi r^2 for h >= r, 0 for
 // h <= -r.

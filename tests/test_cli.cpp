@@ -553,13 +553,15 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
 
 // VSL's automatic sample count: the lobe-aware one by default, the authors'
 // with --vsl-count authors (more integrand evaluations on cornell-glossy's broad
-// lobes, the same light set), recorded in the settings; anything else exits 2.
+// lobes, the same light set), shares with --vsl-count shares (fewer), recorded
+// in the settings; anything else exits 2.
 // The settings string can be pasted back: no size of 0 ("the scene's").
 TEST_F(Cli, VslCountIsChosenAndRecorded) {
-  const std::string common = "render " + scene("cornell-glossy") +
-                             " --method vsl --lights 10000 --width 16 --batches 1 --direct-samples 1 --seed 4";
-  auto settingsOf = [&](const std::string& extra, const std::string& name) {
-    Proc r = run(common + extra + " -o " + file(name + ".exr") + " --json " + file(name + ".json"));
+  const std::string common =
+      "render " + scene("cornell-glossy") + " --method vsl --width 16 --batches 1 --direct-samples 1 --seed 4";
+  auto settingsOf = [&](const std::string& extra, const std::string& name, const char* lights = "10000") {
+    Proc r =
+        run(common + " --lights " + lights + extra + " -o " + file(name + ".exr") + " --json " + file(name + ".json"));
     EXPECT_EQ(r.code, 0) << r.out;
     return nlohmann::json::parse(std::ifstream(file(name + ".json")));
   };
@@ -570,6 +572,12 @@ TEST_F(Cli, VslCountIsChosenAndRecorded) {
   EXPECT_NE(authors["settings"].get<std::string>().find("--vsl-count authors"), std::string::npos);
   EXPECT_EQ(lobe["lights"], authors["lights"]);
   EXPECT_LT(lobe["vslEvaluations"].get<double>(), 0.9 * authors["vslEvaluations"].get<double>());
+  // --vsl-count shares: fewer evaluations than the lobe-aware count where the
+  // cones are wide (500 lights: 1.2 M against 2.2 M).
+  auto lobe500 = settingsOf("", "lobe500", "500"), shares = settingsOf(" --vsl-count shares", "shares", "500");
+  EXPECT_NE(shares["settings"].get<std::string>().find("--vsl-count shares"), std::string::npos) << shares["settings"];
+  EXPECT_EQ(shares["lights"], lobe500["lights"]);
+  EXPECT_LT(shares["vslEvaluations"].get<double>(), 0.75 * lobe500["vslEvaluations"].get<double>());
   // A fixed count replaces the automatic one, and the sweep takes it too.
   auto two = settingsOf(" --vsl-samples 2", "two");
   EXPECT_NE(two["settings"].get<std::string>().find("--vsl-samples 2"), std::string::npos) << two["settings"];
@@ -584,6 +592,7 @@ TEST_F(Cli, VslCountIsChosenAndRecorded) {
   auto sw = nlohmann::json::parse(std::ifstream(file("sw/sweep.json")));
   EXPECT_NE(sw["settings"].get<std::string>().find("--vsl-samples 3"), std::string::npos) << sw["settings"];
   Proc r = run(common + " --vsl-count fast -o " + file("bad.exr"));
+  EXPECT_NE(r.out.find("shares"), std::string::npos) << "the valid choices: " << r.out;
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--vsl-count"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(file("bad.exr")));

@@ -93,7 +93,7 @@ TEST(GatherSimd, VslBlockEqualsScalar) {
     VslOptions options;
     options.samplesPerStrategy = rng.uniform() < 0.5f ? 0 : 1 + int(rng.uniformInt(60));
     options.clippedDisk = rng.uniform() < 0.3f;
-    options.lobeAwareCount = rng.uniform() < 0.5f;
+    options.count = VslCount(rng.uniformInt(3));
     const uint64_t stream = rng.uniformInt(1u << 30);
     Rng r1(stream, 7), r2(stream, 7);
     VslResult s = vslTransfer(x, p, toLight, radius, options, r1);

@@ -255,7 +255,7 @@ nlohmann::json settingsJson(const Snapshot& s) {
             {"max", s.radiusMax}}},
           {"vslSamples",
            {{"setting", m.vslSamples > 0 ? nlohmann::json(m.vslSamples) : nlohmann::json("auto")},
-            {"autoCount", m.vslLobeSamples ? "lobe" : "authors"},
+            {"autoCount", vslCountName(m.vslCount)},
             {"meanPerPair", s.pairs ? double(s.vslEvaluations) / double(s.pairs) : 0.0}}},
           {"clippedDisk", m.clippedDisk},
           {"lobeRadius", m.lobeRadius},
