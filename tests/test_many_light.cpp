@@ -173,6 +173,22 @@ Vec3 coneReference(const VslReceiver& x, const VslEmitter& p, const Vec3& toLigh
   double scale = 2 * M_PI * omc / (double(m) * m) / (M_PI * r * r);
   return Vec3(float(s[0] * scale), float(s[1] * scale), float(s[2] * scale));
 }
+
+// The mean of `runs` independent vslTransfer estimates (green channel) and its
+// standard error, for z-tests against coneReference.
+std::pair<double, double> meanOfRuns(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double r,
+                                     const VslOptions& options, int runs) {
+  double s = 0, s2 = 0;
+  for (int i = 0; i < runs; ++i) {
+    Rng g(i, 9);
+    double v = vslTransfer(x, p, toLight, r, options, g).transfer.y;
+    s += v;
+    s2 += v * v;
+  }
+  const double mean = s / runs;
+  return {mean, std::sqrt(std::max(s2 / runs - mean * mean, 0.0) / runs)};
+}
+
 }  // namespace
 
 TEST(VslIntegral, ConeSolidAngleIsPreciseForTinyCones) {
@@ -362,15 +378,7 @@ TEST(VslIntegralStats, LobeAwareCountIsSmallerForBroadLobesAndUnbiased) {
       EXPECT_EQ(lobeEvaluations, angleEvaluations) << "a narrow receiver lobe keeps the full count";
     }
     Vec3 ref = coneReference(x, p, toLight, r, 1000000);
-    const int runs = 20000;
-    double s = 0, s2 = 0;
-    for (int i = 0; i < runs; ++i) {
-      Rng g(i, 9);
-      double v = vslTransfer(x, p, toLight, r, lobe, g).transfer.y;
-      s += v;
-      s2 += v * v;
-    }
-    double mean = s / runs, se = std::sqrt(std::max(s2 / runs - mean * mean, 0.0) / runs);
+    const auto [mean, se] = meanOfRuns(x, p, toLight, r, lobe, 20000);
     EXPECT_NEAR(mean, ref.y, 4 * se + 2e-3 * ref.y) << "receiver roughness " << roughX;
   }
 }
@@ -408,15 +416,7 @@ TEST(VslIntegralStats, SharesCountFitsEachStrategyAndIsUnbiased) {
     const int sharesEvaluations = vslTransfer(x, p, toLight, r, shares, g1).evaluations;
     EXPECT_LT(sharesEvaluations, lobeEvaluations * 0.75) << "receiver roughness " << roughX;
     Vec3 ref = coneReference(x, p, toLight, r, 1000000);
-    const int runs = 20000;
-    double s = 0, s2 = 0;
-    for (int i = 0; i < runs; ++i) {
-      Rng g(i, 9);
-      double v = vslTransfer(x, p, toLight, r, shares, g).transfer.y;
-      s += v;
-      s2 += v * v;
-    }
-    double mean = s / runs, se = std::sqrt(std::max(s2 / runs - mean * mean, 0.0) / runs);
+    const auto [mean, se] = meanOfRuns(x, p, toLight, r, shares, 20000);
     EXPECT_GT(ref.y, 0);
     EXPECT_NEAR(mean, ref.y, 4 * se + 2e-3 * ref.y) << "receiver roughness " << roughX;
   }
