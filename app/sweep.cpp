@@ -1,13 +1,12 @@
 // `vsl sweep`: runs a grid of methods, light counts and radius scales against
 // a reference EXR and charts what each gives up for speed. Every progressive
 // step is a point (compute seconds, relMSE of the indirect image). A run's
-// final result is its last point within the time budget (--time, 2% slack for
-// the path tracer's last pass), so that methods are compared at equal time
-// even where a batch or an MRCS pass ends past the budget (its point is
-// charted, not final; a run does not start a step its last one predicts to
-// end past the budget); a run with no point inside the budget has its first
-// point final, and the -sets methods, which --time does not cap, their last.
-// Each configuration runs with
+// final result is its last point within the time budget (--time, 2% slack),
+// so that methods are compared at equal time even where a batch or an MRCS
+// pass ends past the budget (its point is charted, not final; a run does not
+// start a step that its last step's length predicts to end past the budget,
+// though a brute-force batch larger than the last may still overrun); a run with no point inside the budget has its
+// first point final, and the -sets methods, which --time does not cap, their last. Each configuration runs with
 // --sets independent light sets (or path-tracer seeds), and its finals are
 // summarised by the median, the quartiles and the worst 1% of pixels' share of
 // the squared error (summary.csv), the LDR-FLIP of the final images, and the
@@ -16,7 +15,8 @@
 // Output: sweep.csv (every point), summary.csv, sweep.json (both), a table
 // on stdout, and error_vs_time.png, pareto.png and flip_vs_time.png
 // (gnuplot, from Debian's gnuplot-nox, when installed; the .gp scripts are
-// written either way).
+// written either way); finals/: each configuration's first final image (EXR,
+// PNG) and the reference's PNG.
 // Fan-out: --shard I/N runs the configurations whose index in the grid is I
 // mod N; --merge joins shard directories into the outputs of one run.
 #include "app/sweep.h"
@@ -312,19 +312,19 @@ struct SweepContext {
     finals.clear();
     finalIndices.clear();
   }
-  // finals/NAME.exr (layers indirect and default) and finals/NAME.png
+  // finals/NAME.exr (layers indirect and default; withExr) and finals/NAME.png
   // (exposure 0, the tone map LDR-FLIP sees), NAME the series made
   // file-safe. A failed write is reported and remembered (the sweep's tables
   // are still written, then the sweep exits 1).
   std::string imageError;
-  void writeFinalImage(const std::string& series, const Image& img) {
+  void writeFinalImage(const std::string& series, const Image& img, bool withExr = true) {
     const std::filesystem::path dir = std::filesystem::path(a.outDir) / "finals";
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     Result<void> w = ec ? Result<void>(Error(dir.string() + ": cannot create the directory (" + ec.message() + ")"))
                         : Result<void>();
     const std::string base = (dir / finalImageName(series)).string();
-    if (w) w = writeExr(base + ".exr", {{"", img}, {"indirect", img}});
+    if (w && withExr) w = writeExr(base + ".exr", {{"", img}, {"indirect", img}});
     if (w) w = writePng(base + ".png", img, 0.0f);
     if (!w) {
       std::fprintf(stderr, "sweep: %s\n", w.error().c_str());
@@ -348,8 +348,8 @@ struct SweepContext {
     return m;
   }
 
-  // The path tracer, measured at 1, 2, 4, ... passes and at its last pass,
-  // the one after which another would end past the budget.
+  // The path tracer, measured at 1, 2, 4, ... passes and at its last two
+  // passes (the last: the one after which another would end past the budget).
   void runPt(int set) {
     RenderSettings rs;
     rs.width = W;
@@ -366,7 +366,10 @@ struct SweepContext {
       const double dt = passTime.seconds();
       el += dt;
       const bool last = !nextFits(el, dt);
-      if (pass + 1 == next || last) {
+      // Also the pass before the predicted last: a last pass slower than the
+      // one before may end past the budget, and the final would fall back to
+      // the last power of two.
+      if (pass + 1 == next || !nextFits(el, 2 * dt)) {
         record("pt", 0, 0, set, pass + 1, el, ind.image(), true);
         if (pass + 1 == next) next *= 2;
       }
@@ -546,7 +549,10 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   const int W = ref->width, H = ref->height;
   const CompareResult self = compareImages(*ref, *ref);
   SweepContext ctx{a, context, *ref, W, H, pts, toSrgbImage(*ref), {}, {}, {}, SweepContext::kNoPoint, {}};
-  ctx.writeFinalImage("reference", *ref);
+  // The reference's PNG first (its EXR is the input): a directory that
+  // cannot take the images fails the sweep before it runs.
+  ctx.writeFinalImage("reference", *ref, false);
+  if (!ctx.imageError.empty()) return fail(kExitBadInput, ctx.imageError);
   runConfigurations(ctx, shardIndex, shardCount);
   imageError = ctx.imageError;
   meta = {a.scene,      reference.name,       a.referenceB,    a.many.describe(), W,         H,        a.sets,
@@ -833,6 +839,8 @@ int mergeShards(const SweepArgs& a) {
                    m.shardCount);
     shardPts.push_back(std::move(pts));
   }
+  for (size_t i = 0; i < seen.size(); ++i)
+    if (!seen[i]) return failf(kExitBadInput, "shard %zu/%d is missing", i, meta.shardCount);
   // Each shard's final images (a configuration lives in one shard; the
   // reference's image is the same in every shard).
   const std::filesystem::path finalsOut = std::filesystem::path(a.outDir) / "finals";
@@ -849,8 +857,6 @@ int mergeShards(const SweepArgs& a) {
       return failf(kExitBadInput, "%s: cannot copy its final images to %s (%s)", from.c_str(), finalsOut.c_str(),
                    ec.message().c_str());
   }
-  for (size_t i = 0; i < seen.size(); ++i)
-    if (!seen[i]) return failf(kExitBadInput, "shard %zu/%d is missing", i, meta.shardCount);
   // Configuration by configuration, in grid order (a configuration lives in one shard).
   auto key = [](const std::string& m, uint32_t n, float sc) {
     std::ostringstream s;
@@ -892,6 +898,19 @@ int runSweep(const SweepArgs& a) {
                       readInt(a.shard, pos, shardCount) && pos == a.shard.size();
     if (!read || shardCount < 1 || shardIndex < 0 || shardIndex >= shardCount)
       return failf(kExitBadArguments, "--shard must be I/N with 0 <= I < N (got '%s')", a.shard.c_str());
+  }
+  // Two configurations with one name (--lights 1000,1000; scales equal to six
+  // digits) would share a row of the summary and a final image.
+  std::map<std::string, int> names;
+  for (const Config& g : gridOf(a.methods, a.lights, a.radiusScales)) {
+    Point p;
+    p.method = g.method;
+    p.lights = g.lights;
+    p.radiusScale = g.radiusScale;
+    if (names[finalImageName(p.series())]++ == 1)
+      return failf(kExitBadArguments,
+                   "two configurations are both '%s': give distinct --lights and --radius-scale values",
+                   p.series().c_str());
   }
   SweepMeta meta;
   std::vector<Point> pts;
