@@ -191,7 +191,7 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
   // VPL, VSL with the default count, then VSL with each other automatic count.
   const VslCount dflt = ManyLightSettings().vslCount;
   std::vector<std::pair<std::string, VslCount>> variants = {{"VPL", dflt}, {"VSL", dflt}};
-  for (VslCount c : {VslCount::Authors, VslCount::Lobe, VslCount::Shares})
+  for (VslCount c : kVslCounts)
     if (c != dflt) variants.push_back({std::string("VSL-") + vslCountName(c), c});
   for (const auto& [name, count] : variants) {
     const bool vsl = name != "VPL";

@@ -4,9 +4,10 @@
 // final result is its last point within the time budget (--time, 2% slack),
 // so that methods are compared at equal time even where a batch or an MRCS
 // pass ends past the budget (its point is charted, not final; a run does not
-// start a step that its last step's length predicts to end past the budget,
-// though a brute-force batch larger than the last may still overrun); a run with no point inside the budget has its
-// first point final, and the -sets methods, which --time does not cap, their last. Each configuration runs with
+// start a step that its last step's length, scaled by the next step's share
+// of the work, predicts to end past the budget); a run with no point inside
+// the budget has its first point final, and the -sets methods, which --time
+// does not cap, their last. Each configuration runs with
 // --sets independent light sets (or path-tracer seeds), and its finals are
 // summarised by the median, the quartiles and the worst 1% of pixels' share of
 // the squared error (summary.csv), the LDR-FLIP of the final images, and the
@@ -267,9 +268,10 @@ struct SweepContext {
   // The latest point of a run capped by --time that may be its final one.
   double budget() const { return a.time * 1.02; }
   // Does a step of dt seconds started at el end within the budget? A run does
-  // not start a step that would not (predicted from its last step's length:
-  // batches grow and passes cost alike, so the next takes at least about as
-  // long), since the point it would give could not be the run's final one.
+  // not start a step that would not (predicted from its last step's length,
+  // scaled for a brute-force batch by its lights over the last one's; passes
+  // cost alike), since the point it would give could not be the run's final
+  // one.
   bool nextFits(double el, double dt) const { return el + dt <= budget(); }
   // Records a point; it becomes the run's final candidate unless the run is
   // time-capped, already has a candidate and this point is past the budget.
@@ -426,7 +428,8 @@ struct SweepContext {
       ManyLightImages im = est->images();
       double el = clock.seconds();
       record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl, true);
-      if (!nextFits(el, el - before)) break;
+      // The next batch may hold more lights than this one.
+      if (!nextFits(el, (el - before) * est->nextStepScale())) break;
       before = el;
     }
     finish();

@@ -15,6 +15,8 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "app/cli.h"
 #include "app/finite_options.h"
@@ -26,6 +28,12 @@ namespace vsl {
 // ---- Options shared by render and sweep ---------------------------------------
 
 namespace {
+std::vector<std::string> vslCountNames() {
+  std::vector<std::string> names;
+  for (VslCount c : kVslCounts) names.push_back(vslCountName(c));
+  return names;
+}
+
 // --vsl-samples: "auto" (0) or a count in [1, 4096]; false for anything else.
 bool parseVslSamples(const std::string& v, int& out) {
   if (v == "auto") {
@@ -60,14 +68,13 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
   cmd->add_option_function<std::string>(
          "--vsl-count",
          [&m](const std::string& v) {
-           for (VslCount c : {VslCount::Authors, VslCount::Lobe, VslCount::Shares})
-             if (v == vslCountName(c)) m.vslCount = c;
+           if (std::optional<VslCount> c = parseVslCount(v)) m.vslCount = *c;
          },
          "VSL's automatic sample count: lobe (the authors' count, scaled down where both BRDF lobes are broad "
          "compared with the cone), authors (1 + floor(100 theta / (pi/2)) per strategy), or shares (the lobe "
          "count, with fewer samples for a strategy that fits the cone badly: a BRDF lobe broader than the cone, the "
          "cone where a lobe is narrower); all unbiased")
-      ->check(CLI::IsMember({"lobe", "authors", "shares"}))
+      ->check(CLI::IsMember(vslCountNames()))
       ->default_str(vslCountName(ManyLightSettings().vslCount));
   cmd->add_option("--continue-alpha", m.continueAlpha,
                   "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")

@@ -112,6 +112,10 @@ class BruteForceEstimator final : public ManyLightEstimator {
   ManyLightImages images() const override { return renderer_.images(); }
   int stepsDone() const override { return done_; }
   int stepCount() const override { return renderer_.batchCount(); }
+  double nextStepScale() const override {
+    if (done_ < 1 || done()) return 1.0;
+    return double(renderer_.batchLights(done_)) / double(std::max<size_t>(renderer_.batchLights(done_ - 1), 1));
+  }
   size_t lightsProcessed() const override { return renderer_.lightsProcessed(); }
   const ManyLightStats& stats() const override { return renderer_.stats(); }
   int width() const override { return renderer_.width(); }

@@ -105,6 +105,10 @@ class ManyLightEstimator {
   virtual ManyLightImages images() const = 0;
   virtual int stepsDone() const = 0;
   virtual int stepCount() const = 0;
+  // The next step's work over the last step's (1 before the first step and
+  // after the last): what a caller who times the last step scales it by to
+  // predict the next (brute force's batches double in size up to a cap).
+  virtual double nextStepScale() const { return 1.0; }
   bool done() const { return stepsDone() >= stepCount(); }
   // Lights gathered so far, of run().set.lights.size().
   virtual size_t lightsProcessed() const = 0;

@@ -151,6 +151,8 @@ class ManyLightRenderer {
   int width() const { return width_; }
   int height() const { return height_; }
   int batchCount() const { return int(batchEnd_.size()); }
+  // Lights in batch b.
+  size_t batchLights(int b) const { return batchEnd_[size_t(b)] - (b > 0 ? batchEnd_[size_t(b) - 1] : 0); }
   float clampBound() const { return clamp_; }
   size_t lightsProcessed() const { return processed_; }
   // Adds batch b (0-based, in order). Returns false if *stop was set, in which

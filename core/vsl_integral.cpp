@@ -36,7 +36,14 @@ const char* vslCountName(VslCount c) {
   return "?";
 }
 
-VslStrategyCounts vslStrategyCounts(int n, double massX, double massP, bool useX, bool useP) {
+std::optional<VslCount> parseVslCount(const std::string& name) {
+  for (VslCount c : kVslCounts)
+    if (name == vslCountName(c)) return c;
+  return std::nullopt;
+}
+
+VslStrategyCounts vslStrategyCounts(int n, double massX, double massP) {
+  const bool useX = massX > kVslStrategyMass, useP = massP > kVslStrategyMass;
   auto share = [n](double w) { return std::max(1, int(std::lround(double(n) * std::min(1.0, std::max(w, 0.0))))); };
   const double widest = std::max({useX ? massX : 0.0, useP ? massP : 0.0, 1.0});
   return {share(1.0 / widest), useX ? share(massX) : 0, useP ? share(massP) : 0};
@@ -111,7 +118,7 @@ struct VslCone {
     n = automatic ? vslAutoSamples(omc) : options.samplesPerStrategy;
     if (automatic && options.count != VslCount::Authors) n = vslLobeAwareSamples(n, std::max(massX, massP));
     VslStrategyCounts c{n, useX ? n : 0, useP ? n : 0};
-    if (automatic && options.count == VslCount::Shares) c = vslStrategyCounts(n, massX, massP, useX, useP);
+    if (automatic && options.count == VslCount::Shares) c = vslStrategyCounts(n, massX, massP);
     nCone = c.cone;
     nX = c.x;
     nP = c.p;

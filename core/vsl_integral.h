@@ -37,6 +37,9 @@
 // that are narrow compared with C (near-mirror surfaces) keep their strategy.
 #pragma once
 
+#include <optional>
+#include <string>
+
 #include "core/material.h"
 #include "core/rng.h"
 
@@ -62,7 +65,10 @@ enum class VslCount {
   Lobe,     // n scaled down where both lobes are broad (vslLobeAwareSamples), for every strategy
   Shares,   // the lobe-aware n, shared out by how well each strategy fits the cone (vslStrategyCounts)
 };
+constexpr VslCount kVslCounts[] = {VslCount::Authors, VslCount::Lobe, VslCount::Shares};
 const char* vslCountName(VslCount c);  // "authors", "lobe", "shares"
+// The count of a name vslCountName gives; empty for any other name.
+std::optional<VslCount> parseVslCount(const std::string& name);
 
 struct VslOptions {
   int samplesPerStrategy = 0;  // <= 0: automatic (count)
@@ -94,11 +100,12 @@ int vslLobeAwareSamples(int n, double mass);
 // cone holds the integrand, which that lobe's own samples find. Each at least
 // 1 (the cone strategy keeps the estimate unbiased on its own), rounded; the
 // balance heuristic weighs the strategies by count x pdf (Veach 1997). Any
-// counts give an unbiased estimate.
+// counts give an unbiased estimate. A BRDF strategy whose mass is at most
+// kVslStrategyMass is not used (0 samples), as in every count.
 struct VslStrategyCounts {
   int cone = 0, x = 0, p = 0;  // 0: strategy not used
 };
-VslStrategyCounts vslStrategyCounts(int n, double massX, double massP, bool useX, bool useP);
+VslStrategyCounts vslStrategyCounts(int n, double massX, double massP);
 // Area of the disk of radius r whose centre lies at signed distance h on the
 // kept side of a line (the receiver's tangent plane): pi r^2 for h >= r, 0 for
 // h <= -r.

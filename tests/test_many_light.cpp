@@ -389,17 +389,18 @@ TEST(VslIntegralStats, LobeAwareCountIsSmallerForBroadLobesAndUnbiased) {
 // a narrow metal receiver (its lobe fits inside the cone) and a broad light
 // (most of its samples would miss the cone), and the same with two broad lobes.
 TEST(VslIntegralStats, SharesCountFitsEachStrategyAndIsUnbiased) {
-  VslStrategyCounts c = vslStrategyCounts(20, 0.1, 5.0, true, true);
+  VslStrategyCounts c = vslStrategyCounts(20, 0.1, 5.0);
   EXPECT_EQ(c.cone, 4);
   EXPECT_EQ(c.x, 2);
   EXPECT_EQ(c.p, 20);
-  c = vslStrategyCounts(20, 0.5, 0.01, true, false);
+  c = vslStrategyCounts(20, 0.5, 0.01);
   EXPECT_EQ(c.cone, 20) << "no lobe narrower than the cone: the cone keeps the count";
   EXPECT_EQ(c.x, 10);
   EXPECT_EQ(c.p, 0) << "a strategy not in use gets nothing";
-  c = vslStrategyCounts(3, 0.001, 1e6, true, true);
+  c = vslStrategyCounts(3, 0.06, 1e6);
   EXPECT_EQ(c.cone, 1);
   EXPECT_EQ(c.x, 1) << "every strategy in use keeps one sample";
+  EXPECT_EQ(vslStrategyCounts(3, kVslStrategyMass, 1e6).x, 0) << "a mass at the threshold is not used";
   Vec3 toLight(0.3f, 0.1f, 1.0f);
   Vec3 l = normalize(toLight);
   const double r = length(toLight) * std::sin(30 * M_PI / 180);
