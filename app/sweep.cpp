@@ -915,6 +915,11 @@ int runSweep(const SweepArgs& a) {
                    "two configurations are both '%s': give distinct --lights and --radius-scale values",
                    p.series().c_str());
   }
+  // The lobe gather is the brute-force gather's (core/lobe_gather.h).
+  for (const std::string& m : a.methods)
+    if (sweepMethod(m).estimator == EstimatorKind::Mrcs && sweepMethod(m).gather == Method::Vsl &&
+        a.many.lobeGather > 0)
+      return failf(kExitBadArguments, "--lobe-gather: brute force only (not with %s)", m.c_str());
   SweepMeta meta;
   std::vector<Point> pts;
   std::string imageError;

@@ -29,6 +29,10 @@ struct GatherPoint {
   Vec3 pOff;     // shadow-ray origin: p moved off its surface (offsetToLitSide(p, rx.ng))
   VslReceiver rx;
   Vec3 shared;  // indirect light found on the way, common to every method
+  // The lobe gather (ManyLightSettings::lobeGather): VSL gathers the diffuse
+  // lobe only, and vslLobe (beta applied) is its specular lobe's estimate.
+  bool lobe = false;
+  Vec3 vslLobe{0.0f};
 };
 
 // One eye sample's gather points: one, or two where lobe splitting sent the
@@ -70,12 +74,14 @@ struct PairGeometry {
   float d2, dist, cosX, cosP;
 };
 
+class LobeGatherMap;
 class Gatherer {
  public:
   // clampBound: the VPL clamp on the luminance of the transfer. From the
   // settings: the VSL quadrature, where eye paths continue, the seed.
+  // lobeMap: the lobe gather's light set (settings.lobeGather), or null.
   Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, const ManyLightSettings& settings,
-           float clampBound, bool computeVsl, bool computeVpl);
+           float clampBound, bool computeVsl, bool computeVpl, const LobeGatherMap* lobeMap = nullptr);
 
   // Camera ray through (x + jitter, y + jitter), continued through
   // near-specular surfaces to the first surface that is not, and split there
@@ -141,6 +147,11 @@ class Gatherer {
   float continueAlpha_, splitAlpha_, lobeRadius_, lobeFloor_;
   bool computeVsl_, computeVpl_;
   uint64_t seed_;
+  const LobeGatherMap* lobeMap_;
+  int lobeRays_;
+  // The lobe gather's estimate of spec (a specular lobe at sh) toward the
+  // viewer: the mean over lobeRays_ sampled directions (LobeGatherMap).
+  Vec3 lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, GatherCounters& c) const;
 };
 
 }  // namespace vsl

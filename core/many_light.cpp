@@ -10,6 +10,7 @@
 
 #include "core/check.h"
 #include "core/gather.h"
+#include "core/lobe_gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "core/stopwatch.h"
@@ -48,6 +49,10 @@ Result<void> ManyLightSettings::validate() const {
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (!(splitAlpha >= 0 && splitAlpha <= 1))
     e << "split-alpha: must be in [0,1] (got " << splitAlpha << ")";
+  else if (lobeGather > 50'000'000)
+    e << "lobe-gather: must be in [0,50000000] (got " << lobeGather << ")";
+  else if (lobeGatherRays < 1 || lobeGatherRays > 1024)
+    e << "lobe-gather-rays: must be in [1,1024] (got " << lobeGatherRays << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
   if (std::string m = e.str(); !m.empty()) return Error(m);
@@ -78,6 +83,7 @@ std::string ManyLightSettings::describe() const {
   s << " --lobe-floor " << lobeFloor;
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
+  if (lobeGather > 0) s << " --lobe-gather " << lobeGather << " --lobe-gather-rays " << lobeGatherRays;
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();
 }
@@ -144,6 +150,15 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     directEnd_.push_back(std::max(dEnd, directEnd_.empty() ? 1 : directEnd_.back() + 1));
     prev = end;
   }
+  if (settings.lobeGather > 0 && settings.computeVsl) {
+    // The second light set: a seed of its own, derived from the set's.
+    LightTracingSettings lt;
+    lt.count = settings.lobeGather;
+    lt.seed = settings.seed ^ 0x9e3779b97f4a7c15ull;
+    lt.maxDepth = settings.lightMaxDepth;
+    lobeMap_ = std::make_unique<LobeGatherMap>(traceVirtualLights(scene, accel, direct_.lightSampler(), lt),
+                                               ManyLightSettings::kLobeGatherK);
+  }
   // The films are built in place (a Film copies where it could move).
   gather_.reserve(kGatherLayers);
   for (int k = 0; k < kGatherLayers; ++k) gather_.emplace_back(width_, height_);
@@ -183,7 +198,7 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
       batch.lights[i] = decodeGatherLight(set_.lights[order_[batch.begin + i]], radii_[order_[batch.begin + i]]);
   });
   Gatherer gatherer(scene_, accel_, direct_.lightSampler(), settings_, clamp_, settings_.computeVsl,
-                    settings_.computeVpl);
+                    settings_.computeVpl, lobeMap_.get());
   // Every tile writes every one of its pixels, so the buffers need no clearing.
   const size_t np = size_t(width_) * height_;
   batchDirect_.resize(np);
@@ -201,6 +216,8 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   mergeBatch(batch, wallClock.seconds());
   return true;
 }
+
+ManyLightRenderer::~ManyLightRenderer() = default;
 
 // ---- [4] Gather ---------------------------------------------------------------------
 
@@ -284,6 +301,15 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
         }
       }
     }
+  // The lobe gather's estimates (per eye sample, not per light) enter the
+  // batch's VSL sum at its share, which merging scales back by N / nb.
+  if (lobeMap_) {
+    const double share = double(nb) / double(std::max<size_t>(set_.lights.size(), 1));
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < kMaxGatherPoints; ++k)
+        if (const GatherPoint* gp = gps[size_t(i)].point(k); gp && gp->lobe)
+          for (int ch = 0; ch < 3; ++ch) acc[size_t(i)].v[kVslLayer][ch] += gp->vslLobe[ch] * share;
+  }
   for (int i = 0; i < n; ++i) {
     const auto& a = acc[size_t(i)].v;
     for (int k = 0; k < kGatherLayers; ++k)

@@ -53,6 +53,7 @@
 namespace vsl {
 
 class Gatherer;
+class LobeGatherMap;
 
 struct ManyLightSettings {
   uint32_t lights = 10000;  // target number of virtual lights
@@ -104,6 +105,18 @@ struct ManyLightSettings {
   // above.
   float splitAlpha = kDefaultSplitAlpha;
   static constexpr float kDefaultSplitAlpha = 0.0f;
+  // The lobe gather (0 = off; core/lobe_gather.h): VSL's estimate of the
+  // specular lobe of a receiver narrower than kLobeGatherAlpha along both GGX
+  // axes (and not split) comes from lobeGatherRays directions drawn from that
+  // lobe and a second light set of lobeGather lights (its own seed), the
+  // kLobeGatherK nearest of which give the radiance where each direction
+  // lands; the light set gathers the diffuse lobe there. Brute force only.
+  // Off by default: measured in docs/VSL-QUALITY.md ("The lobe gather").
+  uint32_t lobeGather = 0;
+  int lobeGatherRays = kDefaultLobeGatherRays;
+  static constexpr int kDefaultLobeGatherRays = 8;
+  static constexpr int kLobeGatherK = 256;
+  static constexpr float kLobeGatherAlpha = 0.05f;
   VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslCount}; }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
@@ -147,6 +160,7 @@ class ManyLightRenderer {
   // The light set and radii (one per light, VSL_CHECK) must outlive the renderer.
   ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                     const std::vector<float>& radii, const ManyLightSettings& settings);
+  ~ManyLightRenderer();
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -170,6 +184,7 @@ class ManyLightRenderer {
   const Scene& scene_;
   const Accel& accel_;
   const VirtualLightSet& set_;
+  std::unique_ptr<LobeGatherMap> lobeMap_;  // settings.lobeGather > 0
   const std::vector<float>& radii_;
   ManyLightSettings settings_;
   PathTracer direct_;

@@ -1,0 +1,53 @@
+// The lobe gather (ManyLightSettings::lobeGather, off by default): VSL's
+// estimate of a narrow receiver's specular lobe, found by sampling that lobe
+// instead of from each light's sphere.
+//
+// A receiver lobe narrower than the VSL cones sees each light's sphere as a
+// disk of uniform radiance: on tableau's polished table (GGX alpha 0.0225)
+// one light set paints a few bright disks and the next none (most of VSL's
+// squared error there; docs/VSL-QUALITY.md, "The lobe gather"). The VSL
+// integral's receiver strategy, turned around: each of M directions drawn
+// from the specular lobe at x is traced to the surface point z it reaches,
+// and the radiance leaving z toward x is the density estimate of a second,
+// denser light set (the K nearest lights to z, as in photon mapping):
+//   L(z -> x) = sum_K Phi_y f_y(wi_y, z -> x) / (pi r_K^2),
+// where r_K is the distance to the K-th one. The receiver's estimate is the
+// mean over the M directions of f cos / pdf x L(z -> x). For a light on the
+// surface z lies on, "z within r of y" is the ray passing through y's
+// sphere (the projected disk already holds the cosine at y), so this is the
+// VSL integral with its kernel taken from the denser set; both converge to
+// the same transport as the radii shrink. The diffuse lobe is gathered from
+// the light set as usual, and clamped VPL does not change.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/gather.h"
+
+namespace vsl {
+
+// The denser light set, decoded, with a k-d tree over its positions.
+// Immutable after construction; safe to share between threads.
+class LobeGatherMap {
+ public:
+  // k: lights per density estimate (>= 1).
+  LobeGatherMap(const VirtualLightSet& set, int k);
+  ~LobeGatherMap();
+  // Radiance leaving the surface at z (geometric normal nz, facing wOut)
+  // toward the unit direction wOut, from the k nearest lights: sum Phi f /
+  // (pi r_k^2) over those on z's side (geometric normal within 60 degrees of
+  // nz: not the back of a thin wall) that face wOut. Zero with no lights.
+  // diffuseOnly: the lights' diffuse lobes only (where z's own specular lobe
+  // is continued instead).
+  Vec3 radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly) const;
+  size_t size() const { return lights_.size(); }
+
+ private:
+  struct Tree;
+  std::vector<GatherLight> lights_;
+  std::unique_ptr<Tree> tree_;
+  int k_;
+};
+
+}  // namespace vsl
