@@ -104,6 +104,25 @@ inline Loaded loadAsset(const std::string& name, int width = 48) {
   return loadedFrom(RenderContext::load(assetPath(name)), width);
 }
 
+// A material for hand-built test scenes (the other fields keep Material's
+// defaults).
+inline Material testMaterial(const char* name, Vec3 base, float metallic, float roughness = 1.0f,
+                             float specularWeight = 1.0f) {
+  Material m;
+  m.name = name;
+  m.baseColor = base;
+  m.metallic = metallic;
+  m.roughness = roughness;
+  m.specularWeight = specularWeight;
+  return m;
+}
+// A black, non-reflecting emitter of radiance Le.
+inline Material emitterMaterial(Vec3 Le) {
+  Material m = testMaterial("emitter", Vec3(0.0f), 0, 1, 0);
+  m.emission = Le;
+  return m;
+}
+
 // A quad o, o+eu, o+eu+ev, o+ev (two triangles) facing cross(eu, ev).
 inline void addQuad(Scene& s, Vec3 o, Vec3 eu, Vec3 ev, uint32_t material) {
   uint32_t b = uint32_t(s.positions.size());

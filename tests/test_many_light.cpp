@@ -882,19 +882,9 @@ namespace {
 std::shared_ptr<Scene> backLitSheet(bool doubleSided) {
   auto s = std::make_shared<Scene>();
   s->path = doubleSided ? "<back-lit double-sided sheet>" : "<back-lit one-sided sheet>";
-  Material sheet;
-  sheet.name = "sheet";
-  sheet.baseColor = Vec3(0.8f);
-  sheet.metallic = 0;
-  sheet.roughness = 0.4f;
+  Material sheet = testMaterial("sheet", Vec3(0.8f), 0, 0.4f);
   sheet.doubleSided = doubleSided;
-  Material emitter;
-  emitter.name = "emitter";
-  emitter.baseColor = Vec3(0.0f);
-  emitter.metallic = 0;
-  emitter.specularWeight = 0;
-  emitter.emission = Vec3(10.0f);
-  s->materials = {sheet, emitter, Material()};
+  s->materials = {sheet, emitterMaterial(Vec3(10.0f)), Material()};
   Vec3 n = normalize(Vec3(0.3f, 0.2f, 1.0f));  // the sheet's front normal
   Frame f(n);
   addQuad(*s, f.toWorld(Vec3(-20, -20, 0)), f.toWorld(Vec3(40, 0, 0)), f.toWorld(Vec3(0, 40, 0)), 0);
@@ -1288,23 +1278,8 @@ namespace {
 std::shared_ptr<Scene> mirrorFloorRoom() {
   auto s = std::make_shared<Scene>();
   s->path = "<metal floor before a lit wall>";
-  Material metal;
-  metal.name = "metal";
-  metal.baseColor = Vec3(0.9f);
-  metal.metallic = 1;
-  metal.roughness = 0.17f;
-  Material wall;
-  wall.name = "wall";
-  wall.baseColor = Vec3(0.8f);
-  wall.metallic = 0;
-  wall.specularWeight = 0;
-  Material emitter;
-  emitter.name = "emitter";
-  emitter.baseColor = Vec3(0.0f);
-  emitter.metallic = 0;
-  emitter.specularWeight = 0;
-  emitter.emission = Vec3(20.0f);
-  s->materials = {metal, wall, emitter};
+  s->materials = {testMaterial("metal", Vec3(0.9f), 1, 0.17f), testMaterial("wall", Vec3(0.8f), 0, 1, 0),
+                  emitterMaterial(Vec3(20.0f))};
   addQuad(*s, Vec3(-3, 0, 3), Vec3(6, 0, 0), Vec3(0, 0, -5), 0);           // floor y = 0, facing +y
   addQuad(*s, Vec3(-3, 0, -2), Vec3(6, 0, 0), Vec3(0, 3, 0), 1);           // wall z = -2, facing +z
   addQuad(*s, Vec3(-0.5f, 2.5f, 2.5f), Vec3(1, 0, 0), Vec3(0, -1, 0), 2);  // emitter z = 2.5, facing -z

@@ -10,6 +10,8 @@
 
 using namespace vsl;
 using vsl::test::addQuad;
+using vsl::test::emitterMaterial;
+using vsl::test::testMaterial;
 using vsl::test::loadAssetScene;
 
 namespace {
@@ -135,19 +137,7 @@ TEST(RenderPT, FurnaceMatchesAnalyticRadiance) {
 TEST(RenderPT, DirectLightUnderSquareEmitterMatchesClosedForm) {
   Scene s;
   s.path = "<square-emitter>";
-  Material floor;
-  floor.name = "floor";
-  floor.baseColor = Vec3(0.5f);
-  floor.metallic = 0;
-  floor.roughness = 1;
-  floor.specularWeight = 0;
-  Material emitter;
-  emitter.name = "emitter";
-  emitter.baseColor = Vec3(0.0f);
-  emitter.metallic = 0;
-  emitter.specularWeight = 0;
-  emitter.emission = Vec3(1.0f);
-  s.materials = {floor, emitter, Material()};
+  s.materials = {testMaterial("floor", Vec3(0.5f), 0, 1, 0), emitterMaterial(Vec3(1.0f)), Material()};
   addQuad(s, {-20, 0, 20}, {40, 0, 0}, {0, 0, -40}, 0);    // faces +y
   addQuad(s, {-0.5f, 1, -0.5f}, {1, 0, 0}, {0, 0, 1}, 1);  // faces -y
   s.camera.position = Vec3(0, 0.5f, 0);
