@@ -2,6 +2,7 @@
 
 #include "core/lobe_gather.h"
 #include "core/path.h"
+#include "core/stopwatch.h"
 
 namespace vsl {
 
@@ -91,14 +92,11 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
     gp.pOff = offsetToLitSide(gp.p, gp.rx.ng);
-    if (!split && lobeMap_ && full.specularOn() &&
-        std::max(brdf.ggx.ax, brdf.ggx.ay) < ManyLightSettings::kLobeGatherAlpha) {
+    if (!split && lobeMap_ && std::max(brdf.ggx.ax, brdf.ggx.ay) < ManyLightSettings::kLobeGatherAlpha) {
+      Stopwatch own;
       gp.lobe = true;
       gp.vslLobe = beta * lobeGather(full.specularLobe(), sh, rng, c);
-      if (!isFinite(gp.vslLobe)) {
-        ++c.nonFinite;
-        gp.vslLobe = Vec3(0.0f);
-      }
+      c.vslOwnSeconds += own.seconds();
     }
     if (!split) return es;
     // The specular lobe, sampled alone, leads to the next gather point. Its
@@ -145,12 +143,19 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
       const SurfaceHit z = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
       const Vec3 wOut = -wi;
       // Emission reached straight from the receiver is its direct light.
-      if (bounce >= 1) sum += t * scene_.emitted(z, wOut);
+      if (const Vec3 e = t * scene_.emitted(z, wOut); bounce >= 1 && isFinite(e))
+        sum += e;
+      else if (bounce >= 1)
+        ++c.nonFinite;
       const Brdf zb = scene_.brdf(z);
       const Vec3 woZ = z.shading.toLocal(wOut);
       if (woZ.z <= 0) break;
       const bool narrow = std::max(zb.ggx.ax, zb.ggx.ay) < ManyLightSettings::kLobeGatherAlpha;
-      sum += t * lobeMap_->radiance(z.p, dot(z.ng, wOut) >= 0 ? z.ng : -z.ng, wOut, narrow);
+      const Vec3 add = t * lobeMap_->radiance(z.p, dot(z.ng, wOut) >= 0 ? z.ng : -z.ng, wOut, narrow);
+      if (isFinite(add))
+        sum += add;
+      else
+        ++c.nonFinite;
       if (!narrow) break;
       const BrdfAt zs = BrdfAt(zb, woZ).specularLobe();
       f = zs;
@@ -278,13 +283,13 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   if (!computeVsl_) return;
   // At a lobe-gathered point the light set lights the diffuse lobe only
   // (none on a metal).
-  VslReceiver diffuse;
+  std::optional<VslReceiver> diffuse;
   if (gp.lobe) {
     if (gp.rx.f.brdf().metallic >= 1.0f) return;
     diffuse = gp.rx;
-    diffuse.f = gp.rx.f.diffuseLobe();
+    diffuse->f = gp.rx.f.diffuseLobe();
   }
-  const VslReceiver& rx = gp.lobe ? diffuse : gp.rx;
+  const VslReceiver& rx = diffuse ? *diffuse : gp.rx;
   Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
   // Where the lobe floor applies, the light's sphere is wider too
   // (kVslLobeFloorRadiusScale).

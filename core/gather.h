@@ -61,6 +61,7 @@ inline uint64_t gatherStream(uint64_t pixel, int k) { return k == 0 ? pixel : pi
 
 struct GatherCounters {
   uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
+  double vslOwnSeconds = 0;  // VSL's own work inside eyePath (the lobe gather)
 };
 
 // Pixel (x, y)'s direct light: the mean of the direct estimator's samples

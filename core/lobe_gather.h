@@ -15,9 +15,13 @@
 // mean over the M directions of f cos / pdf x L(z -> x). For a light on the
 // surface z lies on, "z within r of y" is the ray passing through y's
 // sphere (the projected disk already holds the cosine at y), so this is the
-// VSL integral with its kernel taken from the denser set; both converge to
-// the same transport as the radii shrink. The diffuse lobe is gathered from
-// the light set as usual, and clamped VPL does not change.
+// VSL integral with its kernel taken from the denser set. The diffuse lobe
+// is gathered from the light set (only that lobe at such points), and
+// clamped VPL does not change. Where a direction lands on another narrow
+// lobe, the lights' diffuse lobes give the estimate there and the direction
+// continues along that surface's specular lobe (at most 8 bounces); the
+// punctual lights that such a surface reflects are left out (a bias that
+// does not shrink with the radii; see Gatherer::lobeGather).
 #pragma once
 
 #include <memory>

@@ -49,8 +49,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
   else if (!(splitAlpha >= 0 && splitAlpha <= 1))
     e << "split-alpha: must be in [0,1] (got " << splitAlpha << ")";
-  else if (lobeGather > 50'000'000)
-    e << "lobe-gather: must be in [0,50000000] (got " << lobeGather << ")";
+  else if (lobeGather > 50'000'000 || (lobeGather > 0 && lobeGather < uint32_t(kLobeGatherK)))
+    e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
   else if (lobeGatherRays < 1 || lobeGatherRays > 1024)
     e << "lobe-gather-rays: must be in [1,1024] (got " << lobeGatherRays << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
@@ -151,13 +151,18 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     prev = end;
   }
   if (settings.lobeGather > 0 && settings.computeVsl) {
-    // The second light set: a seed of its own, derived from the set's.
+    // The second light set: a seed of its own, derived from the set's. Its
+    // cost is VSL's own gather time.
+    Stopwatch clock;
     LightTracingSettings lt;
     lt.count = settings.lobeGather;
     lt.seed = settings.seed ^ 0x9e3779b97f4a7c15ull;
     lt.maxDepth = settings.lightMaxDepth;
-    lobeMap_ = std::make_unique<LobeGatherMap>(traceVirtualLights(scene, accel, direct_.lightSampler(), lt),
-                                               ManyLightSettings::kLobeGatherK);
+    const VirtualLightSet dense = traceVirtualLights(scene, accel, direct_.lightSampler(), lt);
+    stats_.nonFinite.fetch_add(dense.nonFiniteRejected, std::memory_order_relaxed);
+    lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
+    stats_.gatherSeconds += clock.seconds();
+    stats_.vslSeconds += clock.seconds();
   }
   // The films are built in place (a Film copies where it could move).
   gather_.reserve(kGatherLayers);
@@ -315,6 +320,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     for (int k = 0; k < kGatherLayers; ++k)
       batch.layers[k][pixelOf(i)] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
   }
+  vslOwn += c.vslOwnSeconds;  // the lobe gather's, in the eye paths
   {
     std::lock_guard<std::mutex> lock(batch.timeMutex);
     batch.threadTime += tileClock.seconds();

@@ -110,7 +110,9 @@ struct ManyLightSettings {
   // axes (and not split) comes from lobeGatherRays directions drawn from that
   // lobe and a second light set of lobeGather lights (its own seed), the
   // kLobeGatherK nearest of which give the radiance where each direction
-  // lands; the light set gathers the diffuse lobe there. Brute force only.
+  // lands; the light set gathers only the diffuse lobe there. At least
+  // kLobeGatherK lights. Brute force only; its cost (the second set too) is
+  // VSL's own time.
   // Off by default: measured in docs/VSL-QUALITY.md ("The lobe gather").
   uint32_t lobeGather = 0;
   int lobeGatherRays = kDefaultLobeGatherRays;

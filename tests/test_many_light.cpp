@@ -1271,15 +1271,18 @@ TEST(LobeGather, DensityEstimateIsTheAnalyticRadianceOfAUniformPlane) {
 }
 
 namespace {
-// A polished metal floor (GGX alpha 0.029: gathered, not continued, and
+// A polished floor (GGX alpha 0.029: gathered, not continued, and
 // lobe-gathered) in front of a white Lambertian wall that an emitter behind
 // the camera lights. The camera looks down at the floor, which reflects the
-// lit wall: the floor's indirect light is all its narrow specular lobe's.
-std::shared_ptr<Scene> mirrorFloorRoom() {
+// lit wall. A metal floor's indirect light is all its narrow specular
+// lobe's; a dielectric one's is also its diffuse lobe's, which the light set
+// gathers.
+std::shared_ptr<Scene> mirrorFloorRoom(bool metalFloor) {
   auto s = std::make_shared<Scene>();
   s->path = "<metal floor before a lit wall>";
-  s->materials = {testMaterial("metal", Vec3(0.9f), 1, 0.17f), testMaterial("wall", Vec3(0.8f), 0, 1, 0),
-                  emitterMaterial(Vec3(20.0f))};
+  s->materials = {
+      metalFloor ? testMaterial("metal", Vec3(0.9f), 1, 0.17f) : testMaterial("glaze", Vec3(0.5f), 0, 0.17f),
+      testMaterial("wall", Vec3(0.8f), 0, 1, 0), emitterMaterial(Vec3(20.0f))};
   addQuad(*s, Vec3(-3, 0, 3), Vec3(6, 0, 0), Vec3(0, 0, -5), 0);           // floor y = 0, facing +y
   addQuad(*s, Vec3(-3, 0, -2), Vec3(6, 0, 0), Vec3(0, 3, 0), 1);           // wall z = -2, facing +z
   addQuad(*s, Vec3(-0.5f, 2.5f, 2.5f), Vec3(1, 0, 0), Vec3(0, -1, 0), 2);  // emitter z = 2.5, facing -z
@@ -1299,14 +1302,6 @@ std::shared_ptr<Scene> mirrorFloorRoom() {
 // VSL gather's without the lobe gather (a wrong normalisation, a lost batch
 // share or a double count would move it by far more).
 TEST(ManyLightStats, LobeGatherChangesVslOnlyAndKeepsTheLight) {
-  Loaded l = loadedFrom(mirrorFloorRoom(), 24);
-  ASSERT_TRUE(l.context);
-  ManyLightSettings s;
-  s.lights = 1500;
-  s.width = s.height = 24;
-  s.batches = 2;
-  s.directSamples = 1;
-  EXPECT_EQ(s.lobeGather, 0u) << "off by default";
   // The floor: the image's lower half.
   auto floorMean = [](const Image& im) {
     double sum = 0;
@@ -1316,31 +1311,52 @@ TEST(ManyLightStats, LobeGatherChangesVslOnlyAndKeepsTheLight) {
         for (int c = 0; c < 3; ++c) sum += im.rgb[(size_t(y) * im.width + x) * 3 + c] / 3.0;
     return sum / count;
   };
-  double off = 0, on = 0;
-  const int sets = 6;
-  for (int k = 0; k < sets; ++k) {
-    s.seed = 40 + k;
-    s.lobeGather = 0;
-    const ManyLightImages without = renderMany(l, s);
-    s.lobeGather = 30000;
-    const ManyLightImages with = renderMany(l, s);
-    if (k == 0) {
-      EXPECT_EQ(with.vpl.rgb, without.vpl.rgb);
-      EXPECT_EQ(with.vplUnclamped.rgb, without.vplUnclamped.rgb);
-      EXPECT_NE(with.vsl.rgb, without.vsl.rgb);
-      EXPECT_TRUE(allFinite(with.vsl));
-      EXPECT_NE(s.describe().find("--lobe-gather 30000 --lobe-gather-rays 8"), std::string::npos) << s.describe();
+  ManyLightSettings s;
+  EXPECT_EQ(s.lobeGather, 0u) << "off by default";
+  s.lights = 1500;
+  s.width = s.height = 24;
+  s.batches = 2;
+  s.directSamples = 1;
+  for (bool metal : {true, false}) {
+    SCOPED_TRACE(metal ? "metal floor" : "dielectric floor");
+    Loaded l = loadedFrom(mirrorFloorRoom(metal), 24);
+    ASSERT_TRUE(l.context);
+    double off = 0, on = 0, onFirst = 0;
+    const int sets = 6;
+    for (int k = 0; k < sets; ++k) {
+      s.seed = 40 + k;
+      s.lobeGather = 0;
+      const ManyLightImages without = renderMany(l, s);
+      s.lobeGather = 30000;
+      // After the first batch too: each batch's estimate stands alone.
+      ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+      ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+      ASSERT_TRUE(r.renderBatch(0));
+      onFirst += floorMean(r.images().vsl) / sets;
+      ASSERT_TRUE(r.renderBatch(1));
+      EXPECT_EQ(r.stats().nonFinite.load(), 0u);
+      const ManyLightImages with = r.images();
+      if (k == 0) {
+        EXPECT_EQ(with.vpl.rgb, without.vpl.rgb);
+        EXPECT_EQ(with.vplUnclamped.rgb, without.vplUnclamped.rgb);
+        EXPECT_NE(with.vsl.rgb, without.vsl.rgb);
+        EXPECT_TRUE(allFinite(with.vsl));
+        EXPECT_NE(s.describe().find("--lobe-gather 30000 --lobe-gather-rays 8"), std::string::npos) << s.describe();
+      }
+      off += floorMean(without.vsl) / sets;
+      on += floorMean(with.vsl) / sets;
     }
-    off += floorMean(without.vsl) / sets;
-    on += floorMean(with.vsl) / sets;
+    const Reference ref = ptIndirect(l, 24, 24, 1024, 91);
+    const double refFloor = floorMean(ref.indirect);
+    std::printf(
+        "the %s floor's indirect mean: VSL %.5f without the lobe gather, %.5f with (%.5f after one batch); "
+        "path tracer %.5f\n",
+        metal ? "metal" : "dielectric", off, on, onFirst, refFloor);
+    ASSERT_GT(refFloor, 0.0);
+    EXPECT_NEAR(on, refFloor, 0.05 * refFloor);
+    EXPECT_NEAR(on, off, 0.05 * off);
+    EXPECT_NEAR(onFirst, on, 0.08 * on);
   }
-  const Reference ref = ptIndirect(l, 24, 24, 1024, 91);
-  const double refFloor = floorMean(ref.indirect);
-  std::printf("the floor's indirect mean: VSL %.5f without the lobe gather, %.5f with; path tracer %.5f\n", off, on,
-              refFloor);
-  ASSERT_GT(refFloor, 0.0);
-  EXPECT_NEAR(on, refFloor, 0.05 * refFloor);
-  EXPECT_NEAR(on, off, 0.05 * off);
   s.lobeGatherRays = 0;
   EXPECT_FALSE(s.validate());
   s.lobeGatherRays = 8;

@@ -11,8 +11,8 @@
 using namespace vsl;
 using vsl::test::addQuad;
 using vsl::test::emitterMaterial;
-using vsl::test::testMaterial;
 using vsl::test::loadAssetScene;
+using vsl::test::testMaterial;
 
 namespace {
 
