@@ -630,9 +630,16 @@ TEST(Session, RestartDuringMrcsStopsPromptly) {
   s.estimator.mrcs.clusters = 2000;
   uint64_t g = session.restart(s, true).value();
   (void)g;
-  for (int i = 0; i < 3000 && session.status().stage != "rendering"; ++i) std::this_thread::sleep_for(10ms);
-  std::this_thread::sleep_for(200ms);
+  // Stage "rendering" is entered before the first set is traced, and MRCS
+  // names its stage only once it has begun: wait for the name (a loaded
+  // machine can take seconds to get there), then restart in the middle.
   Session::Status st = session.status();
+  for (int i = 0; i < 3000 && (st.stage != "rendering" || st.stepProgress.empty()); ++i) {
+    std::this_thread::sleep_for(10ms);
+    st = session.status();
+  }
+  std::this_thread::sleep_for(200ms);
+  st = session.status();
   EXPECT_EQ(st.stage, "rendering") << "the first set's MRCS render is in progress";
   EXPECT_EQ(st.stepProgress.rfind("MRCS ", 0), 0u) << "its stage is shown: '" << st.stepProgress << "'";
   auto t0 = std::chrono::steady_clock::now();
