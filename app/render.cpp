@@ -106,8 +106,7 @@ int resolveManyLightArgs(RenderArgs& a) {
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
     a.estimator.kind = EstimatorKind::Mrcs;
-    if (m.lobeGather > 0 && m.computeVsl)
-      return fail(kExitBadArguments, "--lobe-gather: brute force only (not with --mrcs)");
+    if (Result<void> v = a.estimator.validateWith(m); !v) return fail(kExitBadArguments, "--" + v.error());
   }
   a.estimator.mrcs.spreadVslRadius = a.mrcsSpread;
   return 0;

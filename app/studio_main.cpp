@@ -58,6 +58,8 @@ struct Args {
   bool splitAlphaGiven = false;
   float lobeFloor = ManyLightSettings().lobeFloor;  // VSL lobe floor (0 = off)
   bool lobeFloorGiven = false;
+  uint32_t lobeGather = 0;  // the lobe gather's lights (0 = off)
+  bool lobeGatherGiven = false;
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -176,6 +178,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.directSamples = 64;
   o.settings.many.splitAlpha = a.splitAlpha;
   o.settings.many.lobeFloor = a.lobeFloor;
+  o.settings.many.lobeGather = a.lobeGather;
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -223,7 +226,12 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
   if (a.splitAlphaGiven) s.many.splitAlpha = a.splitAlpha;
   if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
+  if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
   if (a.estimatorGiven) s.estimator = a.estimator;
+  if (!s.estimator.validateWith(s.many)) {  // --mrcs given, the lobe gather from the last session
+    log::warning("the last session's lobe gather is off: it is brute force only, and --mrcs was given");
+    s.many.lobeGather = 0;
+  }
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
   v.crop = launch->view.crop;  // --crop applies to this run only
@@ -509,6 +517,12 @@ void addOptions(CLI::App& app, Args& a) {
                  "wider too); 0 = off (the \"lobe floor\" control)")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
       ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--lobe-gather", a.lobeGather,
+                 "VSL lobe gather: receivers narrower than GGX alpha 0.05 gather their specular lobe by sampling "
+                 "it, the light where each direction lands estimated from a second light set of N lights "
+                 "(e.g. 100000); brute force only; 0 = off (the \"lobe gather\" control)")
+      ->default_str("0")
+      ->check(CLI::Range(0u, 50'000'000u));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -572,6 +586,7 @@ int main(int argc, char** argv) {
   a.lightSetsGiven = app.count("--light-sets") > 0;
   a.splitAlphaGiven = app.count("--split-alpha") > 0;
   a.lobeFloorGiven = app.count("--lobe-floor") > 0;
+  a.lobeGatherGiven = app.count("--lobe-gather") > 0;
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return 2;
@@ -583,6 +598,18 @@ int main(int argc, char** argv) {
     }
   }
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
+  {
+    ManyLightSettings many;
+    many.lobeGather = a.lobeGather;
+    if (Result<void> v = many.validate(); !v) {
+      std::fprintf(stderr, "error: --%s\n", v.error().c_str());
+      return 2;
+    }
+    if (Result<void> v = a.estimator.validateWith(many); !v) {
+      std::fprintf(stderr, "error: --%s\n", v.error().c_str());
+      return 2;
+    }
+  }
   Launch launch;
   if (!a.crop.empty()) {
     ui::CropRect& c = launch.view.crop;

@@ -915,11 +915,16 @@ int runSweep(const SweepArgs& a) {
                    "two configurations are both '%s': give distinct --lights and --radius-scale values",
                    p.series().c_str());
   }
-  // The lobe gather is the brute-force gather's (core/lobe_gather.h).
-  for (const std::string& m : a.methods)
-    if (sweepMethod(m).estimator == EstimatorKind::Mrcs && sweepMethod(m).gather == Method::Vsl &&
-        a.many.lobeGather > 0)
-      return failf(kExitBadArguments, "--lobe-gather: brute force only (not with %s)", m.c_str());
+  // Combinations an estimator refuses (the lobe gather with MRCS's VSL).
+  for (const std::string& m : a.methods) {
+    const SweepMethod& sm = sweepMethod(m);
+    ManyLightSettings many = a.many;
+    many.computeVsl = sm.gather == Method::Vsl;
+    EstimatorSettings est;
+    est.kind = sm.estimator;
+    if (Result<void> v = est.validateWith(many); !v)
+      return failf(kExitBadArguments, "--%s (method %s)", v.error().c_str(), m.c_str());
+  }
   SweepMeta meta;
   std::vector<Point> pts;
   std::string imageError;

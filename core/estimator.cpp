@@ -61,6 +61,12 @@ Result<void> EstimatorSettings::validate() const {
   return {};
 }
 
+Result<void> EstimatorSettings::validateWith(const ManyLightSettings& many) const {
+  if (kind == EstimatorKind::Mrcs && many.lobeGather > 0 && many.computeVsl)
+    return Error("lobe-gather: brute force only (not with MRCS)");
+  return {};
+}
+
 std::string EstimatorSettings::describe() const {
   std::ostringstream s;
   s << estimatorName(kind);
@@ -99,9 +105,10 @@ namespace {
 
 class BruteForceEstimator final : public ManyLightEstimator {
  public:
-  BruteForceEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many)
+  BruteForceEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many,
+                      const std::atomic<bool>* stop)
       : ManyLightEstimator(std::move(run)),
-        renderer_(ctx.scene(), ctx.accel(), ctx.lights(), run_.set, run_.radii, many) {}
+        renderer_(ctx.scene(), ctx.accel(), ctx.lights(), run_.set, run_.radii, many, stop) {}
   EstimatorKind kind() const override { return EstimatorKind::BruteForce; }
   bool step(const std::atomic<bool>* stop) override {
     if (done()) return false;
@@ -193,12 +200,13 @@ class MrcsEstimator final : public ManyLightEstimator {
 
 std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,
                                                   const ManyLightSettings& many, const EstimatorSettings& est,
-                                                  MrcsProgress* progress) {
+                                                  MrcsProgress* progress, const std::atomic<bool>* stop) {
   VSL_CHECK(many.validate().ok());
   VSL_CHECK(est.validate().ok());
+  VSL_CHECK(est.validateWith(many).ok());
   if (est.kind == EstimatorKind::Mrcs)
     return std::make_unique<MrcsEstimator>(ctx, std::move(run), many, est.mrcs, progress);
-  return std::make_unique<BruteForceEstimator>(ctx, std::move(run), many);
+  return std::make_unique<BruteForceEstimator>(ctx, std::move(run), many, stop);
 }
 
 }  // namespace vsl

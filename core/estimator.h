@@ -65,6 +65,11 @@ struct EstimatorSettings {
   static constexpr float kDefaultAlpha = 0.7f;
   Result<void> validate() const;  // the first invalid setting
   std::string describe() const;   // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7"
+  // Settings valid on their own that this estimator cannot render together
+  // with `many`: the lobe gather (ManyLightSettings::lobeGather) is the
+  // brute-force VSL gather's, never MRCS's. The CLI, the sweep and the studio
+  // refuse what this refuses.
+  Result<void> validateWith(const ManyLightSettings& many) const;
 };
 
 // Light set k of a progressive run of `sets` light sets (0-based): seed
@@ -128,10 +133,14 @@ class ManyLightEstimator {
 };
 
 // An estimator of the light set `run` (moved in) on ctx, which must outlive
-// it. many and est must be valid (VSL_CHECK). An MRCS estimator reports its
-// stages to `progress` (which must outlive it) while a step runs.
+// it. many and est must be valid, together too (VSL_CHECK). An MRCS
+// estimator reports its stages to `progress` (which must outlive it) while a
+// step runs. `stop` ends the preparation some estimators do (the lobe
+// gather's second light set); an estimator made while it was set is not to
+// be used.
 std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,
                                                   const ManyLightSettings& many, const EstimatorSettings& est,
-                                                  MrcsProgress* progress = nullptr);
+                                                  MrcsProgress* progress = nullptr,
+                                                  const std::atomic<bool>* stop = nullptr);
 
 }  // namespace vsl

@@ -114,7 +114,7 @@ RenderSettings directSettings(const ManyLightSettings& s) {
 
 ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                      const VirtualLightSet& set, const std::vector<float>& radii,
-                                     const ManyLightSettings& settings)
+                                     const ManyLightSettings& settings, const std::atomic<bool>* stop)
     : scene_(scene),
       accel_(accel),
       set_(set),
@@ -158,7 +158,7 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     lt.count = settings.lobeGather;
     lt.seed = settings.seed ^ 0x9e3779b97f4a7c15ull;
     lt.maxDepth = settings.lightMaxDepth;
-    const VirtualLightSet dense = traceVirtualLights(scene, accel, direct_.lightSampler(), lt);
+    const VirtualLightSet dense = traceVirtualLights(scene, accel, direct_.lightSampler(), lt, stop);
     stats_.nonFinite.fetch_add(dense.nonFiniteRejected, std::memory_order_relaxed);
     lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
     stats_.gatherSeconds += clock.seconds();

@@ -159,9 +159,12 @@ struct ManyLightStats {
 
 class ManyLightRenderer {
  public:
-  // The light set and radii (one per light, VSL_CHECK) must outlive the renderer.
+  // The light set and radii (one per light, VSL_CHECK) must outlive the
+  // renderer. `stop` ends the lobe gather's light tracing early (a renderer
+  // made while it was set is not to be used).
   ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
-                    const std::vector<float>& radii, const ManyLightSettings& settings);
+                    const std::vector<float>& radii, const ManyLightSettings& settings,
+                    const std::atomic<bool>* stop = nullptr);
   ~ManyLightRenderer();
 
   int width() const { return width_; }

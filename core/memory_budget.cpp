@@ -49,6 +49,10 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
   return e;
 }
 
+uint64_t lobeGatherBytes(uint64_t lobeLights) {
+  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) + 8 + 8);
+}
+
 uint64_t availableMemoryBytes() {
   uint64_t avail = 0;
   std::ifstream meminfo("/proc/meminfo");

@@ -29,6 +29,11 @@ struct MemoryEstimate {
 // the clustering's projection, and a gather point per pixel).
 MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int mrcsRows = 0);
 
+// The lobe gather's second light set of `lobeLights` lights
+// (ManyLightSettings::lobeGather): the set while it grows (twice its size),
+// every light decoded, and the k-d tree's index and nodes.
+uint64_t lobeGatherBytes(uint64_t lobeLights);
+
 // Bytes this process may still allocate: MemAvailable from /proc/meminfo,
 // lowered to the cgroup's memory.max minus its current use when that is
 // smaller. 0 when neither can be read (then no limit is applied).

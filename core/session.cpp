@@ -157,7 +157,8 @@ Result<void> StudioSettings::validate() const {
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
   if (Result<void> e = estimator.validate(); !e) return e;
-  return many.validate();
+  if (Result<void> e = many.validate(); !e) return e;
+  return estimator.validateWith(many);
 }
 
 Session::Session() : worker_([this] { run(); }) {}
@@ -190,10 +191,16 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   const uint64_t pixels = uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0));
   const uint64_t fixed = kLayers * 3 * sizeof(double) + (kLayers + 3) * 3 * sizeof(float) + 4 * 4 * sizeof(double);
   const uint64_t perSet = kIndirectLayers * 3 * sizeof(float);
-  const uint64_t base = estimateStudioMemory(s.many.lights, width, height, mrcsRows).total();
+  const bool lobe = s.many.lobeGather > 0 && s.many.computeVsl && s.estimator.kind == EstimatorKind::BruteForce;
+  const uint64_t lobeBytes = lobe ? lobeGatherBytes(s.many.lobeGather) : 0;
+  const uint64_t base = estimateStudioMemory(s.many.lights, width, height, mrcsRows).total() + lobeBytes;
   const uint64_t budget = uint64_t(0.75 * double(available));
   const uint64_t need = base + pixels * (fixed + perSet * uint64_t(s.lightSets));
   if (available == 0 || need <= budget) return {};
+  if (lobeBytes > 0 && lobeBytes + pixels * fixed >= budget / 2)
+    return Error("memory: the lobe gather's " + std::to_string(s.many.lobeGather) + " lights need about " +
+                 formatBytes(lobeBytes) + "; " + formatBytes(budget) + " may be used, " + what + " need " +
+                 formatBytes(need - lobeBytes) + ": fewer lobe-gather lights");
   const int64_t fit =
       budget > base + pixels * fixed ? int64_t((budget - base - pixels * fixed) / (pixels * perSet)) : 0;
   return Error("memory: " + what + " with " + std::to_string(s.lightSets) + " light sets needs about " +
@@ -489,7 +496,13 @@ bool Session::prepareSet(Worker& w, Job& job) {
   if (set.estimator.kind == EstimatorKind::Mrcs)  // a long render: its stages go to the log (logMrcsStep)
     log::info("light set " + std::to_string(job.set + 1) + ": " + std::to_string(prep.set.lights.size()) +
               " lights traced in " + secondsText(tracingSeconds) + ", k-NN radii in " + secondsText(prep.knnSeconds));
-  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &mrcsProgress_);
+  if (many.lobeGather > 0 && many.computeVsl && set.estimator.kind == EstimatorKind::BruteForce)
+    setStage("tracing lobe-gather lights", many.lobeGather);
+  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &mrcsProgress_, &stop_);
+  if (stopped()) {  // its second light set may be incomplete
+    job.ml.reset();
+    return false;
+  }
   setStage("rendering");
   return true;
 }

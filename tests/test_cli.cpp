@@ -687,12 +687,13 @@ TEST_F(Cli, LobeGatherIsBruteForceOnlyAndRecorded) {
                              "--direct-samples 1 --lobe-gather 2000 ";
   Proc r = run(render + "--mrcs 8,16 -o " + file("lg-mrcs.exr"));
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with --mrcs)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with MRCS)"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(file("lg-mrcs.exr")));
   r = run("sweep " + scene("cornell-glossy") + " --methods vsl,vsl-mrcs --lights 50 --lobe-gather 2000 -o " +
           file("lg-sweep"));
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with vsl-mrcs)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with MRCS) (method vsl-mrcs)"), std::string::npos)
+      << r.out;
   EXPECT_FALSE(fs::exists(file("lg-sweep")));
   r = run(render + "--lobe-gather-rays 3 -o " + file("lg.exr"));
   ASSERT_EQ(r.code, 0) << r.out;

@@ -234,6 +234,16 @@ TEST(Session, RefusesSettingsThatDoNotFitInMemory) {
   EXPECT_NE(r3.error().find("light sets fit"), std::string::npos) << r3.error();
   sets.lightSets = 2;
   EXPECT_TRUE(session.restart(sets)) << "two sets fit";
+  // The lobe gather's second light set counts too: 50 million of them need
+  // about 9 GB, refused with its own reason; off, the same settings fit.
+  StudioSettings lobe = small("furnace", 50, 8);
+  lobe.many.lobeGather = 50'000'000;
+  Result<uint64_t> r4 = session.restart(lobe);
+  ASSERT_FALSE(r4);
+  EXPECT_NE(r4.error().find("fewer lobe-gather lights"), std::string::npos) << r4.error();
+  EXPECT_GT(lobeGatherBytes(50'000'000), uint64_t(400) << 20);
+  lobe.many.lobeGather = 0;
+  EXPECT_TRUE(session.restart(lobe));
 }
 
 TEST(Session, MemoryEstimateIsItemised) {
@@ -617,6 +627,74 @@ TEST(Session, InvalidEstimatorSettingsAreRejected) {
   r = session.restart(s);
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().find("alpha"), std::string::npos) << r.error();
+}
+
+// The lobe gather in the studio: the picture is, bit for bit, the mean of
+// brute-force renders with it made directly, it changes VSL's picture and
+// not VPL's, and MRCS refuses it with the setting's name.
+TEST(Session, LobeGatherEqualsDirectRendersAndIsBruteForceOnly) {
+  TempCache cache;
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 5;
+  s.many.lobeGather = 2000;
+  s.lightSets = 2;
+  Session session;
+  uint64_t g = session.restart(s).value();
+  auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  Loaded l("cornell-glossy");
+  std::vector<ManyLightImages> with, without;
+  for (int k = 0; k < 2; ++k) {
+    ManyLightSettings m = s.many;
+    m.seed = s.many.seed + uint64_t(k);
+    with.push_back(l.render(m));
+    m.lobeGather = 0;
+    without.push_back(l.render(m));
+  }
+  EXPECT_EQ(snap->many.vsl.rgb, meanOf({&with[0].vsl, &with[1].vsl}).rgb);
+  EXPECT_EQ(snap->many.vpl.rgb, meanOf({&with[0].vpl, &with[1].vpl}).rgb);
+  EXPECT_NE(with[0].vsl.rgb, without[0].vsl.rgb) << "cornell-glossy has receivers the lobe gather takes";
+  EXPECT_EQ(with[0].vpl.rgb, without[0].vpl.rgb) << "clamped VPL does not change";
+  StudioSettings other = s;
+  other.many.lobeGather = 0;
+  EXPECT_FALSE(sameImageSettings(s, other));
+  s.estimator.kind = EstimatorKind::Mrcs;
+  s.estimator.mrcs.rows = 10;
+  s.estimator.mrcs.clusters = 20;
+  Result<uint64_t> r = session.restart(s);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("lobe-gather: brute force only"), std::string::npos) << r.error();
+  s.many.computeVsl = false;  // VPL alone has no lobe gather to refuse
+  EXPECT_TRUE(session.restart(s));
+}
+
+// A restart while the lobe gather's second light set is traced takes effect
+// promptly, and the set stopped half way is never rendered from.
+TEST(Session, RestartWhileTracingTheLobeGatherSetStopsPromptly) {
+  Session session;
+  StudioSettings s = small("kitchen", 1000, 16);
+  s.many.lobeGather = 10'000'000;  // tens of seconds of tracing on two cores
+  uint64_t g = session.restart(s, true).value();
+  (void)g;
+  Session::Status st = session.status();
+  for (int i = 0; i < 3000 && st.stage != "tracing lobe-gather lights"; ++i) {
+    std::this_thread::sleep_for(10ms);
+    st = session.status();
+  }
+  ASSERT_EQ(st.stage, "tracing lobe-gather lights");
+  EXPECT_EQ(st.lightsTarget, 10'000'000u);
+  std::this_thread::sleep_for(200ms);
+  auto t0 = std::chrono::steady_clock::now();
+  StudioSettings next = small("kitchen", 1000, 16);
+  next.many.lobeGather = 1000;
+  next.lightSets = 1;
+  uint64_t g2 = session.restart(next).value();
+  auto snap = waitFor(session, g2, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(seconds, 10.0);
+  Loaded l("kitchen");
+  EXPECT_EQ(snap->many.vsl.rgb, l.render(next.many).vsl.rgb) << "rendered with its own complete second set";
 }
 
 // A restart while a large MRCS set renders takes effect promptly: MRCS

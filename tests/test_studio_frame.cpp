@@ -782,6 +782,36 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   EXPECT_NE(r.out.find("--after"), std::string::npos) << r.out;
 }
 
+// --lobe-gather reaches the render (the export's replay command and settings
+// carry it); a count below the k nearest, or with --mrcs, is a bad argument.
+TEST(StudioCli, LobeGatherReachesTheRender) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-lobe-cli";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string common = "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " +
+                             dir + "/out --lobe-gather ";
+  StudioRun r = runStudio(dir + "/config", common + "1000");
+  ASSERT_EQ(r.code, 0) << r.out;
+  int exports = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/out")) {
+    std::ifstream js(e.path() / "metrics.json");
+    ASSERT_TRUE(js) << e.path();
+    const nlohmann::json metrics = nlohmann::json::parse(js);
+    const std::string replay = metrics["replay"].get<std::string>();
+    EXPECT_NE(replay.find("--lobe-gather 1000 --lobe-gather-rays 8"), std::string::npos) << replay;
+    EXPECT_EQ(metrics["settings"]["lobeGather"]["lights"].get<int>(), 1000);
+    EXPECT_EQ(metrics["settings"]["lobeGather"]["rays"].get<int>(), ManyLightSettings::kDefaultLobeGatherRays);
+    ++exports;
+  }
+  EXPECT_EQ(exports, 1);
+  r = runStudio(dir + "/config", common + "100");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--lobe-gather: must be 0 (off) or in [256,"), std::string::npos) << r.out;
+  r = runStudio(dir + "/config", common + "1000 --mrcs 10,20");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with MRCS)"), std::string::npos) << r.out;
+}
+
 // Headless without --export or --frames ends when the render is done (it
 // used to run until killed), taking the screenshot if asked; empty paths are
 // bad arguments.

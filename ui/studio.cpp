@@ -137,6 +137,7 @@ float percentile99(const Image& img) {
 
 Studio::Studio(const StudioOptions& options) : options_(options), settings_(options.settings) {
   settings_.scene = options.scene;
+  takeLobeGather(settings_.many);
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
   if (options.startSession) session_ = std::make_unique<Session>();
@@ -149,6 +150,7 @@ void Studio::restart(bool fromScratch) {
   settings_.many.clamp = clampOff_ ? INFINITY : (clampAuto_ ? -1.0f : clampValue_);
   if (!vslAuto_ && settings_.many.vslSamples == 0) settings_.many.vslSamples = 4;
   if (vslAuto_) settings_.many.vslSamples = 0;
+  settings_.many.lobeGather = lobeGather_ ? uint32_t(lobeGatherLights_) : 0u;
   if (!globalRadius_)
     settings_.many.globalRadius = 0;
   else if (settings_.many.globalRadius <= 0)
@@ -200,6 +202,7 @@ void Studio::applySettings(const StudioSettings& settings) {
   if (!clampOff_ && !clampAuto_) clampValue_ = settings.many.clamp;
   vslAuto_ = settings.many.vslSamples == 0;
   globalRadius_ = settings.many.globalRadius > 0;
+  takeLobeGather(settings.many);
   restart();
 }
 
@@ -644,6 +647,18 @@ bool Studio::gatherControls() {
         "Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
         "continue the eye path with the specular lobe (glossy floors reflect the gather at the next surface).");
   errorField("split-alpha");
+  changed |= track("lobe-gather", ImGui::Checkbox("lobe gather", &lobeGather_));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "VSL only, brute force only: receivers narrower than GGX alpha 0.05 on both axes gather their specular "
+        "lobe by sampling it (%d directions); the light where each direction lands comes from the %d nearest "
+        "lights of a second, denser light set. Fewer bright disks on polished surfaces; the second set costs "
+        "its tracing at every restart.",
+        m.lobeGatherRays, ManyLightSettings::kLobeGatherK);
+  if (lobeGather_)
+    changed |= track("lobe-gather", ImGui::SliderInt("lobe lights", &lobeGatherLights_, 10000, 1000000, "%d",
+                                                     ImGuiSliderFlags_Logarithmic));
+  errorField("lobe-gather");
   sectionTitle("VPL");
   changed |= track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
   if (!clampOff_) {
@@ -1888,6 +1903,8 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"lobeFloor", m.lobeFloor},
                         {"continueAlpha", m.continueAlpha},
                         {"splitAlpha", m.splitAlpha},
+                        {"lobeGather", m.lobeGather},
+                        {"lobeGatherRays", m.lobeGatherRays},
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
                         {"diffuseOnly", m.diffuseOnly},
@@ -1972,6 +1989,8 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     if (version >= 2 || lobeFloor != 0) m.lobeFloor = lobeFloor;
     readField(js, "continueAlpha", &m.continueAlpha);
     readField(js, "splitAlpha", &m.splitAlpha);
+    readField(js, "lobeGather", &m.lobeGather);
+    readField(js, "lobeGatherRays", &m.lobeGatherRays);
     if (js.contains("clamp"))
       m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
     readField(js, "diffuseOnly", &m.diffuseOnly);

@@ -306,6 +306,14 @@ class Studio {
   std::string referencePathInput_;  // the reference control's text
   int backgroundSpp_ = 4096;        // samples for "render reference in background"
   bool clampOff_ = false, clampAuto_ = true, vslAuto_ = true, globalRadius_ = false;
+  // The lobe gather's switch and its light count (kept while it is off).
+  bool lobeGather_ = false;
+  int lobeGatherLights_ = kDefaultLobeGatherLights;
+  static constexpr int kDefaultLobeGatherLights = 100000;
+  void takeLobeGather(const ManyLightSettings& m) {
+    lobeGather_ = m.lobeGather > 0;
+    if (lobeGather_) lobeGatherLights_ = int(m.lobeGather);
+  }
   float clampValue_ = 1;
   std::string message_, errorDialog_;
   uint64_t seenLoadErrors_ = 0;

@@ -262,6 +262,7 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"lobeFloor", m.lobeFloor},
           {"continueAlpha", m.continueAlpha},
           {"splitAlpha", m.splitAlpha},
+          {"lobeGather", {{"lights", m.lobeGather}, {"rays", m.lobeGatherRays}}},
           {"clamp", clamp},
           {"diffuseOnly", m.diffuseOnly},
           {"seed", m.seed},
