@@ -518,9 +518,9 @@ void addOptions(CLI::App& app, Args& a) {
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--lobe-gather", a.lobeGather,
-                 "VSL lobe gather: receivers narrower than GGX alpha 0.05 gather their specular lobe by sampling "
-                 "it, the light where each direction lands estimated from a second light set of N lights "
-                 "(e.g. 100000); brute force only; 0 = off (the \"lobe gather\" control)")
+                 "VSL lobe gather: receivers narrower than GGX alpha 0.05 along either axis gather their specular "
+                 "lobe by sampling it, the light where each direction lands estimated from a second light set of N "
+                 "lights (e.g. 100000); brute force only; 0 = off (the \"lobe gather\" control)")
       ->default_str("0")
       ->check(CLI::Range(0u, 50'000'000u));
   app.add_option("--background-reference", a.backgroundReference,

@@ -86,9 +86,11 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
       ->default_str(defaultText(ManyLightSettings().splitAlpha))
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--lobe-gather", m.lobeGather,
-                  "VSL: at receivers narrower than GGX alpha 0.05 (both axes), the specular lobe is gathered by "
-                  "sampling it, the radiance where each direction lands estimated from the 256 nearest lights of a "
-                  "second light set of this many lights (brute force only); 0 = off")
+                  "VSL: at receivers narrower than GGX alpha 0.05 along either axis (near-mirrors, brushed metals), "
+                  "the specular lobe is gathered by sampling it, the radiance where each direction lands estimated "
+                  "from the " +
+                      std::to_string(ManyLightSettings::kLobeGatherK) +
+                      " nearest lights of a second light set of this many lights (brute force only); 0 = off")
       ->default_str("0")
       ->check(CLI::Range(0u, 50000000u));
   cmd->add_option("--lobe-gather-rays", m.lobeGatherRays, "VSL lobe gather: directions per gather point")

@@ -55,8 +55,11 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
   if (found == 0) return Vec3(0.0f);
   const float r2 = d2[found - 1];
   if (!(r2 > 0)) return Vec3(0.0f);
+  // The k-th light only sets the radius: (k - 1) / (pi r_k^2) is the
+  // unbiased density of independent points (k / (pi r_k^2) is k / (k - 1)
+  // too high: 3% at k = 32).
   Vec3 sum(0.0f);
-  for (size_t i = 0; i < found; ++i) {
+  for (size_t i = 0; i + 1 < found; ++i) {
     const GatherLight& L = lights_[idx[i]];
     if (dot(L.ng, nz) < 0.5f || dot(L.n, wOut) <= 0 || dot(L.ng, wOut) <= 0) continue;
     const BrdfAt::Parts f = L.em.f.evalParts(L.em.frame.toLocal(wOut));

@@ -5,23 +5,28 @@
 // A receiver lobe narrower than the VSL cones sees each light's sphere as a
 // disk of uniform radiance: on tableau's polished table (GGX alpha 0.0225)
 // one light set paints a few bright disks and the next none (most of VSL's
-// squared error there; docs/VSL-QUALITY.md, "The lobe gather"). The VSL
+// squared error there; docs/VSL-QUALITY.md, "The lobe gather"); a lobe
+// narrow along one axis (brushed metal) sees it as a bright streak. The VSL
 // integral's receiver strategy, turned around: each of M directions drawn
 // from the specular lobe at x is traced to the surface point z it reaches,
 // and the radiance leaving z toward x is the density estimate of a second,
 // denser light set (the K nearest lights to z, as in photon mapping):
-//   L(z -> x) = sum_K Phi_y f_y(wi_y, z -> x) / (pi r_K^2),
-// where r_K is the distance to the K-th one. The receiver's estimate is the
+//   L(z -> x) = sum_{K-1} Phi_y f_y(wi_y, z -> x) / (pi r_K^2),
+// where r_K is the distance to the K-th one (which only sets the radius). The receiver's estimate is the
 // mean over the M directions of f cos / pdf x L(z -> x). For a light on the
 // surface z lies on, "z within r of y" is the ray passing through y's
 // sphere (the projected disk already holds the cosine at y), so this is the
 // VSL integral with its kernel taken from the denser set. The diffuse lobe
 // is gathered from the light set (only that lobe at such points), and
-// clamped VPL does not change. Where a direction lands on another narrow
-// lobe, the lights' diffuse lobes give the estimate there and the direction
-// continues along that surface's specular lobe (at most 8 bounces); the
-// punctual lights that such a surface reflects are left out (a bias that
-// does not shrink with the radii; see Gatherer::lobeGather).
+// clamped VPL does not change. Where a direction lands on a lobe narrow
+// along both axes, the lights' diffuse lobes give the estimate there and the
+// direction continues along that surface's specular lobe (at most 8
+// bounces), with the punctual lights it reflects added by next-event
+// estimation (see Gatherer::lobeGather).
+// Many directions and few lights per estimate (M = 128, K = 32) beat few
+// directions and many lights (8, 256) at the same cost: each direction's
+// cost is mostly its K BRDF evaluations, and the error mostly the
+// directions' sampling (docs/VSL-QUALITY.md, "Session 31").
 #pragma once
 
 #include <memory>
@@ -40,8 +45,10 @@ class LobeGatherMap {
   ~LobeGatherMap();
   // Radiance leaving the surface at z (geometric normal nz, facing wOut)
   // toward the unit direction wOut, from the k nearest lights: sum Phi f /
-  // (pi r_k^2) over those on z's side (geometric normal within 60 degrees of
-  // nz: not the back of a thin wall) that face wOut. Zero with no lights.
+  // (pi r_k^2) over the k - 1 nearest (the k-th sets r_k; unbiased for
+  // independent lights) that lie on z's side (geometric normal within 60
+  // degrees of nz: not the back of a thin wall) and face wOut. Zero with
+  // fewer than two lights.
   // diffuseOnly: the lights' diffuse lobes only (where z's own specular lobe
   // is continued instead).
   Vec3 radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly) const;

@@ -106,18 +106,19 @@ struct ManyLightSettings {
   float splitAlpha = kDefaultSplitAlpha;
   static constexpr float kDefaultSplitAlpha = 0.0f;
   // The lobe gather (0 = off; core/lobe_gather.h): VSL's estimate of the
-  // specular lobe of a receiver narrower than kLobeGatherAlpha along both GGX
-  // axes (and not split) comes from lobeGatherRays directions drawn from that
-  // lobe and a second light set of lobeGather lights (its own seed), the
-  // kLobeGatherK nearest of which give the radiance where each direction
-  // lands; the light set gathers only the diffuse lobe there. At least
-  // kLobeGatherK lights. Brute force only; its cost (the second set too) is
-  // VSL's own time.
-  // Off by default: measured in docs/VSL-QUALITY.md ("The lobe gather").
+  // specular lobe of a receiver narrower than kLobeGatherAlpha along either
+  // GGX axis (near-mirrors and brushed metals; not split) comes from
+  // lobeGatherRays directions drawn from that lobe and a second light set of
+  // lobeGather lights (its own seed), the kLobeGatherK nearest of which give
+  // the radiance where each direction lands; the light set gathers only the
+  // diffuse lobe there. At least kLobeGatherK lights. Brute force only; its
+  // cost (the second set too) is VSL's own time.
+  // Off by default; K and the rays were chosen by measurement
+  // (docs/VSL-QUALITY.md, "The lobe gather" and "Session 31").
   uint32_t lobeGather = 0;
   int lobeGatherRays = kDefaultLobeGatherRays;
-  static constexpr int kDefaultLobeGatherRays = 8;
-  static constexpr int kLobeGatherK = 256;
+  static constexpr int kDefaultLobeGatherRays = 128;
+  static constexpr int kLobeGatherK = 32;
   static constexpr float kLobeGatherAlpha = 0.05f;
   VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslCount}; }
   // VPL

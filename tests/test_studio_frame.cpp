@@ -798,15 +798,21 @@ TEST(StudioCli, LobeGatherReachesTheRender) {
     ASSERT_TRUE(js) << e.path();
     const nlohmann::json metrics = nlohmann::json::parse(js);
     const std::string replay = metrics["replay"].get<std::string>();
-    EXPECT_NE(replay.find("--lobe-gather 1000 --lobe-gather-rays 8"), std::string::npos) << replay;
+    EXPECT_NE(replay.find("--lobe-gather 1000 --lobe-gather-rays " +
+                          std::to_string(ManyLightSettings::kDefaultLobeGatherRays)),
+              std::string::npos)
+        << replay;
     EXPECT_EQ(metrics["settings"]["lobeGather"]["lights"].get<int>(), 1000);
     EXPECT_EQ(metrics["settings"]["lobeGather"]["rays"].get<int>(), ManyLightSettings::kDefaultLobeGatherRays);
     ++exports;
   }
   EXPECT_EQ(exports, 1);
-  r = runStudio(dir + "/config", common + "100");
+  r = runStudio(dir + "/config", common + std::to_string(ManyLightSettings::kLobeGatherK - 1));
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("--lobe-gather: must be 0 (off) or in [256,"), std::string::npos) << r.out;
+  EXPECT_NE(
+      r.out.find("--lobe-gather: must be 0 (off) or in [" + std::to_string(ManyLightSettings::kLobeGatherK) + ","),
+      std::string::npos)
+      << r.out;
   r = runStudio(dir + "/config", common + "1000 --mrcs 10,20");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with MRCS)"), std::string::npos) << r.out;
