@@ -228,9 +228,15 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
   if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
   if (a.estimatorGiven) s.estimator = a.estimator;
-  if (!s.estimator.validateWith(s.many)) {  // --mrcs given, the lobe gather from the last session
-    log::warning("the last session's lobe gather is off: it is brute force only, and --mrcs was given");
-    s.many.lobeGather = 0;
+  // What was given wins over the last session (both given: refused earlier).
+  if (!s.estimator.validateWith(s.many)) {
+    if (a.lobeGatherGiven) {
+      log::warning("the last session's MRCS estimator gives way to brute force: --lobe-gather is brute force only");
+      s.estimator.kind = EstimatorKind::BruteForce;
+    } else {
+      log::warning("the last session's lobe gather is off: it is brute force only, and --mrcs was given");
+      s.many.lobeGather = 0;
+    }
   }
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;

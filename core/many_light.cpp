@@ -160,7 +160,8 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     lt.maxDepth = settings.lightMaxDepth;
     const VirtualLightSet dense = traceVirtualLights(scene, accel, direct_.lightSampler(), lt, stop);
     stats_.nonFinite.fetch_add(dense.nonFiniteRejected, std::memory_order_relaxed);
-    lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
+    // Stopped: not to be used, so the partial set is not indexed either.
+    if (!dense.stopped) lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
     stats_.gatherSeconds += clock.seconds();
     stats_.vslSeconds += clock.seconds();
   }

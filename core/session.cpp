@@ -492,17 +492,18 @@ bool Session::prepareSet(Worker& w, Job& job) {
     job.radiusMin = *lo;
     job.radiusMax = *hi;
   }
-  job.mlSeconds += prep.set.seconds + prep.knnSeconds;
+  const double prepSeconds = prep.set.seconds + prep.knnSeconds;
   if (set.estimator.kind == EstimatorKind::Mrcs)  // a long render: its stages go to the log (logMrcsStep)
     log::info("light set " + std::to_string(job.set + 1) + ": " + std::to_string(prep.set.lights.size()) +
               " lights traced in " + secondsText(tracingSeconds) + ", k-NN radii in " + secondsText(prep.knnSeconds));
   if (many.lobeGather > 0 && many.computeVsl && set.estimator.kind == EstimatorKind::BruteForce)
     setStage("tracing lobe-gather lights", many.lobeGather);
   job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &mrcsProgress_, &stop_);
-  if (stopped()) {  // its second light set may be incomplete
+  if (stopped()) {  // its second light set may be incomplete: a resumed job prepares the set again
     job.ml.reset();
     return false;
   }
+  job.mlSeconds += prepSeconds;
   setStage("rendering");
   return true;
 }

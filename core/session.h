@@ -200,7 +200,8 @@ class Session {
     // reason: another size, no indirect layer, unreadable); "" when it is in
     // use or none was given. Errors are then measured against the live path tracer.
     std::string referenceError;
-    // "idle", "loading", "tracing lights", "k-NN radii", "rendering", "done"
+    // "idle", "loading", "tracing lights", "k-NN radii", "tracing lobe-gather
+    // lights" (ManyLightSettings::lobeGather), "rendering", "done"
     std::string stage;
     std::string loading;        // the path being loaded while stage is "loading"
     double stageSeconds = 0;    // wall time since the stage began

@@ -697,6 +697,33 @@ TEST(Session, RestartWhileTracingTheLobeGatherSetStopsPromptly) {
   EXPECT_EQ(snap->many.vsl.rgb, l.render(next.many).vsl.rgb) << "rendered with its own complete second set";
 }
 
+// A restart that keeps the images (here: a background reference asked for)
+// while the lobe gather's second light set is traced resumes the job; the
+// set stopped half way is traced again, never rendered from: the picture is,
+// bit for bit, a direct render's.
+TEST(Session, ResumedJobTracesAStoppedLobeGatherSetAgain) {
+  TempCache cache;
+  StudioSettings s = small("kitchen", 1000, 16);
+  s.lightSets = 1;
+  s.many.lobeGather = 300'000;  // a fraction of a second of tracing, longer under the sanitizers
+  Session session;
+  ASSERT_TRUE(session.restart(s, true));
+  Session::Status st = session.status();
+  for (int i = 0; i < 3000 && st.stage != "tracing lobe-gather lights"; ++i) {
+    std::this_thread::sleep_for(2ms);
+    st = session.status();
+  }
+  ASSERT_EQ(st.stage, "tracing lobe-gather lights");
+  StudioSettings same = s;
+  same.backgroundReferenceSpp = 4;
+  ASSERT_TRUE(sameImageSettings(s, same));
+  uint64_t g2 = session.restart(same).value();
+  auto snap = waitFor(session, g2, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(snap);
+  Loaded l("kitchen");
+  EXPECT_EQ(snap->many.vsl.rgb, l.render(s.many).vsl.rgb);
+}
+
 // A restart while a large MRCS set renders takes effect promptly: MRCS
 // checks the stop flag between its stages and tiles.
 TEST(Session, RestartDuringMrcsStopsPromptly) {
@@ -708,9 +735,9 @@ TEST(Session, RestartDuringMrcsStopsPromptly) {
   s.estimator.mrcs.clusters = 2000;
   uint64_t g = session.restart(s, true).value();
   (void)g;
-  // Stage "rendering" is entered before the first set is traced, and MRCS
-  // names its stage only once it has begun: wait for the name (a loaded
-  // machine can take seconds to get there), then restart in the middle.
+  // MRCS names its stage only once its step has begun, some time after the
+  // session's stage reads "rendering": wait for the name (a loaded machine
+  // can take seconds to get there), then restart in the middle.
   Session::Status st = session.status();
   for (int i = 0; i < 3000 && (st.stage != "rendering" || st.stepProgress.empty()); ++i) {
     std::this_thread::sleep_for(10ms);

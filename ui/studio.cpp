@@ -656,8 +656,9 @@ bool Studio::gatherControls() {
         "and streaks on polished and brushed surfaces; the second set costs its tracing at every restart.",
         m.lobeGatherRays, ManyLightSettings::kLobeGatherK);
   if (lobeGather_)
-    changed |= track("lobe-gather", ImGui::SliderInt("lobe lights", &lobeGatherLights_, 10000, 1000000, "%d",
-                                                     ImGuiSliderFlags_Logarithmic));
+    changed |= track("lobe-gather",
+                     ImGui::SliderInt("lobe lights", &lobeGatherLights_, ManyLightSettings::kLobeGatherK, 10000000,
+                                      "%d", ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
   errorField("lobe-gather");
   sectionTitle("VPL");
   changed |= track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
@@ -925,6 +926,8 @@ void Studio::statusBar() {
     what = "loading " + std::filesystem::path(st.loading).filename().string();
   else if (st.stage == "tracing lights")
     what = "tracing " + std::to_string(st.lightsTarget) + " virtual lights";
+  else if (st.stage == "tracing lobe-gather lights")
+    what = "tracing " + std::to_string(st.lightsTarget) + " lobe-gather lights";
   else if (st.stage == "k-NN radii")
     what = "k-NN radii of " + std::to_string(st.lightsTarget) + " lights";
   else
@@ -1904,7 +1907,6 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"continueAlpha", m.continueAlpha},
                         {"splitAlpha", m.splitAlpha},
                         {"lobeGather", m.lobeGather},
-                        {"lobeGatherRays", m.lobeGatherRays},
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
                         {"diffuseOnly", m.diffuseOnly},
@@ -1990,7 +1992,6 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     readField(js, "continueAlpha", &m.continueAlpha);
     readField(js, "splitAlpha", &m.splitAlpha);
     readField(js, "lobeGather", &m.lobeGather);
-    readField(js, "lobeGatherRays", &m.lobeGatherRays);
     if (js.contains("clamp"))
       m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
     readField(js, "diffuseOnly", &m.diffuseOnly);
