@@ -122,7 +122,8 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
       settings_(settings),
       direct_(scene, accel, lights, directSettings(settings)),
       directFilm_(direct_.width(), direct_.height()),
-      sharedFilm_(direct_.width(), direct_.height()) {
+      sharedFilm_(direct_.width(), direct_.height()),
+      lobeFilm_(direct_.width(), direct_.height()) {
   VSL_CHECK_EQ(radii.size(), set.lights.size());
   width_ = direct_.width();
   height_ = direct_.height();
@@ -180,7 +181,7 @@ struct ManyLightRenderer::Batch {
   size_t begin = 0, end = 0;  // this batch's range of order_
   int dBegin = 0, dEnd = 0;   // this batch's range of direct samples
   std::vector<GatherLight> lights;
-  Vec3 *direct = nullptr, *shared = nullptr, *layers[kGatherLayers] = {};
+  Vec3 *direct = nullptr, *shared = nullptr, *lobe = nullptr, *layers[kGatherLayers] = {};
   std::atomic<bool> abandoned{false};
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
@@ -211,6 +212,10 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   batchShared_.resize(np);
   batch.direct = batchDirect_.data();
   batch.shared = batchShared_.data();
+  if (lobeMap_) {
+    batchLobe_.resize(np);
+    batch.lobe = batchLobe_.data();
+  }
   for (int k = 0; k < kGatherLayers; ++k) {
     batchLayers_[k].resize(np);
     batch.layers[k] = batchLayers_[k].data();
@@ -307,15 +312,15 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
         }
       }
     }
-  // The lobe gather's estimates (per eye sample, not per light) enter the
-  // batch's VSL sum at its share, which merging scales back by N / nb.
-  if (lobeMap_) {
-    const double share = double(nb) / double(std::max<size_t>(set_.lights.size(), 1));
-    for (int i = 0; i < n; ++i)
+  // The lobe gather's estimates (per eye sample, not per light) go to their
+  // own film, each batch's weighted equally.
+  if (batch.lobe)
+    for (int i = 0; i < n; ++i) {
+      Vec3 sum(0.0f);
       for (int k = 0; k < kMaxGatherPoints; ++k)
-        if (const GatherPoint* gp = gps[size_t(i)].point(k); gp && gp->lobe)
-          for (int ch = 0; ch < 3; ++ch) acc[size_t(i)].v[kVslLayer][ch] += gp->vslLobe[ch] * share;
-  }
+        if (const GatherPoint* gp = gps[size_t(i)].point(k); gp && gp->lobe) sum += gp->vslLobe;
+      batch.lobe[pixelOf(i)] = sum;
+    }
   for (int i = 0; i < n; ++i) {
     const auto& a = acc[size_t(i)].v;
     for (int k = 0; k < kGatherLayers; ++k)
@@ -349,6 +354,7 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
         size_t pix = size_t(y) * width_ + x;
         directFilm_.add(x, y, batch.direct[pix], double(dCount));
         sharedFilm_.add(x, y, batch.shared[pix], 1.0);
+        if (batch.lobe) lobeFilm_.add(x, y, batch.lobe[pix], 1.0);
         for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
       }
   });
@@ -383,6 +389,10 @@ ManyLightImages ManyLightRenderer::images() const {
   parallelFor(kGatherLayers, [&](size_t k) {
     for (size_t i = 0; i < layer[k].rgb.size(); ++i) layer[k].rgb[i] += shared.rgb[i];
   });
+  if (lobeMap_) {
+    const Image lobe = lobeFilm_.image();
+    for (size_t i = 0; i < lobe.rgb.size(); ++i) layer[kVslLayer].rgb[i] += lobe.rgb[i];
+  }
   const int u = settings_.diffuseOnly ? kVplDiffuse : kVplFull;
   const int c = settings_.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   im.lostToClamping = Image(width_, height_);

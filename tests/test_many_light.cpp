@@ -1400,6 +1400,44 @@ TEST(ManyLightStats, LobeGatherChangesVslOnlyAndKeepsTheLight) {
   EXPECT_FALSE(s.validate());
 }
 
+// The lobe gather's estimates do not depend on the batch's lights, so each
+// batch's is weighted equally (as the eye paths' own light is), not by the
+// batch's share of the lights: weighted by shares (1, 2, 4, 8, 16, 16, 16,
+// 16 at eight batches) they had 1.4x the variance. On the metal floor all of
+// VSL's indirect light is the lobe gather's, and its eye paths and second
+// light set do not depend on the first set's size: eight batches of one
+// light each (equal shares) and of 1,000 lights in growing batches give the
+// same floor, which a share-weighted mean does not.
+TEST(ManyLightStats, LobeGatherWeighsEveryBatchEqually) {
+  Loaded l = loadedFrom(mirrorFloorRoom(true), 24);
+  ASSERT_TRUE(l.context);
+  ManyLightSettings s;
+  s.width = s.height = 24;
+  s.batches = 8;
+  s.directSamples = 1;
+  s.lobeGather = 30000;
+  s.lobeGatherRays = 4;
+  s.seed = 5;
+  s.lights = 8;
+  const Image even = renderMany(l, s).vsl;
+  s.lights = 1000;
+  const Image growing = renderMany(l, s).vsl;
+  double maxRel = 0, mean = 0;
+  int count = 0;
+  for (int y = 12; y < 24; ++y)
+    for (int x = 0; x < 24; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const float a = even.rgb[(size_t(y) * 24 + x) * 3 + c], b = growing.rgb[(size_t(y) * 24 + x) * 3 + c];
+        mean += a;
+        ++count;
+        maxRel = std::max(maxRel, double(std::abs(a - b)) / std::max(1e-6, double(std::abs(a))));
+      }
+  mean /= count;
+  std::printf("floor VSL mean %.5f, largest relative difference between the batchings %.2e\n", mean, maxRel);
+  ASSERT_GT(mean, 0.0);
+  EXPECT_LT(maxRel, 1e-4);
+}
+
 // A point light's highlight seen through two narrow lobes: a polished metal
 // floor (alpha 0.029, lobe-gathered) reflects a polished metal wall (alpha
 // 0.04, narrow along both axes: a narrow landing surface) that mirrors a
