@@ -60,6 +60,8 @@ struct Args {
   bool lobeFloorGiven = false;
   uint32_t lobeGather = 0;  // the lobe gather's lights (0 = off)
   bool lobeGatherGiven = false;
+  int lobeGatherRays = ManyLightSettings().lobeGatherRays;  // its directions per gather point
+  bool lobeGatherRaysGiven = false;
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -179,6 +181,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.splitAlpha = a.splitAlpha;
   o.settings.many.lobeFloor = a.lobeFloor;
   o.settings.many.lobeGather = a.lobeGather;
+  o.settings.many.lobeGatherRays = a.lobeGatherRays;
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -227,6 +230,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.splitAlphaGiven) s.many.splitAlpha = a.splitAlpha;
   if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
   if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
+  if (a.lobeGatherRaysGiven) s.many.lobeGatherRays = a.lobeGatherRays;
   if (a.estimatorGiven) s.estimator = a.estimator;
   // What was given wins over the last session (both given: refused earlier).
   if (!s.estimator.validateWith(s.many)) {
@@ -529,6 +533,11 @@ void addOptions(CLI::App& app, Args& a) {
                  "lights (e.g. 100000); brute force only; 0 = off (the \"lobe gather\" control)")
       ->default_str("0")
       ->check(CLI::Range(0u, 50'000'000u));
+  app.add_option("--lobe-gather-rays", a.lobeGatherRays,
+                 "VSL lobe gather: directions sampled per gather point (the \"lobe rays\" control; more "
+                 "cost proportionally more and lower the noise on polished and brushed surfaces)")
+      ->default_str(std::to_string(ManyLightSettings::kDefaultLobeGatherRays))
+      ->check(CLI::Range(1, 1024));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -593,6 +602,7 @@ int main(int argc, char** argv) {
   a.splitAlphaGiven = app.count("--split-alpha") > 0;
   a.lobeFloorGiven = app.count("--lobe-floor") > 0;
   a.lobeGatherGiven = app.count("--lobe-gather") > 0;
+  a.lobeGatherRaysGiven = app.count("--lobe-gather-rays") > 0;
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return 2;
@@ -607,6 +617,7 @@ int main(int argc, char** argv) {
   {
     ManyLightSettings many;
     many.lobeGather = a.lobeGather;
+    many.lobeGatherRays = a.lobeGatherRays;
     if (Result<void> v = many.validate(); !v) {
       std::fprintf(stderr, "error: --%s\n", v.error().c_str());
       return 2;

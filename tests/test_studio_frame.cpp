@@ -792,8 +792,9 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   EXPECT_NE(r.out.find("--after"), std::string::npos) << r.out;
 }
 
-// --lobe-gather reaches the render (the export's replay command and settings
-// carry it); a count below the k nearest, or with --mrcs, is a bad argument.
+// --lobe-gather and --lobe-gather-rays reach the render (the export's replay
+// command and settings carry them); a count below the k nearest, directions
+// out of [1, 1024], or --mrcs beside it are bad arguments.
 TEST(StudioCli, LobeGatherReachesTheRender) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-lobe-cli";
   std::filesystem::remove_all(dir);
@@ -822,6 +823,19 @@ TEST(StudioCli, LobeGatherReachesTheRender) {
   r = runStudio(dir + "/config", common + "1000 --mrcs 10,20");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with MRCS)"), std::string::npos) << r.out;
+  std::filesystem::remove_all(dir + "/out");
+  r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 3");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::vector<nlohmann::json> threeRays = exportedMetrics(dir + "/out");
+  EXPECT_EQ(threeRays.size(), 1u);
+  for (const nlohmann::json& metrics : threeRays) {
+    EXPECT_NE(metrics["replay"].get<std::string>().find("--lobe-gather 1000 --lobe-gather-rays 3"), std::string::npos)
+        << metrics["replay"];
+    EXPECT_EQ(metrics["settings"]["lobeGather"]["rays"].get<int>(), 3);
+  }
+  r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--lobe-gather-rays"), std::string::npos) << r.out;
 }
 
 // Headless without --export or --frames ends when the render is done (it
@@ -857,6 +871,7 @@ TEST(LastSession, RoundTripAndCorruptFiles) {
   s.many.radiusScale = 0.5f;
   s.many.clamp = INFINITY;
   s.many.lobeGather = 4321;
+  s.many.lobeGatherRays = 256;
   s.maxReferenceSpp = 99;
   ui::ViewState v;
   v.mode = ui::ViewMode::Wipe;
@@ -874,6 +889,7 @@ TEST(LastSession, RoundTripAndCorruptFiles) {
   EXPECT_EQ(r.many.radiusScale, 0.5f);
   EXPECT_TRUE(std::isinf(r.many.clamp));
   EXPECT_EQ(r.many.lobeGather, 4321u);
+  EXPECT_EQ(r.many.lobeGatherRays, 256);
   EXPECT_EQ(r.maxReferenceSpp, 99);
   EXPECT_EQ(rv.mode, ui::ViewMode::Wipe);
   EXPECT_EQ(rv.panels[0], ui::Source::VplDiffuse);
