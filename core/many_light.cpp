@@ -122,8 +122,7 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
       settings_(settings),
       direct_(scene, accel, lights, directSettings(settings)),
       directFilm_(direct_.width(), direct_.height()),
-      sharedFilm_(direct_.width(), direct_.height()),
-      lobeFilm_(direct_.width(), direct_.height()) {
+      sharedFilm_(direct_.width(), direct_.height()) {
   VSL_CHECK_EQ(radii.size(), set.lights.size());
   width_ = direct_.width();
   height_ = direct_.height();
@@ -162,7 +161,10 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     const VirtualLightSet dense = traceVirtualLights(scene, accel, direct_.lightSampler(), lt, stop);
     stats_.nonFinite.fetch_add(dense.nonFiniteRejected, std::memory_order_relaxed);
     // Stopped: not to be used, so the partial set is not indexed either.
-    if (!dense.stopped) lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
+    if (!dense.stopped) {
+      lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
+      lobeFilm_.emplace(width_, height_);
+    }
     stats_.gatherSeconds += clock.seconds();
     stats_.vslSeconds += clock.seconds();
   }
@@ -354,7 +356,7 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
         size_t pix = size_t(y) * width_ + x;
         directFilm_.add(x, y, batch.direct[pix], double(dCount));
         sharedFilm_.add(x, y, batch.shared[pix], 1.0);
-        if (batch.lobe) lobeFilm_.add(x, y, batch.lobe[pix], 1.0);
+        if (batch.lobe) lobeFilm_->add(x, y, batch.lobe[pix], 1.0);
         for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
       }
   });
@@ -389,8 +391,8 @@ ManyLightImages ManyLightRenderer::images() const {
   parallelFor(kGatherLayers, [&](size_t k) {
     for (size_t i = 0; i < layer[k].rgb.size(); ++i) layer[k].rgb[i] += shared.rgb[i];
   });
-  if (lobeMap_) {
-    const Image lobe = lobeFilm_.image();
+  if (lobeFilm_) {
+    const Image lobe = lobeFilm_->image();
     for (size_t i = 0; i < lobe.rgb.size(); ++i) layer[kVslLayer].rgb[i] += lobe.rgb[i];
   }
   const int u = settings_.diffuseOnly ? kVplDiffuse : kVplFull;

@@ -41,6 +41,7 @@
 
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -207,8 +208,8 @@ class ManyLightRenderer {
   // depend on the batch's lights (weighting them by the batch's share of
   // lights, as the gathered layers are, had 1.4x their variance at 8
   // batches).
-  Film lobeFilm_;
-  std::vector<Film> gather_;  // kGatherLayers films: batch estimates weighted by batch share
+  std::optional<Film> lobeFilm_;  // only with the lobe gather's light set
+  std::vector<Film> gather_;      // kGatherLayers films: batch estimates weighted by batch share
   // A batch's per-pixel results, merged into the films only if the batch
   // completes. Kept from batch to batch (every tile overwrites its pixels),
   // so that no batch allocates and clears full-image buffers.
