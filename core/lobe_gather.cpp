@@ -3,14 +3,20 @@
 #include <nanoflann.hpp>
 
 #include <algorithm>
+#include <limits>
+#include <utility>
 
 namespace vsl {
 
 namespace {
+// The lights' positions alone, packed (x, y, z per light): the search reads
+// a point's coordinates at every step, and from the decoded lights (a few
+// hundred bytes apart) almost every read missed the cache (55% of a
+// lobe-gathered render's time was the search).
 struct Cloud {
-  const std::vector<GatherLight>& lights;
-  size_t kdtree_get_point_count() const { return lights.size(); }
-  float kdtree_get_pt(size_t i, size_t dim) const { return lights[i].p[int(dim)]; }
+  std::vector<float> xyz;
+  size_t kdtree_get_point_count() const { return xyz.size() / 3; }
+  float kdtree_get_pt(size_t i, size_t dim) const { return xyz[3 * i + dim]; }
   template <class Box>
   bool kdtree_get_bbox(Box&) const {
     return false;
@@ -23,12 +29,50 @@ struct LobeGatherMap::Tree {
   Cloud cloud;
   Kd kd;
   explicit Tree(const std::vector<GatherLight>& l)
-      : cloud{l}, kd(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
+      : cloud{packed(l)}, kd(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
+  static std::vector<float> packed(const std::vector<GatherLight>& l) {
+    std::vector<float> xyz;
+    xyz.reserve(3 * l.size());
+    for (const GatherLight& L : l) xyz.insert(xyz.end(), {L.p.x, L.p.y, L.p.z});
+    return xyz;
+  }
 };
 
+namespace {
+// Spreads the low 10 bits of v to every third bit (a Morton code's axis).
+uint32_t spreadBits(uint32_t v) {
+  v &= 0x3ffu;
+  v = (v | (v << 16)) & 0x030000ffu;
+  v = (v | (v << 8)) & 0x0300f00fu;
+  v = (v | (v << 4)) & 0x030c30c3u;
+  v = (v | (v << 2)) & 0x09249249u;
+  return v;
+}
+}  // namespace
+
 LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k, 1)) {
-  lights_.reserve(set.lights.size());
-  for (const VirtualLight& v : set.lights) lights_.push_back(decodeGatherLight(v, 0.0f));
+  // The lights in Morton order of their positions, so that the neighbours
+  // one estimate reads lie close together in memory. The estimate does not
+  // depend on the order (the search returns the same lights by distance).
+  const size_t n = set.lights.size();
+  Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const VirtualLight& v : set.lights) {
+    lo = min(lo, v.p);
+    hi = max(hi, v.p);
+  }
+  std::vector<std::pair<uint32_t, uint32_t>> order(n);
+  for (size_t i = 0; i < n; ++i) {
+    uint32_t code = 0;
+    for (int a = 0; a < 3; ++a) {
+      const float extent = hi[a] - lo[a];
+      const float t = extent > 0 ? (set.lights[i].p[a] - lo[a]) / extent : 0.0f;
+      code |= spreadBits(uint32_t(std::clamp(t, 0.0f, 1.0f) * 1023.0f)) << a;
+    }
+    order[i] = {code, uint32_t(i)};
+  }
+  std::sort(order.begin(), order.end());
+  lights_.reserve(n);
+  for (const auto& [code, i] : order) lights_.push_back(decodeGatherLight(set.lights[i], 0.0f));
   tree_ = std::make_unique<Tree>(lights_);
 }
 LobeGatherMap::~LobeGatherMap() = default;

@@ -3,6 +3,7 @@
 // each other.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 
@@ -1297,6 +1298,30 @@ TEST(LobeGather, DensityEstimateIsTheAnalyticRadianceOfAUniformPlane) {
   EXPECT_GT(metalMap.radiance(Vec3(0, 0, 0), up, up, false).y, 0.0f);
   EXPECT_EQ(metalMap.radiance(Vec3(0, 0, 0), up, up, true).y, 0.0f) << "a metal has no diffuse lobe";
   EXPECT_EQ(LobeGatherMap(VirtualLightSet{}, 8).radiance(Vec3(0, 0, 0), up, up, false).y, 0.0f);
+}
+
+// The map keeps its lights in an order of its own (Morton order, for the
+// cache): the estimate must not depend on the order the lights come in. The
+// lights carry different fluxes, so a different neighbour set would show.
+TEST(LobeGather, EstimateDoesNotDependOnTheLightsOrder) {
+  VirtualLightSet a;
+  addLightGrid(a, 60, 0.01f, 0.0f, true, 2e-4f, 0.5f, false, 21);
+  Rng rng(7, 1);
+  for (VirtualLight& v : a.lights) v.Phi = Vec3(1e-4f + 4e-4f * rng.uniform());
+  VirtualLightSet b = a;
+  std::shuffle(b.lights.begin(), b.lights.end(), std::mt19937(5));
+  ASSERT_NE(a.lights[0].p.x, b.lights[0].p.x) << "the copy is shuffled";
+  const LobeGatherMap ma(a, ManyLightSettings::kLobeGatherK), mb(b, ManyLightSettings::kLobeGatherK);
+  const Vec3 up(0, 0, 1);
+  double sum = 0;
+  for (int q = 0; q < 200; ++q) {
+    const Vec3 z((rng.uniform() - 0.5f) * 0.6f, (rng.uniform() - 0.5f) * 0.6f, 0.0f);
+    const Vec3 w = normalize(Vec3(rng.uniform() - 0.5f, rng.uniform() - 0.5f, 0.3f + rng.uniform()));
+    const float la = ma.radiance(z, up, w, false).y;
+    EXPECT_FLOAT_EQ(la, mb.radiance(z, up, w, false).y) << "query " << q;
+    sum += la;
+  }
+  EXPECT_GT(sum, 0.0);
 }
 
 namespace {
