@@ -36,6 +36,8 @@
 
 namespace vsl {
 
+class PointTree;
+
 // The denser light set, decoded, with a k-d tree over its positions.
 // Immutable after construction; safe to share between threads.
 class LobeGatherMap {
@@ -55,9 +57,8 @@ class LobeGatherMap {
   size_t size() const { return lights_.size(); }
 
  private:
-  struct Tree;
-  std::vector<GatherLight> lights_;
-  std::unique_ptr<Tree> tree_;
+  std::vector<GatherLight> lights_;  // in Morton order of their positions
+  std::unique_ptr<PointTree> tree_;
   int k_;
 };
 

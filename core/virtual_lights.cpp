@@ -2,12 +2,12 @@
 
 #include "core/path.h"
 
-#include <nanoflann.hpp>
-
 #include <chrono>
 #include <sstream>
+#include <utility>
 
 #include "core/parallel.h"
+#include "core/point_tree.h"
 #include "core/rng.h"
 #include "core/stopwatch.h"
 
@@ -168,33 +168,22 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
 
 // ---- k-nearest-neighbour radii -------------------------------------------------
 
-namespace {
-struct LightCloud {
-  const std::vector<VirtualLight>& lights;
-  size_t kdtree_get_point_count() const { return lights.size(); }
-  float kdtree_get_pt(size_t i, size_t dim) const { return lights[i].p[int(dim)]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
-  }
-};
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, LightCloud>, LightCloud, 3>;
-}  // namespace
-
 std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, float scale, float fallback,
                             float minRadius, const std::atomic<bool>* stop) {
   std::vector<float> radii(lights.size(), std::max(scale * fallback, minRadius));
   if (lights.size() < 2 || k < 1) return radii;
-  LightCloud cloud{lights};
-  KdTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  std::vector<float> xyz = packedPositions(lights);
+  // Queried in Morton order: consecutive queries walk the same branches.
+  const std::vector<uint32_t> order = mortonOrder(xyz);
+  const PointTree tree(std::move(xyz));
   const size_t want = std::min<size_t>(size_t(k) + 1, lights.size());  // the light itself is its own 0th neighbour
   parallelForChunks(lights.size(), 1024, [&](size_t i0, size_t i1) {
     if (stop && stop->load(std::memory_order_relaxed)) return;
     std::vector<uint32_t> idx(want);
     std::vector<float> d2(want);
-    for (size_t i = i0; i < i1; ++i) {
-      float q[3] = {lights[i].p.x, lights[i].p.y, lights[i].p.z};
-      size_t found = tree.knnSearch(q, want, idx.data(), d2.data());
+    for (size_t o = i0; o < i1; ++o) {
+      const size_t i = order[o];
+      const size_t found = tree.nearest(lights[i].p, want, idx.data(), d2.data());
       float r = found > 0 ? scale * std::sqrt(d2[found - 1]) : scale * fallback;
       radii[i] = std::isfinite(r) && r > minRadius ? r : minRadius;
     }

@@ -13,6 +13,7 @@
 #include "core/many_light.h"
 #include "core/mrcs.h"
 #include "core/parallel.h"
+#include "core/point_tree.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/vsl_integral.h"
@@ -141,6 +142,43 @@ TEST(VirtualLights, KnnRadiiMatchBruteForce) {
   EXPECT_FLOAT_EQ(knnRadii(one, 10, 0.5f, 3.0f, 1e-9f)[0], 1.5f);
   std::vector<VirtualLight> same(4);
   for (float r : knnRadii(same, 2, 1.0f, 1.0f, 1e-6f)) EXPECT_FLOAT_EQ(r, 1e-6f);
+}
+
+TEST(VirtualLights, PointTreeFindsTheNearestInOrder) {
+  Rng rng(5, 1);
+  std::vector<VirtualLight> pts(300);
+  for (auto& v : pts) v.p = Vec3(rng.uniform(), rng.uniform() * 0.2f, rng.uniform());
+  const PointTree tree(packedPositions(pts));
+  ASSERT_EQ(tree.size(), pts.size());
+  for (int q = 0; q < 40; ++q) {
+    const Vec3 at(rng.uniform(), rng.uniform(), rng.uniform());
+    std::vector<std::pair<float, uint32_t>> all;
+    for (size_t j = 0; j < pts.size(); ++j) all.push_back({lengthSquared(pts[j].p - at), uint32_t(j)});
+    std::sort(all.begin(), all.end());
+    for (size_t k : {size_t(1), size_t(7), size_t(32)}) {
+      std::vector<uint32_t> idx(k);
+      std::vector<float> d2(k);
+      ASSERT_EQ(tree.nearest(at, k, idx.data(), d2.data()), k);
+      for (size_t i = 0; i < k; ++i) {
+        EXPECT_EQ(idx[i], all[i].second) << "query " << q << " k " << k << " rank " << i;
+        EXPECT_NEAR(d2[i], all[i].first, 1e-6f);
+      }
+    }
+  }
+  // More wanted than there are: all of them; none in an empty tree.
+  std::vector<uint32_t> idx(400);
+  std::vector<float> d2(400);
+  EXPECT_EQ(tree.nearest(Vec3(0.5f), 400, idx.data(), d2.data()), pts.size());
+  // Morton order: a permutation, and the eight corners of a cube in x-fastest order.
+  std::vector<uint32_t> order = mortonOrder(packedPositions(pts));
+  std::sort(order.begin(), order.end());
+  for (size_t i = 0; i < order.size(); ++i) ASSERT_EQ(order[i], i);
+  std::vector<float> corners;
+  for (int c = 7; c >= 0; --c) corners.insert(corners.end(), {float(c & 1), float((c >> 1) & 1), float(c >> 2)});
+  EXPECT_EQ(mortonOrder(corners), (std::vector<uint32_t>{7, 6, 5, 4, 3, 2, 1, 0}));
+  const PointTree empty(std::vector<float>{});
+  EXPECT_EQ(empty.size(), 0u);
+  EXPECT_EQ(empty.nearest(Vec3(0.0f), 3, idx.data(), d2.data()), 0u);
 }
 
 // ---- The VSL cone integral ---------------------------------------------------------

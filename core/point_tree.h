@@ -1,0 +1,54 @@
+// A k-d tree over points stored packed (x, y, z floats, one point after the
+// other), for nearest-neighbour queries: the k-NN radii of a light set
+// (knnRadii) and the lobe gather's density estimates (LobeGatherMap).
+//
+// Packed, because a search reads a candidate's coordinates at every step: read
+// from the lights themselves (structs of 56 to a few hundred bytes) nearly
+// every read missed the cache (55% of a lobe-gathered tableau render was the
+// search; docs/PERFORMANCE.md, "Session 33"). Immutable after construction;
+// safe to query from many threads.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/math.h"
+
+namespace vsl {
+
+class PointTree {
+ public:
+  // xyz: 3 floats per point. The tree keeps it (query results index it).
+  explicit PointTree(std::vector<float> xyz);
+  ~PointTree();
+  PointTree(const PointTree&) = delete;
+  PointTree& operator=(const PointTree&) = delete;
+
+  // The min(k, size()) points nearest to q, closest first: their indices in
+  // idx and squared distances in d2 (each with room for k). Returns how many.
+  size_t nearest(const Vec3& q, size_t k, uint32_t* idx, float* d2) const;
+  size_t size() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The positions (member p) of items, packed for PointTree.
+template <class T>
+std::vector<float> packedPositions(const std::vector<T>& items) {
+  std::vector<float> xyz;
+  xyz.reserve(3 * items.size());
+  for (const T& t : items) xyz.insert(xyz.end(), {t.p.x, t.p.y, t.p.z});
+  return xyz;
+}
+
+// The indices of the points (3 floats each) in Morton order of their
+// positions within their bounding box (10 bits per axis; ties by index): points
+// close in that order lie close in space, so a sequence of nearby queries, or
+// the points one query finds, stay close in memory.
+std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz);
+
+}  // namespace vsl
