@@ -106,7 +106,6 @@ int resolveManyLightArgs(RenderArgs& a) {
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
     a.estimator.kind = EstimatorKind::Mrcs;
-    if (Result<void> v = a.estimator.validateWith(m); !v) return fail(kExitBadArguments, "--" + v.error());
   }
   a.estimator.mrcs.spreadVslRadius = a.mrcsSpread;
   return 0;

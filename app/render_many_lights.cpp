@@ -131,6 +131,7 @@ int writeManyLightImages(const RenderArgs& a, const Gathered& g) {
                                               {"vsl.scene", a.scene},
                                               {"vsl.method", s.method},
                                               {"vsl.settings", a.many.describe()},
+                                              {"vsl.estimator", a.estimator.describe()},
                                               {"vsl.component", componentName(s.component)}};
   if (Result<void> written = writeExr(a.out, layers, attrs); !written) return fail(kExitBadInput, written.error());
   std::string names;

@@ -232,16 +232,6 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
   if (a.lobeGatherRaysGiven) s.many.lobeGatherRays = a.lobeGatherRays;
   if (a.estimatorGiven) s.estimator = a.estimator;
-  // What was given wins over the last session (both given: refused earlier).
-  if (!s.estimator.validateWith(s.many)) {
-    if (a.lobeGatherGiven) {
-      log::warning("the last session's MRCS estimator gives way to brute force: --lobe-gather is brute force only");
-      s.estimator.kind = EstimatorKind::BruteForce;
-    } else {
-      log::warning("the last session's lobe gather is off: it is brute force only, and --mrcs was given");
-      s.many.lobeGather = 0;
-    }
-  }
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
   v.crop = launch->view.crop;  // --crop applies to this run only
@@ -530,7 +520,7 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--lobe-gather", a.lobeGather,
                  "VSL lobe gather: receivers narrower than GGX alpha 0.05 along either axis gather their specular "
                  "lobe by sampling it, the light where each direction lands estimated from a second light set of N "
-                 "lights (e.g. 100000); brute force only; 0 = off (the \"lobe gather\" control)")
+                 "lights (e.g. 100000); brute force or MRCS; 0 = off (the \"lobe gather\" control)")
       ->default_str("0")
       ->check(CLI::Range(0u, 50'000'000u));
   app.add_option("--lobe-gather-rays", a.lobeGatherRays,
@@ -619,10 +609,6 @@ int main(int argc, char** argv) {
     many.lobeGather = a.lobeGather;
     many.lobeGatherRays = a.lobeGatherRays;
     if (Result<void> v = many.validate(); !v) {
-      std::fprintf(stderr, "error: --%s\n", v.error().c_str());
-      return 2;
-    }
-    if (Result<void> v = a.estimator.validateWith(many); !v) {
       std::fprintf(stderr, "error: --%s\n", v.error().c_str());
       return 2;
     }

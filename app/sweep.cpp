@@ -915,16 +915,6 @@ int runSweep(const SweepArgs& a) {
                    "two configurations are both '%s': give distinct --lights and --radius-scale values",
                    p.series().c_str());
   }
-  // Combinations an estimator refuses (the lobe gather with MRCS's VSL).
-  for (const std::string& m : a.methods) {
-    const SweepMethod& sm = sweepMethod(m);
-    ManyLightSettings many = a.many;
-    many.computeVsl = sm.gather == Method::Vsl;
-    EstimatorSettings est;
-    est.kind = sm.estimator;
-    if (Result<void> v = est.validateWith(many); !v)
-      return failf(kExitBadArguments, "--%s (method %s)", v.error().c_str(), m.c_str());
-  }
   SweepMeta meta;
   std::vector<Point> pts;
   std::string imageError;

@@ -90,7 +90,7 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                   "the specular lobe is gathered by sampling it, the radiance where each direction lands estimated "
                   "from the " +
                       std::to_string(ManyLightSettings::kLobeGatherK) +
-                      " nearest lights of a second light set of this many lights (brute force only); 0 = off")
+                      " nearest lights of a second light set of this many lights (brute force or MRCS); 0 = off")
       ->default_str("0")
       ->check(CLI::Range(0u, 50000000u));
   cmd->add_option("--lobe-gather-rays", m.lobeGatherRays, "VSL lobe gather: directions per gather point")

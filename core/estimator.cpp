@@ -61,12 +61,6 @@ Result<void> EstimatorSettings::validate() const {
   return {};
 }
 
-Result<void> EstimatorSettings::validateWith(const ManyLightSettings& many) const {
-  if (kind == EstimatorKind::Mrcs && many.lobeGather > 0 && many.computeVsl)
-    return Error("lobe-gather: brute force only (not with MRCS)");
-  return {};
-}
-
 std::string EstimatorSettings::describe() const {
   std::ostringstream s;
   s << estimatorName(kind);
@@ -157,8 +151,9 @@ class MrcsEstimator final : public ManyLightEstimator {
     mrcsStats_ = {r.rowSeconds, r.clusterSeconds, r.columnSeconds, r.zeroColumnsVsl, r.zeroColumnsVpl};
     const double seconds = r.rowSeconds + r.clusterSeconds + r.columnSeconds;
     stats_.pairs = r.pairs;
-    stats_.gatherSeconds = seconds;
-    stats_.vslSeconds = many_.computeVsl ? seconds : 0;
+    stats_.nonFinite = r.nonFinite;
+    stats_.gatherSeconds = seconds + r.lobeSeconds;
+    stats_.vslSeconds = many_.computeVsl ? seconds + r.lobeSeconds : 0;
     stats_.vplSeconds = many_.computeVpl ? seconds : 0;
     done_ = true;
     return true;
@@ -203,7 +198,6 @@ std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, Many
                                                   MrcsProgress* progress, const std::atomic<bool>* stop) {
   VSL_CHECK(many.validate().ok());
   VSL_CHECK(est.validate().ok());
-  VSL_CHECK(est.validateWith(many).ok());
   if (est.kind == EstimatorKind::Mrcs)
     return std::make_unique<MrcsEstimator>(ctx, std::move(run), many, est.mrcs, progress);
   return std::make_unique<BruteForceEstimator>(ctx, std::move(run), many, stop);

@@ -65,11 +65,6 @@ struct EstimatorSettings {
   static constexpr float kDefaultAlpha = 0.7f;
   Result<void> validate() const;  // the first invalid setting
   std::string describe() const;   // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7"
-  // Settings valid on their own that this estimator cannot render together
-  // with `many`: the lobe gather (ManyLightSettings::lobeGather) is the
-  // brute-force VSL gather's, never MRCS's. The CLI, the sweep and the studio
-  // refuse what this refuses.
-  Result<void> validateWith(const ManyLightSettings& many) const;
 };
 
 // Light set k of a progressive run of `sets` light sets (0-based): seed

@@ -53,4 +53,18 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
   return sum / float(kPi * r2);
 }
 
+std::unique_ptr<LobeGatherMap> buildLobeGatherMap(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                                  const ManyLightSettings& settings, const std::atomic<bool>* stop,
+                                                  std::atomic<uint64_t>& nonFinite) {
+  if (settings.lobeGather == 0 || !settings.computeVsl) return nullptr;
+  LightTracingSettings lt;
+  lt.count = settings.lobeGather;
+  lt.seed = settings.seed ^ 0x9e3779b97f4a7c15ull;
+  lt.maxDepth = settings.lightMaxDepth;
+  const VirtualLightSet dense = traceVirtualLights(scene, accel, lights, lt, stop);
+  nonFinite.fetch_add(dense.nonFiniteRejected, std::memory_order_relaxed);
+  if (dense.stopped) return nullptr;
+  return std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
+}
+
 }  // namespace vsl

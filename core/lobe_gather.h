@@ -29,6 +29,8 @@
 // directions' sampling (docs/VSL-QUALITY.md, "Session 31").
 #pragma once
 
+#include <atomic>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -61,5 +63,14 @@ class LobeGatherMap {
   std::unique_ptr<PointTree> tree_;
   int k_;
 };
+
+// The lobe gather's light set for a render with these settings (a seed of its
+// own, derived from settings.seed), or null where settings.lobeGather is 0, VSL
+// is not computed or stop was raised while it was traced (a partial set is not
+// used). Lights rejected as non-finite are added to nonFinite. The brute-force
+// gather (ManyLightRenderer) and MRCS (renderMrcs) build it the same way.
+std::unique_ptr<LobeGatherMap> buildLobeGatherMap(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                                  const ManyLightSettings& settings, const std::atomic<bool>* stop,
+                                                  std::atomic<uint64_t>& nonFinite);
 
 }  // namespace vsl

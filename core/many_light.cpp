@@ -151,20 +151,10 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     prev = end;
   }
   if (settings.lobeGather > 0 && settings.computeVsl) {
-    // The second light set: a seed of its own, derived from the set's. Its
-    // cost is VSL's own gather time.
+    // Its cost is VSL's own gather time.
     Stopwatch clock;
-    LightTracingSettings lt;
-    lt.count = settings.lobeGather;
-    lt.seed = settings.seed ^ 0x9e3779b97f4a7c15ull;
-    lt.maxDepth = settings.lightMaxDepth;
-    const VirtualLightSet dense = traceVirtualLights(scene, accel, direct_.lightSampler(), lt, stop);
-    stats_.nonFinite.fetch_add(dense.nonFiniteRejected, std::memory_order_relaxed);
-    // Stopped: not to be used, so the partial set is not indexed either.
-    if (!dense.stopped) {
-      lobeMap_ = std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
-      lobeFilm_.emplace(width_, height_);
-    }
+    lobeMap_ = buildLobeGatherMap(scene, accel, direct_.lightSampler(), settings, stop, stats_.nonFinite);
+    if (lobeMap_) lobeFilm_.emplace(width_, height_);
     stats_.gatherSeconds += clock.seconds();
     stats_.vslSeconds += clock.seconds();
   }

@@ -7,6 +7,7 @@
 
 #include "core/check.h"
 #include "core/gather.h"
+#include "core/lobe_gather.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "core/stopwatch.h"
@@ -344,9 +345,13 @@ struct MrcsJob {
   bool doVsl = true, doVpl = true;
   const std::atomic<bool>* stop = nullptr;
   std::unique_ptr<Gatherer> both, vslOnly, vplOnly;
-  std::vector<EyeSample> gps;  // per pixel
+  std::unique_ptr<LobeGatherMap> lobeMap;  // settings.lobeGather > 0 with VSL
+  std::vector<EyeSample> gps;              // per pixel
   std::vector<GatherLight> gl;
-  std::atomic<uint64_t> pairs{0};
+  std::atomic<uint64_t> pairs{0}, nonFinite{0};
+  // The eye paths' thread time and their lobe gathers' share of it.
+  double eyeThreadSeconds = 0, eyeLobeSeconds = 0;
+  std::mutex eyeTimeMutex;
   MrcsProgress* progress = nullptr;
   bool stopped() const { return stop && stop->load(std::memory_order_relaxed); }
   void begin(MrcsProgress::Stage st, uint64_t units) const {
@@ -370,12 +375,19 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
   directOut = Image(job.W, job.H);
   job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
   parallelFor(size_t(job.H), [&](size_t y) {
+    Stopwatch rowClock;
     GatherCounters c;
     for (int x = 0; x < job.W; ++x) {
       size_t pix = y * job.W + x;
       Rng rng = Rng::forItem(pix, 0, 2, settings.seed);
       job.gps[pix] = job.both->eyePath(x, int(y), job.W, job.H, rng, c);
       directOut.set(x, int(y), directLight(direct, x, int(y), 0, settings.directSamples, c));
+    }
+    job.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
+    {
+      std::lock_guard<std::mutex> lock(job.eyeTimeMutex);
+      job.eyeThreadSeconds += rowClock.seconds();
+      job.eyeLobeSeconds += c.vslOwnSeconds;
     }
     job.advance(1);
   });
@@ -459,6 +471,8 @@ void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std
 //    image is the shared light alone, and its rows do not count as progress.
 void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std::vector<Representative>& reps,
                            const std::vector<GatherLight>& repGl, Image& out) {
+  // VSL's image adds the lobe gather's estimates, which no column holds.
+  const bool withLobe = layer == kVslLayer && job.lobeMap;
   out = Image(job.W, job.H);
   const bool counted = !reps.empty();
   // A row of pixels against one representative at a time, so that its
@@ -494,14 +508,21 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
       const EyeSample& es = job.gps[row + size_t(x)];
       Vec3 L = es.shared();
       for (int g = 0; g < es.count; ++g) {
-        if (!es.point(g)) continue;
+        const GatherPoint* gp = es.point(g);
+        if (!gp) continue;
+        if (withLobe && gp->lobe) L += gp->vslLobe;
         const double* s = &sums[3 * (size_t(x) * kMaxGatherPoints + size_t(g))];
         L += Vec3(float(s[0]), float(s[1]), float(s[2]));
       }
-      out.set(x, int(y), isFinite(L) ? L : Vec3(0.0f));
+      if (!isFinite(L)) {
+        ++cnt.nonFinite;
+        L = Vec3(0.0f);
+      }
+      out.set(x, int(y), L);
     }
     if (counted) job.advance(1);
     job.pairs.fetch_add(cnt.pairs);
+    job.nonFinite.fetch_add(cnt.nonFinite, std::memory_order_relaxed);
   });
 }
 
@@ -523,7 +544,16 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   job.doVsl = settings.computeVsl;
   job.doVpl = settings.computeVpl;
-  job.both = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl);
+  Stopwatch clock;
+  // The lobe gather's light set (VSL's own cost), before the eye paths that use it.
+  job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, stop, job.nonFinite);
+  const double lobeMapSeconds = job.lobeMap ? clock.lap() : 0.0;
+  if (job.stopped()) {
+    res.stopped = true;
+    return res;
+  }
+  job.both =
+      std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl, job.lobeMap.get());
   job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
   job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
 
@@ -534,13 +564,16 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
                     .clusters = mrcs.clusters,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
-  Stopwatch clock;
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
   job.gl.resize(job.N);
   parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) job.gl[i] = decodeGatherLight(set.lights[i], radii[i]);
   });
   res.eyeSeconds = clock.lap();
+  res.lobeSeconds =
+      lobeMapSeconds +
+      (job.eyeThreadSeconds > 0 ? res.eyeSeconds * std::min(1.0, job.eyeLobeSeconds / job.eyeThreadSeconds) : 0.0);
+  res.eyeSeconds += lobeMapSeconds;
 
   // 1. Rows.
   Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
@@ -609,6 +642,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   res.stopped = job.stopped();
   job.begin(MrcsProgress::kDone, 0);
   res.pairs = job.pairs.load();
+  res.nonFinite = job.nonFinite.load();
   for (Image* img :
        {&res.images.vplUnclamped, &res.images.vplDiffuse, &res.images.lostToClamping, &res.images.lostToDiffuse})
     *img = Image(job.W, job.H);

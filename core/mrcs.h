@@ -66,7 +66,12 @@ struct MrcsResult {
   // the time spent in MrcsProgress::onVslImage is in none of them).
   double eyeSeconds = 0, rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
   double vslColumnSeconds = 0;  // VSL's share of columnSeconds
+  // VSL's own share of eyeSeconds with the lobe gather
+  // (ManyLightSettings::lobeGather): tracing and indexing its light set, and
+  // the gather points' lobe gathers (their share of the eye paths' thread time).
+  double lobeSeconds = 0;
   uint64_t pairs = 0;
+  uint64_t nonFinite = 0;                         // lights and contributions rejected as NaN or Inf
   size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;  // lights dropped (dark at every row)
   bool stopped = false;
 };
@@ -122,7 +127,10 @@ struct MrcsProgress {
 
 // Renders the VSL and VPL indirect images (and direct light with
 // settings.directSamples samples) from `set` with MRCS. `progress`, if given,
-// follows the stages.
+// follows the stages. With the lobe gather (settings.lobeGather), its light set
+// is traced first, the eye paths gather the narrow receivers' specular lobes
+// (as in ManyLightRenderer), and the VSL image adds them to the
+// representatives' columns, which gather the rest.
 MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                       const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
                       const std::atomic<bool>* stop = nullptr, MrcsProgress* progress = nullptr);

@@ -157,8 +157,7 @@ Result<void> StudioSettings::validate() const {
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
   if (Result<void> e = estimator.validate(); !e) return e;
-  if (Result<void> e = many.validate(); !e) return e;
-  return estimator.validateWith(many);
+  return many.validate();
 }
 
 Session::Session() : worker_([this] { run(); }) {}
@@ -191,7 +190,7 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   const uint64_t pixels = uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0));
   const uint64_t fixed = kLayers * 3 * sizeof(double) + (kLayers + 3) * 3 * sizeof(float) + 4 * 4 * sizeof(double);
   const uint64_t perSet = kIndirectLayers * 3 * sizeof(float);
-  const bool lobe = s.many.lobeGather > 0 && s.many.computeVsl && s.estimator.kind == EstimatorKind::BruteForce;
+  const bool lobe = s.many.lobeGather > 0 && s.many.computeVsl;
   const uint64_t lobeBytes = lobe ? lobeGatherBytes(s.many.lobeGather) : 0;
   const uint64_t base = estimateStudioMemory(s.many.lights, width, height, mrcsRows).total() + lobeBytes;
   const uint64_t budget = uint64_t(0.75 * double(available));

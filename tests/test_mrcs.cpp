@@ -202,6 +202,53 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
   EXPECT_EQ(est->mrcsStats().zeroColumnsVsl, direct.zeroColumnsVsl);
 }
 
+// The lobe gather with MRCS: the eye paths gather the narrow receivers'
+// specular lobes as brute force's do and the VSL image adds them to the
+// columns, which gather the rest. With a cluster per light (every weight 1)
+// MRCS is the brute-force gather over the same eye paths: bit for bit the
+// one-batch brute-force image, with the lobe gather as without it. Clamped VPL
+// does not change, and the lobe gather's time is VSL's own.
+TEST(MrcsLobeGather, AClusterPerLightIsTheBruteForceImage) {
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  ManyLightSettings s = smallRender();
+  s.batches = 1;
+  s.directSamples = 1;
+  s.lobeGather = 3000;
+  s.lobeGatherRays = 16;
+  ManyLightSettings off = s;
+  off.lobeGather = 0;
+  const ManyLightRun run = prepareManyLights(c, s);
+  const MrcsSettings all{64, int(run.set.lights.size()), 1};
+  for (uint64_t seed : {100, 101}) {
+    s.seed = off.seed = seed;  // the eye paths' seed (the light set stays)
+    const MrcsResult a = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, all);
+    const MrcsResult b = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, off, all);
+    ASSERT_FALSE(a.stopped);
+    ASSERT_FALSE(b.stopped);
+    EXPECT_EQ(a.nonFinite, 0u);
+    ManyLightRenderer r(c.scene(), c.accel(), c.lights(), run.set, run.radii, s);
+    ASSERT_TRUE(r.renderBatch(0));
+    EXPECT_EQ(a.images.vsl.rgb, r.images().vsl.rgb) << "seed " << seed;
+    ManyLightRenderer r0(c.scene(), c.accel(), c.lights(), run.set, run.radii, off);
+    ASSERT_TRUE(r0.renderBatch(0));
+    EXPECT_EQ(b.images.vsl.rgb, r0.images().vsl.rgb) << "seed " << seed;
+    EXPECT_NE(a.images.vsl.rgb, b.images.vsl.rgb) << "cornell-glossy has receivers the lobe gather takes";
+    EXPECT_EQ(a.images.vpl.rgb, b.images.vpl.rgb) << "clamped VPL does not change";
+    EXPECT_GT(a.lobeSeconds, 0.0);
+    EXPECT_EQ(b.lobeSeconds, 0.0);
+  }
+  // Through the seam: VSL's time includes the lobe gather's.
+  EstimatorSettings e;
+  e.kind = EstimatorKind::Mrcs;
+  e.mrcs = all;
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, prepareManyLights(c, s), s, e);
+  ASSERT_TRUE(est->step());
+  EXPECT_GT(est->stats().vslSeconds, est->stats().vplSeconds);
+}
+
 // overall() through a real render, polled from a second thread as the CLI
 // polls it: it starts at 0, never decreases as the stages follow one
 // another, stays in [0, 1] and is 1 once the render is done.

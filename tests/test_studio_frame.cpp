@@ -793,8 +793,8 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
 }
 
 // --lobe-gather and --lobe-gather-rays reach the render (the export's replay
-// command and settings carry them); a count below the k nearest, directions
-// out of [1, 1024], or --mrcs beside it are bad arguments.
+// command and settings carry them, with MRCS too); a count below the k
+// nearest or directions out of [1, 1024] are bad arguments.
 TEST(StudioCli, LobeGatherReachesTheRender) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-lobe-cli";
   std::filesystem::remove_all(dir);
@@ -820,9 +820,14 @@ TEST(StudioCli, LobeGatherReachesTheRender) {
       r.out.find("--lobe-gather: must be 0 (off) or in [" + std::to_string(ManyLightSettings::kLobeGatherK) + ","),
       std::string::npos)
       << r.out;
+  std::filesystem::remove_all(dir + "/out");
   r = runStudio(dir + "/config", common + "1000 --mrcs 10,20");
-  EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("--lobe-gather: brute force only (not with MRCS)"), std::string::npos) << r.out;
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const nlohmann::json& metrics : exportedMetrics(dir + "/out")) {
+    const std::string replay = metrics["replay"].get<std::string>();
+    EXPECT_NE(replay.find("--lobe-gather 1000"), std::string::npos) << replay;
+    EXPECT_NE(replay.find("--mrcs 10,20"), std::string::npos) << replay;
+  }
   std::filesystem::remove_all(dir + "/out");
   r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 3");
   ASSERT_EQ(r.code, 0) << r.out;

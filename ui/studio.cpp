@@ -650,7 +650,7 @@ bool Studio::gatherControls() {
   changed |= track("lobe-gather", ImGui::Checkbox("lobe gather", &lobeGather_));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
-        "VSL only, brute force only: receivers narrower than GGX alpha 0.05 along either axis (near-mirrors, "
+        "VSL only (brute force or MRCS): receivers narrower than GGX alpha 0.05 along either axis (near-mirrors, "
         "brushed metals) gather their specular lobe by sampling it (%d directions); the light where each "
         "direction lands comes from the %d nearest lights of a second, denser light set. Fewer bright disks "
         "and streaks on polished and brushed surfaces; the second set costs its tracing at every restart.",
