@@ -544,19 +544,6 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   job.doVsl = settings.computeVsl;
   job.doVpl = settings.computeVpl;
-  Stopwatch clock;
-  // The lobe gather's light set (VSL's own cost), before the eye paths that use it.
-  job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, stop, job.nonFinite);
-  const double lobeMapSeconds = job.lobeMap ? clock.lap() : 0.0;
-  if (job.stopped()) {
-    res.stopped = true;
-    return res;
-  }
-  job.both =
-      std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl, job.lobeMap.get());
-  job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
-  job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
-
   if (progress)
     progress->plan({.pixels = uint64_t(job.W) * uint64_t(job.H),
                     .lights = job.N,
@@ -564,6 +551,22 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
                     .clusters = mrcs.clusters,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
+  Stopwatch clock;
+  // The lobe gather's light set (VSL's own cost), before the eye paths that
+  // use it; its tracing shows as the eye paths' stage at 0%.
+  if (settings.lobeGather > 0 && job.doVsl) job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
+  job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, stop, job.nonFinite);
+  const double lobeMapSeconds = job.lobeMap ? clock.lap() : 0.0;
+  if (job.stopped()) {
+    res.stopped = true;
+    job.begin(MrcsProgress::kIdle, 0);
+    return res;
+  }
+  job.both =
+      std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl, job.lobeMap.get());
+  job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
+  job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
+
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
   job.gl.resize(job.N);
   parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {
