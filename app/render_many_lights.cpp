@@ -94,10 +94,13 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
             {"rowSeconds", ms.rowSeconds},
             {"clusterSeconds", ms.clusterSeconds},
             {"columnSeconds", ms.columnSeconds},
+            {"lobeGatherSeconds", ms.lobeSeconds},
             {"zeroColumnsVsl", ms.zeroColumnsVsl},
             {"zeroColumnsVpl", ms.zeroColumnsVpl}};
-  std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s\n", ms.rowSeconds, ms.clusterSeconds,
+  std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s", ms.rowSeconds, ms.clusterSeconds,
                ms.columnSeconds);
+  if (ms.lobeSeconds > 0) std::fprintf(stderr, ", lobe gather %.2f s (in the eye paths)", ms.lobeSeconds);
+  std::fprintf(stderr, "\n");
 }
 
 // The EXR layers of the method(s), the default layer (index 0) being the

@@ -90,6 +90,7 @@ ManyLightRun prepareManyLights(const RenderContext& ctx, const ManyLightSettings
 // Statistics particular to MRCS (zero for brute force).
 struct MrcsStats {
   double rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
+  double lobeSeconds = 0;  // the lobe gather's (MrcsResult::lobeSeconds), part of the eye paths' time
   size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;
 };
 

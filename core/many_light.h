@@ -112,8 +112,8 @@ struct ManyLightSettings {
   // lobeGatherRays directions drawn from that lobe and a second light set of
   // lobeGather lights (its own seed), the kLobeGatherK nearest of which give
   // the radiance where each direction lands; the light set gathers only the
-  // diffuse lobe there. At least kLobeGatherK lights. Brute force only; its
-  // cost (the second set too) is VSL's own time.
+  // diffuse lobe there. At least kLobeGatherK lights. Brute force or MRCS;
+  // its cost (the second set too) is VSL's own time.
   // Off by default; K and the rays were chosen by measurement
   // (docs/VSL-QUALITY.md, "The lobe gather" and "Session 31").
   uint32_t lobeGather = 0;

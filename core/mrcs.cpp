@@ -344,9 +344,12 @@ struct MrcsJob {
   int vplLayer = kVplFullClamped;
   bool doVsl = true, doVpl = true;
   const std::atomic<bool>* stop = nullptr;
+  // settings.lobeGather > 0 with VSL: used by `both`'s eye paths only, and
+  // released after them (their gather points hold its estimates).
+  std::unique_ptr<LobeGatherMap> lobeMap;
+  bool lobe = false;  // the eye paths gathered with lobeMap
   std::unique_ptr<Gatherer> both, vslOnly, vplOnly;
-  std::unique_ptr<LobeGatherMap> lobeMap;  // settings.lobeGather > 0 with VSL
-  std::vector<EyeSample> gps;              // per pixel
+  std::vector<EyeSample> gps;  // per pixel
   std::vector<GatherLight> gl;
   std::atomic<uint64_t> pairs{0}, nonFinite{0};
   // The eye paths' thread time and their lobe gathers' share of it.
@@ -375,6 +378,9 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
   directOut = Image(job.W, job.H);
   job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
   parallelFor(size_t(job.H), [&](size_t y) {
+    // With the lobe gather the eye paths are most of a pass: a restart must
+    // not wait for all of them.
+    if (job.stopped()) return;
     Stopwatch rowClock;
     GatherCounters c;
     for (int x = 0; x < job.W; ++x) {
@@ -472,7 +478,7 @@ void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std
 void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std::vector<Representative>& reps,
                            const std::vector<GatherLight>& repGl, Image& out) {
   // VSL's image adds the lobe gather's estimates, which no column holds.
-  const bool withLobe = layer == kVslLayer && job.lobeMap;
+  const bool withLobe = layer == kVslLayer && job.lobe;
   out = Image(job.W, job.H);
   const bool counted = !reps.empty();
   // A row of pixels against one representative at a time, so that its
@@ -556,7 +562,8 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   // use it; its tracing shows as the eye paths' stage at 0%.
   if (settings.lobeGather > 0 && job.doVsl) job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
   job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, stop, job.nonFinite);
-  const double lobeMapSeconds = job.lobeMap ? clock.lap() : 0.0;
+  job.lobe = job.lobeMap != nullptr;
+  const double lobeMapSeconds = job.lobe ? clock.lap() : 0.0;
   if (job.stopped()) {
     res.stopped = true;
     job.begin(MrcsProgress::kIdle, 0);
@@ -568,6 +575,15 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
 
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
+  if (job.stopped()) {
+    res.stopped = true;
+    job.begin(MrcsProgress::kIdle, 0);
+    return res;
+  }
+  // The rows and columns use no lobe gather (a lobe point's estimate is in its
+  // gather point): the set's memory goes back now.
+  job.both.reset();
+  job.lobeMap.reset();
   job.gl.resize(job.N);
   parallelForChunks(job.N, 4096, [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) job.gl[i] = decodeGatherLight(set.lights[i], radii[i]);

@@ -650,8 +650,10 @@ void Session::logMrcsStep(const Job& job, double stepSeconds) const {
   const MrcsStats m = job.ml->mrcsStats();
   const double eye = std::max(stepSeconds - m.rowSeconds - m.clusterSeconds - m.columnSeconds, 0.0);
   log::info("light set " + std::to_string(job.set + 1) + ": MRCS " + secondsText(stepSeconds) +
-            " (eye paths and direct light " + secondsText(eye) + ", rows " + secondsText(m.rowSeconds) +
-            ", clustering " + secondsText(m.clusterSeconds) + ", columns " + secondsText(m.columnSeconds) + ")");
+            " (eye paths and direct light " + secondsText(eye) +
+            (m.lobeSeconds > 0 ? " with the lobe gather's " + secondsText(m.lobeSeconds) : std::string()) + ", rows " +
+            secondsText(m.rowSeconds) + ", clustering " + secondsText(m.clusterSeconds) + ", columns " +
+            secondsText(m.columnSeconds) + ")");
 }
 
 // ---- [5b] References ------------------------------------------------------------------

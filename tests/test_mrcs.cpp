@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <thread>
+#include <tuple>
 
 #include "core/estimator.h"
 #include "core/mrcs.h"
@@ -247,6 +249,43 @@ TEST(MrcsLobeGather, AClusterPerLightIsTheBruteForceImage) {
   std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, prepareManyLights(c, s), s, e);
   ASSERT_TRUE(est->step());
   EXPECT_GT(est->stats().vslSeconds, est->stats().vplSeconds);
+  EXPECT_GT(est->mrcsStats().lobeSeconds, 0.0);
+}
+
+// A stop raised while the lobe gather's light set is traced, or during the
+// eye paths that use it, ends the MRCS render there: stopped, the progress
+// idle, no image; the next render goes through.
+TEST(MrcsLobeGather, StopsWhileItsLightSetIsTracedAndInTheEyePaths) {
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  ASSERT_TRUE(ctx) << ctx.error();
+  const RenderContext& c = **ctx;
+  ManyLightSettings s = smallRender();
+  s.width = s.height = 96;  // eye paths of about a second with 1,024 directions
+  const ManyLightRun run = prepareManyLights(c, s);
+  const MrcsSettings m{24, 60, 1};
+  // A large set stopped before it begins and while it is traced; a small one
+  // (traced in milliseconds) with many directions stopped in the eye paths.
+  for (auto [lobeLights, rays, delayMs] :
+       {std::tuple{2'000'000u, 16, 0}, std::tuple{2'000'000u, 16, 30}, std::tuple{20'000u, 1024, 250}}) {
+    s.lobeGather = lobeLights;
+    s.lobeGatherRays = rays;
+    std::atomic<bool> stop{delayMs == 0};
+    MrcsProgress progress;
+    std::thread stopper([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+      stop = true;
+    });
+    const MrcsResult r = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m, &stop, &progress);
+    stopper.join();
+    EXPECT_TRUE(r.stopped) << "stopped after " << delayMs << " ms";
+    EXPECT_EQ(progress.stage.load(), MrcsProgress::kIdle) << delayMs << " ms";
+  }
+  s.lobeGather = 2000;
+  s.lobeGatherRays = 16;
+  const MrcsResult done = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, m);
+  EXPECT_FALSE(done.stopped);
+  EXPECT_GT(done.lobeSeconds, 0.0);
 }
 
 // overall() through a real render, polled from a second thread as the CLI

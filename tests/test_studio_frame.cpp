@@ -823,10 +823,19 @@ TEST(StudioCli, LobeGatherReachesTheRender) {
   std::filesystem::remove_all(dir + "/out");
   r = runStudio(dir + "/config", common + "1000 --mrcs 10,20");
   ASSERT_EQ(r.code, 0) << r.out;
-  for (const nlohmann::json& metrics : exportedMetrics(dir + "/out")) {
+  const std::vector<nlohmann::json> withMrcs = exportedMetrics(dir + "/out");
+  EXPECT_EQ(withMrcs.size(), 1u);
+  for (const nlohmann::json& metrics : withMrcs) {
     const std::string replay = metrics["replay"].get<std::string>();
     EXPECT_NE(replay.find("--lobe-gather 1000"), std::string::npos) << replay;
     EXPECT_NE(replay.find("--mrcs 10,20"), std::string::npos) << replay;
+  }
+  // The exported EXR names the estimator beside the settings.
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/out")) {
+    std::map<std::string, std::string> attrs;
+    ASSERT_TRUE(readExr((e.path() / "images.exr").string(), &attrs));
+    EXPECT_EQ(attrs["vsl.estimator"].rfind("mrcs --mrcs 10,20,", 0), 0u) << attrs["vsl.estimator"];
+    EXPECT_NE(attrs["vsl.settings"].find("--lobe-gather 1000"), std::string::npos) << attrs["vsl.settings"];
   }
   std::filesystem::remove_all(dir + "/out");
   r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 3");

@@ -158,9 +158,11 @@ Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
                                {"error-vsl-relsq", ev.relSquared},
                                {"error-vpl-signed", ep.signedDiff},
                                {"error-vpl-relsq", ep.relSquared}};
-  return writeExr(
-      path, layers,
-      {{"vsl.version", VSL_VERSION}, {"vsl.scene", s.settings.scene}, {"vsl.settings", s.settings.many.describe()}});
+  return writeExr(path, layers,
+                  {{"vsl.version", VSL_VERSION},
+                   {"vsl.scene", s.settings.scene},
+                   {"vsl.settings", s.settings.many.describe()},
+                   {"vsl.estimator", s.settings.estimator.describe()}});
 }
 
 nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
