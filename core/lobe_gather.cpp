@@ -1,8 +1,6 @@
 #include "core/lobe_gather.h"
 
 #include <algorithm>
-#include <limits>
-#include <utility>
 
 #include "core/point_tree.h"
 

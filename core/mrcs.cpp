@@ -4,6 +4,7 @@
 #include <memory>
 #include <numeric>
 #include <queue>
+#include <utility>
 
 #include "core/check.h"
 #include "core/gather.h"
@@ -365,7 +366,8 @@ struct MrcsJob {
   }
 };
 
-// Gather points (one eye sample per pixel) and direct light.
+// Gather points (one eye sample per pixel) and direct light, in the eye
+// paths' progress stage (begun by the caller).
 void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSampler& lights,
                        const ManyLightSettings& settings, MrcsJob& job, Image& directOut) {
   RenderSettings rs;
@@ -376,7 +378,6 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
   PathTracer direct(scene, accel, lights, rs);
   job.gps.resize(size_t(job.W) * job.H);
   directOut = Image(job.W, job.H);
-  job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
   parallelFor(size_t(job.H), [&](size_t y) {
     // With the lobe gather the eye paths are most of a pass: a restart must
     // not wait for all of them.
@@ -557,29 +558,27 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
                     .clusters = mrcs.clusters,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
+  // A stopped render is discarded: no image, the progress idle.
+  auto stoppedResult = [&] {
+    res.stopped = true;
+    job.begin(MrcsProgress::kIdle, 0);
+    return std::move(res);
+  };
   Stopwatch clock;
   // The lobe gather's light set (VSL's own cost), before the eye paths that
-  // use it; its tracing shows as the eye paths' stage at 0%.
-  if (settings.lobeGather > 0 && job.doVsl) job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
+  // use it: its tracing shows as the eye paths' stage at 0%.
+  job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
   job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, stop, job.nonFinite);
   job.lobe = job.lobeMap != nullptr;
   const double lobeMapSeconds = job.lobe ? clock.lap() : 0.0;
-  if (job.stopped()) {
-    res.stopped = true;
-    job.begin(MrcsProgress::kIdle, 0);
-    return res;
-  }
+  if (job.stopped()) return stoppedResult();
   job.both =
       std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl, job.lobeMap.get());
   job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
   job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
 
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
-  if (job.stopped()) {
-    res.stopped = true;
-    job.begin(MrcsProgress::kIdle, 0);
-    return res;
-  }
+  if (job.stopped()) return stoppedResult();
   // The rows and columns use no lobe gather (a lobe point's estimate is in its
   // gather point): the set's memory goes back now.
   job.both.reset();
@@ -608,11 +607,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   else if (job.doVpl)
     reducedColumns(job, *job.vplOnly, job.vplLayer, rowPix, colVpl, nullptr, false);
   res.rowSeconds = clock.lap();
-  if (job.stopped()) {
-    res.stopped = true;
-    job.begin(MrcsProgress::kIdle, 0);
-    return res;
-  }
+  if (job.stopped()) return stoppedResult();
 
   // 2-3. Clustering and representatives: VSL's now, VPL's after VSL's
   // columns, so that the VSL image is complete as early as it can be (each
