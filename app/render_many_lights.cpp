@@ -26,7 +26,7 @@ struct Gathered {
   ManyLightImages im;
   int w = 0, h = 0, batches = 0;
   size_t lightsProcessed = 0;
-  uint64_t pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
+  uint64_t pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0, rouletteDropped = 0;
   double seconds = 0;
   json mrcs;  // MRCS statistics; null for the brute-force gather
 };
@@ -84,6 +84,7 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
   g.pairs = st.pairs;
   g.shadowRays = st.shadowRays;
   g.vslEvaluations = st.vslEvaluations;
+  g.rouletteDropped = st.rouletteDropped;
   g.nonFinite = st.nonFinite;
   if (e.kind != EstimatorKind::Mrcs) return;
   const MrcsStats ms = est.mrcsStats();
@@ -184,6 +185,7 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
             {"pairsPerSecond", g.pairs / std::max(g.seconds, 1e-9)},
             {"shadowRays", g.shadowRays},
             {"vslEvaluations", g.vslEvaluations},
+            {"pairsDroppedByRoulette", g.rouletteDropped},
             {"nonFiniteRejected", rejected},
             {"mean",
              {{"direct", imageMeanJson(im.direct)},

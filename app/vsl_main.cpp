@@ -96,6 +96,12 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
   cmd->add_option("--lobe-gather-rays", m.lobeGatherRays, "VSL lobe gather: directions per gather point")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeGatherRays))
       ->check(CLI::Range(1, 1024));
+  cmd->add_option("--pair-roulette", m.pairRoulette,
+                  "Pair roulette (VSL and VPL): a pair whose contribution, estimated before its shadow ray, is "
+                  "below K x the mean pair's (earlier batches) is gathered with probability estimate / (K x mean) "
+                  "and weighted by its inverse (unbiased; fewer rays and samples); 0 = off")
+      ->default_str("0")
+      ->check(CLI::Range(0.0, 1000.0));
   cmd->add_option("--lobe-radius", m.lobeRadius,
                   "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")
       ->default_str("0")

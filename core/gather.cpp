@@ -223,8 +223,9 @@ bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry
 }
 
 void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo,
-                           uint8_t* visible, ConnectScratch& scratch, GatherCounters& c,
-                           std::span<const uint8_t> known) const {
+                           uint8_t* visible, ConnectScratch& scratch, GatherCounters& c, std::span<const uint8_t> known,
+                           const PairRoulette* roulette) const {
+  const bool play = roulette && roulette->threshold > 0 && (computeVsl_ || computeVpl_) && known.empty();
   if (!known.empty()) {
     VSL_CHECK_EQ(known.size(), gps.size());
     // The pairs and rays were counted when known[] was traced.
@@ -233,6 +234,7 @@ void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const Gather
     for (size_t i = 0; i < gps.size(); ++i) {
       bool needsRay = false;
       visible[i] = known[i] && gps[i] && orient(*gps[i], L, geo[i], unused, needsRay, uncounted);
+      geo[i].weight = 1;
     }
     return;
   }
@@ -242,6 +244,24 @@ void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const Gather
   for (size_t i = 0; i < gps.size(); ++i) {
     bool needsRay = false;
     visible[i] = gps[i] && orient(*gps[i], L, geo[i], scratch.rays[nRays], needsRay, c);
+    geo[i].weight = 1;
+    if (visible[i] && roulette) ++c.rouletteOffered;
+    if (visible[i] && play) {
+      const float e = pairEstimate(*gps[i], L, geo[i]);
+      if (e < roulette->threshold) {
+        const float q = e / roulette->threshold;
+        Rng rr = Rng::forItem(roulette->streams[i], roulette->lightId, 5, seed_);
+        if (q > 0 && rr.uniform() < q) {
+          geo[i].weight = 1.0f / q;
+        } else {
+          // Dropped: no ray, nothing gathered.
+          ++c.rouletteDropped;
+          if (needsRay) --c.shadowRays;
+          visible[i] = 0;
+          continue;
+        }
+      }
+    }
     if (visible[i] && needsRay) scratch.rayOf[nRays++] = uint32_t(i);
   }
   if (nRays == 0) return;
@@ -271,42 +291,119 @@ void Gatherer::addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeo
     return lum > clamp_ ? T * (clamp_ / lum) : T;
   };
   // Transfer of the full BRDF and of diffuse-only emission.
-  const Vec3 w = gp.beta * L.Phi;
+  const Vec3 w = gp.beta * L.Phi * g.weight;
   Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(g.l)) * (g.cosX * g.cosP / g.d2);
   BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-g.l));
   Vec3 Tdiff = fxG * fp.diffuse;
   Vec3 Tfull = Tdiff + fxG * fp.specular;
   addLayer(acc, kVplFull, w * Tfull, c);
+  if (const Vec3 v = w * Tfull; isFinite(v)) c.gatheredLuminance += double(std::max(0.0f, luminance(v)));
   addLayer(acc, kVplFullClamped, w * clamped(Tfull), c);
   addLayer(acc, kVplDiffuse, w * Tdiff, c);
   addLayer(acc, kVplDiffuseClamped, w * clamped(Tdiff), c);
 }
 
+bool Gatherer::vslPair(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, VslPair& out) const {
+  // At a lobe-gathered point the light set lights the diffuse lobe only
+  // (none on a metal).
+  out.rx = gp.rx;
+  if (gp.lobe) {
+    if (gp.rx.f.brdf().metallic >= 1.0f) return false;
+    out.rx.f = gp.rx.f.diffuseLobe();
+  }
+  // Where the lobe floor applies, the light's sphere is wider too
+  // (kVslLobeFloorRadiusScale).
+  const bool floorApplies = lobeFloor_ > 0 && vslLobeFloorApplies(out.rx, L.em);
+  const float lightRadius = floorApplies ? L.radius * kVslLobeFloorRadiusScale : L.radius;
+  out.radius = lobeRadius_ > 0 ? std::max(lightRadius, lobeRadius_ * g.dist * L.alpha) : lightRadius;
+  // The floor follows the light's own radius, not the lobe-aware one (which
+  // does not shrink with the light count), so that it vanishes as r does.
+  if (!(floorApplies && vslWidenLobe(L.em, lightRadius, g.dist, lobeFloor_, out.em))) out.em = L.em;
+  return true;
+}
+
 void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId,
                       uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const {
   if (!computeVsl_) return;
-  // At a lobe-gathered point the light set lights the diffuse lobe only
-  // (none on a metal).
-  std::optional<VslReceiver> diffuse;
-  if (gp.lobe) {
-    if (gp.rx.f.brdf().metallic >= 1.0f) return;
-    diffuse = gp.rx;
-    diffuse->f = gp.rx.f.diffuseLobe();
-  }
-  const VslReceiver& rx = diffuse ? *diffuse : gp.rx;
+  VslPair pr;
+  if (!vslPair(gp, L, g, pr)) return;
   Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
-  // Where the lobe floor applies, the light's sphere is wider too
-  // (kVslLobeFloorRadiusScale).
-  const bool floorApplies = lobeFloor_ > 0 && vslLobeFloorApplies(rx, L.em);
-  const float lightRadius = floorApplies ? L.radius * kVslLobeFloorRadiusScale : L.radius;
-  float radius = lobeRadius_ > 0 ? std::max(lightRadius, lobeRadius_ * g.dist * L.alpha) : lightRadius;
-  // The floor follows the light's own radius, not the lobe-aware one (which
-  // does not shrink with the light count), so that it vanishes as r does.
-  VslEmitter floored;
-  const bool useFloor = floorApplies && vslWidenLobe(L.em, lightRadius, g.dist, lobeFloor_, floored);
-  VslResult r = vslTransferBlock(rx, useFloor ? floored : L.em, g.d, radius, vsl_, prng);
+  VslResult r = vslTransferBlock(pr.rx, pr.em, g.d, pr.radius, vsl_, prng);
   c.vslEvaluations += uint64_t(r.evaluations);
-  addLayer(acc, kVslLayer, gp.beta * L.Phi * r.transfer, c);
+  const Vec3 v = gp.beta * L.Phi * r.transfer;
+  if (isFinite(v)) c.gatheredLuminance += double(g.weight) * double(std::max(0.0f, luminance(v)));
+  addLayer(acc, kVslLayer, g.weight == 1 ? v : v * g.weight, c);
+}
+
+namespace {
+
+// The direction inside the cone (unit axis a, cos and sin of its half-angle)
+// closest to the unit direction v.
+Vec3 closestInCone(const Vec3& a, float cosT, float sinT, const Vec3& v) {
+  const float c = dot(a, v);
+  if (c >= cosT) return v;
+  Vec3 perp = v - a * c;
+  const float pl = length(perp);
+  if (!(pl > 1e-7f)) return a;  // v opposite the axis: any rim direction is as close
+  return a * cosT + perp * (sinT / pl);
+}
+
+// The largest cosine with a normal over the cone, given the cosine at its axis.
+float largestCosine(float cosAxis, float cosT, float sinT) {
+  const float sinAxis = std::sqrt(std::max(0.0f, 1.0f - cosAxis * cosAxis));
+  // cos(max(0, phi - theta)) with phi the axis's angle to the normal.
+  return cosAxis >= cosT ? 1.0f : std::min(1.0f, cosAxis * cosT + sinAxis * sinT);
+}
+
+}  // namespace
+
+float Gatherer::pairEstimate(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g) const {
+  float e = computeVsl_ ? vslBound(gp, L, g) : 0.0f;
+  if (computeVpl_) {
+    const Vec3 fx = gp.rx.f.eval(gp.rx.frame.toLocal(g.l)), fp = L.em.f.eval(L.em.frame.toLocal(-g.l));
+    const float v = luminance(gp.beta * L.Phi * fx * fp) * (g.cosX * g.cosP / g.d2);
+    e = std::max(e, std::isfinite(v) ? v : std::numeric_limits<float>::infinity());
+  }
+  return e;
+}
+
+float Gatherer::vslBound(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g) const {
+  VslPair pr;
+  if (!vslPair(gp, L, g, pr)) return 0;
+  const double omc = vslConeOneMinusCos(pr.radius, g.dist);
+  const float cosT = float(1.0 - omc), sinT = float(std::sqrt(std::max(0.0, omc * (2.0 - omc))));
+  // Each lobe's peak: the receiver's mirror direction of wo; the light's
+  // mirror direction of its incoming light, seen from x along its reverse.
+  const Vec3 wo = pr.rx.f.w(), we = pr.em.f.w();
+  const Vec3 peakX = pr.rx.frame.toWorld(Vec3(-wo.x, -wo.y, wo.z));
+  const Vec3 peakP = -pr.em.frame.toWorld(Vec3(-we.x, -we.y, we.z));
+  const Vec3 lx = closestInCone(g.l, cosT, sinT, peakX), lp = closestInCone(g.l, cosT, sinT, peakP);
+  const Vec3 lxL = pr.rx.frame.toLocal(lx), lpL = pr.em.frame.toLocal(-lp);
+  // Below a side's surface the BRDF is zero: take it at the cone's axis,
+  // and at the hemisphere's edge if that is below too (a grazing cone).
+  auto evalUp = [](const BrdfAt& f, Vec3 wl, const Vec3& axisL) {
+    if (!(wl.z > 1e-4f)) wl = axisL;
+    if (!(wl.z > 1e-4f)) wl = normalize(Vec3(wl.x, wl.y, 1e-3f));
+    return f.eval(wl);
+  };
+  // Channel by channel (the luminance of a product of colours is not the
+  // product of their luminances: a red light on a gold wall).
+  // An anisotropic lobe's largest value over the cone need not lie nearest
+  // its peak by angle: D is at most the isotropic D of the wider axis times
+  // (wider / narrower alpha), so that ratio stands in for the search.
+  auto anisotropy = [](const BrdfAt& f) {
+    const GGX& a = f.brdf().ggx;
+    return f.specularOn() ? std::max(a.ax, a.ay) / std::max(std::min(a.ax, a.ay), 1e-6f) : 1.0f;
+  };
+  const Vec3 fx = evalUp(pr.rx.f, lxL, pr.rx.frame.toLocal(g.l)) * anisotropy(pr.rx.f);
+  const Vec3 fp = evalUp(pr.em.f, lpL, pr.em.frame.toLocal(-g.l)) * anisotropy(pr.em.f);
+  const float cx = largestCosine(g.cosX, cosT, sinT), cp = largestCosine(g.cosP, cosT, sinT);
+  const double area =
+      vsl_.clippedDisk ? vslClippedDiskArea(pr.radius, dot(g.d, pr.rx.ng)) : M_PI * double(pr.radius) * pr.radius;
+  if (!(area > 0)) return std::numeric_limits<float>::infinity();
+  const double solid = 2.0 * M_PI * omc;
+  const double b = double(luminance(gp.beta * L.Phi * fx * fp)) * cx * cp * solid / area;
+  return std::isfinite(b) ? float(b) : std::numeric_limits<float>::infinity();
 }
 
 }  // namespace vsl

@@ -61,6 +61,11 @@ inline uint64_t gatherStream(uint64_t pixel, int k) { return k == 0 ? pixel : pi
 
 struct GatherCounters {
   uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
+  // The pair roulette: pairs it dropped, pairs it was offered (kept or
+  // dropped), and the luminance gathered (its weights applied; VSL's and
+  // unclamped VPL's, each computed one) for the next batch's threshold.
+  uint64_t rouletteDropped = 0, rouletteOffered = 0;
+  double gatheredLuminance = 0;
   double vslOwnSeconds = 0;  // VSL's own work inside eyePath (the lobe gather)
 };
 
@@ -73,6 +78,20 @@ Vec3 directLight(const PathTracer& direct, int x, int y, int sBegin, int sEnd, G
 struct PairGeometry {
   Vec3 d, l;  // d = L.p - gp.p, l = d / |d|
   float d2, dist, cosX, cosP;
+  // The pair roulette's weight (ManyLightSettings::pairRoulette): 1 where
+  // the pair was not offered to it, 1/q where it survived with probability q.
+  float weight = 1;
+};
+
+// The pair roulette's inputs for one light against many gather points
+// (Gatherer::connectMany): the threshold in luminance of the pair's estimated
+// contribution (Gatherer::pairEstimate) below which a pair is kept with
+// probability estimate / threshold, the light's id and each point's
+// quadrature stream (seeding the decision).
+struct PairRoulette {
+  float threshold = 0;  // <= 0: off
+  uint64_t lightId = 0;
+  const uint64_t* streams = nullptr;  // one per gather point
 };
 
 class LobeGatherMap;
@@ -112,8 +131,26 @@ class Gatherer {
     std::vector<uint32_t> rayOf;
     std::vector<uint8_t> blocked;
   };
+  // With `roulette` (not with `known`), a pair whose estimate (pairEstimate)
+  // is below the threshold is kept with probability estimate / threshold and
+  // weighted by its inverse (geo[i].weight); a pair it drops is not visible
+  // and needs no shadow ray.
   void connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo, uint8_t* visible,
-                   ConnectScratch& scratch, GatherCounters& c, std::span<const uint8_t> known = {}) const;
+                   ConnectScratch& scratch, GatherCounters& c, std::span<const uint8_t> known = {},
+                   const PairRoulette* roulette = nullptr) const;
+  // An estimate from above of the luminance of the pair's VSL contribution
+  // (beta x Phi x T_VSL) before its shadow ray and quadrature: each BRDF at
+  // the direction inside the cone closest to its lobe's peak (the mirror
+  // direction), each cosine at its largest over the cone, times the cone's
+  // solid angle over the sphere's area. Not a strict bound (Fresnel, masking
+  // and anisotropy can put the largest value elsewhere); the roulette stays
+  // unbiased whatever it returns, it only decides where the roulette plays.
+  float vslBound(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g) const;
+  // The pair roulette's estimate of a pair's contribution (luminance), for
+  // the estimators computed: vslBound for VSL, the unclamped full-BRDF VPL
+  // contribution for VPL (it bounds every VPL layer), the larger of the two
+  // where both are computed.
+  float pairEstimate(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g) const;
   // Both transfers of a connected pair: evaluate() after connect().
   void addConnected(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId,
                     uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const {
@@ -126,6 +163,15 @@ class Gatherer {
               double acc[kGatherLayers][3], GatherCounters& c) const;
 
  private:
+  // The VSL pair as addVsl gathers it: the receiver (its diffuse lobe at a
+  // lobe-gathered point), the light (its lobe widened by the floor) and the
+  // sphere's radius. False: VSL gathers nothing from the pair.
+  struct VslPair {
+    VslReceiver rx;
+    VslEmitter em;
+    float radius;
+  };
+  bool vslPair(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, VslPair& out) const;
   // Next-event light at sh reflected by f toward the viewer, from
   // kSharedLightSamples lights sampled by power; deltaOnly: punctual lights
   // only (zero for area lights, whose light a continued ray finds by hitting

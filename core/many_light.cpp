@@ -53,6 +53,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
   else if (lobeGatherRays < 1 || lobeGatherRays > 1024)
     e << "lobe-gather-rays: must be in [1,1024] (got " << lobeGatherRays << ")";
+  else if (!(pairRoulette >= 0 && pairRoulette <= 1000))
+    e << "pair-roulette: must be in [0,1000] (got " << pairRoulette << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
   if (std::string m = e.str(); !m.empty()) return Error(m);
@@ -84,6 +86,7 @@ std::string ManyLightSettings::describe() const {
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
   if (lobeGather > 0) s << " --lobe-gather " << lobeGather << " --lobe-gather-rays " << lobeGatherRays;
+  if (pairRoulette > 0) s << " --pair-roulette " << pairRoulette;
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();
 }
@@ -177,6 +180,9 @@ struct ManyLightRenderer::Batch {
   std::atomic<bool> abandoned{false};
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
+  float rouletteThreshold = 0;                      // the pair roulette's (0: not played)
+  double gatheredLuminance = 0;                     // summed over threads (GatherCounters)
+  uint64_t roulettePairs = 0;
 };
 
 bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
@@ -189,6 +195,8 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   batch.dBegin = b == 0 ? 0 : directEnd_[b - 1];
   batch.dEnd = directEnd_[b];
   const size_t nb = batch.end - batch.begin;
+  if (settings_.pairRoulette > 0 && roulettePairs_ > 0)
+    batch.rouletteThreshold = float(settings_.pairRoulette * rouletteLuminance_ / double(roulettePairs_));
 
   // Decode this batch's lights once.
   batch.lights.resize(nb);
@@ -266,6 +274,11 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     }
   }
   const size_t tilePoints = static_cast<size_t>(n);
+  // The pair roulette's seeds: each point's quadrature stream.
+  std::vector<uint64_t> streams[kMaxGatherPoints];
+  for (int k = 0; k < kMaxGatherPoints; ++k)
+    if (any[k])
+      for (int i = 0; i < n; ++i) streams[k].push_back(gatherStream(pixelOf(i), k));
   std::vector<PairGeometry> geo(tilePoints);
   std::vector<uint8_t> visible(tilePoints);
   std::vector<uint32_t> list(tilePoints);
@@ -282,7 +295,8 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
           return;
         }
         const GatherLight& L = batch.lights[l];
-        gatherer.connectMany(pts[k], L, geo.data(), visible.data(), scratch, c);
+        const PairRoulette roulette{batch.rouletteThreshold, order_[batch.begin + l], streams[k].data()};
+        gatherer.connectMany(pts[k], L, geo.data(), visible.data(), scratch, c, {}, &roulette);
         size_t nv = 0;
         for (size_t i = 0; i < tilePoints; ++i)
           if (visible[i]) list[nv++] = uint32_t(i);
@@ -324,7 +338,10 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     batch.threadTime += tileClock.seconds();
     batch.vplTime += vplOwn;
     batch.vslTime += vslOwn;
+    batch.gatheredLuminance += c.gatheredLuminance;
+    batch.roulettePairs += c.rouletteOffered;
   }
+  stats_.rouletteDropped.fetch_add(c.rouletteDropped, std::memory_order_relaxed);
   stats_.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
   stats_.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
   stats_.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
@@ -352,6 +369,8 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   });
   processed_ = batch.end;
   ++batchesDone_;
+  rouletteLuminance_ += batch.gatheredLuminance;
+  roulettePairs_ += batch.roulettePairs;
   // Each method's own time: the batch's wall time less the share of thread
   // time spent in the other method's own transfer (what it would have taken
   // alone; the shared eye paths, direct light and shadow rays go to both).

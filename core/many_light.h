@@ -121,6 +121,16 @@ struct ManyLightSettings {
   static constexpr int kDefaultLobeGatherRays = 128;
   static constexpr int kLobeGatherK = 32;
   static constexpr float kLobeGatherAlpha = 0.05f;
+  // The pair roulette (0 = off): before its shadow ray and transfers, a pair
+  // whose contribution is estimated (Gatherer::pairEstimate: from above for
+  // VSL, exactly for VPL before clamping) at less than pairRoulette x the
+  // mean contribution per pair offered in earlier batches is kept with
+  // probability estimate / threshold and weighted by its inverse (unbiased
+  // for each estimator; the first batch plays none). Most pairs on glossy
+  // scenes carry almost nothing (hall, VSL: 80% of the pairs hold 3% of the
+  // light); the roulette spends the rays and samples on the rest. Both
+  // estimators, so that equal-time comparisons give each the same help.
+  float pairRoulette = 0;
   VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslCount}; }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
@@ -151,8 +161,9 @@ struct ManyLightStats {
   std::atomic<uint64_t> pairs{0};  // (pixel, light) pairs evaluated
   std::atomic<uint64_t> shadowRays{0};
   std::atomic<uint64_t> vslEvaluations{0};
-  std::atomic<uint64_t> nonFinite{0};  // contributions rejected where they arose
-  double gatherSeconds = 0;            // wall time of the gathers (both methods together)
+  std::atomic<uint64_t> rouletteDropped{0};  // pairs the pair roulette dropped
+  std::atomic<uint64_t> nonFinite{0};        // contributions rejected where they arose
+  double gatherSeconds = 0;                  // wall time of the gathers (both methods together)
   // Each method's own gather time: what it would have taken alone. Shared
   // work (eye paths, direct light, shadow rays) is charged to both; VSL's
   // quadrature only to VSL and VPL's transfer only to VPL.
@@ -202,6 +213,10 @@ class ManyLightRenderer {
   std::vector<int> directEnd_;    // cumulative direct samples
   size_t processed_ = 0;
   int batchesDone_ = 0;
+  // The pair roulette's measure: VSL's gathered luminance (roulette weights
+  // applied) over the pairs it gathered or dropped, in the batches merged.
+  double rouletteLuminance_ = 0;
+  uint64_t roulettePairs_ = 0;
   Film directFilm_, sharedFilm_;  // per-pass averages
   // The lobe gather's estimates (VSL only), one per batch's eye sample and
   // each weighted equally, as the eye paths' own light is: they do not

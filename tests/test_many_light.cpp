@@ -1106,6 +1106,200 @@ TEST(ManyLight, EachMethodIsChargedItsOwnTime) {
   EXPECT_DOUBLE_EQ(vplOnly.stats().vplSeconds, vplOnly.stats().gatherSeconds);
 }
 
+// The pair roulette (ManyLightSettings::pairRoulette): VSL's share of a pair
+// whose estimate from above (Gatherer::vslBound) is under the threshold is
+// kept with probability bound / threshold and weighted by its inverse. On
+// hall (metal lights and walls: most pairs carry almost nothing), over many
+// seeds: the sum of the weighted contributions agrees with the sum without
+// the roulette (a z-test on paired differences, the same quadrature streams),
+// the estimate is at least the converged transfer for nearly every pair, and
+// dropped pairs trace no ray.
+TEST(ManyLightStats, PairRouletteIsUnbiasedAndDropsMostPairs) {
+  Loaded l = loadAsset("hall", 24);
+  ASSERT_TRUE(l.context);
+  ManyLightSettings s;
+  s.lights = 600;
+  s.seed = 3;
+  s.computeVpl = false;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  ASSERT_GT(run.set.lights.size(), 300u);
+  Gatherer g0(*l.scene, *l.accel, *l.lights, s, 1.0f, true, false);
+  GatherCounters eyeCounters;
+  std::vector<const GatherPoint*> pts;
+  std::vector<EyeSample> eyes(size_t(l.width * l.height));
+  std::vector<uint64_t> streams;
+  for (int y = 0; y < l.height; ++y)
+    for (int x = 0; x < l.width; ++x) {
+      const uint64_t pix = uint64_t(y * l.width + x);
+      Rng rng = Rng::forItem(pix, 0, 2, 1);
+      eyes[pix] = g0.eyePath(x, y, l.width, l.height, rng, eyeCounters);
+      pts.push_back(eyes[pix].point(0));
+      streams.push_back(gatherStream(pix, 0));
+    }
+  std::vector<GatherLight> lights;
+  for (size_t j = 0; j < run.set.lights.size(); j += 3)
+    lights.push_back(decodeGatherLight(run.set.lights[j], run.radii[j]));
+  // Every oriented pair's bound (the threshold below comes from them).
+  std::vector<float> bounds;
+  {
+    GatherCounters c;
+    for (size_t j = 0; j < lights.size(); j += 4)
+      for (size_t i = 0; i < pts.size(); ++i) {
+        PairGeometry geo;
+        if (pts[i] && g0.connect(*pts[i], lights[j], geo, c)) bounds.push_back(g0.vslBound(*pts[i], lights[j], geo));
+      }
+  }
+  ASSERT_GT(bounds.size(), 5000u);
+  // The threshold: the 80th percentile of the bounds, so that most pairs play.
+  std::sort(bounds.begin(), bounds.end());
+  const float threshold = bounds[bounds.size() * 8 / 10];
+  ASSERT_GT(threshold, 0.0f);
+  std::vector<double> diff;
+  uint64_t dropped = 0, played = 0, raysWith = 0, raysWithout = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    ManyLightSettings t = s;
+    t.seed = 100 + uint64_t(trial);
+    Gatherer g(*l.scene, *l.accel, *l.lights, t, 1.0f, true, false);
+    Gatherer::ConnectScratch scratch;
+    double with = 0, without = 0;
+    for (size_t j = 0; j < lights.size(); ++j) {
+      std::vector<PairGeometry> geo(pts.size()), geoPlain(pts.size());
+      std::vector<uint8_t> vis(pts.size()), visPlain(pts.size());
+      GatherCounters cw, cp;
+      const PairRoulette roulette{threshold, uint64_t(j), streams.data()};
+      g.connectMany(pts, lights[j], geo.data(), vis.data(), scratch, cw, {}, &roulette);
+      g.connectMany(pts, lights[j], geoPlain.data(), visPlain.data(), scratch, cp);
+      dropped += cw.rouletteDropped;
+      raysWith += cw.shadowRays;
+      raysWithout += cp.shadowRays;
+      for (size_t i = 0; i < pts.size(); ++i) {
+        if (vis[i]) {
+          EXPECT_TRUE(visPlain[i]) << "the roulette only removes pairs";
+        }
+        if (vis[i] && geo[i].weight != 1) ++played;
+        double a[kGatherLayers][3] = {}, b[kGatherLayers][3] = {};
+        if (vis[i]) g.addVsl(*pts[i], lights[j], geo[i], j, streams[i], a, cw);
+        if (visPlain[i]) g.addVsl(*pts[i], lights[j], geoPlain[i], j, streams[i], b, cp);
+        for (int c = 0; c < 3; ++c) {
+          with += a[kVslLayer][c];
+          without += b[kVslLayer][c];
+        }
+      }
+    }
+    diff.push_back(with - without);
+    if (trial == 0) std::printf("trial 0: with the roulette %.6g, without %.6g\n", with, without);
+  }
+  const auto [m, se] = meanAndError(diff);
+  std::printf("roulette - plain: %.4g +- %.4g; %llu pairs dropped, %llu kept with a weight; rays %llu -> %llu\n", m, se,
+              (unsigned long long)dropped, (unsigned long long)played, (unsigned long long)raysWithout,
+              (unsigned long long)raysWith);
+  EXPECT_LT(std::abs(m), 4 * se + 1e-12);
+  EXPECT_GT(played, 0u);
+  // Most pairs are under the threshold, and most of those are dropped, rays and all.
+  EXPECT_LT(double(raysWith), 0.5 * double(raysWithout));
+  // A dropped pair's ray is not traced (a pair whose ends coincide has none).
+  EXPECT_LE(raysWithout - raysWith, dropped);
+  EXPECT_GE(double(raysWithout - raysWith), 0.99 * double(dropped));
+}
+
+// Gatherer::vslBound is at least the pair's converged VSL contribution (256
+// samples per strategy) on every bundled glossy scene: colours (gold walls,
+// a red light), anisotropic metals (kitchen's range hood, tableau's panels),
+// near-mirror dielectrics, lobe-gathered points and the lobe floor.
+TEST(ManyLightStats, VslBoundIsAtLeastTheTransfer) {
+  for (const char* name : {"hall", "kitchen", "tableau", "cornell-glossy"}) {
+    Loaded l = loadAsset(name, 20);
+    ASSERT_TRUE(l.context);
+    ManyLightSettings s;
+    s.lights = 300;
+    s.seed = 4;
+    s.computeVpl = false;
+    s.vslSamples = 256;
+    s.lobeGather = 1000;
+    ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+    std::atomic<uint64_t> rejected{0};
+    std::unique_ptr<LobeGatherMap> map = buildLobeGatherMap(*l.scene, *l.accel, *l.lights, s, nullptr, rejected);
+    ASSERT_TRUE(map);
+    Gatherer g(*l.scene, *l.accel, *l.lights, s, 1.0f, true, false, map.get());
+    GatherCounters c;
+    size_t under = 0, pairs = 0;
+    double worst = 0;
+    for (int y = 0; y < l.height; ++y)
+      for (int x = 0; x < l.width; ++x) {
+        const uint64_t pix = uint64_t(y * l.width + x);
+        Rng rng = Rng::forItem(pix, 0, 2, 1);
+        const EyeSample es = g.eyePath(x, y, l.width, l.height, rng, c);
+        for (int k = 0; k < es.count; ++k) {
+          const GatherPoint* gp = es.point(k);
+          if (!gp) continue;
+          for (size_t j = 0; j < run.set.lights.size(); j += 3) {
+            const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
+            PairGeometry geo;
+            if (!g.connect(*gp, L, geo, c)) continue;
+            const double b = g.vslBound(*gp, L, geo);
+            double acc[kGatherLayers][3] = {};
+            g.addVsl(*gp, L, geo, j, gatherStream(pix, k), acc, c);
+            const double v = 0.2126 * acc[kVslLayer][0] + 0.7152 * acc[kVslLayer][1] + 0.0722 * acc[kVslLayer][2];
+            ++pairs;
+            if (b < 0.9 * v) ++under;
+            if (v > 0) worst = std::max(worst, v / b);
+          }
+        }
+      }
+    std::printf("%s: bound under 0.9 x the transfer on %zu of %zu pairs (largest transfer / bound %.3g)\n", name, under,
+                pairs, worst);
+    EXPECT_GT(pairs, 3000u) << name;
+    // The converged transfer still has a few percent of noise.
+    EXPECT_EQ(under, 0u) << name;
+    EXPECT_LT(worst, 1.1) << name;
+  }
+}
+
+// The renderer plays the roulette from the second batch on, with the mean
+// gathered pair of the batches before as its scale: fewer rays (and, for
+// VSL, quadrature samples) for the same light set, each method's image mean
+// kept, for VSL alone, clamped VPL alone and both from shared rays.
+TEST(ManyLight, PairRouletteSavesRaysAndKeepsTheMean) {
+  Loaded l = loadAsset("hall", 48);
+  ASSERT_TRUE(l.context);
+  ManyLightSettings s;
+  s.lights = 1500;
+  s.seed = 2;
+  s.batches = 4;
+  s.width = l.width;
+  s.height = l.height;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  for (int which = 0; which < 3; ++which) {
+    s.computeVsl = which != 1;
+    s.computeVpl = which != 0;
+    auto render = [&](float roulette, ManyLightImages& im) {
+      ManyLightSettings t = s;
+      t.pairRoulette = roulette;
+      ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, t);
+      for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
+      EXPECT_EQ(r.stats().nonFinite.load(), 0u);
+      im = r.images();
+      return std::make_pair(r.stats().shadowRays.load(), r.stats().rouletteDropped.load());
+    };
+    ManyLightImages plain, played;
+    const auto [raysPlain, droppedPlain] = render(0, plain);
+    const auto [raysPlayed, droppedPlayed] = render(1, played);
+    EXPECT_EQ(droppedPlain, 0u);
+    EXPECT_GT(droppedPlayed, 0u);
+    std::printf("VSL %d VPL %d: rays %llu -> %llu, VSL mean %.5f -> %.5f, VPL mean %.5f -> %.5f\n", s.computeVsl,
+                s.computeVpl, (unsigned long long)raysPlain, (unsigned long long)raysPlayed, greyMean(plain.vsl),
+                greyMean(played.vsl), greyMean(plain.vpl), greyMean(played.vpl));
+    EXPECT_LT(double(raysPlayed), 0.7 * double(raysPlain));
+    if (s.computeVsl) {
+      EXPECT_NEAR(greyMean(played.vsl), greyMean(plain.vsl), 0.02 * greyMean(plain.vsl));
+    }
+    if (s.computeVpl) {
+      EXPECT_NEAR(greyMean(played.vpl), greyMean(plain.vpl), 0.02 * greyMean(plain.vpl));
+    }
+    EXPECT_TRUE(allFinite(played.vsl) && allFinite(played.vpl) && allFinite(played.vplUnclamped));
+  }
+}
+
 // ---- Lobe splitting ----------------------------------------------------------------
 
 TEST(ManyLight, LobeRestrictionsSumToTheBrdfAndSampleTheirOwnPdf) {
