@@ -62,6 +62,8 @@ struct Args {
   bool lobeGatherGiven = false;
   int lobeGatherRays = ManyLightSettings().lobeGatherRays;  // its directions per gather point
   bool lobeGatherRaysGiven = false;
+  float pairRoulette = 0;  // the pair roulette's K (0 = off)
+  bool pairRouletteGiven = false;
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -182,6 +184,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.lobeFloor = a.lobeFloor;
   o.settings.many.lobeGather = a.lobeGather;
   o.settings.many.lobeGatherRays = a.lobeGatherRays;
+  o.settings.many.pairRoulette = a.pairRoulette;
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -231,6 +234,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
   if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
   if (a.lobeGatherRaysGiven) s.many.lobeGatherRays = a.lobeGatherRays;
+  if (a.pairRouletteGiven) s.many.pairRoulette = a.pairRoulette;
   if (a.estimatorGiven) s.estimator = a.estimator;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
@@ -528,6 +532,12 @@ void addOptions(CLI::App& app, Args& a) {
                  "cost proportionally more and lower the noise on polished and brushed surfaces)")
       ->default_str(std::to_string(ManyLightSettings::kDefaultLobeGatherRays))
       ->check(CLI::Range(1, 1024));
+  app.add_option("--pair-roulette", a.pairRoulette,
+                 "Pair roulette (brute force): a pair whose contribution, estimated before its shadow ray, is "
+                 "below K x the mean pair's is gathered with probability estimate / (K x mean) and weighted by its "
+                 "inverse (unbiased; fewer rays); 0 = off (the \"pair roulette\" control)")
+      ->default_str("0")
+      ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -593,6 +603,7 @@ int main(int argc, char** argv) {
   a.lobeFloorGiven = app.count("--lobe-floor") > 0;
   a.lobeGatherGiven = app.count("--lobe-gather") > 0;
   a.lobeGatherRaysGiven = app.count("--lobe-gather-rays") > 0;
+  a.pairRouletteGiven = app.count("--pair-roulette") > 0;
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return 2;

@@ -49,7 +49,7 @@ namespace {
 // The work of completed light sets, summed.
 struct SetTotals {
   double tracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0, vslSeconds = 0, vplSeconds = 0;
-  uint64_t pairs = 0, vslEvaluations = 0, nonFinite = 0;
+  uint64_t pairs = 0, vslEvaluations = 0, nonFinite = 0, rouletteDropped = 0;
   size_t lights = 0;  // traced and gathered
 };
 
@@ -542,6 +542,7 @@ void Session::retireSet(Job& job, bool completed) {
   d.vplSeconds += st.vplSeconds;
   d.pairs += st.pairs;
   d.vslEvaluations += st.vslEvaluations;
+  d.rouletteDropped += st.rouletteDropped;
   d.nonFinite += st.nonFinite + prep.set.nonFiniteRejected;
   job.ml.reset();
   job.batch = 0;
@@ -802,6 +803,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->radiusMax = job.radiusMax;
   snap->pairs = d.pairs + st.pairs.load();
   snap->vslEvaluations = d.vslEvaluations + st.vslEvaluations.load();
+  snap->rouletteDropped = d.rouletteDropped + st.rouletteDropped.load();
   snap->pairsPerSecond = double(snap->pairs) / std::max(snap->gatherSeconds, 1e-9);
   snap->nonFinite = d.nonFinite + st.nonFinite + prep.set.nonFiniteRejected + ref.rejected();
   // Progress: rates over compute time, remaining time at those rates (the

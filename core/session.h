@@ -150,6 +150,7 @@ struct Snapshot {
   float sceneRadius = 0;  // bounding radius R
   float radiusMin = 0, radiusMedian = 0, radiusMax = 0;
   uint64_t pairs = 0, vslEvaluations = 0;
+  uint64_t rouletteDropped = 0;  // pairs the pair roulette dropped (ManyLightSettings::pairRoulette)
   double pairsPerSecond = 0;
   // Progress. The many-light work is proportional to the lights gathered (every
   // light costs every pixel the same), so lightsProcessed / lightsTotal is its

@@ -792,6 +792,33 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
   EXPECT_NE(r.out.find("--after"), std::string::npos) << r.out;
 }
 
+// --pair-roulette reaches the render: the export's replay command and
+// settings carry it, with the pairs it dropped (the studio gathers both
+// methods, so it plays on the pairs' larger estimate); a negative or
+// non-finite K is a bad argument.
+TEST(StudioCli, PairRouletteReachesTheRender) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-roulette-cli";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string common = "--headless --fresh --window 320x240 --lights 400 --width 24 --light-sets 1 --export " +
+                             dir + "/out --pair-roulette ";
+  StudioRun r = runStudio(dir + "/config", common + "2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::vector<nlohmann::json> exports = exportedMetrics(dir + "/out");
+  EXPECT_EQ(exports.size(), 1u);
+  for (const nlohmann::json& metrics : exports) {
+    const std::string replay = metrics["replay"].get<std::string>();
+    EXPECT_NE(replay.find("--pair-roulette 2"), std::string::npos) << replay;
+    EXPECT_FLOAT_EQ(metrics["settings"]["pairRoulette"]["k"].get<float>(), 2.0f);
+    EXPECT_GT(metrics["settings"]["pairRoulette"]["pairsDropped"].get<uint64_t>(), 0u);
+  }
+  for (const char* bad : {"-1", "nan", "2000"}) {
+    r = runStudio(dir + "/config", common + bad);
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.out;
+    EXPECT_NE(r.out.find("--pair-roulette"), std::string::npos) << r.out;
+  }
+}
+
 // --lobe-gather and --lobe-gather-rays reach the render (the export's replay
 // command and settings carry them, with MRCS too); a count below the k
 // nearest or directions out of [1, 1024] are bad arguments.

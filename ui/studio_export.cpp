@@ -265,6 +265,7 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"continueAlpha", m.continueAlpha},
           {"splitAlpha", m.splitAlpha},
           {"lobeGather", {{"lights", m.lobeGather}, {"rays", m.lobeGatherRays}}},
+          {"pairRoulette", {{"k", m.pairRoulette}, {"pairsDropped", s.rouletteDropped}}},
           {"clamp", clamp},
           {"diffuseOnly", m.diffuseOnly},
           {"seed", m.seed},
