@@ -106,6 +106,8 @@ int resolveManyLightArgs(RenderArgs& a) {
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
     a.estimator.kind = EstimatorKind::Mrcs;
+    if (m.pairRoulette > 0)
+      return fail(kExitBadArguments, "--pair-roulette: brute force only (MRCS samples its rows and columns already)");
   }
   a.estimator.mrcs.spreadVslRadius = a.mrcsSpread;
   return 0;

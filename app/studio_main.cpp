@@ -537,7 +537,7 @@ void addOptions(CLI::App& app, Args& a) {
                  "below K x the mean pair's is gathered with probability estimate / (K x mean) and weighted by its "
                  "inverse (unbiased; fewer rays); 0 = off (the \"pair roulette\" control)")
       ->default_str("0")
-      ->check(CLI::Range(0.0, 1000.0));
+      ->check(CLI::Range(0.0, 100.0));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -615,6 +615,10 @@ int main(int argc, char** argv) {
     }
   }
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
+  if (a.pairRoulette > 0 && a.estimator.kind == EstimatorKind::Mrcs) {
+    std::fprintf(stderr, "error: --pair-roulette: brute force only, not with --mrcs\n");
+    return 2;
+  }
   {
     ManyLightSettings many;
     many.lobeGather = a.lobeGather;

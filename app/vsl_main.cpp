@@ -101,7 +101,7 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                   "below K x the mean pair's (earlier batches) is gathered with probability estimate / (K x mean) "
                   "and weighted by its inverse (unbiased; fewer rays and samples); 0 = off")
       ->default_str("0")
-      ->check(CLI::Range(0.0, 1000.0));
+      ->check(CLI::Range(0.0, 100.0));
   cmd->add_option("--lobe-radius", m.lobeRadius,
                   "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")
       ->default_str("0")

@@ -193,6 +193,7 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
 bool Gatherer::orient(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, Ray& ray, bool& needsRay,
                       GatherCounters& c) const {
   ++c.pairs;
+  g.weight = 1;
   g.d = L.p - gp.p;
   g.d2 = lengthSquared(g.d);
   g.dist = std::sqrt(g.d2);
@@ -225,7 +226,8 @@ bool Gatherer::connect(const GatherPoint& gp, const GatherLight& L, PairGeometry
 void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const GatherLight& L, PairGeometry* geo,
                            uint8_t* visible, ConnectScratch& scratch, GatherCounters& c, std::span<const uint8_t> known,
                            const PairRoulette* roulette) const {
-  const bool play = roulette && roulette->threshold > 0 && (computeVsl_ || computeVpl_) && known.empty();
+  const bool play = roulette && roulette->threshold > 0 && std::isfinite(roulette->threshold) &&
+                    (computeVsl_ || computeVpl_) && known.empty();
   if (!known.empty()) {
     VSL_CHECK_EQ(known.size(), gps.size());
     // The pairs and rays were counted when known[] was traced.
@@ -248,11 +250,15 @@ void Gatherer::connectMany(std::span<const GatherPoint* const> gps, const Gather
     if (visible[i] && roulette) ++c.rouletteOffered;
     if (visible[i] && play) {
       const float e = pairEstimate(*gps[i], L, geo[i]);
-      if (e < roulette->threshold) {
-        const float q = e / roulette->threshold;
+      // An estimate of exactly zero means a zero contribution (the VSL
+      // estimate is zero only where every BRDF value it takes is, channel by
+      // channel, or VSL gathers nothing there): dropped. A probability that
+      // underflows keeps the pair unweighted (not played).
+      const double q = double(e) / double(roulette->threshold);
+      if (e == 0 || (q > 0 && q < 1)) {
         Rng rr = Rng::forItem(roulette->streams[i], roulette->lightId, 5, seed_);
-        if (q > 0 && rr.uniform() < q) {
-          geo[i].weight = 1.0f / q;
+        if (e > 0 && rr.uniformDouble() < q) {
+          geo[i].weight = float(1.0 / q);
         } else {
           // Dropped: no ray, nothing gathered.
           ++c.rouletteDropped;
@@ -297,7 +303,6 @@ void Gatherer::addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   Vec3 Tdiff = fxG * fp.diffuse;
   Vec3 Tfull = Tdiff + fxG * fp.specular;
   addLayer(acc, kVplFull, w * Tfull, c);
-  if (const Vec3 v = w * Tfull; isFinite(v)) c.gatheredLuminance += double(std::max(0.0f, luminance(v)));
   addLayer(acc, kVplFullClamped, w * clamped(Tfull), c);
   addLayer(acc, kVplDiffuse, w * Tdiff, c);
   addLayer(acc, kVplDiffuseClamped, w * clamped(Tdiff), c);
@@ -331,7 +336,6 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   VslResult r = vslTransferBlock(pr.rx, pr.em, g.d, pr.radius, vsl_, prng);
   c.vslEvaluations += uint64_t(r.evaluations);
   const Vec3 v = gp.beta * L.Phi * r.transfer;
-  if (isFinite(v)) c.gatheredLuminance += double(g.weight) * double(std::max(0.0f, luminance(v)));
   addLayer(acc, kVslLayer, g.weight == 1 ? v : v * g.weight, c);
 }
 

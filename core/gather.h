@@ -61,11 +61,9 @@ inline uint64_t gatherStream(uint64_t pixel, int k) { return k == 0 ? pixel : pi
 
 struct GatherCounters {
   uint64_t rays = 0, pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0;
-  // The pair roulette: pairs it dropped, pairs it was offered (kept or
-  // dropped), and the luminance gathered (its weights applied; VSL's and
-  // unclamped VPL's, each computed one) for the next batch's threshold.
+  // The pair roulette: pairs it dropped, and pairs it was offered (kept or
+  // dropped; the next batch's threshold is per pair offered).
   uint64_t rouletteDropped = 0, rouletteOffered = 0;
-  double gatheredLuminance = 0;
   double vslOwnSeconds = 0;  // VSL's own work inside eyePath (the lobe gather)
 };
 

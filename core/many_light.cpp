@@ -53,8 +53,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
   else if (lobeGatherRays < 1 || lobeGatherRays > 1024)
     e << "lobe-gather-rays: must be in [1,1024] (got " << lobeGatherRays << ")";
-  else if (!(pairRoulette >= 0 && pairRoulette <= 1000))
-    e << "pair-roulette: must be in [0,1000] (got " << pairRoulette << ")";
+  else if (!(pairRoulette >= 0 && pairRoulette <= 100))
+    e << "pair-roulette: must be in [0,100] (got " << pairRoulette << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
     e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
   if (std::string m = e.str(); !m.empty()) return Error(m);
@@ -181,8 +181,7 @@ struct ManyLightRenderer::Batch {
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
   float rouletteThreshold = 0;                      // the pair roulette's (0: not played)
-  double gatheredLuminance = 0;                     // summed over threads (GatherCounters)
-  uint64_t roulettePairs = 0;
+  uint64_t roulettePairs = 0;                       // offered to it, summed over threads
 };
 
 bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
@@ -195,8 +194,10 @@ bool ManyLightRenderer::renderBatch(int b, const std::atomic<bool>* stop) {
   batch.dBegin = b == 0 ? 0 : directEnd_[b - 1];
   batch.dEnd = directEnd_[b];
   const size_t nb = batch.end - batch.begin;
-  if (settings_.pairRoulette > 0 && roulettePairs_ > 0)
-    batch.rouletteThreshold = float(settings_.pairRoulette * rouletteLuminance_ / double(roulettePairs_));
+  if (settings_.pairRoulette > 0 && roulettePairs_ > 0) {
+    const double t = settings_.pairRoulette * rouletteLuminance_ / double(roulettePairs_);
+    batch.rouletteThreshold = std::isfinite(t) && t < double(std::numeric_limits<float>::max()) ? float(t) : 0.0f;
+  }
 
   // Decode this batch's lights once.
   batch.lights.resize(nb);
@@ -277,7 +278,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   // The pair roulette's seeds: each point's quadrature stream.
   std::vector<uint64_t> streams[kMaxGatherPoints];
   for (int k = 0; k < kMaxGatherPoints; ++k)
-    if (any[k])
+    if (any[k] && settings_.pairRoulette > 0)
       for (int i = 0; i < n; ++i) streams[k].push_back(gatherStream(pixelOf(i), k));
   std::vector<PairGeometry> geo(tilePoints);
   std::vector<uint8_t> visible(tilePoints);
@@ -296,7 +297,8 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
         }
         const GatherLight& L = batch.lights[l];
         const PairRoulette roulette{batch.rouletteThreshold, order_[batch.begin + l], streams[k].data()};
-        gatherer.connectMany(pts[k], L, geo.data(), visible.data(), scratch, c, {}, &roulette);
+        gatherer.connectMany(pts[k], L, geo.data(), visible.data(), scratch, c, {},
+                             settings_.pairRoulette > 0 ? &roulette : nullptr);
         size_t nv = 0;
         for (size_t i = 0; i < tilePoints; ++i)
           if (visible[i]) list[nv++] = uint32_t(i);
@@ -338,7 +340,6 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     batch.threadTime += tileClock.seconds();
     batch.vplTime += vplOwn;
     batch.vslTime += vslOwn;
-    batch.gatheredLuminance += c.gatheredLuminance;
     batch.roulettePairs += c.rouletteOffered;
   }
   stats_.rouletteDropped.fetch_add(c.rouletteDropped, std::memory_order_relaxed);
@@ -369,8 +370,22 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   });
   processed_ = batch.end;
   ++batchesDone_;
-  rouletteLuminance_ += batch.gatheredLuminance;
   roulettePairs_ += batch.roulettePairs;
+  if (settings_.pairRoulette > 0) {
+    // What the batch gathered (its weights applied): VSL's and unclamped
+    // VPL's luminance, summed row by row in order, so that the next
+    // threshold does not depend on which thread finished first.
+    std::vector<double> rows(size_t(height_), 0.0);
+    parallelForChunks(size_t(height_), 16, [&](size_t y0, size_t y1) {
+      for (size_t y = y0; y < y1; ++y)
+        for (int x = 0; x < width_; ++x) {
+          const size_t pix = y * size_t(width_) + size_t(x);
+          for (int k : {int(kVslLayer), int(kVplFull)})
+            if (const Vec3 v = batch.layers[k][pix]; isFinite(v)) rows[y] += double(std::max(0.0f, luminance(v)));
+        }
+    });
+    for (double r : rows) rouletteLuminance_ += r;
+  }
   // Each method's own time: the batch's wall time less the share of thread
   // time spent in the other method's own transfer (what it would have taken
   // alone; the shared eye paths, direct light and shadow rays go to both).

@@ -129,7 +129,10 @@ struct ManyLightSettings {
   // for each estimator; the first batch plays none). Most pairs on glossy
   // scenes carry almost nothing (hall, VSL: 80% of the pairs hold 3% of the
   // light); the roulette spends the rays and samples on the rest. Both
-  // estimators, so that equal-time comparisons give each the same help.
+  // estimators, so that equal-time comparisons give each the same help; where
+  // both are gathered, the estimate is the larger of the two and the mean is
+  // that of both summed. Brute force only (MRCS samples its rows and columns
+  // already; the CLI and the studio refuse the pair). At most 100.
   float pairRoulette = 0;
   VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslCount}; }
   // VPL
@@ -158,7 +161,7 @@ struct ManyLightImages {
 };
 
 struct ManyLightStats {
-  std::atomic<uint64_t> pairs{0};  // (pixel, light) pairs evaluated
+  std::atomic<uint64_t> pairs{0};  // (pixel, light) pairs considered (with the pair roulette: dropped ones too)
   std::atomic<uint64_t> shadowRays{0};
   std::atomic<uint64_t> vslEvaluations{0};
   std::atomic<uint64_t> rouletteDropped{0};  // pairs the pair roulette dropped
@@ -213,8 +216,9 @@ class ManyLightRenderer {
   std::vector<int> directEnd_;    // cumulative direct samples
   size_t processed_ = 0;
   int batchesDone_ = 0;
-  // The pair roulette's measure: VSL's gathered luminance (roulette weights
-  // applied) over the pairs it gathered or dropped, in the batches merged.
+  // The pair roulette's measure: the luminance VSL and unclamped VPL gathered
+  // (roulette weights applied) and the pairs offered to it (gathered or
+  // dropped), over the batches merged.
   double rouletteLuminance_ = 0;
   uint64_t roulettePairs_ = 0;
   Film directFilm_, sharedFilm_;  // per-pass averages

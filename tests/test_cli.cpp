@@ -710,6 +710,11 @@ TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
            {render + " --exposure -inf", "--exposure: must be a finite number (got '-inf')"},
            {render + " --split-alpha nan", "--split-alpha: must be a finite number"},
            {render + " --lobe-floor nan", "--lobe-floor: must be a finite number"},
+           {render + " --pair-roulette nan", "--pair-roulette: must be a finite number"},
+           // Not a number problem, but refused the same way: MRCS does not play the roulette.
+           {render + " --mrcs 10,20 --pair-roulette 1", "--pair-roulette: brute force only"},
+           {"sweep " + scene("cornell-glossy") + " --methods vpl-mrcs --pair-roulette 1 -o " + file("nf-sweep"),
+            "--pair-roulette: brute force only, not with vpl-mrcs"},
            {render + " --radius-scale 1e999", "--radius-scale: must be a finite number (got '1e999')"},
            {"sweep " + scene("cornell-glossy") + " --radius-scale 1,nan -o " + file("nf-sweep"),
             "--radius-scale: must be a finite number (got 'nan')"}}) {

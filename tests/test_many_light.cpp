@@ -1258,7 +1258,8 @@ TEST(ManyLightStats, VslBoundIsAtLeastTheTransfer) {
 // The renderer plays the roulette from the second batch on, with the mean
 // gathered pair of the batches before as its scale: fewer rays (and, for
 // VSL, quadrature samples) for the same light set, each method's image mean
-// kept, for VSL alone, clamped VPL alone and both from shared rays.
+// kept, for VSL alone, clamped VPL alone and both from shared rays, and the
+// images the same from run to run.
 TEST(ManyLight, PairRouletteSavesRaysAndKeepsTheMean) {
   Loaded l = loadAsset("hall", 48);
   ASSERT_TRUE(l.context);
@@ -1297,6 +1298,12 @@ TEST(ManyLight, PairRouletteSavesRaysAndKeepsTheMean) {
       EXPECT_NEAR(greyMean(played.vpl), greyMean(plain.vpl), 0.02 * greyMean(plain.vpl));
     }
     EXPECT_TRUE(allFinite(played.vsl) && allFinite(played.vpl) && allFinite(played.vplUnclamped));
+    // The threshold is summed in pixel order: the same images again, whichever
+    // thread finished its tiles first.
+    ManyLightImages again;
+    render(1, again);
+    EXPECT_EQ(again.vsl.rgb, played.vsl.rgb);
+    EXPECT_EQ(again.vplUnclamped.rgb, played.vplUnclamped.rgb);
   }
 }
 

@@ -812,7 +812,7 @@ TEST(StudioCli, PairRouletteReachesTheRender) {
     EXPECT_FLOAT_EQ(metrics["settings"]["pairRoulette"]["k"].get<float>(), 2.0f);
     EXPECT_GT(metrics["settings"]["pairRoulette"]["pairsDropped"].get<uint64_t>(), 0u);
   }
-  for (const char* bad : {"-1", "nan", "2000"}) {
+  for (const char* bad : {"-1", "nan", "200", "1 --mrcs 10,20"}) {
     r = runStudio(dir + "/config", common + bad);
     EXPECT_EQ(r.code, 2) << bad << ": " << r.out;
     EXPECT_NE(r.out.find("--pair-roulette"), std::string::npos) << r.out;

@@ -667,9 +667,9 @@ bool Studio::gatherControls() {
           "noise falls (tableau at 256 px wide wants 256).");
   }
   errorField("lobe-gather");
-  changed |=
-      track("pair-roulette", ImGui::SliderFloat("pair roulette", &m.pairRoulette, 0.0f, 10.0f,
-                                                m.pairRoulette > 0 ? "%.2f" : "off", ImGuiSliderFlags_AlwaysClamp));
+  changed |= track("pair-roulette", ImGui::SliderFloat("pair roulette", &m.pairRoulette, 0.0f, 100.0f,
+                                                       m.pairRoulette > 0 ? "%.2f" : "off",
+                                                       ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
         "Brute force: a pair whose contribution (VSL's estimated from above, VPL's exactly) is below K x the mean "
