@@ -51,6 +51,19 @@ std::pair<double, double> meanAndError(const std::vector<double>& x) {
   return {m, std::sqrt(v / double(x.size()))};
 }
 
+// One eye sample per pixel of l's image, in pixel order (pixel i's stream
+// seeded by i), as the gather tests share them.
+std::vector<EyeSample> eyeSamples(const Loaded& l, const Gatherer& g) {
+  GatherCounters c;
+  std::vector<EyeSample> eyes;
+  for (int y = 0; y < l.height; ++y)
+    for (int x = 0; x < l.width; ++x) {
+      Rng rng = Rng::forItem(uint64_t(y * l.width + x), 0, 2, 1);
+      eyes.push_back(g.eyePath(x, y, l.width, l.height, rng, c));
+    }
+  return eyes;
+}
+
 // A small VPL-only render of one light set in one batch.
 ManyLightSettings vplOnly(int width, int height, uint32_t lights, uint64_t seed) {
   ManyLightSettings s;
@@ -1020,13 +1033,7 @@ TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
   ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
   ASSERT_GT(run.set.lights.size(), 1000u);
   Gatherer g(*l.scene, *l.accel, *l.lights, s, 1.0f, true, true);
-  GatherCounters eyeCounters;
-  std::vector<EyeSample> eyes;
-  for (int y = 0; y < l.height; ++y)
-    for (int x = 0; x < l.width; ++x) {
-      Rng rng = Rng::forItem(uint64_t(y * l.width + x), 0, 2, 1);
-      eyes.push_back(g.eyePath(x, y, l.width, l.height, rng, eyeCounters));
-    }
+  const std::vector<EyeSample> eyes = eyeSamples(l, g);
   Rng pick(3, 4);
   std::vector<const GatherPoint*> rowPts, scattered;
   for (const EyeSample& es : eyes) rowPts.push_back(es.point(0));
@@ -1124,18 +1131,13 @@ TEST(ManyLightStats, PairRouletteIsUnbiasedAndDropsMostPairs) {
   ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
   ASSERT_GT(run.set.lights.size(), 300u);
   Gatherer g0(*l.scene, *l.accel, *l.lights, s, 1.0f, true, false);
-  GatherCounters eyeCounters;
+  const std::vector<EyeSample> eyes = eyeSamples(l, g0);
   std::vector<const GatherPoint*> pts;
-  std::vector<EyeSample> eyes(size_t(l.width * l.height));
   std::vector<uint64_t> streams;
-  for (int y = 0; y < l.height; ++y)
-    for (int x = 0; x < l.width; ++x) {
-      const uint64_t pix = uint64_t(y * l.width + x);
-      Rng rng = Rng::forItem(pix, 0, 2, 1);
-      eyes[pix] = g0.eyePath(x, y, l.width, l.height, rng, eyeCounters);
-      pts.push_back(eyes[pix].point(0));
-      streams.push_back(gatherStream(pix, 0));
-    }
+  for (size_t pix = 0; pix < eyes.size(); ++pix) {
+    pts.push_back(eyes[pix].point(0));
+    streams.push_back(gatherStream(pix, 0));
+  }
   std::vector<GatherLight> lights;
   for (size_t j = 0; j < run.set.lights.size(); j += 3)
     lights.push_back(decodeGatherLight(run.set.lights[j], run.radii[j]));
@@ -1224,28 +1226,26 @@ TEST(ManyLightStats, VslBoundIsAtLeastTheTransfer) {
     GatherCounters c;
     size_t under = 0, pairs = 0;
     double worst = 0;
-    for (int y = 0; y < l.height; ++y)
-      for (int x = 0; x < l.width; ++x) {
-        const uint64_t pix = uint64_t(y * l.width + x);
-        Rng rng = Rng::forItem(pix, 0, 2, 1);
-        const EyeSample es = g.eyePath(x, y, l.width, l.height, rng, c);
-        for (int k = 0; k < es.count; ++k) {
-          const GatherPoint* gp = es.point(k);
-          if (!gp) continue;
-          for (size_t j = 0; j < run.set.lights.size(); j += 3) {
-            const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
-            PairGeometry geo;
-            if (!g.connect(*gp, L, geo, c)) continue;
-            const double b = g.vslBound(*gp, L, geo);
-            double acc[kGatherLayers][3] = {};
-            g.addVsl(*gp, L, geo, j, gatherStream(pix, k), acc, c);
-            const double v = 0.2126 * acc[kVslLayer][0] + 0.7152 * acc[kVslLayer][1] + 0.0722 * acc[kVslLayer][2];
-            ++pairs;
-            if (b < 0.9 * v) ++under;
-            if (v > 0) worst = std::max(worst, v / b);
-          }
+    const std::vector<EyeSample> eyes = eyeSamples(l, g);
+    for (size_t pix = 0; pix < eyes.size(); ++pix) {
+      const EyeSample& es = eyes[pix];
+      for (int k = 0; k < es.count; ++k) {
+        const GatherPoint* gp = es.point(k);
+        if (!gp) continue;
+        for (size_t j = 0; j < run.set.lights.size(); j += 3) {
+          const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
+          PairGeometry geo;
+          if (!g.connect(*gp, L, geo, c)) continue;
+          const double b = g.vslBound(*gp, L, geo);
+          double acc[kGatherLayers][3] = {};
+          g.addVsl(*gp, L, geo, j, gatherStream(pix, k), acc, c);
+          const double v = 0.2126 * acc[kVslLayer][0] + 0.7152 * acc[kVslLayer][1] + 0.0722 * acc[kVslLayer][2];
+          ++pairs;
+          if (b < 0.9 * v) ++under;
+          if (v > 0) worst = std::max(worst, v / b);
         }
       }
+    }
     std::printf("%s: bound under 0.9 x the transfer on %zu of %zu pairs (largest transfer / bound %.3g)\n", name, under,
                 pairs, worst);
     EXPECT_GT(pairs, 3000u) << name;

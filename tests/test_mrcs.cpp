@@ -39,6 +39,17 @@ ManyLightSettings smallRender() {
   return s;
 }
 
+// cornell-glossy loaded; null (and a test failure) if it cannot be.
+std::unique_ptr<RenderContext> cornellGlossy() {
+  Result<std::unique_ptr<RenderContext>> ctx =
+      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
+  if (!ctx) {
+    ADD_FAILURE() << ctx.error();
+    return nullptr;
+  }
+  return std::move(*ctx);
+}
+
 // cornell-glossy with smallRender()'s light set traced, and MRCS at 24 rows
 // and 60 clusters (MIX 3), the VSL spread on or off.
 struct SmallMrcs {
@@ -49,13 +60,8 @@ struct SmallMrcs {
 };
 SmallMrcs smallMrcs(bool spread) {
   SmallMrcs r;
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  if (!ctx) {
-    ADD_FAILURE() << ctx.error();
-    return r;
-  }
-  r.ctx = std::move(*ctx);
+  r.ctx = cornellGlossy();
+  if (!r.ctx) return r;
   r.m.spreadVslRadius = spread;
   r.run = prepareManyLights(*r.ctx, r.s);
   return r;
@@ -118,12 +124,11 @@ class MrcsRender : public ::testing::TestWithParam<bool> {};
 INSTANTIATE_TEST_SUITE_P(Spread, MrcsRender, ::testing::Values(false, true));
 TEST_P(MrcsRender, AgreesWithBruteForceAndImprovesWithClusters) {
   const bool spread = GetParam();
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(ctx) << ctx.error();
-  const Scene& scene = (*ctx)->scene();
-  const Accel& accel = (*ctx)->accel();
-  const LightSampler& lights = (*ctx)->lights();
+  const std::unique_ptr<RenderContext> ctx = cornellGlossy();
+  ASSERT_TRUE(ctx);
+  const Scene& scene = ctx->scene();
+  const Accel& accel = ctx->accel();
+  const LightSampler& lights = ctx->lights();
   ManyLightSettings s;
   s.lights = 1500;
   s.width = s.height = 24;
@@ -168,10 +173,9 @@ TEST_P(MrcsRender, AgreesWithBruteForceAndImprovesWithClusters) {
 // step; every layer has the render's size (black where MRCS computes
 // nothing), and a stop flag set beforehand discards the step.
 TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(ctx) << ctx.error();
-  const RenderContext& c = **ctx;
+  const std::unique_ptr<RenderContext> ctx = cornellGlossy();
+  ASSERT_TRUE(ctx);
+  const RenderContext& c = *ctx;
   ManyLightSettings s = smallRender();
   EstimatorSettings e;
   e.kind = EstimatorKind::Mrcs;
@@ -211,10 +215,9 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
 // one-batch brute-force image, with the lobe gather as without it. Clamped VPL
 // does not change, and the lobe gather's time is VSL's own.
 TEST(MrcsLobeGather, AClusterPerLightIsTheBruteForceImage) {
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(ctx) << ctx.error();
-  const RenderContext& c = **ctx;
+  const std::unique_ptr<RenderContext> ctx = cornellGlossy();
+  ASSERT_TRUE(ctx);
+  const RenderContext& c = *ctx;
   ManyLightSettings s = smallRender();
   s.batches = 1;
   s.directSamples = 1;
@@ -256,10 +259,9 @@ TEST(MrcsLobeGather, AClusterPerLightIsTheBruteForceImage) {
 // eye paths that use it, ends the MRCS render there: stopped, the progress
 // idle, no image; the next render goes through.
 TEST(MrcsLobeGather, StopsWhileItsLightSetIsTracedAndInTheEyePaths) {
-  Result<std::unique_ptr<RenderContext>> ctx =
-      RenderContext::load(std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf");
-  ASSERT_TRUE(ctx) << ctx.error();
-  const RenderContext& c = **ctx;
+  const std::unique_ptr<RenderContext> ctx = cornellGlossy();
+  ASSERT_TRUE(ctx);
+  const RenderContext& c = *ctx;
   ManyLightSettings s = smallRender();
   s.width = s.height = 96;  // eye paths of about a second with 1,024 directions
   const ManyLightRun run = prepareManyLights(c, s);

@@ -691,6 +691,14 @@ struct StudioRun {
 // Runs build/bin/vsl-studio ARGS (as the shell reads them) with a last
 // session of its own under configDir, never the user's. Hack: tests/run_vsl.h
 // runs only `vsl`, so this is its twin for the studio.
+// An empty folder NAME in the build tree for one test's files.
+std::string freshDir(const std::string& name) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/" + name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
 StudioRun runStudio(const std::string& configDir, const std::string& args) {
   std::string cmd =
       "XDG_CONFIG_HOME='" + configDir + "' " + std::string(VSL_BINARY_DIR) + "/bin/vsl-studio " + args + " 2>&1";
@@ -710,9 +718,7 @@ StudioRun runStudio(const std::string& configDir, const std::string& args) {
 // layer, another scene), and exports nothing; a reference file that does not exist is a bad
 // argument (exit status 2).
 TEST(StudioCli, HeadlessRunWithARefusedReferenceFails) {
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-reference-cli";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = freshDir("studio-reference-cli");
   const std::string wrongSize = dir + "/wrong-size.exr", noIndirect = dir + "/no-indirect.exr";
   ASSERT_TRUE(writeExr(wrongSize, {{"indirect", Image(20, 16)}}));
   ASSERT_TRUE(writeExr(noIndirect, {{"direct", Image(16, 16)}}));
@@ -761,9 +767,7 @@ std::vector<nlohmann::json> exportedMetrics(const std::string& outDir) {
 // --split-alpha reaches the render (the export's replay command carries it) and
 // a value outside [0,1] is a bad argument.
 TEST(StudioCli, SplitAlphaReachesTheRender) {
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-split-cli";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = freshDir("studio-split-cli");
   const std::string common = "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " +
                              dir + "/out --split-alpha ";
   StudioRun r = runStudio(dir + "/config", common + "0.05 --lobe-floor 0.5");
@@ -797,9 +801,7 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
 // methods, so it plays on the pairs' larger estimate); a negative or
 // non-finite K is a bad argument.
 TEST(StudioCli, PairRouletteReachesTheRender) {
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-roulette-cli";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = freshDir("studio-roulette-cli");
   const std::string common = "--headless --fresh --window 320x240 --lights 400 --width 24 --light-sets 1 --export " +
                              dir + "/out --pair-roulette ";
   StudioRun r = runStudio(dir + "/config", common + "2");
@@ -823,9 +825,7 @@ TEST(StudioCli, PairRouletteReachesTheRender) {
 // command and settings carry them, with MRCS too); a count below the k
 // nearest or directions out of [1, 1024] are bad arguments.
 TEST(StudioCli, LobeGatherReachesTheRender) {
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-lobe-cli";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = freshDir("studio-lobe-cli");
   const std::string common = "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " +
                              dir + "/out --lobe-gather ";
   StudioRun r = runStudio(dir + "/config", common + "1000");
@@ -883,9 +883,7 @@ TEST(StudioCli, LobeGatherReachesTheRender) {
 // used to run until killed), taking the screenshot if asked; empty paths are
 // bad arguments.
 TEST(StudioCli, HeadlessRunsWithoutAnExportEnd) {
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-headless-end";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = freshDir("studio-headless-end");
   const std::string common = "--headless --fresh --window 320x240 --lights 20 --width 8 --light-sets 1";
   StudioRun r = runStudio(dir + "/config", common + " --screenshot " + dir + "/shot.png");
   EXPECT_EQ(r.code, 0) << r.out;
