@@ -1,7 +1,11 @@
 #include "core/lobe_gather.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
 
+#include "core/parallel.h"
 #include "core/point_tree.h"
 
 namespace vsl {
@@ -13,7 +17,50 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
   const std::vector<uint32_t> order = mortonOrder(packedPositions(set.lights));
   lights_.reserve(order.size());
   for (uint32_t i : order) lights_.push_back(decodeGatherLight(set.lights[i], 0.0f));
-  tree_ = std::make_unique<PointTree>(packedPositions(lights_));
+  xyz_ = packedPositions(lights_);
+  tree_ = std::make_unique<PointTree>(xyz_);
+  const size_t n = lights_.size();
+  // Each light's 2k nearest: with k = 32, about 90% of tableau's queries
+  // find their k nearest among them (3k: 97%, no faster).
+  const size_t c = std::min({size_t(2) * size_t(k_), n, kMaxCandidates});
+  if (c < 2) return;
+  candidates_ = int(c);
+  cand_.resize(n * c);
+  candR2_.resize(n);
+  parallelForChunks(n, 1024, [&](size_t begin, size_t end) {
+    std::vector<float> d2(c);
+    for (size_t i = begin; i < end; ++i) {
+      const Vec3 p(xyz_[3 * i], xyz_[3 * i + 1], xyz_[3 * i + 2]);
+      tree_->nearest(p, c, &cand_[i * c], d2.data());
+      // Where the list holds every light, every query is answered from it.
+      candR2_[i] = c == n ? std::numeric_limits<float>::infinity() : d2.back();
+    }
+  });
+}
+
+size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2) const {
+  const size_t m = size_t(candidates_);
+  uint32_t y0 = 0;
+  float d0 = 0;
+  if (k == 0 || k > m || tree_->nearest(z, 1, &y0, &d0) != 1) return tree_->nearest(z, k, idx, d2);
+  std::pair<float, uint32_t> c[kMaxCandidates];
+  const uint32_t* list = &cand_[size_t(y0) * m];
+  for (size_t j = 0; j < m; ++j) {
+    const float* q = &xyz_[3 * size_t(list[j])];
+    const float dx = q[0] - z.x, dy = q[1] - z.y, dz = q[2] - z.z;
+    c[j] = {dx * dx + dy * dy + dz * dz, list[j]};
+  }
+  std::nth_element(c, c + (k - 1), c + m);
+  // The answer is exact when every light within r_k of z is a candidate: such
+  // a light lies within r_k + |z - y0| of y0, so inside the list's radius
+  // (with a margin for rounding). Otherwise the tree answers.
+  const float reach = (std::sqrt(c[k - 1].first) + std::sqrt(d0)) * 1.0001f;
+  if (!(reach * reach < candR2_[y0])) return tree_->nearest(z, k, idx, d2);
+  for (size_t j = 0; j < k; ++j) {
+    idx[j] = c[j].second;
+    d2[j] = c[j].first;
+  }
+  return k;
 }
 LobeGatherMap::~LobeGatherMap() = default;
 
@@ -34,7 +81,7 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
     idx = idxHeap.data();
     d2 = d2Heap.data();
   }
-  const size_t found = tree_->nearest(z, want, idx, d2);
+  const size_t found = nearest(z, want, idx, d2);
   if (found == 0) return Vec3(0.0f);
   const float r2 = d2[found - 1];
   if (!(r2 > 0)) return Vec3(0.0f);

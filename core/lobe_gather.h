@@ -57,11 +57,27 @@ class LobeGatherMap {
   // is continued instead).
   Vec3 radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly) const;
   size_t size() const { return lights_.size(); }
+  // The min(k, size()) lights nearest to z (indices into the map's own
+  // order, see light(); squared distances), the farthest of them last, the
+  // others in no set order; returns how many. Read from the candidate list
+  // of the light nearest to z (below) where it must hold them all, else from
+  // the tree: the same lights either way.
+  size_t nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2) const;
+  const GatherLight& light(size_t i) const { return lights_[i]; }
 
  private:
   std::vector<GatherLight> lights_;  // in Morton order of their positions
+  std::vector<float> xyz_;           // their positions, packed
   std::unique_ptr<PointTree> tree_;
   int k_;
+  // Each light's 2k nearest lights (itself among them), so that a query
+  // costs a nearest-light search and 2k distances instead of a k-nearest
+  // search of the tree (that search was 40% of a lobe-gathered tableau
+  // render; docs/PERFORMANCE.md, "Session 36").
+  static constexpr size_t kMaxCandidates = 1024;
+  int candidates_ = 0;          // per light; 0: every query searches the tree
+  std::vector<uint32_t> cand_;  // candidates_ per light
+  std::vector<float> candR2_;   // the squared distance to each light's farthest candidate
 };
 
 // The lobe gather's light set for a render with these settings (a seed of its

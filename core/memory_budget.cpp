@@ -8,6 +8,7 @@
 
 #include "core/film.h"
 #include "core/gather.h"
+#include "core/many_light.h"
 #include "core/virtual_lights.h"
 
 namespace vsl {
@@ -50,7 +51,10 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
 }
 
 uint64_t lobeGatherBytes(uint64_t lobeLights) {
-  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) + 8 + 8);
+  // The tree's index and nodes (8 + 8), its packed positions and the map's
+  // (12 + 12), and each light's candidate list (2k indices and a radius).
+  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) + 8 + 8 + 12 + 12 +
+                       2 * ManyLightSettings::kLobeGatherK * sizeof(uint32_t) + sizeof(float));
 }
 
 uint64_t availableMemoryBytes() {

@@ -31,7 +31,8 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
 
 // The lobe gather's second light set of `lobeLights` lights
 // (ManyLightSettings::lobeGather): the set while it grows (twice its size),
-// every light decoded, and the k-d tree's index and nodes.
+// every light decoded, the k-d tree, and each light's list of candidate
+// neighbours.
 uint64_t lobeGatherBytes(uint64_t lobeLights);
 
 // Bytes this process may still allocate: MemAvailable from /proc/meminfo,

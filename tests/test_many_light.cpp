@@ -1563,6 +1563,66 @@ TEST(LobeGather, EstimateDoesNotDependOnTheLightsOrder) {
   EXPECT_GT(sum, 0.0);
 }
 
+// The map answers most queries from the candidate list of the light nearest
+// to the query (each light's 2k nearest) and falls back to its tree where
+// that list might miss one: either way the k nearest lights must be exactly
+// the brute-force answer. The lights: a random plane, a second one just
+// behind it (a thin sheet's back), a dense cluster and a sparse line, so that
+// densities change abruptly; the queries: on and off the planes, in the
+// cluster, and far from every light (where the list cannot be trusted).
+TEST(LobeGather, NearestLightsAreTheBruteForceAnswer) {
+  VirtualLightSet set;
+  addLightGrid(set, 40, 0.01f, 0.0f, true, 2e-4f, 0.5f, false, 31);
+  addLightGrid(set, 30, 0.01f, -0.004f, false, 2e-4f, 0.5f, false, 32);
+  Rng rng(9, 2);
+  for (int i = 0; i < 300; ++i) {  // a dense cluster
+    VirtualLight v = set.lights[0];
+    v.p = Vec3(0.1f + 0.004f * rng.uniform(), 0.05f + 0.004f * rng.uniform(), 0.02f * rng.uniform());
+    set.lights.push_back(v);
+  }
+  for (int i = 0; i < 50; ++i) {  // a sparse line
+    VirtualLight v = set.lights[0];
+    v.p = Vec3(-0.3f + 0.012f * float(i), 0.25f, 0.1f);
+    set.lights.push_back(v);
+  }
+  const LobeGatherMap map(set, ManyLightSettings::kLobeGatherK);
+  ASSERT_EQ(map.size(), set.lights.size());
+  std::vector<std::pair<float, uint32_t>> all(map.size());
+  std::vector<uint32_t> idx(128);
+  std::vector<float> d2(128);
+  int checked = 0;
+  for (int q = 0; q < 600; ++q) {
+    const float spread = q < 400 ? 0.25f : (q < 500 ? 0.005f : 3.0f);
+    const Vec3 c = q >= 400 && q < 500 ? Vec3(0.102f, 0.052f, 0.01f) : Vec3(0.0f);
+    const Vec3 z = c + Vec3((rng.uniform() - 0.5f) * 2 * spread, (rng.uniform() - 0.5f) * 2 * spread,
+                            q % 3 == 0 ? 0.0f : (rng.uniform() - 0.5f) * 0.2f * spread);
+    for (size_t i = 0; i < map.size(); ++i) {
+      const Vec3 p = map.light(i).p;
+      const float dx = p.x - z.x, dy = p.y - z.y, dz = p.z - z.z;
+      all[i] = {dx * dx + dy * dy + dz * dz, uint32_t(i)};
+    }
+    std::sort(all.begin(), all.end());
+    for (size_t k : {size_t(1), size_t(5), size_t(32), size_t(64), size_t(65), size_t(128)}) {
+      const size_t found = map.nearest(z, k, idx.data(), d2.data());
+      ASSERT_EQ(found, k);
+      std::vector<uint32_t> got(idx.begin(), idx.begin() + long(k)), want;
+      for (size_t j = 0; j < k; ++j) want.push_back(all[j].second);
+      EXPECT_FLOAT_EQ(d2[k - 1], all[k - 1].first) << "query " << q << ", k = " << k << ": the farthest last";
+      std::sort(got.begin(), got.end());
+      std::sort(want.begin(), want.end());
+      EXPECT_EQ(got, want) << "query " << q << ", k = " << k;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 3600);
+  // Fewer lights than the list: every light is every light's candidate.
+  VirtualLightSet small;
+  addLightGrid(small, 6, 0.01f, 0.0f, true, 2e-4f, 0.5f, false, 33);
+  const LobeGatherMap few(small, ManyLightSettings::kLobeGatherK);
+  EXPECT_EQ(few.nearest(Vec3(5, 5, 5), 32, idx.data(), d2.data()), size_t(32));
+  EXPECT_EQ(few.nearest(Vec3(5, 5, 5), 100, idx.data(), d2.data()), size_t(36));
+}
+
 namespace {
 // A polished floor (GGX alpha 0.029: gathered, not continued, and
 // lobe-gathered) in front of a white Lambertian wall that an emitter behind
