@@ -17,8 +17,7 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
   const std::vector<uint32_t> order = mortonOrder(packedPositions(set.lights));
   lights_.reserve(order.size());
   for (uint32_t i : order) lights_.push_back(decodeGatherLight(set.lights[i], 0.0f));
-  xyz_ = packedPositions(lights_);
-  tree_ = std::make_unique<PointTree>(xyz_);
+  tree_ = std::make_unique<PointTree>(packedPositions(lights_));
   const size_t n = lights_.size();
   // Each light's 2k nearest: with k = 32, about 90% of tableau's queries
   // find their k nearest among them (3k: 97%, no faster).
@@ -30,8 +29,7 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
   parallelForChunks(n, 1024, [&](size_t begin, size_t end) {
     std::vector<float> d2(c);
     for (size_t i = begin; i < end; ++i) {
-      const Vec3 p(xyz_[3 * i], xyz_[3 * i + 1], xyz_[3 * i + 2]);
-      tree_->nearest(p, c, &cand_[i * c], d2.data());
+      tree_->nearest(lights_[i].p, c, &cand_[i * c], d2.data());
       // Where the list holds every light, every query is answered from it.
       candR2_[i] = c == n ? std::numeric_limits<float>::infinity() : d2.back();
     }
@@ -46,7 +44,7 @@ size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2)
   std::pair<float, uint32_t> c[kMaxCandidates];
   const uint32_t* list = &cand_[size_t(y0) * m];
   for (size_t j = 0; j < m; ++j) {
-    const float* q = &xyz_[3 * size_t(list[j])];
+    const float* q = tree_->point(list[j]);
     const float dx = q[0] - z.x, dy = q[1] - z.y, dz = q[2] - z.z;
     c[j] = {dx * dx + dy * dy + dz * dz, list[j]};
   }

@@ -67,7 +67,6 @@ class LobeGatherMap {
 
  private:
   std::vector<GatherLight> lights_;  // in Morton order of their positions
-  std::vector<float> xyz_;           // their positions, packed
   std::unique_ptr<PointTree> tree_;
   int k_;
   // Each light's 2k nearest lights (itself among them), so that a query

@@ -51,9 +51,9 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
 }
 
 uint64_t lobeGatherBytes(uint64_t lobeLights) {
-  // The tree's index and nodes (8 + 8), its packed positions and the map's
-  // (12 + 12), and each light's candidate list (2k indices and a radius).
-  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) + 8 + 8 + 12 + 12 +
+  // The tree's index, nodes and packed positions (8 + 8 + 12), and each
+  // light's candidate list (2k indices and a radius).
+  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) + 8 + 8 + 12 +
                        2 * ManyLightSettings::kLobeGatherK * sizeof(uint32_t) + sizeof(float));
 }
 

@@ -28,7 +28,8 @@ struct PointTree::Impl {
       : cloud{std::move(xyz)}, kd(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {}
 };
 
-PointTree::PointTree(std::vector<float> xyz) : impl_(std::make_unique<Impl>(std::move(xyz))) {}
+PointTree::PointTree(std::vector<float> xyz)
+    : impl_(std::make_unique<Impl>(std::move(xyz))), xyz_(impl_->cloud.xyz.data()) {}
 PointTree::~PointTree() = default;
 
 size_t PointTree::nearest(const Vec3& q, size_t k, uint32_t* idx, float* d2) const {

@@ -30,10 +30,13 @@ class PointTree {
   // idx and squared distances in d2 (each with room for k). Returns how many.
   size_t nearest(const Vec3& q, size_t k, uint32_t* idx, float* d2) const;
   size_t size() const;
+  // Point i's coordinates (3 floats), as given to the constructor.
+  const float* point(size_t i) const { return xyz_ + 3 * i; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  const float* xyz_ = nullptr;  // the points, held by impl_
 };
 
 // The positions (member p) of items, packed for PointTree.
