@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <utility>
 
 #include "core/parallel.h"
 #include "core/point_tree.h"
@@ -29,19 +28,31 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
   parallelForChunks(n, 1024, [&](size_t begin, size_t end) {
     std::vector<float> d2(c);
     for (size_t i = begin; i < end; ++i) {
-      tree_->nearest(lights_[i].p, c, &cand_[i * c], d2.data());
-      // Where the list holds every light, every query is answered from it.
-      candR2_[i] = c == n ? std::numeric_limits<float>::infinity() : d2.back();
+      const size_t found = tree_->nearest(lights_[i].p, c, &cand_[i * c], d2.data());
+      // Where the list holds every light, every query is answered from it; a
+      // short list (which finite positions never give) is never used.
+      candR2_[i] = found < c ? 0.0f : c == n ? std::numeric_limits<float>::infinity() : d2.back();
     }
   });
 }
 
-size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2) const {
+namespace {
+// A candidate: squared distance, then index (no initialisation: the array
+// below is filled before it is read).
+struct Candidate {
+  float d2;
+  uint32_t i;
+  bool operator<(const Candidate& o) const { return d2 < o.d2 || (d2 == o.d2 && i < o.i); }
+};
+}  // namespace
+
+size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2, bool* fromList) const {
+  if (fromList) *fromList = false;
   const size_t m = size_t(candidates_);
   uint32_t y0 = 0;
   float d0 = 0;
   if (k == 0 || k > m || tree_->nearest(z, 1, &y0, &d0) != 1) return tree_->nearest(z, k, idx, d2);
-  std::pair<float, uint32_t> c[kMaxCandidates];
+  Candidate c[kMaxCandidates];
   const uint32_t* list = &cand_[size_t(y0) * m];
   for (size_t j = 0; j < m; ++j) {
     const float* q = tree_->point(list[j]);
@@ -52,12 +63,13 @@ size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2)
   // The answer is exact when every light within r_k of z is a candidate: such
   // a light lies within r_k + |z - y0| of y0, so inside the list's radius
   // (with a margin for rounding). Otherwise the tree answers.
-  const float reach = (std::sqrt(c[k - 1].first) + std::sqrt(d0)) * 1.0001f;
+  const float reach = (std::sqrt(c[k - 1].d2) + std::sqrt(d0)) * 1.0001f;
   if (!(reach * reach < candR2_[y0])) return tree_->nearest(z, k, idx, d2);
   for (size_t j = 0; j < k; ++j) {
-    idx[j] = c[j].second;
-    d2[j] = c[j].first;
+    idx[j] = c[j].i;
+    d2[j] = c[j].d2;
   }
+  if (fromList) *fromList = true;
   return k;
 }
 LobeGatherMap::~LobeGatherMap() = default;

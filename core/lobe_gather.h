@@ -61,8 +61,9 @@ class LobeGatherMap {
   // order, see light(); squared distances), the farthest of them last, the
   // others in no set order; returns how many. Read from the candidate list
   // of the light nearest to z (below) where it must hold them all, else from
-  // the tree: the same lights either way.
-  size_t nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2) const;
+  // the tree: the same lights either way. fromList (if given): whether the
+  // list answered.
+  size_t nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2, bool* fromList = nullptr) const;
   const GatherLight& light(size_t i) const { return lights_[i]; }
 
  private:

@@ -1590,36 +1590,55 @@ TEST(LobeGather, NearestLightsAreTheBruteForceAnswer) {
   std::vector<std::pair<float, uint32_t>> all(map.size());
   std::vector<uint32_t> idx(128);
   std::vector<float> d2(128);
-  int checked = 0;
-  for (int q = 0; q < 600; ++q) {
-    const float spread = q < 400 ? 0.25f : (q < 500 ? 0.005f : 3.0f);
-    const Vec3 c = q >= 400 && q < 500 ? Vec3(0.102f, 0.052f, 0.01f) : Vec3(0.0f);
-    const Vec3 z = c + Vec3((rng.uniform() - 0.5f) * 2 * spread, (rng.uniform() - 0.5f) * 2 * spread,
-                            q % 3 == 0 ? 0.0f : (rng.uniform() - 0.5f) * 0.2f * spread);
-    for (size_t i = 0; i < map.size(); ++i) {
-      const Vec3 p = map.light(i).p;
-      const float dx = p.x - z.x, dy = p.y - z.y, dz = p.z - z.z;
-      all[i] = {dx * dx + dy * dy + dz * dz, uint32_t(i)};
+  auto d2To = [&](const Vec3& z, size_t i) {
+    const Vec3 p = map.light(i).p;
+    const float dx = p.x - z.x, dy = p.y - z.y, dz = p.z - z.z;
+    return dx * dx + dy * dy + dz * dz;
+  };
+  int checked = 0, fromList32 = 0, fromTree32 = 0;
+  for (int q = 0; q < 700; ++q) {
+    Vec3 z;
+    if (q < 600) {
+      const float spread = q < 400 ? 0.25f : (q < 500 ? 0.005f : 3.0f);
+      const Vec3 c = q >= 400 && q < 500 ? Vec3(0.102f, 0.052f, 0.01f) : Vec3(0.0f);
+      z = c + Vec3((rng.uniform() - 0.5f) * 2 * spread, (rng.uniform() - 0.5f) * 2 * spread,
+                   q % 3 == 0 ? 0.0f : (rng.uniform() - 0.5f) * 0.2f * spread);
+    } else {  // at a light, or just beside it
+      z = map.light(size_t(rng.uniform() * float(map.size() - 1))).p + Vec3(q % 2 ? 0.0f : 1e-4f, 0.0f, 0.0f);
     }
+    for (size_t i = 0; i < map.size(); ++i) all[i] = {d2To(z, i), uint32_t(i)};
     std::sort(all.begin(), all.end());
     for (size_t k : {size_t(1), size_t(5), size_t(32), size_t(64), size_t(65), size_t(128)}) {
-      const size_t found = map.nearest(z, k, idx.data(), d2.data());
+      bool fromList = false;
+      const size_t found = map.nearest(z, k, idx.data(), d2.data(), &fromList);
       ASSERT_EQ(found, k);
+      if (k == 32) ++(fromList ? fromList32 : fromTree32);
       std::vector<uint32_t> got(idx.begin(), idx.begin() + long(k)), want;
-      for (size_t j = 0; j < k; ++j) want.push_back(all[j].second);
-      EXPECT_FLOAT_EQ(d2[k - 1], all[k - 1].first) << "query " << q << ", k = " << k << ": the farthest last";
+      for (size_t j = 0; j < k; ++j) {
+        want.push_back(all[j].second);
+        EXPECT_EQ(d2[j], d2To(z, idx[j])) << "query " << q << ", k = " << k << ": each distance its light's";
+        EXPECT_LE(d2[j], d2[k - 1]) << "query " << q << ", k = " << k << ": the farthest last";
+      }
+      EXPECT_EQ(d2[k - 1], all[k - 1].first) << "query " << q << ", k = " << k << ": r_k";
       std::sort(got.begin(), got.end());
       std::sort(want.begin(), want.end());
       EXPECT_EQ(got, want) << "query " << q << ", k = " << k;
       ++checked;
     }
   }
-  EXPECT_EQ(checked, 3600);
+  // Both ways of answering were taken (the list for most queries near the
+  // lights, the tree far from them).
+  std::printf("k = 32: %d queries answered from the candidate lists, %d from the tree\n", fromList32, fromTree32);
+  EXPECT_GT(fromList32, 250);
+  EXPECT_GT(fromTree32, 100);
+  EXPECT_EQ(checked, 4200);
   // Fewer lights than the list: every light is every light's candidate.
   VirtualLightSet small;
   addLightGrid(small, 6, 0.01f, 0.0f, true, 2e-4f, 0.5f, false, 33);
   const LobeGatherMap few(small, ManyLightSettings::kLobeGatherK);
-  EXPECT_EQ(few.nearest(Vec3(5, 5, 5), 32, idx.data(), d2.data()), size_t(32));
+  bool fromList = false;
+  EXPECT_EQ(few.nearest(Vec3(5, 5, 5), 32, idx.data(), d2.data(), &fromList), size_t(32));
+  EXPECT_TRUE(fromList) << "a list that holds every light answers every query";
   EXPECT_EQ(few.nearest(Vec3(5, 5, 5), 100, idx.data(), d2.data()), size_t(36));
 }
 
