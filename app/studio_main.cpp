@@ -62,6 +62,8 @@ struct Args {
   bool lobeGatherGiven = false;
   int lobeGatherRays = ManyLightSettings().lobeGatherRays;  // its directions per gather point
   bool lobeGatherRaysGiven = false;
+  float lobeGatherAlpha = ManyLightSettings::kLobeGatherAlpha;  // the receivers it takes
+  bool lobeGatherAlphaGiven = false;
   float pairRoulette = 0;  // the pair roulette's K (0 = off)
   bool pairRouletteGiven = false;
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
@@ -184,6 +186,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.lobeFloor = a.lobeFloor;
   o.settings.many.lobeGather = a.lobeGather;
   o.settings.many.lobeGatherRays = a.lobeGatherRays;
+  o.settings.many.lobeGatherAlpha = a.lobeGatherAlpha;
   o.settings.many.pairRoulette = a.pairRoulette;
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
@@ -234,6 +237,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
   if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
   if (a.lobeGatherRaysGiven) s.many.lobeGatherRays = a.lobeGatherRays;
+  if (a.lobeGatherAlphaGiven) s.many.lobeGatherAlpha = a.lobeGatherAlpha;
   if (a.pairRouletteGiven) s.many.pairRoulette = a.pairRoulette;
   if (a.estimatorGiven) s.estimator = a.estimator;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
@@ -532,6 +536,11 @@ void addOptions(CLI::App& app, Args& a) {
                  "cost proportionally more and lower the noise on polished and brushed surfaces)")
       ->default_str(std::to_string(ManyLightSettings::kDefaultLobeGatherRays))
       ->check(CLI::Range(1, 1024));
+  app.add_option("--lobe-gather-alpha", a.lobeGatherAlpha,
+                 "VSL lobe gather: receivers whose specular lobe is narrower than this GGX alpha along either axis "
+                 "are lobe-gathered (0.15 also takes glossy metals such as hall's walls; the \"lobe alpha\" control)")
+      ->default_str("0.05")
+      ->check(CLI::Range(0.001, 1.0));
   app.add_option("--pair-roulette", a.pairRoulette,
                  "Pair roulette (brute force): a pair whose contribution, estimated before its shadow ray, is "
                  "below K x the mean pair's is gathered with probability estimate / (K x mean) and weighted by its "
@@ -603,6 +612,7 @@ int main(int argc, char** argv) {
   a.lobeFloorGiven = app.count("--lobe-floor") > 0;
   a.lobeGatherGiven = app.count("--lobe-gather") > 0;
   a.lobeGatherRaysGiven = app.count("--lobe-gather-rays") > 0;
+  a.lobeGatherAlphaGiven = app.count("--lobe-gather-alpha") > 0;
   a.pairRouletteGiven = app.count("--pair-roulette") > 0;
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
@@ -623,6 +633,7 @@ int main(int argc, char** argv) {
     ManyLightSettings many;
     many.lobeGather = a.lobeGather;
     many.lobeGatherRays = a.lobeGatherRays;
+    many.lobeGatherAlpha = a.lobeGatherAlpha;
     if (Result<void> v = many.validate(); !v) {
       std::fprintf(stderr, "error: --%s\n", v.error().c_str());
       return 2;

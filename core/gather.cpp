@@ -36,7 +36,8 @@ Gatherer::Gatherer(const Scene& scene, const Accel& accel, const LightSampler& l
       computeVpl_(computeVpl),
       seed_(settings.seed),
       lobeMap_(computeVsl ? lobeMap : nullptr),
-      lobeRays_(settings.lobeGatherRays) {}
+      lobeRays_(settings.lobeGatherRays),
+      lobeAlpha_(settings.lobeGatherAlpha) {}
 
 namespace {
 constexpr int kMaxSpecularChain = 8;
@@ -92,7 +93,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
     gp.pOff = offsetToLitSide(gp.p, gp.rx.ng);
-    if (!split && lobeMap_ && std::min(brdf.ggx.ax, brdf.ggx.ay) < ManyLightSettings::kLobeGatherAlpha) {
+    if (!split && lobeMap_ && std::min(brdf.ggx.ax, brdf.ggx.ay) < lobeAlpha_) {
       Stopwatch own;
       gp.lobe = true;
       gp.vslLobe = beta * lobeGather(full.specularLobe(), sh, rng, c);

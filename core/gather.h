@@ -194,6 +194,7 @@ class Gatherer {
   uint64_t seed_;
   const LobeGatherMap* lobeMap_;
   int lobeRays_;
+  float lobeAlpha_;  // receivers narrower than this are lobe-gathered
   // The lobe gather's estimate of spec (a specular lobe at sh) toward the
   // viewer: the mean over lobeRays_ sampled directions (LobeGatherMap).
   Vec3 lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, GatherCounters& c) const;

@@ -53,6 +53,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
   else if (lobeGatherRays < 1 || lobeGatherRays > 1024)
     e << "lobe-gather-rays: must be in [1,1024] (got " << lobeGatherRays << ")";
+  else if (!(lobeGatherAlpha > 0 && lobeGatherAlpha <= 1))
+    e << "lobe-gather-alpha: must be in (0,1] (got " << lobeGatherAlpha << ")";
   else if (!(pairRoulette >= 0 && pairRoulette <= 100))
     e << "pair-roulette: must be in [0,100] (got " << pairRoulette << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
@@ -85,7 +87,10 @@ std::string ManyLightSettings::describe() const {
   s << " --lobe-floor " << lobeFloor;
   s << " --continue-alpha " << continueAlpha;
   if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
-  if (lobeGather > 0) s << " --lobe-gather " << lobeGather << " --lobe-gather-rays " << lobeGatherRays;
+  if (lobeGather > 0) {
+    s << " --lobe-gather " << lobeGather << " --lobe-gather-rays " << lobeGatherRays;
+    if (lobeGatherAlpha != kLobeGatherAlpha) s << " --lobe-gather-alpha " << lobeGatherAlpha;
+  }
   if (pairRoulette > 0) s << " --pair-roulette " << pairRoulette;
   if (diffuseOnly) s << " --diffuse-vpl";
   return s.str();

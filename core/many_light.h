@@ -107,7 +107,7 @@ struct ManyLightSettings {
   float splitAlpha = kDefaultSplitAlpha;
   static constexpr float kDefaultSplitAlpha = 0.0f;
   // The lobe gather (0 = off; core/lobe_gather.h): VSL's estimate of the
-  // specular lobe of a receiver narrower than kLobeGatherAlpha along either
+  // specular lobe of a receiver narrower than lobeGatherAlpha along either
   // GGX axis (near-mirrors and brushed metals; not split) comes from
   // lobeGatherRays directions drawn from that lobe and a second light set of
   // lobeGather lights (its own seed), the kLobeGatherK nearest of which give
@@ -121,6 +121,12 @@ struct ManyLightSettings {
   static constexpr int kDefaultLobeGatherRays = 128;
   static constexpr int kLobeGatherK = 32;
   static constexpr float kLobeGatherAlpha = 0.05f;
+  // Receivers narrower than this GGX alpha (either axis) are lobe-gathered.
+  // The default takes near-mirrors and brushed metals; on hall 0.15, which
+  // takes its metal walls (alpha 0.12) too, is better at equal time
+  // (docs/VSL-QUALITY.md, "Session 36"). Where a direction lands, a surface
+  // counts as narrow (continued) below kLobeGatherAlpha whatever this is.
+  float lobeGatherAlpha = kLobeGatherAlpha;
   // The pair roulette (0 = off): before its shadow ray and transfers, a pair
   // whose contribution is estimated (Gatherer::pairEstimate: from above for
   // VSL, exactly for VPL before clamping) at less than pairRoulette x the

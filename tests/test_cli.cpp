@@ -697,6 +697,16 @@ TEST_F(Cli, LobeGatherWorksWithEitherEstimatorAndIsRecorded) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--lobe-gather-rays"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(file("lg0.exr")));
+  r = run(render + "--lobe-gather-alpha 0.15 -o " + file("lga.exr"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  Proc ha = shell("exrheader " + file("lga.exr"));
+  EXPECT_NE(ha.out.find("--lobe-gather-alpha 0.15"), std::string::npos) << ha.out;
+  for (const char* bad : {"0", "2", "nan"}) {
+    r = run(render + "--lobe-gather-alpha " + bad + " -o " + file("lga0.exr"));
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.out;
+    EXPECT_NE(r.out.find("--lobe-gather-alpha"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(file("lga0.exr")));
+  }
 }
 
 // NaN and infinity pass CLI11's range checks; every floating-point option of

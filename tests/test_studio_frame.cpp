@@ -865,18 +865,24 @@ TEST(StudioCli, LobeGatherReachesTheRender) {
     EXPECT_NE(attrs["vsl.settings"].find("--lobe-gather 1000"), std::string::npos) << attrs["vsl.settings"];
   }
   std::filesystem::remove_all(dir + "/out");
-  r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 3");
+  r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 3 --lobe-gather-alpha 0.15");
   ASSERT_EQ(r.code, 0) << r.out;
   const std::vector<nlohmann::json> threeRays = exportedMetrics(dir + "/out");
   EXPECT_EQ(threeRays.size(), 1u);
   for (const nlohmann::json& metrics : threeRays) {
-    EXPECT_NE(metrics["replay"].get<std::string>().find("--lobe-gather 1000 --lobe-gather-rays 3"), std::string::npos)
+    EXPECT_NE(metrics["replay"].get<std::string>().find("--lobe-gather 1000 --lobe-gather-rays 3 --lobe-gather-alpha "
+                                                        "0.15"),
+              std::string::npos)
         << metrics["replay"];
     EXPECT_EQ(metrics["settings"]["lobeGather"]["rays"].get<int>(), 3);
+    EXPECT_FLOAT_EQ(metrics["settings"]["lobeGather"]["alpha"].get<float>(), 0.15f);
   }
   r = runStudio(dir + "/config", common + "1000 --lobe-gather-rays 0");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--lobe-gather-rays"), std::string::npos) << r.out;
+  r = runStudio(dir + "/config", common + "1000 --lobe-gather-alpha 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--lobe-gather-alpha"), std::string::npos) << r.out;
 }
 
 // Headless without --export or --frames ends when the render is done (it
@@ -911,6 +917,7 @@ TEST(LastSession, RoundTripAndCorruptFiles) {
   s.many.clamp = INFINITY;
   s.many.lobeGather = 4321;
   s.many.lobeGatherRays = 256;
+  s.many.lobeGatherAlpha = 0.15f;
   s.maxReferenceSpp = 99;
   ui::ViewState v;
   v.mode = ui::ViewMode::Wipe;
@@ -929,6 +936,7 @@ TEST(LastSession, RoundTripAndCorruptFiles) {
   EXPECT_TRUE(std::isinf(r.many.clamp));
   EXPECT_EQ(r.many.lobeGather, 4321u);
   EXPECT_EQ(r.many.lobeGatherRays, 256);
+  EXPECT_EQ(r.many.lobeGatherAlpha, 0.15f);
   EXPECT_EQ(r.maxReferenceSpp, 99);
   EXPECT_EQ(rv.mode, ui::ViewMode::Wipe);
   EXPECT_EQ(rv.panels[0], ui::Source::VplDiffuse);

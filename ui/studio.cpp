@@ -650,11 +650,11 @@ bool Studio::gatherControls() {
   changed |= track("lobe-gather", ImGui::Checkbox("lobe gather", &lobeGather_));
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
-        "VSL only (brute force or MRCS): receivers narrower than GGX alpha 0.05 along either axis (near-mirrors, "
+        "VSL only (brute force or MRCS): receivers narrower than GGX alpha %.2f along either axis (near-mirrors, "
         "brushed metals) gather their specular lobe by sampling it (%d directions); the light where each "
         "direction lands comes from the %d nearest lights of a second, denser light set. Fewer bright disks "
         "and streaks on polished and brushed surfaces; the second set costs its tracing at every restart.",
-        m.lobeGatherRays, ManyLightSettings::kLobeGatherK);
+        m.lobeGatherAlpha, m.lobeGatherRays, ManyLightSettings::kLobeGatherK);
   if (lobeGather_) {
     changed |= track("lobe-gather",
                      ImGui::SliderInt("lobe lights", &lobeGatherLights_, ManyLightSettings::kLobeGatherK, 10000000,
@@ -665,6 +665,12 @@ bool Studio::gatherControls() {
       ImGui::SetTooltip(
           "Directions sampled per gather point and light batch: the lobe gather's cost grows with them and its "
           "noise falls (tableau at 256 px wide wants 256).");
+    changed |= track("lobe-gather", ImGui::SliderFloat("lobe alpha", &m.lobeGatherAlpha, 0.001f, 1.0f, "%.3f",
+                                                       ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "Receivers whose specular lobe is narrower than this GGX alpha are lobe-gathered: 0.05 takes "
+          "near-mirrors and brushed metals; 0.15 also glossy metals such as hall's walls.");
   }
   errorField("lobe-gather");
   changed |= track("pair-roulette", ImGui::SliderFloat("pair roulette", &m.pairRoulette, 0.0f, 100.0f,
@@ -1927,6 +1933,7 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"splitAlpha", m.splitAlpha},
                         {"lobeGather", m.lobeGather},
                         {"lobeGatherRays", m.lobeGatherRays},
+                        {"lobeGatherAlpha", m.lobeGatherAlpha},
                         {"pairRoulette", m.pairRoulette},
                         // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
                         {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
@@ -2014,6 +2021,7 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
     readField(js, "splitAlpha", &m.splitAlpha);
     readField(js, "lobeGather", &m.lobeGather);
     readField(js, "lobeGatherRays", &m.lobeGatherRays);
+    readField(js, "lobeGatherAlpha", &m.lobeGatherAlpha);
     readField(js, "pairRoulette", &m.pairRoulette);
     if (js.contains("clamp"))
       m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();

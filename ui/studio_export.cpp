@@ -264,7 +264,7 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"lobeFloor", m.lobeFloor},
           {"continueAlpha", m.continueAlpha},
           {"splitAlpha", m.splitAlpha},
-          {"lobeGather", {{"lights", m.lobeGather}, {"rays", m.lobeGatherRays}}},
+          {"lobeGather", {{"lights", m.lobeGather}, {"rays", m.lobeGatherRays}, {"alpha", m.lobeGatherAlpha}}},
           {"pairRoulette", {{"k", m.pairRoulette}, {"pairsDropped", s.rouletteDropped}}},
           {"clamp", clamp},
           {"diffuseOnly", m.diffuseOnly},
