@@ -1667,6 +1667,16 @@ std::shared_ptr<Scene> mirrorFloorRoom(bool metalFloor, bool brushed = false, fl
   s->camera.yfov = 0.9f;
   return s;
 }
+
+// The mean over colours of mirrorFloorRoom's floor: the image's lower half.
+double floorMean(const Image& im) {
+  double sum = 0;
+  int count = 0;
+  for (int y = im.height / 2; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x, ++count)
+      for (int c = 0; c < 3; ++c) sum += im.rgb[(size_t(y) * im.width + x) * 3 + c] / 3.0;
+  return sum / count;
+}
 }  // namespace
 
 // In the renderer: off by default; on, clamped and unclamped VPL do not
@@ -1676,15 +1686,6 @@ std::shared_ptr<Scene> mirrorFloorRoom(bool metalFloor, bool brushed = false, fl
 // VSL gather's without the lobe gather (a wrong normalisation, a lost batch
 // share or a double count would move it by far more).
 TEST(ManyLightStats, LobeGatherChangesVslOnlyAndKeepsTheLight) {
-  // The floor: the image's lower half.
-  auto floorMean = [](const Image& im) {
-    double sum = 0;
-    int count = 0;
-    for (int y = im.height / 2; y < im.height; ++y)
-      for (int x = 0; x < im.width; ++x, ++count)
-        for (int c = 0; c < 3; ++c) sum += im.rgb[(size_t(y) * im.width + x) * 3 + c] / 3.0;
-    return sum / count;
-  };
   ManyLightSettings s;
   EXPECT_EQ(s.lobeGather, 0u) << "off by default";
   s.lights = 1500;
@@ -1751,14 +1752,6 @@ TEST(ManyLightStats, LobeGatherChangesVslOnlyAndKeepsTheLight) {
 // the lobe gather. Out-of-range thresholds are refused, and the settings'
 // description names a threshold that is not the default.
 TEST(ManyLightStats, LobeGatherAlphaChoosesTheReceivers) {
-  auto floorMean = [](const Image& im) {
-    double sum = 0;
-    int count = 0;
-    for (int y = im.height / 2; y < im.height; ++y)
-      for (int x = 0; x < im.width; ++x, ++count)
-        for (int c = 0; c < 3; ++c) sum += im.rgb[(size_t(y) * im.width + x) * 3 + c] / 3.0;
-    return sum / count;
-  };
   Loaded l = loadedFrom(mirrorFloorRoom(true, false, 0.3f), 24);
   ASSERT_TRUE(l.context);
   ManyLightSettings s;
