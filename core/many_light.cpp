@@ -120,6 +120,18 @@ RenderSettings directSettings(const ManyLightSettings& s) {
 }
 }  // namespace
 
+std::vector<double> batchWeights(size_t lights, int batches) {
+  const int B = int(std::min<size_t>(size_t(std::max(batches, 1)), std::max<size_t>(lights, 1)));
+  // Weights 2^min(b, c): c doublings, then B - c equal batches. c is B/2
+  // unless the first batch would then hold less than one light's share.
+  auto total = [&](int c) { return std::ldexp(1.0, c) - 1 + double(B - c) * std::ldexp(1.0, c); };
+  int c = B / 2;
+  while (c > 0 && double(lights) < total(c)) --c;
+  std::vector<double> w(static_cast<size_t>(B));
+  for (int b = 0; b < B; ++b) w[size_t(b)] = std::ldexp(1.0, std::min(b, c));
+  return w;
+}
+
 ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                      const VirtualLightSet& set, const std::vector<float>& radii,
                                      const ManyLightSettings& settings, const std::atomic<bool>* stop)
@@ -136,21 +148,20 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
   height_ = direct_.height();
   clamp_ = manyLightClampBound(scene, settings);
 
-  // Random order, then batches whose sizes double up to a cap and then stay
-  // constant: weights 2^min(b, B/2). The first picture comes quickly and no
-  // single batch holds more than a modest share of the work.
+  // Random order, then the batches of batchWeights().
   size_t N = set.lights.size();
   order_.resize(N);
   std::iota(order_.begin(), order_.end(), 0u);
   Rng rng(settings.seed, 99);
   for (size_t i = N; i > 1; --i) std::swap(order_[i - 1], order_[rng.uniformInt(uint32_t(i))]);
-  int B = int(std::min<size_t>(size_t(settings.batches), std::max<size_t>(N, 1)));
-  std::vector<double> cumulative(B + 1, 0.0);
-  for (int b = 0; b < B; ++b) cumulative[b + 1] = cumulative[b] + std::ldexp(1.0, std::min(b, B / 2));
-  const double total = cumulative[B];
+  const std::vector<double> weights = batchWeights(N, settings.batches);
+  const int B = int(weights.size());
+  const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+  double cumulative = 0;
   size_t prev = 0;
   for (int b = 0; b < B; ++b) {
-    double share = cumulative[b + 1] / total;
+    cumulative += weights[size_t(b)];
+    double share = cumulative / total;
     size_t end = b + 1 == B ? N : std::max(prev + 1, size_t(std::llround(N * share)));
     end = std::min(end, N);
     batchEnd_.push_back(end);

@@ -7,8 +7,11 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstring>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "core/many_light.h"
 #include "core/parallel.h"
@@ -73,4 +76,69 @@ TEST(ManyLightBatches, StoppedBatchesRenderedAgainMatchAnUninterruptedRender) {
   EXPECT_TRUE(sameBits(got.lostToDiffuse, want.lostToDiffuse));
   // The timing decides how many were stopped; report it.
   RecordProperty("stoppedBatches", stoppedBatches);
+}
+
+// Sizes double, then stay equal; no batch holds less than one light's share.
+// Before session 37 the doublings ran to batches / 2 whatever the light
+// count: 64 batches of 4,003 lights were 30 batches of one light each (eye
+// samples that carried almost none of the light set's weight) and 34 of the
+// rest, and the sweep's prediction from the last batch's time stopped runs
+// at the 31st.
+TEST(ManyLightBatches, SizesDoubleThenStayEqualAndNoBatchIsWasted) {
+  // The rule as it was where it was sound: the CLI's 8 batches, the studio's
+  // 16 over its default 5,000 lights.
+  EXPECT_EQ(batchWeights(4003, 8), (std::vector<double>{1, 2, 4, 8, 16, 16, 16, 16}));
+  const std::vector<double> studio = batchWeights(5000, 16);
+  ASSERT_EQ(studio.size(), 16u);
+  for (int b = 0; b < 16; ++b) EXPECT_EQ(studio[size_t(b)], std::ldexp(1.0, std::min(b, 8))) << b;
+  // More batches than lights: one light each.
+  EXPECT_EQ(batchWeights(3, 8), (std::vector<double>{1, 1, 1}));
+  EXPECT_EQ(batchWeights(0, 8).size(), 1u);
+  for (int B : {1, 2, 7, 16, 32, 64}) {
+    for (size_t N : {size_t(1), size_t(50), size_t(1500), size_t(4003), size_t(15000), size_t(100000)}) {
+      const std::vector<double> w = batchWeights(N, B);
+      ASSERT_EQ(w.size(), std::min<size_t>(size_t(B), N)) << N << " " << B;
+      double total = 0;
+      for (size_t b = 0; b < w.size(); ++b) {
+        total += w[b];
+        if (b > 0) {
+          EXPECT_TRUE(w[b] == w[b - 1] || w[b] == 2 * w[b - 1]) << N << " " << B << " " << b;
+        }
+      }
+      EXPECT_GE(double(N) * w[0] / total, 1.0 - 1e-12) << N << " " << B;  // the first batch's share
+    }
+  }
+
+  // The renderer's batches for 64 over 4,003 lights: every one at least one
+  // light, sizes non-decreasing (to rounding), the equal ones within one light of each
+  // other, and the effective number of batches (sum n)^2 / sum n^2, what the
+  // light set's variance is divided by, at least 90% of 64 (34 before).
+  Loaded l = loadAsset("cornell-glossy", 8);
+  ManyLightSettings s;
+  s.lights = 4003;
+  s.seed = 5;
+  s.width = l.width;
+  s.height = l.height;
+  s.batches = 64;
+  s.directSamples = 8;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+  ASSERT_EQ(r.batchCount(), 64);
+  double sum = 0, sum2 = 0;
+  size_t last = r.batchLights(63);
+  for (int b = 0; b < 64; ++b) {
+    const size_t n = r.batchLights(b);
+    EXPECT_GE(n, 1u) << b;
+    if (b > 0) {
+      EXPECT_GE(n + 1, r.batchLights(b - 1)) << b;  // rounding
+    }
+    if (n * 2 > last) {
+      EXPECT_LE(last - n, 1u) << b;
+    }
+    sum += double(n);
+    sum2 += double(n) * double(n);
+  }
+  EXPECT_EQ(sum, double(run.set.lights.size()));
+  EXPECT_GE(sum * sum / sum2, 0.9 * 64);
+  RecordProperty("effectiveBatches", std::to_string(sum * sum / sum2));
 }
