@@ -112,8 +112,15 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
 }
 
 Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, GatherCounters& c) const {
+  // The first bounce's directions are multi-jittered over the lobe's sample
+  // space: each is uniform in its own cell, and together they cover the lobe
+  // evenly, which is where the lobe gather's error lies (docs/VSL-QUALITY.md,
+  // "Session 37").
+  Vec2 first[ManyLightSettings::kMaxLobeGatherRays];
+  const int rays = std::clamp(lobeRays_, 1, ManyLightSettings::kMaxLobeGatherRays);
+  multiJittered(rays, rng, first);
   Vec3 sum(0.0f);
-  for (int m = 0; m < lobeRays_; ++m) {
+  for (int m = 0; m < rays; ++m) {
     // Where a direction lands on a lobe narrow along both axes, the density
     // estimate takes the lights' diffuse lobes there and the path goes on
     // along that surface's specular lobe (the lights' own narrow lobes would
@@ -129,7 +136,7 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
     Vec3 t(1.0f);
     for (int bounce = 0; bounce < kMaxSpecularChain; ++bounce) {
       const float u1 = rng.uniform();
-      const Vec2 u2{rng.uniform(), rng.uniform()};
+      const Vec2 u2 = bounce == 0 ? first[m] : Vec2{rng.uniform(), rng.uniform()};
       std::optional<BrdfSample> bs = f.sample(u1, u2);
       if (!bs) break;
       const Vec3 wi = at.shading.toWorld(bs->wi);
@@ -167,7 +174,7 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
       at = z;
     }
   }
-  return sum / float(lobeRays_);
+  return sum / float(rays);
 }
 
 Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const {

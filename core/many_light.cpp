@@ -51,8 +51,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "split-alpha: must be in [0,1] (got " << splitAlpha << ")";
   else if (lobeGather > 50'000'000 || (lobeGather > 0 && lobeGather < uint32_t(kLobeGatherK)))
     e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
-  else if (lobeGatherRays < 1 || lobeGatherRays > 1024)
-    e << "lobe-gather-rays: must be in [1,1024] (got " << lobeGatherRays << ")";
+  else if (lobeGatherRays < 1 || lobeGatherRays > kMaxLobeGatherRays)
+    e << "lobe-gather-rays: must be in [1," << kMaxLobeGatherRays << "] (got " << lobeGatherRays << ")";
   else if (!(lobeGatherAlpha > 0 && lobeGatherAlpha <= 1))
     e << "lobe-gather-alpha: must be in (0,1] (got " << lobeGatherAlpha << ")";
   else if (!(pairRoulette >= 0 && pairRoulette <= 100))

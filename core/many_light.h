@@ -118,7 +118,8 @@ struct ManyLightSettings {
   // The lobe gather (0 = off; core/lobe_gather.h): VSL's estimate of the
   // specular lobe of a receiver narrower than lobeGatherAlpha along either
   // GGX axis (near-mirrors and brushed metals; not split) comes from
-  // lobeGatherRays directions drawn from that lobe and a second light set of
+  // lobeGatherRays directions drawn from that lobe (multi-jittered, see
+  // Gatherer::lobeGather) and a second light set of
   // lobeGather lights (its own seed), the kLobeGatherK nearest of which give
   // the radiance where each direction lands; the light set gathers only the
   // diffuse lobe there. At least kLobeGatherK lights. Brute force or MRCS;
@@ -128,6 +129,7 @@ struct ManyLightSettings {
   uint32_t lobeGather = 0;
   int lobeGatherRays = kDefaultLobeGatherRays;
   static constexpr int kDefaultLobeGatherRays = 128;
+  static constexpr int kMaxLobeGatherRays = 1024;
   static constexpr int kLobeGatherK = 32;
   static constexpr float kLobeGatherAlpha = 0.05f;
   // Receivers narrower than this GGX alpha (either axis) are lobe-gathered.

@@ -4,6 +4,38 @@
 
 namespace vsl {
 
+void multiJittered(int count, Rng& rng, Vec2* out) {
+  if (count <= 0) return;
+  int m = 1;
+  for (int d = 1; d * d <= count; ++d)
+    if (count % d == 0) m = d;
+  const int n = count / m;
+  // v in [lo, hi) (double) as a float still in it, rounding aside.
+  auto within = [](double v, double lo, double hi) {
+    float f = float(v);
+    while (double(f) >= hi) f = std::nextafter(f, 0.0f);
+    while (double(f) < lo) f = std::nextafter(f, 1.0f);
+    return f;
+  };
+  // Point (i, j) lies in column i (of m) and row j (of n). Within column i
+  // its x takes sub-stratum px[i][j] of n, within row j its y sub-stratum
+  // py[j][i] of m: random permutations, so that the x strata i * n + px and
+  // the y strata j * m + py are each used once.
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j) out[j * m + i] = {float(j), float(i)};
+  for (int i = 0; i < m; ++i)  // shuffle the x sub-strata of column i
+    for (int j = n - 1; j > 0; --j) std::swap(out[j * m + i].x, out[int(rng.uniformInt(uint32_t(j + 1))) * m + i].x);
+  for (int j = 0; j < n; ++j)  // and the y sub-strata of row j
+    for (int i = m - 1; i > 0; --i) std::swap(out[j * m + i].y, out[j * m + int(rng.uniformInt(uint32_t(i + 1)))].y);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < m; ++i) {
+      Vec2& p = out[j * m + i];
+      const double sx = double(i) * n + p.x, sy = double(j) * m + p.y;  // the x and y strata
+      p = {within((sx + rng.uniformDouble()) / count, sx / count, (sx + 1) / count),
+           within((sy + rng.uniformDouble()) / count, sy / count, (sy + 1) / count)};
+    }
+}
+
 Vec2 sampleUniformDiskConcentric(Vec2 u) {
   float ox = 2 * u.x - 1, oy = 2 * u.y - 1;
   if (ox == 0 && oy == 0) return {0, 0};

@@ -7,8 +7,18 @@
 #include <vector>
 
 #include "core/math.h"
+#include "core/rng.h"
 
 namespace vsl {
+
+// count points in [0,1)^2, multi-jittered (Chiu, Shirley and Wang 1994): an
+// m x n grid (m the largest divisor of count not above its square root, n =
+// count / m) with one point per cell, and each point also alone in its
+// 1/count-wide stratum of x and of y. Point j m + i is uniformly distributed
+// in its cell (i, j), of area 1 / count, so the mean of f over the points is
+// an unbiased estimate of f's integral, as over independent points, and for a
+// smooth f one with far less variance. out holds count points.
+void multiJittered(int count, Rng& rng, Vec2* out);
 
 // Concentric map of [0,1)^2 to the unit disk (Shirley-Chiu). pdf = 1/pi (area).
 Vec2 sampleUniformDiskConcentric(Vec2 u);
