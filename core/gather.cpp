@@ -2,6 +2,7 @@
 
 #include "core/lobe_gather.h"
 #include "core/path.h"
+#include "core/sampling.h"
 #include "core/stopwatch.h"
 
 namespace vsl {
@@ -116,9 +117,10 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
   // space: each is uniform in its own cell, and together they cover the lobe
   // evenly, which is where the lobe gather's error lies (docs/VSL-QUALITY.md,
   // "Session 37").
-  Vec2 first[ManyLightSettings::kMaxLobeGatherRays];
+  Vec2Scratch<ManyLightSettings::kMaxLobeGatherRays> scratch;
   const int rays = std::clamp(lobeRays_, 1, ManyLightSettings::kMaxLobeGatherRays);
-  multiJittered(rays, rng, first);
+  const Vec2* first = scratch.data();
+  multiJittered(rays, rng, scratch.data());
   Vec3 sum(0.0f);
   for (int m = 0; m < rays; ++m) {
     // Where a direction lands on a lobe narrow along both axes, the density

@@ -3,6 +3,7 @@
 // the measure of the pdf. Modelled on pbrt-v4's util/sampling.h.
 #pragma once
 
+#include <cstddef>
 #include <span>
 #include <vector>
 
@@ -19,6 +20,14 @@ namespace vsl {
 // an unbiased estimate of f's integral, as over independent points, and for a
 // smooth f one with far less variance. out holds count points.
 void multiJittered(int count, Rng& rng, Vec2* out);
+// Room for N points that is not initialised (a Vec2 array would be zeroed:
+// 8 KB per lobe-gather point): for multiJittered.
+template <int N>
+struct Vec2Scratch {
+  alignas(Vec2) std::byte raw[N * sizeof(Vec2)];
+  Vec2* data() { return reinterpret_cast<Vec2*>(raw); }
+  const Vec2* data() const { return reinterpret_cast<const Vec2*>(raw); }
+};
 
 // Concentric map of [0,1)^2 to the unit disk (Shirley-Chiu). pdf = 1/pi (area).
 Vec2 sampleUniformDiskConcentric(Vec2 u);
