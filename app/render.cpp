@@ -106,8 +106,7 @@ int resolveManyLightArgs(RenderArgs& a) {
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
     a.estimator.kind = EstimatorKind::Mrcs;
-    if (m.pairRoulette > 0)
-      return fail(kExitBadArguments, "--pair-roulette: brute force only (MRCS samples its rows and columns already)");
+    if (Result<void> e = a.estimator.validateWith(m); !e) return fail(kExitBadArguments, "--" + e.error());
   }
   a.estimator.mrcs.spreadVslRadius = a.mrcsSpread;
   return 0;

@@ -535,12 +535,12 @@ void addOptions(CLI::App& app, Args& a) {
                  "VSL lobe gather: directions sampled per gather point (the \"lobe rays\" control; more "
                  "cost proportionally more and lower the noise on polished and brushed surfaces)")
       ->default_str(std::to_string(ManyLightSettings::kDefaultLobeGatherRays))
-      ->check(CLI::Range(1, 1024));
+      ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
   app.add_option("--lobe-gather-alpha", a.lobeGatherAlpha,
                  "VSL lobe gather: receivers whose specular lobe is narrower than this GGX alpha along either axis "
                  "are lobe-gathered (0.15 also takes glossy metals such as hall's walls; the \"lobe alpha\" control)")
       ->default_str("0.05")
-      ->check(CLI::Range(0.001, 1.0));
+      ->check(CLI::Range(ManyLightSettings::kMinLobeGatherAlpha, 1.0f));
   app.add_option("--pair-roulette", a.pairRoulette,
                  "Pair roulette (brute force): a pair whose contribution, estimated before its shadow ray, is "
                  "below K x the mean pair's is gathered with probability estimate / (K x mean) and weighted by its "
@@ -625,12 +625,13 @@ int main(int argc, char** argv) {
     }
   }
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
-  if (a.pairRoulette > 0 && a.estimator.kind == EstimatorKind::Mrcs) {
-    std::fprintf(stderr, "error: --pair-roulette: brute force only, not with --mrcs\n");
-    return 2;
-  }
   {
     ManyLightSettings many;
+    many.pairRoulette = a.pairRoulette;
+    if (Result<void> e = a.estimator.validateWith(many); !e) {
+      std::fprintf(stderr, "error: --%s\n", e.error().c_str());
+      return 2;
+    }
     many.lobeGather = a.lobeGather;
     many.lobeGatherRays = a.lobeGatherRays;
     many.lobeGatherAlpha = a.lobeGatherAlpha;

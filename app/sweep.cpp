@@ -915,10 +915,12 @@ int runSweep(const SweepArgs& a) {
                    "two configurations are both '%s': give distinct --lights and --radius-scale values",
                    p.series().c_str());
   }
-  if (a.many.pairRoulette > 0)
-    for (const std::string& m : a.methods)
-      if (sweepMethod(m).estimator == EstimatorKind::Mrcs)
-        return failf(kExitBadArguments, "--pair-roulette: brute force only, not with %s", m.c_str());
+  for (const std::string& m : a.methods) {
+    EstimatorSettings e;
+    e.kind = sweepMethod(m).estimator;
+    if (Result<void> v = e.validateWith(a.many); !v)
+      return failf(kExitBadArguments, "--%s (method %s)", v.error().c_str(), m.c_str());
+  }
   SweepMeta meta;
   std::vector<Point> pts;
   std::string imageError;

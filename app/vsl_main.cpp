@@ -95,12 +95,12 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
       ->check(CLI::Range(0u, 50000000u));
   cmd->add_option("--lobe-gather-rays", m.lobeGatherRays, "VSL lobe gather: directions per gather point")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeGatherRays))
-      ->check(CLI::Range(1, 1024));
+      ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
   cmd->add_option("--lobe-gather-alpha", m.lobeGatherAlpha,
                   "VSL lobe gather: receivers whose specular lobe is narrower than this GGX alpha along either axis "
                   "are lobe-gathered (0.15 also takes glossy metals such as hall's walls)")
       ->default_str(defaultText(ManyLightSettings::kLobeGatherAlpha))
-      ->check(CLI::Range(0.001, 1.0));
+      ->check(CLI::Range(ManyLightSettings::kMinLobeGatherAlpha, 1.0f));
   cmd->add_option("--pair-roulette", m.pairRoulette,
                   "Pair roulette (VSL and VPL): a pair whose contribution, estimated before its shadow ray, is "
                   "below K x the mean pair's (earlier batches) is gathered with probability estimate / (K x mean) "

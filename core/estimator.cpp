@@ -50,6 +50,12 @@ bool parseMrcsText(const std::string& spec, MrcsSettings& out) {
   return std::sscanf(mix, "%lf%n", &out.uniformMix, &usedMix) == 1 && mix[usedMix] == 0;
 }
 
+Result<void> EstimatorSettings::validateWith(const ManyLightSettings& many) const {
+  if (kind == EstimatorKind::Mrcs && many.pairRoulette > 0)
+    return Error("pair-roulette: brute force only, not with MRCS");
+  return {};
+}
+
 Result<void> EstimatorSettings::validate() const {
   if (kind == EstimatorKind::Mrcs)
     if (Result<void> m = mrcs.validate(); !m) return m;

@@ -64,7 +64,12 @@ struct EstimatorSettings {
   float alpha = kDefaultAlpha;
   static constexpr float kDefaultAlpha = 0.7f;
   Result<void> validate() const;  // the first invalid setting
-  std::string describe() const;   // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7"
+  // What this estimator refuses of the many-light settings: MRCS samples its
+  // rows and columns already, so the pair roulette is brute force's only
+  // ("pair-roulette: brute force only, not with MRCS"). One rule for the
+  // CLI, the sweep, the studio's command line and its session.
+  Result<void> validateWith(const ManyLightSettings& many) const;
+  std::string describe() const;  // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7"
 };
 
 // Light set k of a progressive run of `sets` light sets (0-based): seed

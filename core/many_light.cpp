@@ -53,8 +53,8 @@ Result<void> ManyLightSettings::validate() const {
     e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
   else if (lobeGatherRays < 1 || lobeGatherRays > kMaxLobeGatherRays)
     e << "lobe-gather-rays: must be in [1," << kMaxLobeGatherRays << "] (got " << lobeGatherRays << ")";
-  else if (!(lobeGatherAlpha > 0 && lobeGatherAlpha <= 1))
-    e << "lobe-gather-alpha: must be in (0,1] (got " << lobeGatherAlpha << ")";
+  else if (!(lobeGatherAlpha >= kMinLobeGatherAlpha && lobeGatherAlpha <= 1))
+    e << "lobe-gather-alpha: must be in [" << kMinLobeGatherAlpha << ",1] (got " << lobeGatherAlpha << ")";
   else if (!(pairRoulette >= 0 && pairRoulette <= 100))
     e << "pair-roulette: must be in [0,100] (got " << pairRoulette << ")";
   else if (lightMaxDepth < 1 || lightMaxDepth > 1024)

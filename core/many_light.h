@@ -132,6 +132,7 @@ struct ManyLightSettings {
   static constexpr int kMaxLobeGatherRays = 1024;
   static constexpr int kLobeGatherK = 32;
   static constexpr float kLobeGatherAlpha = 0.05f;
+  static constexpr float kMinLobeGatherAlpha = 0.001f;  // lobeGatherAlpha in [this, 1]
   // Receivers narrower than this GGX alpha (either axis) are lobe-gathered.
   // The default takes near-mirrors and brushed metals; on hall 0.15, which
   // takes its metal walls (alpha 0.12) too, is better at equal time

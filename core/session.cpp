@@ -157,10 +157,8 @@ Result<void> StudioSettings::validate() const {
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
   if (Result<void> e = estimator.validate(); !e) return e;
-  // MRCS samples its rows and columns already; the replay command would be
-  // refused by `vsl render` too.
-  if (estimator.kind == EstimatorKind::Mrcs && many.pairRoulette > 0)
-    return Error("pair-roulette: brute force only, not with MRCS (set it to off first)");
+  // The replay command would be refused by `vsl render` too.
+  if (Result<void> e = estimator.validateWith(many); !e) return Error(e.error() + " (set it to off first)");
   return many.validate();
 }
 

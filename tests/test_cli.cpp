@@ -724,7 +724,7 @@ TEST_F(Cli, NonFiniteNumbersAreBadArguments) {
            // Not a number problem, but refused the same way: MRCS does not play the roulette.
            {render + " --mrcs 10,20 --pair-roulette 1", "--pair-roulette: brute force only"},
            {"sweep " + scene("cornell-glossy") + " --methods vpl-mrcs --pair-roulette 1 -o " + file("nf-sweep"),
-            "--pair-roulette: brute force only, not with vpl-mrcs"},
+            "--pair-roulette: brute force only, not with MRCS (method vpl-mrcs)"},
            {render + " --radius-scale 1e999", "--radius-scale: must be a finite number (got '1e999')"},
            {"sweep " + scene("cornell-glossy") + " --radius-scale 1,nan -o " + file("nf-sweep"),
             "--radius-scale: must be a finite number (got 'nan')"}}) {

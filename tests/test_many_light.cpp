@@ -1790,7 +1790,12 @@ TEST(ManyLightStats, LobeGatherAlphaChoosesTheReceivers) {
   EXPECT_NEAR(wide, off, 0.05 * off);
   s.lobeGatherAlpha = ManyLightSettings::kLobeGatherAlpha;
   EXPECT_EQ(s.describe().find("--lobe-gather-alpha"), std::string::npos) << "the default is not named";
-  for (float bad : {0.0f, -0.1f, 1.5f, std::nanf("")}) {
+  // The range is the CLI's and the studio control's: [0.001, 1].
+  for (float good : {ManyLightSettings::kMinLobeGatherAlpha, 1.0f}) {
+    s.lobeGatherAlpha = good;
+    EXPECT_TRUE(s.validate()) << good;
+  }
+  for (float bad : {0.0f, 0.0005f, -0.1f, 1.5f, std::nanf("")}) {
     s.lobeGatherAlpha = bad;
     EXPECT_FALSE(s.validate()) << bad;
   }

@@ -665,8 +665,9 @@ bool Studio::gatherControls() {
       ImGui::SetTooltip(
           "Directions sampled per gather point and light batch: the lobe gather's cost grows with them and its "
           "noise falls (tableau at 256 px wide wants 256).");
-    changed |= track("lobe-gather", ImGui::SliderFloat("lobe alpha", &m.lobeGatherAlpha, 0.001f, 1.0f, "%.3f",
-                                                       ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
+    changed |= track("lobe-gather",
+                     ImGui::SliderFloat("lobe alpha", &m.lobeGatherAlpha, ManyLightSettings::kMinLobeGatherAlpha, 1.0f,
+                                        "%.3f", ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(
           "Receivers whose specular lobe is narrower than this GGX alpha are lobe-gathered: 0.05 takes "
