@@ -234,6 +234,14 @@ int cmdRender(RenderArgs& a) {
   if (Result<void> v = a.settings.validate(); !v) return fail(kExitBadArguments, v.error());
   a.method = parseMethod(a.settings.method).value_or(Method::Pt);  // validated above
   const bool many = a.method != Method::Pt;
+  if (!many && !a.manyLightOptionsGiven.empty()) {
+    std::string names;
+    for (const std::string& n : a.manyLightOptionsGiven) names += (names.empty() ? "" : ", ") + n;
+    return failf(kExitBadArguments,
+                 "%s: for the many-light methods, but --method is pt (the path tracer, the default); give "
+                 "--method vsl, vpl or all",
+                 names.c_str());
+  }
   if (many)
     if (int rc = resolveManyLightArgs(a); rc != 0) return rc;
   Stopwatch loadClock;
@@ -266,7 +274,17 @@ Subcommand addRenderCommand(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* render = app.add_subcommand("render", "Render a glTF scene to a multi-layer EXR (full, direct, indirect)");
   addRenderOptions(render, *args);
-  return {render, [args] { return cmdRender(*args); }};
+  return {render, [args, render] {
+            // Everything but these belongs to the many-light methods.
+            static const std::set<std::string> kAnyMethod = {
+                "scene",       "--method", "--spp",    "--time", "--width",    "--height", "--seed", "--max-depth",
+                "--component", "--camera", "--output", "--png",  "--exposure", "--json",   "--help"};
+            for (const CLI::Option* o : render->get_options()) {
+              const std::string name = o->get_lnames().empty() ? o->get_name() : "--" + o->get_lnames().front();
+              if (o->count() > 0 && !kAnyMethod.count(name)) args->manyLightOptionsGiven.push_back(name);
+            }
+            return cmdRender(*args);
+          }};
 }
 
 }  // namespace vsl

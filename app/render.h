@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "core/estimator.h"
 #include "core/render_context.h"
@@ -21,6 +22,9 @@ struct RenderArgs {
   Method method = Method::Pt;   // settings.method, parsed once
   EstimatorSettings estimator;  // brute force, or MRCS with --mrcs (its seed stays 0)
   float exposure = 0;
+  // The many-light options given on the command line (their long names):
+  // with --method pt they would do nothing, so they are refused.
+  std::vector<std::string> manyLightOptionsGiven;
 };
 
 // The per-channel mean of an image as a JSON array [r, g, b] (for --json).

@@ -709,6 +709,28 @@ TEST_F(Cli, LobeGatherWorksWithEitherEstimatorAndIsRecorded) {
   }
 }
 
+// With --method pt (the default) the many-light options would do nothing:
+// they are refused, each named, before any work (exit 2); the path tracer's
+// own options still run.
+TEST_F(Cli, ManyLightOptionsWithThePathTracerAreBadArguments) {
+  const std::string base = "render " + scene("cornell-glossy") + " --width 8 --spp 1 -o " + file("mlpt.exr");
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {base + " --lights 100", "--lights: for the many-light methods, but --method is pt"},
+           {base + " --method pt --lobe-gather 1000 --batches 4",
+            "--lobe-gather, --batches: for the many-light methods, but --method is pt"},
+           {base + " --mrcs 10,20 --clamp off", "--clamp, --mrcs: for the many-light methods"}}) {
+    Proc r = run(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("give --method vsl, vpl or all"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(file("mlpt.exr"))) << args;
+  }
+  Proc ok = run(base + " --seed 2 --max-depth 4 --component indirect --exposure 1 --camera main --png " +
+                file("mlpt.png") + " --json " + file("mlpt.json"));
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_TRUE(fs::exists(file("mlpt.exr")));
+}
+
 // NaN and infinity pass CLI11's range checks; every floating-point option of
 // vsl and vsl-studio refuses them (exit 2, the option named) before any work,
 // lists item by item, while finite values still run.
