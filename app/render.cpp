@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <string>
 
 #include "app/cli.h"
 #include "app/finite_options.h"
@@ -238,8 +240,8 @@ int cmdRender(RenderArgs& a) {
     std::string names;
     for (const std::string& n : a.manyLightOptionsGiven) names += (names.empty() ? "" : ", ") + n;
     return failf(kExitBadArguments,
-                 "%s: for the many-light methods, but --method is pt (the path tracer, the default); give "
-                 "--method vsl, vpl or all",
+                 "%s: for the many-light methods, but --method is pt (the path tracer, the default); remove "
+                 "them, or give --method vsl, vpl or all",
                  names.c_str());
   }
   if (many)

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <new>
 #include <span>
 #include <vector>
 
@@ -18,15 +19,16 @@ namespace vsl {
 // 1/count-wide stratum of x and of y. Point j m + i is uniformly distributed
 // in its cell (i, j), of area 1 / count, so the mean of f over the points is
 // an unbiased estimate of f's integral, as over independent points, and for a
-// smooth f one with far less variance. out holds count points.
+// smooth f one with far less variance (a prime count gives a 1 x count grid:
+// strata along each axis only). out holds count points; count <= 2^20.
 void multiJittered(int count, Rng& rng, Vec2* out);
 // Room for N points that is not initialised (a Vec2 array would be zeroed:
 // 8 KB per lobe-gather point): for multiJittered.
 template <int N>
 struct Vec2Scratch {
   alignas(Vec2) std::byte raw[N * sizeof(Vec2)];
-  Vec2* data() { return reinterpret_cast<Vec2*>(raw); }
-  const Vec2* data() const { return reinterpret_cast<const Vec2*>(raw); }
+  Vec2* data() { return std::launder(reinterpret_cast<Vec2*>(raw)); }
+  const Vec2* data() const { return std::launder(reinterpret_cast<const Vec2*>(raw)); }
 };
 
 // Concentric map of [0,1)^2 to the unit disk (Shirley-Chiu). pdf = 1/pi (area).

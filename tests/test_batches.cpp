@@ -8,6 +8,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <thread>
@@ -133,7 +134,7 @@ TEST(ManyLightBatches, SizesDoubleThenStayEqualAndNoBatchIsWasted) {
       EXPECT_GE(n + 1, r.batchLights(b - 1)) << b;  // rounding
     }
     if (n * 2 > last) {
-      EXPECT_LE(last - n, 1u) << b;
+      EXPECT_LE(std::abs(long(last) - long(n)), 1L) << b;
     }
     sum += double(n);
     sum2 += double(n) * double(n);
