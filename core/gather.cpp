@@ -119,8 +119,8 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
   // "Session 37").
   Vec2Scratch<ManyLightSettings::kMaxLobeGatherRays> scratch;
   const int rays = std::clamp(lobeRays_, 1, ManyLightSettings::kMaxLobeGatherRays);
-  const Vec2* first = scratch.data();
-  multiJittered(rays, rng, scratch.data());
+  Vec2* first = scratch.data();
+  multiJittered(rays, rng, first);
   Vec3 sum(0.0f);
   for (int m = 0; m < rays; ++m) {
     // Where a direction lands on a lobe narrow along both axes, the density

@@ -28,17 +28,24 @@ bool sameBits(const Image& a, const Image& b) {
          std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
 }
 
+// The settings both tests render with: `lights` lights in `batches` batches
+// at the loaded scene's size, eight direct samples.
+ManyLightSettings batchSettings(const Loaded& l, uint32_t lights, uint64_t seed, int batches) {
+  ManyLightSettings s;
+  s.lights = lights;
+  s.seed = seed;
+  s.width = l.width;
+  s.height = l.height;
+  s.batches = batches;
+  s.directSamples = 8;
+  return s;
+}
+
 }  // namespace
 
 TEST(ManyLightBatches, StoppedBatchesRenderedAgainMatchAnUninterruptedRender) {
   Loaded l = loadAsset("cornell-glossy", 40);
-  ManyLightSettings s;
-  s.lights = 400;
-  s.seed = 3;
-  s.width = l.width;
-  s.height = l.height;
-  s.batches = 5;
-  s.directSamples = 8;
+  const ManyLightSettings s = batchSettings(l, 400, 3, 5);
   ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
 
   // One thread, never stopped: the reference order of every sum.
@@ -115,13 +122,7 @@ TEST(ManyLightBatches, SizesDoubleThenStayEqualAndNoBatchIsWasted) {
   // other, and the effective number of batches (sum n)^2 / sum n^2, what the
   // light set's variance is divided by, at least 90% of 64 (34 before).
   Loaded l = loadAsset("cornell-glossy", 8);
-  ManyLightSettings s;
-  s.lights = 4003;
-  s.seed = 5;
-  s.width = l.width;
-  s.height = l.height;
-  s.batches = 64;
-  s.directSamples = 8;
+  const ManyLightSettings s = batchSettings(l, 4003, 5, 64);
   ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
   ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
   ASSERT_EQ(r.batchCount(), 64);
