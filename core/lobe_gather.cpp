@@ -6,6 +6,7 @@
 
 #include "core/parallel.h"
 #include "core/point_tree.h"
+#include "core/vsl_integral.h"
 
 namespace vsl {
 
@@ -15,7 +16,13 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
   // depend on the order (the search returns the same lights by distance).
   const std::vector<uint32_t> order = mortonOrder(packedPositions(set.lights));
   lights_.reserve(order.size());
-  for (uint32_t i : order) lights_.push_back(decodeGatherLight(set.lights[i], 0.0f));
+  for (uint32_t i : order) {
+    GatherLight g = decodeGatherLight(set.lights[i], 0.0f);
+    // The indirect lights' lobes at least kIndirectAlphaFloor wide (header).
+    if (set.lights[i].depth >= 2 && widenLobeTo(g.em, kIndirectAlphaFloor, g.em))
+      g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
+    lights_.push_back(g);
+  }
   tree_ = std::make_unique<PointTree>(packedPositions(lights_));
   const size_t n = lights_.size();
   // Each light's 2k nearest: with k = 32, about 90% of tableau's queries

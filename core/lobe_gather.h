@@ -44,6 +44,20 @@ class PointTree;
 // Immutable after construction; safe to share between threads.
 class LobeGatherMap {
  public:
+  // The narrowest GGX alpha (either axis) of an indirect light's lobe in the
+  // map (a light of depth 2 or more; a first-hit light keeps its own). An
+  // indirect light's incoming direction is one draw from a broad incoming
+  // distribution, and its own narrow lobe turns that draw into a beam: on
+  // tableau's brushed panels (alpha 0.0225 across the brushing) one such
+  // light held more than 90% of 99% of the estimates above 5, up to 575
+  // where the estimate is about 0.2, and those estimates were the bright
+  // streaks of the worst light sets. Widened, the light stands for the
+  // spread of directions its neighbours sample (biased, a blur of indirect
+  // glossy reflections; first-hit lights share their source's direction,
+  // and widening them blurs the highlights themselves: relMSE 0.26 -> 0.64
+  // on one set). 0.1 measured best of 0.05, 0.1, 0.15 and 0.3
+  // (docs/VSL-QUALITY.md, "Session 38").
+  static constexpr float kIndirectAlphaFloor = 0.1f;
   // k: lights per density estimate (>= 1).
   LobeGatherMap(const VirtualLightSet& set, int k);
   ~LobeGatherMap();

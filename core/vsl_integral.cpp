@@ -77,11 +77,14 @@ bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, doub
 bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
   if (!(factor > 0)) return false;
   const double theta = d > radius ? std::asin(radius / d) : 0.5 * M_PI;
-  const float floor = float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta));
+  return widenLobeTo(p, float(std::min(double(kVslLobeFloorMaxAlpha), factor * theta)), out);
+}
+
+bool widenLobeTo(const VslEmitter& p, float alpha, VslEmitter& out) {
   Brdf b = p.f.brdf();
-  if (!(b.ggx.ax < floor || b.ggx.ay < floor)) return false;
-  b.ggx.ax = std::max(b.ggx.ax, floor);
-  b.ggx.ay = std::max(b.ggx.ay, floor);
+  if (!(b.ggx.ax < alpha || b.ggx.ay < alpha)) return false;
+  b.ggx.ax = std::max(b.ggx.ax, alpha);
+  b.ggx.ay = std::max(b.ggx.ay, alpha);
   out.f = BrdfAt(b, p.f.w());
   out.frame = p.frame;
   return true;

@@ -136,6 +136,10 @@ bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, doub
 // vslLobeFloor without its test of the pair (vslLobeFloorApplies, below), for
 // a caller that has made that test already.
 bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, VslEmitter& out);
+// The light with each GGX axis of its BRDF at least alpha wide (true), or
+// false and out untouched where both already are; p.f must be a whole BRDF,
+// as above. The lobe floor's and the lobe gather's (LobeGatherMap) widening.
+bool widenLobeTo(const VslEmitter& p, float alpha, VslEmitter& out);
 // The floor's bound: GGX without multiple scattering loses energy as alpha
 // grows (a white-ish metal reflects 0.90 of its light at alpha 0.02 and 0.70
 // at 0.4), so receivers near or inside a sphere, whose cones are wide, would

@@ -1539,6 +1539,62 @@ TEST(LobeGather, DensityEstimateIsTheAnalyticRadianceOfAUniformPlane) {
   EXPECT_EQ(LobeGatherMap(VirtualLightSet{}, 8).radiance(Vec3(0, 0, 0), up, up, false).y, 0.0f);
 }
 
+// The map widens its indirect lights' lobes to LobeGatherMap::
+// kIndirectAlphaFloor on each axis (a first-hit light keeps its own, a wide
+// lobe stays as it is), and its estimate on a uniform plane of narrow metal
+// lights is then the analytic radiance with the widened lobe: Phi / h^2 x
+// f(wi, wo) (grid lights: within 5%). Seen in the mirror direction, the
+// first-hit plane's radiance is that of its own narrow lobe, 10-100x higher.
+TEST(LobeGather, IndirectLightsLobesAreWidenedFirstHitsKept) {
+  const float h = 0.01f, Phi = 2e-4f, a = LobeGatherMap::kIndirectAlphaFloor;
+  const Vec3 up(0, 0, 1), wi = normalize(Vec3(0.3f, 0.1f, 1.0f));
+  const Vec3 mirror(-wi.x, -wi.y, wi.z);
+  auto plane = [&](int depth, float alphaX, float alphaY) {
+    VirtualLightSet set;
+    addLightGrid(set, 40, h, 0.0f, true, Phi, 0.5f, true);
+    for (VirtualLight& v : set.lights) {
+      v.wi = encodeUnit(wi);
+      v.roughX = uint16_t(std::lround(std::sqrt(alphaX) * 65535.0f));
+      v.roughY = uint16_t(std::lround(std::sqrt(alphaY) * 65535.0f));
+      v.depth = uint16_t(depth);
+    }
+    return set;
+  };
+  struct Case {
+    int depth;
+    float ax, ay;        // the lights' own lobe
+    float wantX, wantY;  // in the map
+  };
+  const Case cases[] = {{1, 0.01f, 0.01f, 0.01f, 0.01f},
+                        {2, 0.01f, 0.01f, a, a},
+                        {5, 0.01f, 0.01f, a, a},
+                        {2, 0.5f, 0.02f, 0.5f, a},
+                        {3, 0.3f, 0.2f, 0.3f, 0.2f}};
+  std::vector<double> mirrorRadiance;
+  for (const Case& k : cases) {
+    const VirtualLightSet set = plane(k.depth, k.ax, k.ay);
+    const LobeGatherMap map(set, ManyLightSettings::kLobeGatherK);
+    for (size_t i = 0; i < map.size(); i += 97) {
+      const Brdf b = map.light(i).em.f.brdf();
+      EXPECT_NEAR(b.ggx.ax, k.wantX, 2e-4f) << "depth " << k.depth << ", alpha " << k.ax;
+      EXPECT_NEAR(b.ggx.ay, k.wantY, 2e-4f) << "depth " << k.depth << ", alpha " << k.ay;
+      EXPECT_NEAR(map.light(i).alpha, std::min(k.wantX, k.wantY), 2e-4f);
+    }
+    // The analytic radiance of the plane with the map's lobe.
+    Brdf want = set.lights[0].brdf();
+    want.ggx.ax = std::max(want.ggx.ax, k.wantX);
+    want.ggx.ay = std::max(want.ggx.ay, k.wantY);
+    const Frame frame = set.lights[0].frame();
+    for (const Vec3& wo : {mirror, normalize(Vec3(0.1f, -0.4f, 1.0f))}) {
+      const double expected = Phi / (h * h) * want.eval(frame.toLocal(wi), frame.toLocal(wo)).y;
+      const double got = map.radiance(Vec3(0.0005f, 0.0003f, 0.0f), up, wo, false).y;
+      EXPECT_NEAR(got, expected, 0.05 * expected) << "depth " << k.depth << ", alpha " << k.ax << ", " << k.ay;
+    }
+    mirrorRadiance.push_back(map.radiance(Vec3(0.0005f, 0.0003f, 0.0f), up, mirror, false).y);
+  }
+  EXPECT_GT(mirrorRadiance[0], 10.0 * mirrorRadiance[1]) << "a first-hit light's narrow lobe is kept";
+}
+
 // The map keeps its lights in an order of its own (Morton order, for the
 // cache): the estimate must not depend on the order the lights come in. The
 // lights carry different fluxes, so a different neighbour set would show.
