@@ -54,7 +54,8 @@ Vec3 directLight(const PathTracer& direct, int x, int y, int sBegin, int sEnd, G
   return sum / float(sEnd - sBegin);
 }
 
-EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const {
+EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c,
+                            const EyePathOptions& o) const {
   EyeSample es;
   es.count = 1;
   int cur = 0;  // the gather point this part of the path leads to
@@ -74,10 +75,14 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     if (woL.z <= 0) return es;
     const bool narrow = std::max(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
     const bool last = j + 1 >= kMaxSpecularChain;
+    const bool continues = !last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f));
+    // A path traced for its shared light alone ends at a first gather point
+    // that is not split: no light is shared there.
+    if (!o.lobeGather && j == 0 && !continues && !(narrow && !last)) return es;
     const BrdfAt full(brdf, woL);
-    if (!last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f))) {
+    if (continues) {
       // Punctual lights reflected here are never hit by the continued ray.
-      if (j >= 1) gp.shared += beta * nextEvent(full, sh, true, rng, c);
+      if (j >= 1) gp.shared += beta * nextEvent(full, sh, true, rng, c, o.lightSamples);
       if (!continuePath(full, sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
       continue;
     }
@@ -87,14 +92,14 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.rx.f = split ? full.diffuseLobe() : full;
     // Behind a specular chain, its own direct light is indirect for the
     // image (two or more scattering events).
-    if (j >= 1) gp.shared += beta * nextEvent(gp.rx.f, sh, false, rng, c);
+    if (j >= 1) gp.shared += beta * nextEvent(gp.rx.f, sh, false, rng, c, o.lightSamples);
     gp.valid = true;
     gp.p = sh.p;
     gp.beta = beta;
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
     gp.pOff = offsetToLitSide(gp.p, gp.rx.ng);
-    if (!split && lobeMap_ && std::min(brdf.ggx.ax, brdf.ggx.ay) < lobeAlpha_) {
+    if (o.lobeGather && !split && lobeMap_ && std::min(brdf.ggx.ax, brdf.ggx.ay) < lobeAlpha_) {
       Stopwatch own;
       gp.lobe = true;
       gp.vslLobe = beta * lobeGather(full.specularLobe(), sh, rng, c);
@@ -105,7 +110,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     // direct light is the emission the continued ray hits (next-event light
     // above was for the diffuse lobe only), and punctual lights here.
     const BrdfAt specular = full.specularLobe();
-    if (j >= 1) gp.shared += beta * nextEvent(specular, sh, true, rng, c);
+    if (j >= 1) gp.shared += beta * nextEvent(specular, sh, true, rng, c, o.lightSamples);
     es.count = ++cur + 1;
     if (!continuePath(specular, sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
   }
@@ -179,9 +184,24 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
   return sum / float(rays);
 }
 
-Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const {
+Vec3 Gatherer::sharedLight(const EyeSample& first, int paths, int x, int y, int width, int height, uint64_t pass,
+                           GatherCounters& c) const {
+  Vec3 sum = first.shared();
+  if (paths <= 1) return sum;
+  EyePathOptions o = eyePathOptions(paths);
+  o.lobeGather = false;
+  const uint64_t pixel = uint64_t(y) * uint64_t(width) + uint64_t(x);
+  for (int e = 1; e < paths; ++e) {
+    Rng rng = Rng::forItem(pixel, (pass << 8) | uint64_t(e), 6, seed_);
+    sum += eyePath(x, y, width, height, rng, c, o).shared();
+  }
+  return sum / float(paths);
+}
+
+Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c,
+                         int samples) const {
   Vec3 sum(0.0f);
-  for (int k = 0; k < kSharedLightSamples; ++k) {
+  for (int k = 0; k < samples; ++k) {
     auto ls = lights_.sampleLi(sh.p, rng.uniform(), {rng.uniform(), rng.uniform()});
     if (!ls || (deltaOnly && !ls->delta)) continue;
     Vec3 wiL = sh.shading.toLocal(ls->wi);
@@ -191,7 +211,7 @@ Vec3 Gatherer::nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, 
     if (!segmentRay(sh.p, sh.ng, ls->pLight, ls->nLight, s) || accel_.occluded(s)) continue;
     sum += f.eval(wiL) * ls->Li * (wiL.z / ls->pdf);
   }
-  return sum / float(kSharedLightSamples);
+  return sum / float(samples);
 }
 
 void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,

@@ -4,6 +4,7 @@
 // See many_light.h for the methods and their bias.
 #pragma once
 
+#include <algorithm>
 #include <span>
 #include <vector>
 
@@ -101,10 +102,47 @@ class Gatherer {
   Gatherer(const Scene& scene, const Accel& accel, const LightSampler& lights, const ManyLightSettings& settings,
            float clampBound, bool computeVsl, bool computeVpl, const LobeGatherMap* lobeMap = nullptr);
 
+  // Next-event samples for the light found behind a specular chain, per eye
+  // path where one eye path per pixel is traced. Several, because behind a
+  // specular chain this is the pixel's own estimate of the light there (one
+  // sample made glossy floors' reflections of lit walls speckled).
+  static constexpr int kSharedLightSamples = 16;
+  // What an eye path computes besides its gather points.
+  struct EyePathOptions {
+    // The lobe gather's estimate at lobe-gathered points; false for a path
+    // traced for its shared light only (sharedLight below).
+    bool lobeGather = true;
+    // Next-event samples per vertex for the shared light (nextEvent).
+    int lightSamples = kSharedLightSamples;
+  };
   // Camera ray through (x + jitter, y + jitter), continued through
   // near-specular surfaces to the first surface that is not, and split there
   // by lobe if its specular lobe is narrow (see ManyLightSettings::splitAlpha).
-  EyeSample eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const;
+  EyeSample eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c) const {
+    return eyePath(x, y, width, height, rng, c, EyePathOptions{});
+  }
+  EyeSample eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c, const EyePathOptions& o) const;
+  // Eye paths per pixel for the shared light (EyeSample::shared) over a
+  // brute-force render, spread over its batches like its lights (at least one
+  // per batch), and at most kSharedLightSamples in one batch or MRCS pass
+  // (sharedEyePaths), each with kSharedLightSamples / paths next-event
+  // samples (eyePathOptions). The light behind a specular chain is a
+  // path-traced estimate of a pixel's footprint: with one eye path per batch,
+  // a curved mirror's pixel that reflects a highlight in one batch of 16
+  // showed 16x its value (tableau's pot rims; docs/VSL-QUALITY.md, "Session
+  // 38"). The gather itself keeps one eye path per batch.
+  static constexpr int kSharedEyePaths = 64;
+  static int sharedEyePaths(int scheduled) { return std::clamp(scheduled, 1, kSharedLightSamples); }
+  // The shared light of pixel (x, y) from `paths` eye paths (sharedEyePaths):
+  // `first`'s (already traced, with the lightSamples of eyePathOptions(paths))
+  // and paths - 1 more traced for it alone from streams of (pixel, pass).
+  Vec3 sharedLight(const EyeSample& first, int paths, int x, int y, int width, int height, uint64_t pass,
+                   GatherCounters& c) const;
+  static EyePathOptions eyePathOptions(int paths) {
+    EyePathOptions o;
+    o.lightSamples = std::max(1, kSharedLightSamples / std::max(paths, 1));
+    return o;
+  }
   // Adds light L's contribution to acc (per layer, RGB). lightId and pixel
   // seed the VSL quadrature's random stream.
   void evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t lightId, uint64_t pixel,
@@ -170,19 +208,16 @@ class Gatherer {
     float radius;
   };
   bool vslPair(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, VslPair& out) const;
-  // Next-event light at sh reflected by f toward the viewer, from
-  // kSharedLightSamples lights sampled by power; deltaOnly: punctual lights
-  // only (zero for area lights, whose light a continued ray finds by hitting
-  // them). Several samples, because behind a specular chain this is the
-  // pixel's own estimate of the light there, with no later passes to average
-  // it (one sample made glossy floors' reflections of lit walls speckled).
-  static constexpr int kSharedLightSamples = 16;
+  // Next-event light at sh reflected by f toward the viewer, from `samples`
+  // lights sampled by power; deltaOnly: punctual lights only (zero for area
+  // lights, whose light a continued ray finds by hitting them).
   // connect() up to its shadow ray: false if the pair contributes nothing;
   // otherwise needsRay says whether `ray` must be unoccluded (the ends may
   // coincide, and then nothing can block them).
   bool orient(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, Ray& ray, bool& needsRay,
               GatherCounters& c) const;
-  Vec3 nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c) const;
+  Vec3 nextEvent(const BrdfAt& f, const SurfaceHit& sh, bool deltaOnly, Rng& rng, GatherCounters& c,
+                 int samples = kSharedLightSamples) const;
 
   const Scene& scene_;
   const Accel& accel_;

@@ -165,8 +165,13 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
     size_t end = b + 1 == B ? N : std::max(prev + 1, size_t(std::llround(N * share)));
     end = std::min(end, N);
     batchEnd_.push_back(end);
-    int dEnd = std::max(b + 1, int(std::lround(settings.directSamples * share)));
-    directEnd_.push_back(std::max(dEnd, directEnd_.empty() ? 1 : directEnd_.back() + 1));
+    // Samples of a total spread like the lights, at least one per batch.
+    auto addEnd = [&](std::vector<int>& ends, int samples) {
+      const int e = std::max(b + 1, int(std::lround(samples * share)));
+      ends.push_back(std::max(e, ends.empty() ? 1 : ends.back() + 1));
+    };
+    addEnd(directEnd_, settings.directSamples);
+    addEnd(sharedEnd_, Gatherer::kSharedEyePaths);
     prev = end;
   }
   if (settings.lobeGather > 0 && settings.computeVsl) {
@@ -264,14 +269,16 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   };
   std::vector<Sums> acc(static_cast<size_t>(n));
   auto pixelOf = [&](int i) { return size_t(y0 + i / tw) * width_ + (x0 + i % tw); };
+  // The light behind specular chains: the batch's share of the eye paths.
+  const int eyes = sharedEyes(batch.b);
   for (int i = 0; i < n; ++i) {
     const int x = x0 + i % tw, y = y0 + i / tw;
     const size_t pix = pixelOf(i);
     // Direct light: the reference's estimator, this batch's share of samples.
     batch.direct[pix] = directLight(direct_, x, y, batch.dBegin, batch.dEnd, c);
     Rng rng = Rng::forItem(pix, uint64_t(batch.b), 2, settings_.seed);
-    gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c);
-    batch.shared[pix] = gps[size_t(i)].shared();
+    gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c, Gatherer::eyePathOptions(eyes));
+    batch.shared[pix] = gatherer.sharedLight(gps[size_t(i)], eyes, x, y, width_, height_, uint64_t(batch.b), c);
   }
   // Each light against the tile's gather points in three timed parts: the
   // shared connection (orientation, the batch of shadow rays), then VPL's
@@ -367,11 +374,17 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
 
 // Merge: each batch estimates the all-N image as (N / nb) x its sum, with
 // weight nb / N, so the films hold the running unbiased estimate.
+int ManyLightRenderer::sharedEyes(int b) const {
+  return Gatherer::sharedEyePaths(sharedEnd_[size_t(b)] - (b > 0 ? sharedEnd_[size_t(b) - 1] : 0));
+}
+
 void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   const size_t nb = batch.end - batch.begin, N = set_.lights.size();
   const float scale = nb ? float(double(N) / double(nb)) : 0.0f;
   const double weight = N ? double(nb) / double(N) : 0.0;
   const int dCount = batch.dEnd - batch.dBegin;
+  // Each batch's shared light is the mean of its eye paths.
+  const int eyes = sharedEyes(batch.b);
   // Rows in parallel: Film::add is safe for different pixels, and each
   // pixel's sums see the same additions in the same order as serially.
   parallelForChunks(size_t(height_), 16, [&](size_t y0, size_t y1) {
@@ -379,7 +392,7 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
       for (int x = 0; x < width_; ++x) {
         size_t pix = size_t(y) * width_ + x;
         directFilm_.add(x, y, batch.direct[pix], double(dCount));
-        sharedFilm_.add(x, y, batch.shared[pix], 1.0);
+        sharedFilm_.add(x, y, batch.shared[pix], double(eyes));
         if (batch.lobe) lobeFilm_->add(x, y, batch.lobe[pix], 1.0);
         for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
       }

@@ -219,6 +219,8 @@ class ManyLightRenderer {
   void gatherTile(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, int x0, int y0, int x1,
                   int y1);
   void mergeBatch(const Batch& batch, double wallSeconds);
+  // The eye paths batch b traces per pixel for its shared light.
+  int sharedEyes(int b) const;
 
   const Scene& scene_;
   const Accel& accel_;
@@ -232,6 +234,7 @@ class ManyLightRenderer {
   std::vector<uint32_t> order_;   // random permutation of light indices
   std::vector<size_t> batchEnd_;  // cumulative light counts
   std::vector<int> directEnd_;    // cumulative direct samples
+  std::vector<int> sharedEnd_;    // cumulative eye paths for the shared light (Gatherer::kSharedEyePaths)
   size_t processed_ = 0;
   int batchesDone_ = 0;
   // The pair roulette's measure: the luminance VSL and unclamped VPL gathered

@@ -351,6 +351,9 @@ struct MrcsJob {
   bool lobe = false;  // the eye paths gathered with lobeMap
   std::unique_ptr<Gatherer> both, vslOnly, vplOnly;
   std::vector<EyeSample> gps;  // per pixel
+  // Per pixel: the shared light of Gatherer::sharedEyePaths eye paths (the
+  // first is gps'), which every estimate adds.
+  std::vector<Vec3> shared;
   std::vector<GatherLight> gl;
   std::atomic<uint64_t> pairs{0}, nonFinite{0};
   // The eye paths' thread time and their lobe gathers' share of it.
@@ -366,8 +369,9 @@ struct MrcsJob {
   }
 };
 
-// Gather points (one eye sample per pixel) and direct light, in the eye
-// paths' progress stage (begun by the caller).
+// Gather points (one eye sample per pixel), their shared light (from more
+// eye paths, Gatherer::sharedEyePaths) and direct light, in the eye paths'
+// progress stage (begun by the caller).
 void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSampler& lights,
                        const ManyLightSettings& settings, MrcsJob& job, Image& directOut) {
   RenderSettings rs;
@@ -377,7 +381,9 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
   rs.maxDepth = 1;
   PathTracer direct(scene, accel, lights, rs);
   job.gps.resize(size_t(job.W) * job.H);
+  job.shared.resize(job.gps.size());
   directOut = Image(job.W, job.H);
+  const int eyes = Gatherer::sharedEyePaths(Gatherer::kSharedEyePaths);
   parallelFor(size_t(job.H), [&](size_t y) {
     // With the lobe gather the eye paths are most of a pass: a restart must
     // not wait for all of them.
@@ -387,7 +393,8 @@ void eyePathsAndDirect(const Scene& scene, const Accel& accel, const LightSample
     for (int x = 0; x < job.W; ++x) {
       size_t pix = y * job.W + x;
       Rng rng = Rng::forItem(pix, 0, 2, settings.seed);
-      job.gps[pix] = job.both->eyePath(x, int(y), job.W, job.H, rng, c);
+      job.gps[pix] = job.both->eyePath(x, int(y), job.W, job.H, rng, c, Gatherer::eyePathOptions(eyes));
+      job.shared[pix] = job.both->sharedLight(job.gps[pix], eyes, x, int(y), job.W, job.H, 0, c);
       directOut.set(x, int(y), directLight(direct, x, int(y), 0, settings.directSamples, c));
     }
     job.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
@@ -513,7 +520,7 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
     }
     for (int x = 0; x < job.W; ++x) {
       const EyeSample& es = job.gps[row + size_t(x)];
-      Vec3 L = es.shared();
+      Vec3 L = job.shared[row + size_t(x)];
       for (int g = 0; g < es.count; ++g) {
         const GatherPoint* gp = es.point(g);
         if (!gp) continue;

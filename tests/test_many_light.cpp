@@ -1450,6 +1450,70 @@ TEST(ManyLightStats, LobeSplittingKeepsPunctualLightsBehindMirrors) {
   EXPECT_LT(std::abs(z), 4.0);
 }
 
+// The shared light (what eye paths find behind specular chains) from several
+// eye paths per pixel (Gatherer::sharedLight): the same mean as one eye path
+// with all of kSharedLightSamples next-event samples, and less variance per
+// pixel, where a mirror floor reflects glossy walls lit by a point light (the
+// highlight a pixel's footprint reflects only in part: tableau's pot rims).
+TEST(ManyLightStats, SharedLightFromSeveralEyePathsIsUnbiasedAndLessNoisy) {
+  Loaded l = loadAsset("cornell-glossy");
+  Scene& scene = const_cast<Scene&>(*l.scene);  // not rendered yet
+  for (Material& m : scene.materials) {
+    m.emission = Vec3(0.0f);
+    if (m.name == "white") {  // glossy metal walls and ceiling
+      m.baseColor = Vec3(0.9f);
+      m.metallic = 1.0f;
+      m.roughness = 0.4f;
+    }
+    if (m.name == "glossy-floor") {  // a near-mirror: eye paths continue
+      m.baseColor = Vec3(0.9f);
+      m.metallic = 1.0f;
+      m.roughness = 0.1f;
+    }
+  }
+  PunctualLight p;
+  p.position = scene.center() + Vec3(0, 0.4f * (scene.boundsMax.y - scene.center().y), 0);
+  p.intensity = Vec3(4.0f);
+  scene.punctualLights.push_back(p);
+  LightSampler lights(scene);
+  const int W = 16, H = 16, trials = 300;
+  ManyLightSettings s;
+  Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
+  // Per pixel (lower half: the floor) and number of eye paths: the mean and
+  // variance of the shared light over independent trials.
+  auto run = [&](int paths, double& mean, double& variance, double& se) {
+    GatherCounters c;
+    std::vector<double> all;
+    variance = 0;
+    for (int y = H / 2; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        double m = 0, m2 = 0;
+        for (int i = 0; i < trials; ++i) {
+          Rng rng = Rng::forItem(uint64_t(y * W + x), uint64_t(i), 12, uint64_t(paths));
+          const EyeSample es = g.eyePath(x, y, W, H, rng, c, Gatherer::eyePathOptions(paths));
+          const double v = luminance(g.sharedLight(es, paths, x, y, W, H, uint64_t(i) + 1000 * uint64_t(paths), c));
+          all.push_back(v);
+          m += v / trials;
+          m2 += v * v / trials;
+        }
+        variance += (m2 - m * m) * trials / (trials - 1.0);
+      }
+    variance /= W * (H - H / 2);
+    std::tie(mean, se) = meanAndError(all);
+  };
+  double m1, v1, se1, m4, v4, se4;
+  run(1, m1, v1, se1);
+  run(4, m4, v4, se4);
+  const double z = (m4 - m1) / std::sqrt(se1 * se1 + se4 * se4);
+  std::printf(
+      "shared light: 1 eye path %.6f +- %.6f (variance %.3g), 4 eye paths %.6f +- %.6f (variance %.3g), z = "
+      "%.2f, variance ratio %.3f\n",
+      m1, se1, v1, m4, se4, v4, z, v4 / v1);
+  EXPECT_GT(m1, 0.0);
+  EXPECT_LT(std::abs(z), 4.0);
+  EXPECT_LT(v4, 0.6 * v1) << "four eye paths per pixel should cut the variance (about 0.34x here)";
+}
+
 // ---- The lobe gather (core/lobe_gather.h) --------------------------------------------
 
 namespace {
