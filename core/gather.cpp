@@ -76,9 +76,13 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     const bool narrow = std::max(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
     const bool last = j + 1 >= kMaxSpecularChain;
     const bool continues = !last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f));
+    // Where the path does not continue, the gather point: the whole BRDF,
+    // or its diffuse lobe if the specular lobe is split off (once per eye
+    // sample).
+    const bool split = !continues && narrow && cur + 1 < kMaxGatherPoints && !last;
     // A path traced for its shared light alone ends at a first gather point
     // that is not split: no light is shared there.
-    if (!o.lobeGather && j == 0 && !continues && !(narrow && !last)) return es;
+    if (!o.lobeGather && j == 0 && !continues && !split) return es;
     const BrdfAt full(brdf, woL);
     if (continues) {
       // Punctual lights reflected here are never hit by the continued ray.
@@ -86,9 +90,6 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
       if (!continuePath(full, sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) return es;
       continue;
     }
-    // The gather point: the whole BRDF, or its diffuse lobe if the specular
-    // lobe is split off (once per eye sample).
-    const bool split = narrow && cur + 1 < kMaxGatherPoints && !last;
     gp.rx.f = split ? full.diffuseLobe() : full;
     // Behind a specular chain, its own direct light is indirect for the
     // image (two or more scattering events).
@@ -186,14 +187,20 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
 
 Vec3 Gatherer::sharedLight(const EyeSample& first, int paths, int x, int y, int width, int height, uint64_t pass,
                            GatherCounters& c) const {
-  Vec3 sum = first.shared();
-  if (paths <= 1) return sum;
+  if (paths <= 1) return first.shared();
+  paths = std::min(paths, kMaxSharedEyePaths);
+  auto finite = [&](const Vec3& v) {
+    if (isFinite(v)) return v;
+    ++c.nonFinite;
+    return Vec3(0.0f);
+  };
+  Vec3 sum = finite(first.shared());
   EyePathOptions o = eyePathOptions(paths);
   o.lobeGather = false;
   const uint64_t pixel = uint64_t(y) * uint64_t(width) + uint64_t(x);
   for (int e = 1; e < paths; ++e) {
     Rng rng = Rng::forItem(pixel, (pass << 8) | uint64_t(e), 6, seed_);
-    sum += eyePath(x, y, width, height, rng, c, o).shared();
+    sum += finite(eyePath(x, y, width, height, rng, c, o).shared());
   }
   return sum / float(paths);
 }

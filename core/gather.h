@@ -124,18 +124,23 @@ class Gatherer {
   EyeSample eyePath(int x, int y, int width, int height, Rng& rng, GatherCounters& c, const EyePathOptions& o) const;
   // Eye paths per pixel for the shared light (EyeSample::shared) over a
   // brute-force render, spread over its batches like its lights (at least one
-  // per batch), and at most kSharedLightSamples in one batch or MRCS pass
-  // (sharedEyePaths), each with kSharedLightSamples / paths next-event
-  // samples (eyePathOptions). The light behind a specular chain is a
-  // path-traced estimate of a pixel's footprint: with one eye path per batch,
-  // a curved mirror's pixel that reflects a highlight in one batch of 16
-  // showed 16x its value (tableau's pot rims; docs/VSL-QUALITY.md, "Session
-  // 38"). The gather itself keeps one eye path per batch.
+  // per batch, so about 64: 16 batches of 1,500 lights take 1 in each of the
+  // first seven and 6-7 in the others), at most kMaxSharedEyePaths in one
+  // batch or MRCS pass (sharedEyePaths), each with max(1,
+  // kSharedLightSamples / paths) next-event samples (eyePathOptions). The
+  // light behind a specular chain is a path-traced estimate of a pixel's
+  // footprint: with one eye path per batch, a curved mirror's pixel that
+  // reflects a highlight in one batch of 16 showed 16x its value (tableau's
+  // pot rims; docs/VSL-QUALITY.md, "Session 38"). The gather itself keeps one
+  // eye path per batch.
   static constexpr int kSharedEyePaths = 64;
-  static int sharedEyePaths(int scheduled) { return std::clamp(scheduled, 1, kSharedLightSamples); }
-  // The shared light of pixel (x, y) from `paths` eye paths (sharedEyePaths):
-  // `first`'s (already traced, with the lightSamples of eyePathOptions(paths))
-  // and paths - 1 more traced for it alone from streams of (pixel, pass).
+  static constexpr int kMaxSharedEyePaths = 16;
+  static int sharedEyePaths(int scheduled) { return std::clamp(scheduled, 1, kMaxSharedEyePaths); }
+  // The shared light of pixel (x, y) from `paths` eye paths (at most
+  // kMaxSharedEyePaths): `first`'s (already traced, with the lightSamples of
+  // eyePathOptions(paths)) and paths - 1 more traced for it alone from
+  // streams of (pixel, pass). A path whose light is not finite adds nothing
+  // and is counted in c.nonFinite.
   Vec3 sharedLight(const EyeSample& first, int paths, int x, int y, int width, int height, uint64_t pass,
                    GatherCounters& c) const;
   static EyePathOptions eyePathOptions(int paths) {

@@ -372,11 +372,12 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   stats_.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
 }
 
-// Merge: each batch estimates the all-N image as (N / nb) x its sum, with
-// weight nb / N, so the films hold the running unbiased estimate.
 int ManyLightRenderer::sharedEyes(int b) const {
   return Gatherer::sharedEyePaths(sharedEnd_[size_t(b)] - (b > 0 ? sharedEnd_[size_t(b) - 1] : 0));
 }
+
+// Merge: each batch estimates the all-N image as (N / nb) x its sum, with
+// weight nb / N, so the films hold the running unbiased estimate.
 
 void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   const size_t nb = batch.end - batch.begin, N = set_.lights.size();

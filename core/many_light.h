@@ -244,7 +244,8 @@ class ManyLightRenderer {
   uint64_t roulettePairs_ = 0;
   Film directFilm_, sharedFilm_;  // per-pass averages
   // The lobe gather's estimates (VSL only), one per batch's eye sample and
-  // each weighted equally, as the eye paths' own light is: they do not
+  // each weighted equally, as each of the eye paths' own (shared) light is
+  // (sharedFilm_ weighs a batch by its eye paths, sharedEyes): they do not
   // depend on the batch's lights (weighting them by the batch's share of
   // lights, as the gathered layers are, had 1.4x their variance at 8
   // batches).

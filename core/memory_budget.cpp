@@ -38,10 +38,10 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
     // a quarter), the reduced columns of both estimators (rows floats each),
     // and the clustering's column space (norm, index, 32-float projection)
     // with its seeding and assignment arrays (~20 B). Per pixel, one eye
-    // sample (the gather points of the column stage).
+    // sample (the gather points of the column stage) and its shared light.
     e.bytesPerLight += sizeof(GatherLight) - sizeof(GatherLight) / 4 + 2 * uint64_t(mrcsRows) * sizeof(float) +
                        sizeof(double) + sizeof(uint32_t) + 32 * sizeof(float) + 20;
-    px += sizeof(EyeSample);
+    px += sizeof(EyeSample) + sizeof(Vec3);
   }
   e.bytesPerPixel = px;
   e.fixedBytes = uint64_t(150) << 20;  // measured: the GL driver, ImGui, threads, a small scene and its BVH

@@ -1455,37 +1455,41 @@ TEST(ManyLightStats, LobeSplittingKeepsPunctualLightsBehindMirrors) {
 // with all of kSharedLightSamples next-event samples, and less variance per
 // pixel, where a mirror floor reflects glossy walls lit by a point light (the
 // highlight a pixel's footprint reflects only in part: tableau's pot rims).
+// Then with lobe splitting on the walls, seen directly and in the mirror:
+// the split-off point's light must be in every eye path's share (a path
+// traced for the shared light alone ends early only at an unsplit first
+// point).
 TEST(ManyLightStats, SharedLightFromSeveralEyePathsIsUnbiasedAndLessNoisy) {
   Loaded l = loadAsset("cornell-glossy");
-  Scene& scene = const_cast<Scene&>(*l.scene);  // not rendered yet
-  for (Material& m : scene.materials) {
-    m.emission = Vec3(0.0f);
-    if (m.name == "white") {  // glossy metal walls and ceiling
-      m.baseColor = Vec3(0.9f);
-      m.metallic = 1.0f;
-      m.roughness = 0.4f;
+  Scene& scene = const_cast<Scene&>(*l.scene);                  // not rendered yet
+  for (Material& m : scene.materials) m.emission = Vec3(0.0f);  // the point light alone, for the sampler below
+  auto setWalls = [&](float metallic, float roughness) {
+    for (Material& m : scene.materials) {
+      if (m.name == "white") {  // glossy walls and ceiling
+        m.baseColor = Vec3(0.9f);
+        m.metallic = metallic;
+        m.roughness = roughness;
+      }
+      if (m.name == "glossy-floor") {  // a near-mirror: eye paths continue
+        m.baseColor = Vec3(0.9f);
+        m.metallic = 1.0f;
+        m.roughness = 0.1f;
+      }
     }
-    if (m.name == "glossy-floor") {  // a near-mirror: eye paths continue
-      m.baseColor = Vec3(0.9f);
-      m.metallic = 1.0f;
-      m.roughness = 0.1f;
-    }
-  }
+  };
   PunctualLight p;
   p.position = scene.center() + Vec3(0, 0.4f * (scene.boundsMax.y - scene.center().y), 0);
   p.intensity = Vec3(4.0f);
   scene.punctualLights.push_back(p);
   LightSampler lights(scene);
   const int W = 16, H = 16, trials = 300;
-  ManyLightSettings s;
-  Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
-  // Per pixel (lower half: the floor) and number of eye paths: the mean and
-  // variance of the shared light over independent trials.
-  auto run = [&](int paths, double& mean, double& variance, double& se) {
+  // Over pixel rows [y0, H) and independent trials: the mean and its
+  // standard error, and the mean per-pixel variance, with `paths` eye paths.
+  auto run = [&](const Gatherer& g, int y0, int paths, double& mean, double& variance, double& se) {
     GatherCounters c;
     std::vector<double> all;
     variance = 0;
-    for (int y = H / 2; y < H; ++y)
+    for (int y = y0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
         double m = 0, m2 = 0;
         for (int i = 0; i < trials; ++i) {
@@ -1498,20 +1502,40 @@ TEST(ManyLightStats, SharedLightFromSeveralEyePathsIsUnbiasedAndLessNoisy) {
         }
         variance += (m2 - m * m) * trials / (trials - 1.0);
       }
-    variance /= W * (H - H / 2);
+    variance /= W * (H - y0);
     std::tie(mean, se) = meanAndError(all);
+    EXPECT_EQ(c.nonFinite, 0u);
   };
-  double m1, v1, se1, m4, v4, se4;
-  run(1, m1, v1, se1);
-  run(4, m4, v4, se4);
-  const double z = (m4 - m1) / std::sqrt(se1 * se1 + se4 * se4);
-  std::printf(
-      "shared light: 1 eye path %.6f +- %.6f (variance %.3g), 4 eye paths %.6f +- %.6f (variance %.3g), z = "
-      "%.2f, variance ratio %.3f\n",
-      m1, se1, v1, m4, se4, v4, z, v4 / v1);
-  EXPECT_GT(m1, 0.0);
-  EXPECT_LT(std::abs(z), 4.0);
-  EXPECT_LT(v4, 0.6 * v1) << "four eye paths per pixel should cut the variance (about 0.34x here)";
+  {
+    setWalls(1.0f, 0.4f);  // glossy metal
+    ManyLightSettings s;
+    Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
+    double m1, v1, se1, m4, v4, se4;
+    run(g, H / 2, 1, m1, v1, se1);  // the floor
+    run(g, H / 2, 4, m4, v4, se4);
+    const double z = (m4 - m1) / std::sqrt(se1 * se1 + se4 * se4);
+    std::printf(
+        "shared light: 1 eye path %.6f +- %.6f (variance %.3g), 4 eye paths %.6f +- %.6f (variance %.3g), z = "
+        "%.2f, variance ratio %.3f\n",
+        m1, se1, v1, m4, se4, v4, z, v4 / v1);
+    EXPECT_GT(m1, 0.0);
+    EXPECT_LT(std::abs(z), 4.0);
+    EXPECT_LT(v4, 0.6 * v1) << "four eye paths per pixel should cut the variance (about 0.34x here)";
+  }
+  {
+    setWalls(0.9f, 0.15f);  // mostly metal, alpha 0.0225: split at 0.05
+    ManyLightSettings s;
+    s.splitAlpha = 0.05f;
+    Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
+    double m1, v1, se1, m4, v4, se4;
+    run(g, 0, 1, m1, v1, se1);  // the whole image
+    run(g, 0, 4, m4, v4, se4);
+    const double z = (m4 - m1) / std::sqrt(se1 * se1 + se4 * se4);
+    std::printf("shared light with split walls: 1 eye path %.6f +- %.6f, 4 eye paths %.6f +- %.6f, z = %.2f\n", m1, se1,
+                m4, se4, z);
+    EXPECT_GT(m1, 0.0);
+    EXPECT_LT(std::abs(z), 4.0);
+  }
 }
 
 // ---- The lobe gather (core/lobe_gather.h) --------------------------------------------
