@@ -108,7 +108,7 @@ class BruteForceEstimator final : public ManyLightEstimator {
   BruteForceEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many,
                       const std::atomic<bool>* stop)
       : ManyLightEstimator(std::move(run)),
-        renderer_(ctx.scene(), ctx.accel(), ctx.lights(), run_.set, run_.radii, many, stop) {}
+        renderer_(ctx.scene(), ctx.accel(), ctx.lights(), run_.set, run_.radii, many, stop, &ctx.lobeGatherMaps()) {}
   EstimatorKind kind() const override { return EstimatorKind::BruteForce; }
   bool step(const std::atomic<bool>* stop) override {
     if (done()) return false;

@@ -129,4 +129,33 @@ std::unique_ptr<LobeGatherMap> buildLobeGatherMap(const Scene& scene, const Acce
   return std::make_unique<LobeGatherMap>(dense, ManyLightSettings::kLobeGatherK);
 }
 
+std::shared_ptr<const LobeGatherMap> LobeGatherCache::get(const Scene& scene, const Accel& accel,
+                                                          const LightSampler& lights, const ManyLightSettings& settings,
+                                                          const std::atomic<bool>* stop,
+                                                          std::atomic<uint64_t>& nonFinite) {
+  if (settings.lobeGather == 0 || !settings.computeVsl) return nullptr;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (map_ && count_ == settings.lobeGather && seed_ == settings.seed && maxDepth_ == settings.lightMaxDepth) {
+    nonFinite.fetch_add(nonFinite_, std::memory_order_relaxed);
+    return map_;
+  }
+  map_.reset();
+  std::atomic<uint64_t> rejected{0};
+  std::shared_ptr<const LobeGatherMap> map = buildLobeGatherMap(scene, accel, lights, settings, stop, rejected);
+  nonFinite.fetch_add(rejected.load(), std::memory_order_relaxed);
+  if (!map) return nullptr;
+  ++builds_;
+  map_ = map;
+  count_ = settings.lobeGather;
+  seed_ = settings.seed;
+  maxDepth_ = settings.lightMaxDepth;
+  nonFinite_ = rejected.load();
+  return map;
+}
+
+uint64_t LobeGatherCache::builds() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return builds_;
+}
+
 }  // namespace vsl

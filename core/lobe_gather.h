@@ -32,6 +32,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "core/gather.h"
@@ -102,5 +103,33 @@ class LobeGatherMap {
 std::unique_ptr<LobeGatherMap> buildLobeGatherMap(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                                   const ManyLightSettings& settings, const std::atomic<bool>* stop,
                                                   std::atomic<uint64_t>& nonFinite);
+
+// The lobe gather's map of the last render of one scene, kept for the next
+// (RenderContext::lobeGatherMaps): the studio restarts a render at every
+// change of a control, and most changes (a radius, the light count, the
+// estimator's options) leave the map as it was. A map depends only on the
+// scene and on settings.lobeGather, the seed and lightMaxDepth, so the kept
+// one is reused, bit for bit what a new build would give, where those agree;
+// otherwise it is released before the new one is built (so no more than one
+// map is alive because of the cache). Thread-safe; a build holds the lock.
+class LobeGatherCache {
+ public:
+  // buildLobeGatherMap's map (and its count of rejected lights, added to
+  // nonFinite again on reuse), from the cache or built now; a map that was
+  // stopped (null) is not kept.
+  std::shared_ptr<const LobeGatherMap> get(const Scene& scene, const Accel& accel, const LightSampler& lights,
+                                           const ManyLightSettings& settings, const std::atomic<bool>* stop,
+                                           std::atomic<uint64_t>& nonFinite);
+  uint64_t builds() const;  // maps built so far (not reused)
+
+ private:
+  mutable std::mutex mutex_;
+  uint32_t count_ = 0;
+  uint64_t seed_ = 0;
+  int maxDepth_ = 0;
+  uint64_t nonFinite_ = 0;
+  std::shared_ptr<const LobeGatherMap> map_;
+  uint64_t builds_ = 0;
+};
 
 }  // namespace vsl

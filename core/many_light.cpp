@@ -134,7 +134,8 @@ std::vector<double> batchWeights(size_t lights, int batches) {
 
 ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                      const VirtualLightSet& set, const std::vector<float>& radii,
-                                     const ManyLightSettings& settings, const std::atomic<bool>* stop)
+                                     const ManyLightSettings& settings, const std::atomic<bool>* stop,
+                                     LobeGatherCache* lobeMaps)
     : scene_(scene),
       accel_(accel),
       set_(set),
@@ -177,7 +178,8 @@ ManyLightRenderer::ManyLightRenderer(const Scene& scene, const Accel& accel, con
   if (settings.lobeGather > 0 && settings.computeVsl) {
     // Its cost is VSL's own gather time.
     Stopwatch clock;
-    lobeMap_ = buildLobeGatherMap(scene, accel, direct_.lightSampler(), settings, stop, stats_.nonFinite);
+    lobeMap_ = lobeMaps ? lobeMaps->get(scene, accel, direct_.lightSampler(), settings, stop, stats_.nonFinite)
+                        : buildLobeGatherMap(scene, accel, direct_.lightSampler(), settings, stop, stats_.nonFinite);
     if (lobeMap_) lobeFilm_.emplace(width_, height_);
     stats_.gatherSeconds += clock.seconds();
     stats_.vslSeconds += clock.seconds();

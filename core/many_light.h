@@ -55,6 +55,7 @@ namespace vsl {
 
 class Gatherer;
 class LobeGatherMap;
+class LobeGatherCache;
 
 // The progressive batches' relative sizes (weights) for `lights` lights in
 // `batches` batches (at most one batch per light): sizes double for c
@@ -195,10 +196,11 @@ class ManyLightRenderer {
  public:
   // The light set and radii (one per light, VSL_CHECK) must outlive the
   // renderer. `stop` ends the lobe gather's light tracing early (a renderer
-  // made while it was set is not to be used).
+  // made while it was set is not to be used). lobeMaps: where the lobe
+  // gather's map comes from if it is kept (the context's), else it is built.
   ManyLightRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
                     const std::vector<float>& radii, const ManyLightSettings& settings,
-                    const std::atomic<bool>* stop = nullptr);
+                    const std::atomic<bool>* stop = nullptr, LobeGatherCache* lobeMaps = nullptr);
   ~ManyLightRenderer();
 
   int width() const { return width_; }
@@ -225,7 +227,7 @@ class ManyLightRenderer {
   const Scene& scene_;
   const Accel& accel_;
   const VirtualLightSet& set_;
-  std::unique_ptr<LobeGatherMap> lobeMap_;  // settings.lobeGather > 0
+  std::shared_ptr<const LobeGatherMap> lobeMap_;  // settings.lobeGather > 0
   const std::vector<float>& radii_;
   ManyLightSettings settings_;
   PathTracer direct_;

@@ -7,7 +7,8 @@
 //
 // Lifetime: the context owns all three; renderers built on it hold references
 // into it and must not outlive it. Immutable after creation, so queries from
-// any thread are safe.
+// any thread are safe; the lobe gather's kept map (lobeGatherMaps) has its own
+// lock.
 #pragma once
 
 #include <memory>
@@ -16,6 +17,7 @@
 #include "core/accel.h"
 #include "core/lights.h"
 #include "core/loader.h"
+#include "core/lobe_gather.h"
 #include "core/result.h"
 
 namespace vsl {
@@ -40,6 +42,10 @@ class RenderContext {
   // method renders black, and light tracing has nothing to start from.
   bool hasEmitters() const { return !lights_->empty(); }
 
+  // The lobe gather's map of this scene's last brute-force render, kept for
+  // the next (LobeGatherCache).
+  LobeGatherCache& lobeGatherMaps() const { return lobeMaps_; }
+
   // Wall time of parsing the scene file (0 when created from a scene) and
   // of building the BVH, in seconds.
   double loadSeconds() const { return loadSeconds_; }
@@ -50,6 +56,7 @@ class RenderContext {
   std::shared_ptr<const Scene> scene_;
   std::unique_ptr<Accel> accel_;
   std::unique_ptr<LightSampler> lights_;
+  mutable LobeGatherCache lobeMaps_;
   double loadSeconds_ = 0, bvhSeconds_ = 0;
 };
 

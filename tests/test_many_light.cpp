@@ -1683,6 +1683,79 @@ TEST(LobeGather, IndirectLightsLobesAreWidenedFirstHitsKept) {
   EXPECT_GT(mirrorRadiance[0], 10.0 * mirrorRadiance[1]) << "a first-hit light's narrow lobe is kept";
 }
 
+// The context's kept lobe-gather map (LobeGatherCache): reused where the
+// lobe gather's light count, seed and depth agree (other settings may
+// differ), rebuilt where they do not (one map kept), never kept when its
+// build was stopped, and a render with the reused map is bit for bit the
+// render with a map of its own.
+TEST(LobeGather, KeptMapIsReusedOnlyWhereTheSettingsAgree) {
+  Loaded l = loadAsset("tableau", 24);
+  ASSERT_TRUE(l.context);
+  LobeGatherCache cache;
+  ManyLightSettings s;
+  s.width = l.width;
+  s.height = l.height;
+  s.lights = 200;
+  s.seed = 5;
+  s.lobeGather = 3000;
+  s.lobeGatherRays = 4;
+  s.batches = 2;
+  s.directSamples = 1;
+  std::atomic<uint64_t> nf1{0}, nf2{0};
+  const std::shared_ptr<const LobeGatherMap> a = cache.get(*l.scene, *l.accel, *l.lights, s, nullptr, nf1);
+  ASSERT_TRUE(a);
+  EXPECT_EQ(cache.builds(), 1u);
+  ManyLightSettings other = s;  // what the map does not depend on
+  other.lights = 400;
+  other.radiusScale = 2.0f;
+  other.lobeGatherRays = 16;
+  other.batches = 4;
+  EXPECT_EQ(cache.get(*l.scene, *l.accel, *l.lights, other, nullptr, nf2).get(), a.get());
+  EXPECT_EQ(cache.builds(), 1u);
+  EXPECT_EQ(nf1.load(), nf2.load()) << "a reused map reports its rejected lights again";
+  for (int change = 0; change < 3; ++change) {
+    ManyLightSettings t = s;
+    if (change == 0) t.seed = 6;
+    if (change == 1) t.lobeGather = 3001;
+    if (change == 2) t.lightMaxDepth = 3;
+    const uint64_t before = cache.builds();
+    const std::shared_ptr<const LobeGatherMap> b = cache.get(*l.scene, *l.accel, *l.lights, t, nullptr, nf2);
+    ASSERT_TRUE(b);
+    EXPECT_NE(b.get(), a.get()) << "change " << change;
+    EXPECT_EQ(cache.builds(), before + 1) << "change " << change;
+  }
+  ManyLightSettings none = s;
+  none.lobeGather = 0;
+  EXPECT_FALSE(cache.get(*l.scene, *l.accel, *l.lights, none, nullptr, nf2));
+  std::atomic<bool> stop{true};
+  const uint64_t before = cache.builds();
+  EXPECT_FALSE(cache.get(*l.scene, *l.accel, *l.lights, s, &stop, nf2)) << "a stopped build gives no map";
+  EXPECT_EQ(cache.builds(), before);
+  const std::shared_ptr<const LobeGatherMap> again = cache.get(*l.scene, *l.accel, *l.lights, s, nullptr, nf2);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(cache.builds(), before + 1) << "nor keeps one";
+  // Renders: with a map of its own, then twice through the cache (built, then
+  // reused with other settings in between).
+  const ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  auto render = [&](LobeGatherCache* c) {
+    ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s, nullptr, c);
+    for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
+    return r.images().vsl;
+  };
+  LobeGatherCache fresh;
+  const Image own = render(nullptr), first = render(&fresh);
+  fresh.get(*l.scene, *l.accel, *l.lights, other, nullptr, nf2);
+  const Image reused = render(&fresh);
+  EXPECT_EQ(fresh.builds(), 1u);
+  double sum = 0;
+  for (size_t i = 0; i < own.rgb.size(); ++i) {
+    EXPECT_EQ(own.rgb[i], first.rgb[i]) << i;
+    EXPECT_EQ(own.rgb[i], reused.rgb[i]) << i;
+    sum += own.rgb[i];
+  }
+  EXPECT_GT(sum, 0.0);
+}
+
 // The map keeps its lights in an order of its own (Morton order, for the
 // cache): the estimate must not depend on the order the lights come in. The
 // lights carry different fluxes, so a different neighbour set would show.
