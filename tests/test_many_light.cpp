@@ -1384,6 +1384,33 @@ void expectSplitUnbiased(const Loaded& l, uint64_t seed) {
 
 TEST(ManyLightStats, LobeSplittingKeepsUnclampedVplUnbiased) { expectSplitUnbiased(splitScene(), 2000); }
 
+namespace {
+// cornell-glossy's floor a near-mirror metal (alpha 0.01: eye paths continue)
+// and its walls and ceiling ("white") glossy with the given metallic and
+// roughness.
+void setMirrorRoom(Scene& scene, float wallMetallic, float wallRoughness) {
+  for (Material& m : scene.materials) {
+    if (m.name == "white") {
+      m.baseColor = Vec3(0.9f);
+      m.metallic = wallMetallic;
+      m.roughness = wallRoughness;
+    }
+    if (m.name == "glossy-floor") {
+      m.baseColor = Vec3(0.9f);
+      m.metallic = 1.0f;
+      m.roughness = 0.1f;
+    }
+  }
+}
+// A point light of intensity 4 above the scene's centre.
+void addPointLightAbove(Scene& scene) {
+  PunctualLight p;
+  p.position = scene.center() + Vec3(0, 0.4f * (scene.boundsMax.y - scene.center().y), 0);
+  p.intensity = Vec3(4.0f);
+  scene.punctualLights.push_back(p);
+}
+}  // namespace
+
 // Eye path -> mirror floor (continued) -> glossy wall (split) -> point light:
 // a continued ray can never hit a point light, so the wall's highlight in its
 // split-off specular lobe must come from next-event light there. Nothing
@@ -1396,21 +1423,9 @@ TEST(ManyLightStats, LobeSplittingKeepsPunctualLightsBehindMirrors) {
   for (Material& m : scene.materials) {
     m.emission = Vec3(0.0f);
     m.baseColor = Vec3(0.0f);
-    if (m.name == "white") {  // back wall and ceiling: mostly metal, glossy
-      m.baseColor = Vec3(0.9f);
-      m.metallic = 0.9f;
-      m.roughness = 0.15f;
-    }
-    if (m.name == "glossy-floor") {  // a near-mirror
-      m.baseColor = Vec3(0.9f);
-      m.metallic = 1.0f;
-      m.roughness = 0.1f;
-    }
   }
-  PunctualLight p;
-  p.position = scene.center() + Vec3(0, 0.4f * (scene.boundsMax.y - scene.center().y), 0);
-  p.intensity = Vec3(4.0f);
-  scene.punctualLights.push_back(p);
+  setMirrorRoom(scene, 0.9f, 0.15f);  // back wall and ceiling: mostly metal, glossy
+  addPointLightAbove(scene);
   LightSampler lights(scene);
   const int W = 16, H = 16, samples = 400;
   // Per eye path, paired: the same random numbers drive both runs up to the
@@ -1463,24 +1478,7 @@ TEST(ManyLightStats, SharedLightFromSeveralEyePathsIsUnbiasedAndLessNoisy) {
   Loaded l = loadAsset("cornell-glossy");
   Scene& scene = const_cast<Scene&>(*l.scene);                  // not rendered yet
   for (Material& m : scene.materials) m.emission = Vec3(0.0f);  // the point light alone, for the sampler below
-  auto setWalls = [&](float metallic, float roughness) {
-    for (Material& m : scene.materials) {
-      if (m.name == "white") {  // glossy walls and ceiling
-        m.baseColor = Vec3(0.9f);
-        m.metallic = metallic;
-        m.roughness = roughness;
-      }
-      if (m.name == "glossy-floor") {  // a near-mirror: eye paths continue
-        m.baseColor = Vec3(0.9f);
-        m.metallic = 1.0f;
-        m.roughness = 0.1f;
-      }
-    }
-  };
-  PunctualLight p;
-  p.position = scene.center() + Vec3(0, 0.4f * (scene.boundsMax.y - scene.center().y), 0);
-  p.intensity = Vec3(4.0f);
-  scene.punctualLights.push_back(p);
+  addPointLightAbove(scene);
   LightSampler lights(scene);
   const int W = 16, H = 16, trials = 300;
   // Over pixel rows [y0, H) and independent trials: the mean and its
@@ -1507,7 +1505,7 @@ TEST(ManyLightStats, SharedLightFromSeveralEyePathsIsUnbiasedAndLessNoisy) {
     EXPECT_EQ(c.nonFinite, 0u);
   };
   {
-    setWalls(1.0f, 0.4f);  // glossy metal
+    setMirrorRoom(scene, 1.0f, 0.4f);  // glossy metal walls
     ManyLightSettings s;
     Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
     double m1, v1, se1, m4, v4, se4;
@@ -1523,7 +1521,7 @@ TEST(ManyLightStats, SharedLightFromSeveralEyePathsIsUnbiasedAndLessNoisy) {
     EXPECT_LT(v4, 0.6 * v1) << "four eye paths per pixel should cut the variance (about 0.34x here)";
   }
   {
-    setWalls(0.9f, 0.15f);  // mostly metal, alpha 0.0225: split at 0.05
+    setMirrorRoom(scene, 0.9f, 0.15f);  // mostly metal, alpha 0.0225: split at 0.05
     ManyLightSettings s;
     s.splitAlpha = 0.05f;
     Gatherer g(scene, *l.accel, lights, s, 1.0f, false, false);
