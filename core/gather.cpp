@@ -134,11 +134,10 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
     // along that surface's specular lobe (the lights' own narrow lobes would
     // be beams there, as at a narrow receiver), adding the emission it
     // reaches and, by next-event estimation, the punctual lights that lobe
-    // reflects (which the continued path never hits). A highlight seen
-    // through two narrow lobes is a rare spike that way; with eight
-    // directions it took one tableau light set from 0.42 to 7.4 and was left
-    // out, with 128 it costs nothing measurable (docs/VSL-QUALITY.md,
-    // "Session 31").
+    // reflects (which the continued path never hits), through that lobe
+    // widened to ManyLightSettings::kLobeGatherNextEventAlpha: a highlight
+    // seen through two narrow lobes is otherwise a rare spike (one tableau
+    // light set 0.55 -> 0.33; docs/VSL-QUALITY.md, "Session 39").
     BrdfAt f = spec;
     SurfaceHit at = sh;
     Vec3 t(1.0f);
@@ -174,7 +173,10 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
         ++c.nonFinite;
       if (!narrow) break;
       const BrdfAt zs = BrdfAt(zb, woZ).specularLobe();
-      if (const Vec3 ne = t * nextEvent(zs, z, true, rng, c); isFinite(ne))
+      Brdf wide = zb;
+      wide.ggx.ax = std::max(wide.ggx.ax, ManyLightSettings::kLobeGatherNextEventAlpha);
+      wide.ggx.ay = std::max(wide.ggx.ay, ManyLightSettings::kLobeGatherNextEventAlpha);
+      if (const Vec3 ne = t * nextEvent(BrdfAt(wide, woZ).specularLobe(), z, true, rng, c); isFinite(ne))
         sum += ne;
       else
         ++c.nonFinite;

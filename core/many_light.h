@@ -134,6 +134,13 @@ struct ManyLightSettings {
   static constexpr int kLobeGatherK = 32;
   static constexpr float kLobeGatherAlpha = 0.05f;
   static constexpr float kMinLobeGatherAlpha = 0.001f;  // lobeGatherAlpha in [this, 1]
+  // Where a lobe-gather direction lands on a narrow surface, the punctual
+  // lights that surface reflects are found by next-event estimation through
+  // its specular lobe widened to at least this GGX alpha on each axis (path
+  // regularisation): a point light's highlight seen through two narrow lobes
+  // is otherwise a rare spike that held up to half of a tableau light set's
+  // squared error. Chosen by measurement (docs/VSL-QUALITY.md, "Session 39").
+  static constexpr float kLobeGatherNextEventAlpha = 0.1f;
   // Receivers narrower than this GGX alpha (either axis) are lobe-gathered.
   // The default takes near-mirrors and brushed metals; on hall 0.15, which
   // takes its metal walls (alpha 0.12) too, is better at equal time
