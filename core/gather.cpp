@@ -134,10 +134,13 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
     // along that surface's specular lobe (the lights' own narrow lobes would
     // be beams there, as at a narrow receiver), adding the emission it
     // reaches and, by next-event estimation, the punctual lights that lobe
-    // reflects (which the continued path never hits), through that lobe
-    // widened to ManyLightSettings::kLobeGatherNextEventAlpha: a highlight
-    // seen through two narrow lobes is otherwise a rare spike (one tableau
-    // light set 0.55 -> 0.33; docs/VSL-QUALITY.md, "Session 39").
+    // reflects (which the continued path never hits). Past that first
+    // narrow landing, the light reflected toward the receiver is found
+    // through lobes at least ManyLightSettings::kLobeGatherChainAlpha wide:
+    // the next-event estimate's, and the map's lights where the continued
+    // path lands. A highlight seen through two narrow lobes is otherwise a
+    // rare spike (tableau, five sets: 0.284 -> 0.229 -> 0.190;
+    // docs/VSL-QUALITY.md, "Session 39").
     BrdfAt f = spec;
     SurfaceHit at = sh;
     Vec3 t(1.0f);
@@ -166,7 +169,8 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
       const Vec3 woZ = z.shading.toLocal(wOut);
       if (woZ.z <= 0) break;
       const bool narrow = std::max(zb.ggx.ax, zb.ggx.ay) < ManyLightSettings::kLobeGatherAlpha;
-      const Vec3 add = t * lobeMap_->radiance(z.p, dot(z.ng, wOut) >= 0 ? z.ng : -z.ng, wOut, narrow);
+      const float minAlpha = bounce >= 1 ? ManyLightSettings::kLobeGatherChainAlpha : 0.0f;
+      const Vec3 add = t * lobeMap_->radiance(z.p, dot(z.ng, wOut) >= 0 ? z.ng : -z.ng, wOut, narrow, minAlpha);
       if (isFinite(add))
         sum += add;
       else
@@ -174,8 +178,8 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, Ga
       if (!narrow) break;
       const BrdfAt zs = BrdfAt(zb, woZ).specularLobe();
       Brdf wide = zb;
-      wide.ggx.ax = std::max(wide.ggx.ax, ManyLightSettings::kLobeGatherNextEventAlpha);
-      wide.ggx.ay = std::max(wide.ggx.ay, ManyLightSettings::kLobeGatherNextEventAlpha);
+      wide.ggx.ax = std::max(wide.ggx.ax, ManyLightSettings::kLobeGatherChainAlpha);
+      wide.ggx.ay = std::max(wide.ggx.ay, ManyLightSettings::kLobeGatherChainAlpha);
       if (const Vec3 ne = t * nextEvent(BrdfAt(wide, woZ).specularLobe(), z, true, rng, c); isFinite(ne))
         sum += ne;
       else

@@ -81,7 +81,7 @@ size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2,
 }
 LobeGatherMap::~LobeGatherMap() = default;
 
-Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly) const {
+Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly, float minAlpha) const {
   if (lights_.empty()) return Vec3(0.0f);
   const size_t want = std::min<size_t>(size_t(k_), lights_.size());
   // Small k lives on the stack; the default (kLobeGatherK) fits.
@@ -109,8 +109,13 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
   for (size_t i = 0; i + 1 < found; ++i) {
     const GatherLight& L = lights_[idx[i]];
     if (dot(L.ng, nz) < 0.5f || dot(L.n, wOut) <= 0 || dot(L.ng, wOut) <= 0) continue;
-    const BrdfAt::Parts f = L.em.f.evalParts(L.em.frame.toLocal(wOut));
-    sum += L.Phi * (diffuseOnly ? f.diffuse : f.total());
+    if (diffuseOnly) {
+      sum += L.Phi * L.em.f.evalParts(L.em.frame.toLocal(wOut)).diffuse;
+      continue;
+    }
+    VslEmitter wide;
+    const VslEmitter& em = L.alpha < minAlpha && widenLobeTo(L.em, minAlpha, wide) ? wide : L.em;
+    sum += L.Phi * em.f.evalParts(em.frame.toLocal(wOut)).total();
   }
   return sum / float(kPi * r2);
 }

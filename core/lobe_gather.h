@@ -69,8 +69,9 @@ class LobeGatherMap {
   // degrees of nz: not the back of a thin wall) and face wOut. Zero with
   // fewer than two lights.
   // diffuseOnly: the lights' diffuse lobes only (where z's own specular lobe
-  // is continued instead).
-  Vec3 radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly) const;
+  // is continued instead). minAlpha: each light's lobe at least this GGX
+  // alpha wide on each axis for this estimate (0: as kept).
+  Vec3 radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly, float minAlpha = 0.0f) const;
   size_t size() const { return lights_.size(); }
   // The min(k, size()) lights nearest to z (indices into the map's own
   // order, see light(); squared distances), the farthest of them last, the

@@ -1631,6 +1631,8 @@ TEST(LobeGather, DensityEstimateIsTheAnalyticRadianceOfAUniformPlane) {
 // lights is then the analytic radiance with the widened lobe: Phi / h^2 x
 // f(wi, wo) (grid lights: within 5%). Seen in the mirror direction, the
 // first-hit plane's radiance is that of its own narrow lobe, 10-100x higher.
+// An estimate asked for lobes at least kLobeGatherChainAlpha wide (past a
+// narrow landing surface) is the analytic radiance with those lobes.
 TEST(LobeGather, IndirectLightsLobesAreWidenedFirstHitsKept) {
   const float h = 0.01f, Phi = 2e-4f, a = LobeGatherMap::kIndirectAlphaFloor;
   const Vec3 up(0, 0, 1), wi = normalize(Vec3(0.3f, 0.1f, 1.0f));
@@ -1675,6 +1677,15 @@ TEST(LobeGather, IndirectLightsLobesAreWidenedFirstHitsKept) {
       const double expected = Phi / (h * h) * want.eval(frame.toLocal(wi), frame.toLocal(wo)).y;
       const double got = map.radiance(Vec3(0.0005f, 0.0003f, 0.0f), up, wo, false).y;
       EXPECT_NEAR(got, expected, 0.05 * expected) << "depth " << k.depth << ", alpha " << k.ax << ", " << k.ay;
+      // Past a narrow landing surface (Gatherer::lobeGather): every light's
+      // lobe at least ManyLightSettings::kLobeGatherChainAlpha wide.
+      const float c = ManyLightSettings::kLobeGatherChainAlpha;
+      Brdf chained = want;
+      chained.ggx.ax = std::max(chained.ggx.ax, c);
+      chained.ggx.ay = std::max(chained.ggx.ay, c);
+      const double expectedC = Phi / (h * h) * chained.eval(frame.toLocal(wi), frame.toLocal(wo)).y;
+      const double gotC = map.radiance(Vec3(0.0005f, 0.0003f, 0.0f), up, wo, false, c).y;
+      EXPECT_NEAR(gotC, expectedC, 0.05 * expectedC) << "chain, depth " << k.depth << ", alpha " << k.ax;
     }
     mirrorRadiance.push_back(map.radiance(Vec3(0.0005f, 0.0003f, 0.0f), up, mirror, false).y);
   }
@@ -2119,7 +2130,7 @@ TEST(ManyLightStats, LobeGatherFindsAPointLightThroughTwoNarrowLobes) {
   ASSERT_GT(pt, 0.0);
   EXPECT_NEAR(on, pt, 0.1 * pt);
   // The wall's next-event light through its lobe widened to alpha 0.1
-  // (ManyLightSettings::kLobeGatherNextEventAlpha): 0.019; through its own
+  // (ManyLightSettings::kLobeGatherChainAlpha): 0.019; through its own
   // alpha 0.04 lobe, 0.070.
   EXPECT_LT(var / sq, 0.035) << "spikes of the point light seen through two narrow lobes";
 }
