@@ -103,7 +103,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     if (o.lobeGather && !split && lobeMap_ && std::min(brdf.ggx.ax, brdf.ggx.ay) < lobeAlpha_) {
       Stopwatch own;
       gp.lobe = true;
-      gp.vslLobe = beta * lobeGather(full.specularLobe(), sh, rng, c);
+      gp.vslLobe = beta * lobeGather(full.specularLobe(), sh, o.lobeRays > 0 ? o.lobeRays : lobeRays_, rng, c);
       c.vslOwnSeconds += own.seconds();
     }
     if (!split) return es;
@@ -118,13 +118,13 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
   return es;
 }
 
-Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, GatherCounters& c) const {
+Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rng& rng, GatherCounters& c) const {
   // The first bounce's directions are multi-jittered over the lobe's sample
   // space: each is uniform in its own cell, and together they cover the lobe
   // evenly, which is where the lobe gather's error lies (docs/VSL-QUALITY.md,
   // "Session 37").
   Vec2Scratch<ManyLightSettings::kMaxLobeGatherRays> scratch;
-  const int rays = std::clamp(lobeRays_, 1, ManyLightSettings::kMaxLobeGatherRays);
+  rays = std::clamp(rays, 1, ManyLightSettings::kMaxLobeGatherRays);
   Vec2* first = scratch.data();
   multiJittered(rays, rng, first);
   Vec3 sum(0.0f);

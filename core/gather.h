@@ -114,6 +114,8 @@ class Gatherer {
     bool lobeGather = true;
     // Next-event samples per vertex for the shared light (nextEvent).
     int lightSamples = kSharedLightSamples;
+    // The lobe gather's directions per point (0: the settings' lobeGatherRays).
+    int lobeRays = 0;
   };
   // Camera ray through (x + jitter, y + jitter), continued through
   // near-specular surfaces to the first surface that is not, and split there
@@ -237,7 +239,7 @@ class Gatherer {
   float lobeAlpha_;  // receivers narrower than this are lobe-gathered
   // The lobe gather's estimate of spec (a specular lobe at sh) toward the
   // viewer: the mean over lobeRays_ sampled directions (LobeGatherMap).
-  Vec3 lobeGather(const BrdfAt& spec, const SurfaceHit& sh, Rng& rng, GatherCounters& c) const;
+  Vec3 lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rng& rng, GatherCounters& c) const;
 };
 
 }  // namespace vsl

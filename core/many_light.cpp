@@ -273,13 +273,15 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   auto pixelOf = [&](int i) { return size_t(y0 + i / tw) * width_ + (x0 + i % tw); };
   // The light behind specular chains: the batch's share of the eye paths.
   const int eyes = sharedEyes(batch.b);
+  Gatherer::EyePathOptions options = Gatherer::eyePathOptions(eyes);
+  options.lobeRays = lobeRays(batch.b);
   for (int i = 0; i < n; ++i) {
     const int x = x0 + i % tw, y = y0 + i / tw;
     const size_t pix = pixelOf(i);
     // Direct light: the reference's estimator, this batch's share of samples.
     batch.direct[pix] = directLight(direct_, x, y, batch.dBegin, batch.dEnd, c);
     Rng rng = Rng::forItem(pix, uint64_t(batch.b), 2, settings_.seed);
-    gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c, Gatherer::eyePathOptions(eyes));
+    gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c, options);
     batch.shared[pix] = gatherer.sharedLight(gps[size_t(i)], eyes, x, y, width_, height_, uint64_t(batch.b), c);
   }
   // Each light against the tile's gather points in three timed parts: the
@@ -378,6 +380,11 @@ int ManyLightRenderer::sharedEyes(int b) const {
   return Gatherer::sharedEyePaths(sharedEnd_[size_t(b)] - (b > 0 ? sharedEnd_[size_t(b) - 1] : 0));
 }
 
+int ManyLightRenderer::lobeRays(int b) const {
+  const int rays = std::clamp(settings_.lobeGatherRays, 1, ManyLightSettings::kMaxLobeGatherRays);
+  return b == 0 && batchEnd_.size() > 1 ? std::max(1, rays / kFirstBatchLobeRaysDivisor) : rays;
+}
+
 // Merge: each batch estimates the all-N image as (N / nb) x its sum, with
 // weight nb / N, so the films hold the running unbiased estimate.
 
@@ -388,6 +395,7 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   const int dCount = batch.dEnd - batch.dBegin;
   // Each batch's shared light is the mean of its eye paths.
   const int eyes = sharedEyes(batch.b);
+  const int rays = lobeRays(batch.b);
   // Rows in parallel: Film::add is safe for different pixels, and each
   // pixel's sums see the same additions in the same order as serially.
   parallelForChunks(size_t(height_), 16, [&](size_t y0, size_t y1) {
@@ -396,7 +404,7 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
         size_t pix = size_t(y) * width_ + x;
         directFilm_.add(x, y, batch.direct[pix], double(dCount));
         sharedFilm_.add(x, y, batch.shared[pix], double(eyes));
-        if (batch.lobe) lobeFilm_->add(x, y, batch.lobe[pix], 1.0);
+        if (batch.lobe) lobeFilm_->add(x, y, batch.lobe[pix], double(rays));
         for (int k = 0; k < kGatherLayers; ++k) gather_[k].add(x, y, batch.layers[k][pix] * scale, weight);
       }
   });

@@ -233,6 +233,13 @@ class ManyLightRenderer {
   void mergeBatch(const Batch& batch, double wallSeconds);
   // The eye paths batch b traces per pixel for its shared light.
   int sharedEyes(int b) const;
+  // The lobe gather's directions per point in batch b: the first of several
+  // batches takes an eighth of lobeGatherRays (at least one), so that the
+  // first picture comes at about the cost of a batch without the lobe gather
+  // (128 directions made the studio's first picture about a second late at
+  // 256 px); the others take lobeGatherRays.
+  int lobeRays(int b) const;
+  static constexpr int kFirstBatchLobeRaysDivisor = 8;
 
   const Scene& scene_;
   const Accel& accel_;
@@ -255,12 +262,11 @@ class ManyLightRenderer {
   double rouletteLuminance_ = 0;
   uint64_t roulettePairs_ = 0;
   Film directFilm_, sharedFilm_;  // per-pass averages
-  // The lobe gather's estimates (VSL only), one per batch's eye sample and
-  // each weighted equally, as each of the eye paths' own (shared) light is
-  // (sharedFilm_ weighs a batch by its eye paths, sharedEyes): they do not
-  // depend on the batch's lights (weighting them by the batch's share of
-  // lights, as the gathered layers are, had 1.4x their variance at 8
-  // batches).
+  // The lobe gather's estimates (VSL only), one per batch's eye sample,
+  // each weighted by its directions (lobeRays), as the eye paths' own
+  // (shared) light is by its eye paths (sharedEyes): they do not depend on
+  // the batch's lights (weighting them by the batch's share of lights, as
+  // the gathered layers are, had 1.4x their variance at 8 batches).
   std::optional<Film> lobeFilm_;  // only with the lobe gather's light set
   std::vector<Film> gather_;      // kGatherLayers films: batch estimates weighted by batch share
   // A batch's per-pixel results, merged into the films only if the batch

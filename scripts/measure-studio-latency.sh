@@ -6,7 +6,7 @@
 # (`bash scripts/setup.sh --measure` installs them).
 #   xvfb-run -a -s "-screen 0 1600x1000x24" bash scripts/measure-studio-latency.sh [OUT] [change|drag|mrcs]
 # change: cornell-glossy at 256 px; clicks the seed "+" button six times, 2 s
-#         apart (the button sits at (220, 549) in the 1600x1000 window's layout;
+#         apart (the button sits at (220, 549) in the 1600x1000 window's default layout;
 #         a click restarts at once, only a drag waits for a pause).
 # drag:   the same, dragging the radius-scale slider six times (a press, which
 #         moves the value to the pointer, a quick drag, a 1 s rest, the release).
@@ -16,6 +16,9 @@
 #         100,000 VSLs; VPL's columns follow), the session's stage timings,
 #         the studio's CPU seconds then and the load average. Each MRCS set
 #         renders its share of the 64 direct-light samples per pixel (8 of 8).
+# STUDIO_ARGS: more options for the studio (change and drag), e.g.
+#   STUDIO_ARGS='--lobe-gather 100000' (its controls push the seed button to
+#   (221, 688): SEED_BUTTON='221 688').
 # Run on an idle machine; prints the log lines and saves a screenshot (mrcs:
 # also one at the first picture, mrcs-first.png).
 set -uo pipefail
@@ -44,7 +47,9 @@ if [ "$mode" = mrcs ]; then
   done
   sleep 1
 else
-  "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 256 >"$out/studio.log" 2>&1 &
+  # shellcheck disable=SC2086 # STUDIO_ARGS is a list of options
+  "$studio" --fresh --window 1600x1000 --verbose assets/scenes/cornell-glossy.gltf --width 256 ${STUDIO_ARGS:-} \
+    >"$out/studio.log" 2>&1 &
   pid=$!
   sleep 10
   for i in 1 2 3 4 5 6; do
@@ -59,7 +64,8 @@ else
       sleep 1
       xdotool mouseup 1
     else
-      xdotool mousemove 220 549 click 1
+      # shellcheck disable=SC2086 # two coordinates
+      xdotool mousemove ${SEED_BUTTON:-220 549} click 1
     fi
     sleep 2
   done
