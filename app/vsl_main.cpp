@@ -93,7 +93,8 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                       " nearest lights of a second light set of this many lights (brute force or MRCS); 0 = off")
       ->default_str("0")
       ->check(CLI::Range(0u, 50000000u));
-  cmd->add_option("--lobe-gather-rays", m.lobeGatherRays, "VSL lobe gather: directions per gather point")
+  cmd->add_option("--lobe-gather-rays", m.lobeGatherRays,
+                  "VSL lobe gather: directions per gather point (the first of several batches takes an eighth)")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeGatherRays))
       ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
   cmd->add_option("--lobe-gather-alpha", m.lobeGatherAlpha,

@@ -382,7 +382,15 @@ int ManyLightRenderer::sharedEyes(int b) const {
 
 int ManyLightRenderer::lobeRays(int b) const {
   const int rays = std::clamp(settings_.lobeGatherRays, 1, ManyLightSettings::kMaxLobeGatherRays);
-  return b == 0 && batchEnd_.size() > 1 ? std::max(1, rays / kFirstBatchLobeRaysDivisor) : rays;
+  const int64_t B = batchCount();
+  if (B <= 1) return rays;
+  const int64_t first = std::max(1, rays / kFirstBatchLobeRaysDivisor);
+  if (b == 0) return int(first);
+  // The others share what the first left, so that a render's directions
+  // are still lobeGatherRays per batch.
+  const int64_t rest = int64_t(rays) * B - first;
+  const int64_t share = rest * b / (B - 1) - rest * (b - 1) / (B - 1);
+  return int(std::min<int64_t>(share, ManyLightSettings::kMaxLobeGatherRays));
 }
 
 // Merge: each batch estimates the all-N image as (N / nb) x its sum, with

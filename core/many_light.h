@@ -237,7 +237,8 @@ class ManyLightRenderer {
   // batches takes an eighth of lobeGatherRays (at least one), so that the
   // first picture comes at about the cost of a batch without the lobe gather
   // (128 directions made the studio's first picture about a second late at
-  // 256 px); the others take lobeGatherRays.
+  // 256 px); the others share the rest, so that the render's total is still
+  // lobeGatherRays per batch (at most kMaxLobeGatherRays each).
   int lobeRays(int b) const;
   static constexpr int kFirstBatchLobeRaysDivisor = 8;
 

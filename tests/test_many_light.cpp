@@ -2066,12 +2066,13 @@ TEST(ManyLightStats, LobeGatherWeighsEveryBatchEqually) {
 }
 
 // The first of several batches takes an eighth of the lobe gather's
-// directions (ManyLightRenderer::lobeRays), and each batch's estimate is
-// weighted by its directions: on the metal floor (all of its light the lobe
-// gather's), two batches of 1 and 8 directions have the per-pixel variance
-// of one batch of 9 over eight seeds (1.03x; weighted equally, 2.8x) and the
-// same mean. (Few directions, so that theirs and not the second light set's
-// is most of the variance.)
+// directions and the others share the rest (ManyLightRenderer::lobeRays),
+// and each batch's estimate is weighted by its directions: on the metal
+// floor (all of its light the lobe gather's), two batches at 8 directions
+// (1, then 15) have the per-pixel variance of one batch of 16 over eight
+// seeds and the same mean; weighted equally they have several times it,
+// and without the rest shared (1 + 8) 1.3x. (Few directions, so that theirs
+// and not the second light set's is most of the variance.)
 TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
   Loaded l = loadedFrom(mirrorFloorRoom(true), 24);
   ASSERT_TRUE(l.context);
@@ -2108,12 +2109,12 @@ TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
     return var / count;
   };
   double meanTwo = 0, meanOne = 0;
-  const double two = stats(2, 8, meanTwo), one = stats(1, 9, meanOne);
-  std::printf("floor lobe gather: 1 + 8 directions variance %.3e mean %.5f, 9 directions %.3e mean %.5f\n", two,
+  const double two = stats(2, 8, meanTwo), one = stats(1, 16, meanOne);
+  std::printf("floor lobe gather: 1 + 15 directions variance %.3e mean %.5f, 16 directions %.3e mean %.5f\n", two,
               meanTwo, one, meanOne);
   ASSERT_GT(one, 0.0);
-  EXPECT_LT(two / one, 1.4) << "weighted equally, two batches of 1 and 8 directions have 2.8x the variance";
-  EXPECT_GT(two / one, 0.7);
+  EXPECT_LT(two / one, 1.2) << "weighted equally, or the rest not shared";
+  EXPECT_GT(two / one, 0.8);
   EXPECT_NEAR(meanTwo, meanOne, 0.03 * meanOne);
 }
 
@@ -2125,7 +2126,7 @@ TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
 // estimate there takes diffuse lobes only, and a metal has none). Over six
 // light sets its mean is within 10% of the path tracer's, and one render's
 // relative variance is below what the wall's own narrow lobe gives (the
-// regularised next-event estimate; fails at 3.6x without it).
+// regularised next-event estimate; fails at 3.5x without it).
 TEST(ManyLightStats, LobeGatherFindsAPointLightThroughTwoNarrowLobes) {
   auto scene = std::make_shared<Scene>();
   scene->path = "<point light in a polished wall, seen in a polished floor>";
@@ -2182,7 +2183,7 @@ TEST(ManyLightStats, LobeGatherFindsAPointLightThroughTwoNarrowLobes) {
   ASSERT_GT(pt, 0.0);
   EXPECT_NEAR(on, pt, 0.1 * pt);
   // The wall's next-event light through its lobe widened to alpha 0.1
-  // (ManyLightSettings::kLobeGatherChainAlpha): 0.026; through its own
-  // alpha 0.04 lobe, 0.093.
+  // (ManyLightSettings::kLobeGatherChainAlpha): 0.028; through its own
+  // alpha 0.04 lobe, 0.097.
   EXPECT_LT(var / sq, 0.035) << "spikes of the point light seen through two narrow lobes";
 }
