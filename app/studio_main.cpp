@@ -533,8 +533,8 @@ void addOptions(CLI::App& app, Args& a) {
       ->check(CLI::Range(0u, 50'000'000u));
   app.add_option("--lobe-gather-rays", a.lobeGatherRays,
                  "VSL lobe gather: directions sampled per gather point (the \"lobe rays\" control; more "
-                 "cost proportionally more and lower the noise on polished and brushed surfaces; the first batch "
-                 "takes an eighth of them)")
+                 "cost proportionally more and lower the noise on polished and brushed surfaces; brute force: the "
+                 "first of several batches takes an eighth, the others share the rest)")
       ->default_str(std::to_string(ManyLightSettings::kDefaultLobeGatherRays))
       ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
   app.add_option("--lobe-gather-alpha", a.lobeGatherAlpha,

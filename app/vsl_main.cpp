@@ -94,7 +94,8 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
       ->default_str("0")
       ->check(CLI::Range(0u, 50000000u));
   cmd->add_option("--lobe-gather-rays", m.lobeGatherRays,
-                  "VSL lobe gather: directions per gather point (the first of several batches takes an eighth)")
+                  "VSL lobe gather: directions per gather point (brute force: the first of several batches takes an "
+                  "eighth, at least one, and the others share the rest)")
       ->default_str(defaultText(ManyLightSettings::kDefaultLobeGatherRays))
       ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
   cmd->add_option("--lobe-gather-alpha", m.lobeGatherAlpha,

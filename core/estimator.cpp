@@ -121,7 +121,12 @@ class BruteForceEstimator final : public ManyLightEstimator {
   int stepCount() const override { return renderer_.batchCount(); }
   double nextStepScale() const override {
     if (done_ < 1 || done()) return 1.0;
-    return double(renderer_.batchLights(done_)) / double(std::max<size_t>(renderer_.batchLights(done_ - 1), 1));
+    const double lights =
+        double(renderer_.batchLights(done_)) / double(std::max<size_t>(renderer_.batchLights(done_ - 1), 1));
+    // The lobe gather's directions grow from the first batch to the second
+    // (ManyLightRenderer::lobeRays): the larger of the two ratios.
+    if (!renderer_.lobeGathering()) return lights;
+    return std::max(lights, double(renderer_.lobeRays(done_)) / double(renderer_.lobeRays(done_ - 1)));
   }
   size_t lightsProcessed() const override { return renderer_.lightsProcessed(); }
   const ManyLightStats& stats() const override { return renderer_.stats(); }

@@ -238,7 +238,7 @@ class Gatherer {
   int lobeRays_;
   float lobeAlpha_;  // receivers narrower than this are lobe-gathered
   // The lobe gather's estimate of spec (a specular lobe at sh) toward the
-  // viewer: the mean over lobeRays_ sampled directions (LobeGatherMap).
+  // viewer: the mean over rays sampled directions (LobeGatherMap).
   Vec3 lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rng& rng, GatherCounters& c) const;
 };
 

@@ -348,7 +348,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
       }
     }
   // The lobe gather's estimates (per eye sample, not per light) go to their
-  // own film, each batch's weighted equally.
+  // own film, each batch's weighted by its directions (lobeRays).
   if (batch.lobe)
     for (int i = 0; i < n; ++i) {
       Vec3 sum(0.0f);
@@ -384,13 +384,14 @@ int ManyLightRenderer::lobeRays(int b) const {
   const int rays = std::clamp(settings_.lobeGatherRays, 1, ManyLightSettings::kMaxLobeGatherRays);
   const int64_t B = batchCount();
   if (B <= 1) return rays;
-  const int64_t first = std::max(1, rays / kFirstBatchLobeRaysDivisor);
+  const int64_t kMax = ManyLightSettings::kMaxLobeGatherRays;
+  const int64_t first = std::max<int64_t>({1, rays / kFirstBatchLobeRaysDivisor, int64_t(rays) * B - kMax * (B - 1)});
   if (b == 0) return int(first);
   // The others share what the first left, so that a render's directions
   // are still lobeGatherRays per batch.
   const int64_t rest = int64_t(rays) * B - first;
   const int64_t share = rest * b / (B - 1) - rest * (b - 1) / (B - 1);
-  return int(std::min<int64_t>(share, ManyLightSettings::kMaxLobeGatherRays));
+  return int(std::min(share, kMax));
 }
 
 // Merge: each batch estimates the all-N image as (N / nb) x its sum, with

@@ -218,6 +218,16 @@ class ManyLightRenderer {
   int batchCount() const { return int(batchEnd_.size()); }
   // Lights in batch b.
   size_t batchLights(int b) const { return batchEnd_[size_t(b)] - (b > 0 ? batchEnd_[size_t(b) - 1] : 0); }
+  // The lobe gather's directions per point in batch b: the first of several
+  // batches takes an eighth of lobeGatherRays (at least one), so that the
+  // first picture comes at about the cost of a batch without the lobe gather
+  // (128 directions made the studio's first picture about a second late at
+  // 256 px); the others share the rest, so that the render's total is still
+  // lobeGatherRays per batch (the first takes more where the others would
+  // need more than kMaxLobeGatherRays each).
+  int lobeRays(int b) const;
+  static constexpr int kFirstBatchLobeRaysDivisor = 8;
+  bool lobeGathering() const { return lobeFilm_.has_value(); }
   float clampBound() const { return clamp_; }
   size_t lightsProcessed() const { return processed_; }
   // Adds batch b (0-based, in order). Returns false if *stop was set, in which
@@ -233,14 +243,6 @@ class ManyLightRenderer {
   void mergeBatch(const Batch& batch, double wallSeconds);
   // The eye paths batch b traces per pixel for its shared light.
   int sharedEyes(int b) const;
-  // The lobe gather's directions per point in batch b: the first of several
-  // batches takes an eighth of lobeGatherRays (at least one), so that the
-  // first picture comes at about the cost of a batch without the lobe gather
-  // (128 directions made the studio's first picture about a second late at
-  // 256 px); the others share the rest, so that the render's total is still
-  // lobeGatherRays per batch (at most kMaxLobeGatherRays each).
-  int lobeRays(int b) const;
-  static constexpr int kFirstBatchLobeRaysDivisor = 8;
 
   const Scene& scene_;
   const Accel& accel_;

@@ -144,3 +144,32 @@ TEST(ManyLightBatches, SizesDoubleThenStayEqualAndNoBatchIsWasted) {
   EXPECT_GE(sum * sum / sum2, 0.9 * 64);
   RecordProperty("effectiveBatches", std::to_string(sum * sum / sum2));
 }
+
+// The lobe gather's directions per batch (ManyLightRenderer::lobeRays): the
+// first of several batches takes an eighth (at least one), the others share
+// the rest, so that a render still takes lobeGatherRays per batch in all;
+// none takes more than kMaxLobeGatherRays (the first takes more where the
+// others could not hold the rest); one batch takes them all.
+TEST(ManyLightBatches, LobeGatherDirectionsSumToTheSettingsPerBatch) {
+  Loaded l = loadAsset("cornell-glossy", 8);
+  const int kMax = ManyLightSettings::kMaxLobeGatherRays;
+  struct Case {
+    int rays, batches, first;
+  };
+  for (const Case& c : {Case{128, 8, 16}, Case{4, 8, 1}, Case{16, 64, 2}, Case{1, 64, 1}, Case{128, 1, 128},
+                        Case{1024, 2, 1024}, Case{1000, 8, 1000 * 8 - kMax * 7}, Case{7, 2, 1}}) {
+    ManyLightSettings s = batchSettings(l, 2000, 1, c.batches);
+    s.lobeGatherRays = c.rays;
+    ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+    ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+    ASSERT_EQ(r.batchCount(), c.batches);
+    long total = 0;
+    for (int b = 0; b < r.batchCount(); ++b) {
+      EXPECT_GE(r.lobeRays(b), 1) << c.rays << " rays, batch " << b;
+      EXPECT_LE(r.lobeRays(b), kMax) << c.rays << " rays, batch " << b;
+      total += r.lobeRays(b);
+    }
+    EXPECT_EQ(r.lobeRays(0), c.first) << c.rays << " rays in " << c.batches << " batches";
+    EXPECT_EQ(total, long(c.rays) * c.batches) << c.rays << " rays in " << c.batches << " batches";
+  }
+}

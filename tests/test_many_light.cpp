@@ -2028,14 +2028,15 @@ TEST(ManyLightStats, LobeGatherAlphaChoosesTheReceivers) {
 }
 
 // The lobe gather's estimates do not depend on the batch's lights, so each
-// batch's is weighted equally (as the eye paths' own light is), not by the
-// batch's share of the lights: weighted by shares (1, 2, 4, 8, 16, 16, 16,
-// 16 at eight batches) they had 1.4x the variance. On the metal floor all of
-// VSL's indirect light is the lobe gather's, and its eye paths and second
-// light set do not depend on the first set's size: eight batches of one
-// light each (equal shares) and of 1,000 lights in growing batches give the
-// same floor, which a share-weighted mean does not.
-TEST(ManyLightStats, LobeGatherWeighsEveryBatchEqually) {
+// batch's is weighted by its directions (ManyLightRenderer::lobeRays, as the
+// eye paths' own light is by its eye paths), not by the batch's share of the
+// lights: weighted by shares (1, 2, 4, 8, 16, 16, 16, 16 at eight batches)
+// they had 1.4x the variance. On the metal floor all of VSL's indirect light
+// is the lobe gather's, and its eye paths and second light set do not
+// depend on the first set's size: eight batches of one light each (equal
+// shares) and of 1,000 lights in growing batches give the same floor, which
+// a share-weighted mean does not.
+TEST(ManyLightStats, LobeGatherWeightsDoNotDependOnTheLightBatches) {
   Loaded l = loadedFrom(mirrorFloorRoom(true), 24);
   ASSERT_TRUE(l.context);
   ManyLightSettings s;
@@ -2072,7 +2073,8 @@ TEST(ManyLightStats, LobeGatherWeighsEveryBatchEqually) {
 // (1, then 15) have the per-pixel variance of one batch of 16 over eight
 // seeds and the same mean; weighted equally they have several times it,
 // and without the rest shared (1 + 8) 1.3x. (Few directions, so that theirs
-// and not the second light set's is most of the variance.)
+// and not the second light set's is most of the variance; the two-batch run
+// also has two eye samples per pixel, which on this smooth floor add little.)
 TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
   Loaded l = loadedFrom(mirrorFloorRoom(true), 24);
   ASSERT_TRUE(l.context);
@@ -2116,6 +2118,17 @@ TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
   EXPECT_LT(two / one, 1.2) << "weighted equally, or the rest not shared";
   EXPECT_GT(two / one, 0.8);
   EXPECT_NEAR(meanTwo, meanOne, 0.03 * meanOne);
+  // The lobe gather is what these runs measure: without it the floor is
+  // gathered from the light set, another image.
+  s.batches = 2;
+  s.lobeGatherRays = 8;
+  s.seed = 300;
+  const Image with = renderMany(l, s).vsl;
+  s.lobeGather = 0;
+  const Image without = renderMany(l, s).vsl;
+  double diff = 0;
+  for (size_t i = 0; i < with.rgb.size(); ++i) diff += std::abs(double(with.rgb[i]) - without.rgb[i]);
+  EXPECT_GT(diff / double(with.rgb.size()), 0.01 * meanOne);
 }
 
 // A point light's highlight seen through two narrow lobes: a polished metal
