@@ -22,7 +22,7 @@
 # Run on an idle machine; prints the log lines and saves a screenshot (mrcs:
 # also one at the first picture, mrcs-first.png).
 set -uo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/.." || exit 1
 out=${1:-out/latency}
 mode=${2:-change}
 studio=${STUDIO:-build/bin/vsl-studio}
