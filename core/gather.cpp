@@ -177,10 +177,8 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rn
         ++c.nonFinite;
       if (!narrow) break;
       const BrdfAt zs = BrdfAt(zb, woZ).specularLobe();
-      Brdf wide = zb;
-      wide.ggx.ax = std::max(wide.ggx.ax, ManyLightSettings::kLobeGatherChainAlpha);
-      wide.ggx.ay = std::max(wide.ggx.ay, ManyLightSettings::kLobeGatherChainAlpha);
-      if (const Vec3 ne = t * nextEvent(BrdfAt(wide, woZ).specularLobe(), z, true, rng, c); isFinite(ne))
+      const BrdfAt wide = BrdfAt(zb.widened(ManyLightSettings::kLobeGatherChainAlpha), woZ).specularLobe();
+      if (const Vec3 ne = t * nextEvent(wide, z, true, rng, c); isFinite(ne))
         sum += ne;
       else
         ++c.nonFinite;

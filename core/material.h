@@ -22,6 +22,7 @@
 // holds. For anisotropic dielectrics E is looked up at alpha = sqrt(ax*ay).
 #pragma once
 
+#include <algorithm>
 #include <optional>
 #include <string>
 #include <vector>
@@ -91,6 +92,13 @@ struct Brdf {
   bool isNearSpecular() const { return isNarrowMetal(kNearSpecularAlpha); }
   // A pure metal whose lobe is narrower than alpha along both axes.
   bool isNarrowMetal(float alpha) const { return ggx.ax < alpha && ggx.ay < alpha && metallic >= 1.0f; }
+  // This BRDF with its GGX lobe at least alpha wide on each axis.
+  Brdf widened(float alpha) const {
+    Brdf b = *this;
+    b.ggx.ax = std::max(b.ggx.ax, alpha);
+    b.ggx.ay = std::max(b.ggx.ay, alpha);
+    return b;
+  }
   // Diffuse reflectance rho_d (the Lambertian part's albedo before the
   // energy-compensation factors).
   Vec3 diffuseReflectance() const { return baseColor * (1.0f - metallic); }

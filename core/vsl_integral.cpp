@@ -81,11 +81,9 @@ bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, V
 }
 
 bool widenLobeTo(const VslEmitter& p, float alpha, VslEmitter& out) {
-  Brdf b = p.f.brdf();
+  const Brdf b = p.f.brdf();
   if (!(b.ggx.ax < alpha || b.ggx.ay < alpha)) return false;
-  b.ggx.ax = std::max(b.ggx.ax, alpha);
-  b.ggx.ay = std::max(b.ggx.ay, alpha);
-  out.f = BrdfAt(b, p.f.w());
+  out.f = BrdfAt(b.widened(alpha), p.f.w());
   out.frame = p.frame;
   return true;
 }

@@ -1894,6 +1894,41 @@ std::shared_ptr<Scene> mirrorFloorRoom(bool metalFloor, bool brushed = false, fl
   return s;
 }
 
+// Per value (pixel and colour) over independent renders: the mean and the
+// unbiased sample variance.
+struct RenderSpread {
+  std::vector<double> mean, variance;
+};
+RenderSpread renderSpread(const std::vector<Image>& renders) {
+  const double n = double(renders.size());
+  RenderSpread r;
+  r.mean.resize(renders[0].rgb.size());
+  r.variance.resize(renders[0].rgb.size());
+  for (size_t i = 0; i < r.mean.size(); ++i) {
+    double m = 0, m2 = 0;
+    for (const Image& im : renders) {
+      const double v = im.rgb[i];
+      m += v / n;
+      m2 += v * v / n;
+    }
+    r.mean[i] = m;
+    r.variance[i] = (m2 - m * m) * n / (n - 1.0);
+  }
+  return r;
+}
+
+// The lobe gather on mirrorFloorRoom's metal floor at 24 x 24: one direct
+// sample, a second light set of 30,000 and eight lights (the floor's light
+// is all the lobe gather's).
+ManyLightSettings floorLobeGatherSettings() {
+  ManyLightSettings s;
+  s.width = s.height = 24;
+  s.directSamples = 1;
+  s.lobeGather = 30000;
+  s.lights = 8;
+  return s;
+}
+
 // The mean over colours of mirrorFloorRoom's floor: the image's lower half.
 double floorMean(const Image& im) {
   double sum = 0;
@@ -2039,14 +2074,10 @@ TEST(ManyLightStats, LobeGatherAlphaChoosesTheReceivers) {
 TEST(ManyLightStats, LobeGatherWeightsDoNotDependOnTheLightBatches) {
   Loaded l = loadedFrom(mirrorFloorRoom(true), 24);
   ASSERT_TRUE(l.context);
-  ManyLightSettings s;
-  s.width = s.height = 24;
+  ManyLightSettings s = floorLobeGatherSettings();
   s.batches = 8;
-  s.directSamples = 1;
-  s.lobeGather = 30000;
   s.lobeGatherRays = 4;
   s.seed = 5;
-  s.lights = 8;
   const Image even = renderMany(l, s).vsl;
   s.lights = 1000;
   const Image growing = renderMany(l, s).vsl;
@@ -2078,12 +2109,9 @@ TEST(ManyLightStats, LobeGatherWeightsDoNotDependOnTheLightBatches) {
 TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
   Loaded l = loadedFrom(mirrorFloorRoom(true), 24);
   ASSERT_TRUE(l.context);
-  ManyLightSettings s;
-  s.width = s.height = 24;
-  s.directSamples = 1;
-  s.lobeGather = 30000;
-  s.lights = 8;
+  ManyLightSettings s = floorLobeGatherSettings();
   const int seeds = 8;
+  // The floor's (the lower half's) mean and mean per-value variance.
   auto stats = [&](int batches, int rays, double& mean) {
     s.batches = batches;
     s.lobeGatherRays = rays;
@@ -2092,23 +2120,16 @@ TEST(ManyLightStats, LobeGatherFirstBatchTakesFewerDirectionsWeighted) {
       s.seed = 300 + uint64_t(k);
       ims.push_back(renderMany(l, s).vsl);
     }
+    const RenderSpread r = renderSpread(ims);
     double var = 0;
     mean = 0;
-    int count = 0;
-    for (int y = 12; y < 24; ++y)
-      for (int x = 0; x < 24; ++x)
-        for (int c = 0; c < 3; ++c, ++count) {
-          double m = 0, m2 = 0;
-          for (const Image& im : ims) {
-            const double v = im.rgb[(size_t(y) * 24 + x) * 3 + c];
-            m += v / seeds;
-            m2 += v * v / seeds;
-          }
-          var += (m2 - m * m) * seeds / (seeds - 1.0);
-          mean += m;
-        }
-    mean /= count;
-    return var / count;
+    const size_t begin = size_t(12) * 24 * 3, end = size_t(24) * 24 * 3;
+    for (size_t i = begin; i < end; ++i) {
+      var += r.variance[i];
+      mean += r.mean[i];
+    }
+    mean /= double(end - begin);
+    return var / double(end - begin);
   };
   double meanTwo = 0, meanOne = 0;
   const double two = stats(2, 8, meanTwo), one = stats(1, 16, meanOne);
@@ -2181,15 +2202,11 @@ TEST(ManyLightStats, LobeGatherFindsAPointLightThroughTwoNarrowLobes) {
   const double pt = mean(ref.indirect);
   // One render's relative variance over the image: the sum over pixels of
   // the variance between the sets over the sum of the squared means.
+  const RenderSpread spread = renderSpread(images);
   double var = 0, sq = 0;
-  for (size_t i = 0; i < images[0].rgb.size(); ++i) {
-    double m = 0, m2 = 0;
-    for (const Image& im : images) {
-      m += im.rgb[i] / double(sets);
-      m2 += double(im.rgb[i]) * im.rgb[i] / double(sets);
-    }
-    var += (m2 - m * m) * sets / (sets - 1.0);
-    sq += m * m;
+  for (size_t i = 0; i < spread.mean.size(); ++i) {
+    var += spread.variance[i];
+    sq += spread.mean[i] * spread.mean[i];
   }
   std::printf("indirect mean: VSL with the lobe gather %.5f, path tracer %.5f; relative variance %.4f\n", on, pt,
               var / sq);
