@@ -68,10 +68,15 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
   while (!est.done()) {
     est.step();
     double el = clock.seconds();
-    char detail[160];
-    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s", est.stepsDone(),
-                  est.stepCount(), est.lightsProcessed(), est.stats().pairs / std::max(el, 1e-9) * 1e-6, el);
-    progress.update(double(est.lightsProcessed()) / std::max<size_t>(n, 1), detail);
+    // Done in time where the batches' costs predict the rest (a batch's
+    // per-pixel work does not scale with its lights), else in lights.
+    const std::optional<double> left = est.remainingSeconds();
+    char detail[200], eta[48] = "";
+    if (left && *left > 0) std::snprintf(eta, sizeof eta, ", ~%.1f s left", *left);
+    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s%s", est.stepsDone(),
+                  est.stepCount(), est.lightsProcessed(), est.stats().pairs / std::max(el, 1e-9) * 1e-6, el, eta);
+    progress.update(left ? el / std::max(el + *left, 1e-9) : double(est.lightsProcessed()) / std::max<size_t>(n, 1),
+                    detail);
     if (a.settings.timeLimit > 0 && el >= a.settings.timeLimit) break;
   }
   progress.finish();

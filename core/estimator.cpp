@@ -128,6 +128,7 @@ class BruteForceEstimator final : public ManyLightEstimator {
     if (!renderer_.lobeGathering()) return lights;
     return std::max(lights, double(renderer_.lobeRays(done_)) / double(renderer_.lobeRays(done_ - 1)));
   }
+  std::optional<double> remainingSeconds() const override { return renderer_.remainingSeconds(); }
   size_t lightsProcessed() const override { return renderer_.lightsProcessed(); }
   const ManyLightStats& stats() const override { return renderer_.stats(); }
   int width() const override { return renderer_.width(); }
@@ -180,6 +181,8 @@ class MrcsEstimator final : public ManyLightEstimator {
   }
   int stepsDone() const override { return done_ ? 1 : 0; }
   int stepCount() const override { return 1; }
+  // Its one step is not measured before it ends.
+  std::optional<double> remainingSeconds() const override { return done_ ? std::optional<double>(0.0) : std::nullopt; }
   size_t lightsProcessed() const override { return done_ ? run_.set.lights.size() : 0; }
   const ManyLightStats& stats() const override { return stats_; }
   MrcsStats mrcsStats() const override { return mrcsStats_; }

@@ -116,6 +116,9 @@ class ManyLightEstimator {
   // predict the next (brute force's batches double in size up to a cap).
   virtual double nextStepScale() const { return 1.0; }
   bool done() const { return stepsDone() >= stepCount(); }
+  // Wall seconds the steps not yet done should take, from what the done ones
+  // cost; nullopt while nothing is measured, 0 when done.
+  virtual std::optional<double> remainingSeconds() const = 0;
   // Lights gathered so far, of run().set.lights.size().
   virtual size_t lightsProcessed() const = 0;
   // Work so far. MRCS charges its whole time to both methods' own seconds

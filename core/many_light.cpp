@@ -203,6 +203,7 @@ struct ManyLightRenderer::Batch {
   std::atomic<bool> abandoned{false};
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
+  double pixelTime = 0, lobeTime = 0;               // the per-pixel part of threadTime, and the lobe gather's
   float rouletteThreshold = 0;                      // the pair roulette's (0: not played)
   uint64_t roulettePairs = 0;                       // offered to it, summed over threads
 };
@@ -275,6 +276,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   const int eyes = sharedEyes(batch.b);
   Gatherer::EyePathOptions options = Gatherer::eyePathOptions(eyes);
   options.lobeRays = lobeRays(batch.b);
+  Stopwatch pixelClock;
   for (int i = 0; i < n; ++i) {
     const int x = x0 + i % tw, y = y0 + i / tw;
     const size_t pix = pixelOf(i);
@@ -284,6 +286,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c, options);
     batch.shared[pix] = gatherer.sharedLight(gps[size_t(i)], eyes, x, y, width_, height_, uint64_t(batch.b), c);
   }
+  const double pixelSeconds = pixelClock.seconds(), lobeSeconds = c.vslOwnSeconds;
   // Each light against the tile's gather points in three timed parts: the
   // shared connection (orientation, the batch of shadow rays), then VPL's
   // and VSL's own transfers, so that each method is charged its own time
@@ -367,6 +370,8 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     batch.threadTime += tileClock.seconds();
     batch.vplTime += vplOwn;
     batch.vslTime += vslOwn;
+    batch.pixelTime += std::max(pixelSeconds - lobeSeconds, 0.0);
+    batch.lobeTime += lobeSeconds;
     batch.roulettePairs += c.rouletteOffered;
   }
   stats_.rouletteDropped.fetch_add(c.rouletteDropped, std::memory_order_relaxed);
@@ -442,7 +447,43 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   if (batch.threadTime > 0) {
     stats_.vslSeconds += wall * std::max(0.0, 1.0 - batch.vplTime / batch.threadTime);
     stats_.vplSeconds += wall * std::max(0.0, 1.0 - batch.vslTime / batch.threadTime);
+    // The batch's wall time split in the proportions of its thread time.
+    const double pixel = wall * std::min(batch.pixelTime / batch.threadTime, 1.0);
+    const double lobe = wall * std::min(batch.lobeTime / batch.threadTime, 1.0);
+    costs_.add({pixel, lobe, std::max(wall - pixel - lobe, 0.0)}, batchUnits(batch.b));
   }
+}
+
+BatchCostModel::Units ManyLightRenderer::batchUnits(int b) const {
+  BatchCostModel::Units u;
+  u.pixel = double(directEnd_[size_t(b)] - (b > 0 ? directEnd_[size_t(b) - 1] : 0)) + double(sharedEyes(b));
+  u.lobe = lobeFilm_ ? double(lobeRays(b)) : 0.0;
+  u.lights = double(batchLights(b));
+  return u;
+}
+
+std::optional<double> ManyLightRenderer::remainingSeconds() const {
+  if (batchesDone_ >= batchCount()) return 0.0;
+  if (!costs_.measured()) return std::nullopt;
+  double s = 0;
+  for (int b = batchesDone_; b < batchCount(); ++b) s += costs_.predict(batchUnits(b));
+  return s;
+}
+
+void BatchCostModel::add(const Units& seconds, const Units& units) {
+  seconds_.pixel += seconds.pixel;
+  seconds_.lobe += seconds.lobe;
+  seconds_.lights += seconds.lights;
+  units_.pixel += units.pixel;
+  units_.lobe += units.lobe;
+  units_.lights += units.lights;
+  ++batches_;
+}
+
+double BatchCostModel::predict(const Units& u) const {
+  auto part = [](double s, double done, double want) { return done > 0 ? s / done * want : 0.0; };
+  return part(seconds_.pixel, units_.pixel, u.pixel) + part(seconds_.lobe, units_.lobe, u.lobe) +
+         part(seconds_.lights, units_.lights, u.lights);
 }
 
 // ---- [5] Images -------------------------------------------------------------------

@@ -202,6 +202,29 @@ struct ManyLightStats {
   double vslSeconds = 0, vplSeconds = 0;
 };
 
+// What a brute-force batch costs, as three parts measured on the batches
+// done: per-pixel work (direct-light samples and eye paths, in units of one
+// of either), the lobe gather's directions, and the lights. A batch's time
+// is predicted as the sum of each part's units times its measured cost per
+// unit. The first batch holds few lights (one of 2,303 shares at 16 batches)
+// but every pixel's eye path, so a rate in lights per second alone predicts
+// hours where seconds are left (the studio said "~1.8 h left" there).
+struct BatchCostModel {
+  struct Units {
+    double pixel = 0, lobe = 0, lights = 0;
+  };
+  // One batch's measured wall seconds of each part and its units.
+  void add(const Units& seconds, const Units& units);
+  // Seconds for work of these units at the measured costs; a part not yet
+  // measured (zero units so far) counts as free.
+  double predict(const Units& units) const;
+  bool measured() const { return batches_ > 0; }
+
+ private:
+  Units seconds_, units_;
+  int batches_ = 0;
+};
+
 class ManyLightRenderer {
  public:
   // The light set and radii (one per light, VSL_CHECK) must outlive the
@@ -230,6 +253,9 @@ class ManyLightRenderer {
   bool lobeGathering() const { return lobeFilm_.has_value(); }
   float clampBound() const { return clamp_; }
   size_t lightsProcessed() const { return processed_; }
+  // Wall seconds the batches not yet done should take, from what the done
+  // ones cost (BatchCostModel); nullopt before the first batch, 0 when done.
+  std::optional<double> remainingSeconds() const;
   // Adds batch b (0-based, in order). Returns false if *stop was set, in which
   // case the batch is discarded and the renderer keeps its previous state.
   bool renderBatch(int b, const std::atomic<bool>* stop = nullptr);
@@ -259,6 +285,8 @@ class ManyLightRenderer {
   std::vector<int> sharedEnd_;    // cumulative eye paths for the shared light (Gatherer::kSharedEyePaths)
   size_t processed_ = 0;
   int batchesDone_ = 0;
+  BatchCostModel costs_;  // over the batches merged
+  BatchCostModel::Units batchUnits(int b) const;
   // The pair roulette's measure: the luminance VSL and unclamped VPL gathered
   // (roulette weights applied) and the pairs offered to it (gathered or
   // dropped), over the batches merged.

@@ -808,15 +808,23 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->rouletteDropped = d.rouletteDropped + st.rouletteDropped.load();
   snap->pairsPerSecond = double(snap->pairs) / std::max(snap->gatherSeconds, 1e-9);
   snap->nonFinite = d.nonFinite + st.nonFinite + prep.set.nonFiniteRejected + ref.rejected();
-  // Progress: rates over compute time, remaining time at those rates (the
-  // sets not yet traced at the mean preparation time of those that were).
+  // Progress: rates over compute time, remaining time from what the work
+  // done cost: the set in progress from its estimator's own prediction (a
+  // brute-force batch's per-pixel work does not scale with its lights), each
+  // set not yet begun at the mean gather time of the sets done (or the one
+  // in progress, done plus left) and the mean preparation time of those
+  // prepared. Without a prediction, lights at the mean rate.
   if (snap->gatherSeconds > 0) {
     snap->lightsPerSecond = double(snap->lightsProcessed) / snap->gatherSeconds;
+    const double perLight = 1.0 / std::max(snap->lightsPerSecond, 1e-9);
     const int prepared = job.setsDone + (ml ? 1 : 0);
     const double prepSeconds = prepared > 0 ? (snap->lightTracingSeconds + snap->knnSeconds) / prepared : 0;
-    snap->manyRemainingSeconds =
-        double(snap->lightsTotal - snap->lightsProcessed) / std::max(snap->lightsPerSecond, 1e-9) +
-        untraced * prepSeconds;
+    const std::optional<double> left = ml ? ml->remainingSeconds() : std::optional<double>(0.0);
+    const double current = left ? *left : double(setSize - ml->lightsProcessed()) * perLight;
+    const double perSet = job.setsDone > 0 ? d.gatherSeconds / job.setsDone
+                          : left           ? st.gatherSeconds + *left
+                                           : double(setSize) * perLight;
+    snap->manyRemainingSeconds = current + untraced * (perSet + prepSeconds);
   }
   if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
     snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -171,5 +172,55 @@ TEST(ManyLightBatches, LobeGatherDirectionsSumToTheSettingsPerBatch) {
     }
     EXPECT_EQ(r.lobeRays(0), c.first) << c.rays << " rays in " << c.batches << " batches";
     EXPECT_EQ(total, long(c.rays) * c.batches) << c.rays << " rays in " << c.batches << " batches";
+  }
+}
+
+// The time left is predicted part by part: a first batch of one light and
+// every pixel's eye path (16 batches: 1 of 2,303 shares of the lights) costs
+// mostly per-pixel work, which the later batches repeat without growing.
+TEST(ManyLightBatches, CostModelPredictsEachPartFromItsOwnUnits) {
+  using U = BatchCostModel::Units;
+  const U perUnit{0.02, 0.25, 0.004};  // seconds per direct sample or eye path, per direction, per light
+  auto cost = [&](const U& u) { return U{u.pixel * perUnit.pixel, u.lobe * perUnit.lobe, u.lights * perUnit.lights}; };
+  BatchCostModel m;
+  EXPECT_FALSE(m.measured());
+  EXPECT_EQ(m.predict({10, 10, 10}), 0.0);  // nothing measured counts as free
+  const U first{2, 2, 1};
+  m.add(cost(first), first);
+  ASSERT_TRUE(m.measured());
+  const U later{8, 15, 256};
+  const double truth = later.pixel * perUnit.pixel + later.lobe * perUnit.lobe + later.lights * perUnit.lights;
+  EXPECT_NEAR(m.predict(later), truth, 1e-12);
+  // Lights per second over the first batch alone would predict
+  // (0.04 + 0.5 + 0.004) / 1 light x 256 lights = 139 s for the 4.9 s left.
+  EXPECT_GT((first.pixel * perUnit.pixel + first.lobe * perUnit.lobe + perUnit.lights) * later.lights, 20 * truth);
+  // More batches: the costs per unit are pooled (measured noise averages).
+  const U second{4, 16, 2};
+  U s = cost(second);
+  s.lights *= 3;  // this batch's lights cost 3x: the pooled cost is (0.004 + 3 x 0.008) / 3 per light
+  m.add(s, second);
+  EXPECT_NEAR(m.predict({0, 0, 3}), 0.004 + 3 * 0.008, 1e-12);
+  EXPECT_NEAR(m.predict({1, 1, 0}), perUnit.pixel + perUnit.lobe, 1e-12);
+}
+
+// The renderer's time left: unknown before a batch, predicted from the
+// batches done (positive while any is left), zero when every batch is done.
+TEST(ManyLightBatches, TimeLeftIsUnknownThenPredictedThenZero) {
+  Loaded l = loadAsset("cornell-glossy", 8);
+  ManyLightSettings s = batchSettings(l, 2000, 1, 6);
+  s.lobeGather = 2000;
+  s.lobeGatherRays = 8;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+  ASSERT_TRUE(r.lobeGathering());
+  EXPECT_FALSE(r.remainingSeconds().has_value());
+  for (int b = 0; b < r.batchCount(); ++b) {
+    ASSERT_TRUE(r.renderBatch(b));
+    const std::optional<double> left = r.remainingSeconds();
+    ASSERT_TRUE(left.has_value()) << "batch " << b;
+    if (b + 1 < r.batchCount())
+      EXPECT_GT(*left, 0.0) << "batch " << b;
+    else
+      EXPECT_EQ(*left, 0.0);
   }
 }
