@@ -424,13 +424,20 @@ struct SweepContext {
     Stopwatch clock;
     std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, EstimatorSettings{});
     double before = clock.seconds();  // when this step started (light tracing and k-NN are done)
+    double gatheredBefore = est->stats().gatherSeconds;
     while (est->step()) {
       ManyLightImages im = est->images();
       double el = clock.seconds();
       record(method, n, sc, set, est->stepsDone(), el, m.computeVsl ? im.vsl : im.vpl, true);
-      // The next batch may hold more lights than this one.
-      if (!nextFits(el, (el - before) * est->nextStepScale())) break;
+      // The next batch's time as its parts cost so far (it may hold more
+      // lights than this one, and the lobe gather's first batch fewer
+      // directions), plus what this step spent outside its batch (images,
+      // the comparison).
+      const double gathered = est->stats().gatherSeconds;
+      const double outside = std::max(el - before - (gathered - gatheredBefore), 0.0);
+      if (!nextFits(el, est->nextStepSeconds().value_or(el - before) + outside)) break;
       before = el;
+      gatheredBefore = gathered;
     }
     finish();
   }

@@ -119,15 +119,7 @@ class BruteForceEstimator final : public ManyLightEstimator {
   ManyLightImages images() const override { return renderer_.images(); }
   int stepsDone() const override { return done_; }
   int stepCount() const override { return renderer_.batchCount(); }
-  double nextStepScale() const override {
-    if (done_ < 1 || done()) return 1.0;
-    const double lights =
-        double(renderer_.batchLights(done_)) / double(std::max<size_t>(renderer_.batchLights(done_ - 1), 1));
-    // The lobe gather's directions grow from the first batch to the second
-    // (ManyLightRenderer::lobeRays): the larger of the two ratios.
-    if (!renderer_.lobeGathering()) return lights;
-    return std::max(lights, double(renderer_.lobeRays(done_)) / double(renderer_.lobeRays(done_ - 1)));
-  }
+  std::optional<double> nextStepSeconds() const override { return renderer_.nextBatchSeconds(); }
   std::optional<double> remainingSeconds() const override { return renderer_.remainingSeconds(); }
   size_t lightsProcessed() const override { return renderer_.lightsProcessed(); }
   const ManyLightStats& stats() const override { return renderer_.stats(); }

@@ -111,10 +111,10 @@ class ManyLightEstimator {
   virtual ManyLightImages images() const = 0;
   virtual int stepsDone() const = 0;
   virtual int stepCount() const = 0;
-  // The next step's work over the last step's (1 before the first step and
-  // after the last): what a caller who times the last step scales it by to
-  // predict the next (brute force's batches double in size up to a cap).
-  virtual double nextStepScale() const { return 1.0; }
+  // Wall seconds the next step should take, from what the done ones cost
+  // (what a caller with a time budget asks before it steps again); nullopt
+  // while nothing is measured or when every step is done.
+  virtual std::optional<double> nextStepSeconds() const { return std::nullopt; }
   bool done() const { return stepsDone() >= stepCount(); }
   // Wall seconds the steps not yet done should take, from what the done ones
   // cost; nullopt while nothing is measured, 0 when done.

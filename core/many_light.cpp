@@ -470,6 +470,11 @@ std::optional<double> ManyLightRenderer::remainingSeconds() const {
   return s;
 }
 
+std::optional<double> ManyLightRenderer::nextBatchSeconds() const {
+  if (batchesDone_ >= batchCount() || !costs_.measured()) return std::nullopt;
+  return costs_.predict(batchUnits(batchesDone_));
+}
+
 void BatchCostModel::add(const Units& seconds, const Units& units) {
   seconds_.pixel += seconds.pixel;
   seconds_.lobe += seconds.lobe;

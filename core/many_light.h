@@ -256,6 +256,8 @@ class ManyLightRenderer {
   // Wall seconds the batches not yet done should take, from what the done
   // ones cost (BatchCostModel); nullopt before the first batch, 0 when done.
   std::optional<double> remainingSeconds() const;
+  // The same for the next batch alone (nullopt also when every batch is done).
+  std::optional<double> nextBatchSeconds() const;
   // Adds batch b (0-based, in order). Returns false if *stop was set, in which
   // case the batch is discarded and the renderer keeps its previous state.
   bool renderBatch(int b, const std::atomic<bool>* stop = nullptr);

@@ -204,7 +204,8 @@ TEST(ManyLightBatches, CostModelPredictsEachPartFromItsOwnUnits) {
 }
 
 // The renderer's time left: unknown before a batch, predicted from the
-// batches done (positive while any is left), zero when every batch is done.
+// batches done (positive while any is left), zero when every batch is done;
+// the next batch's is part of it.
 TEST(ManyLightBatches, TimeLeftIsUnknownThenPredictedThenZero) {
   Loaded l = loadAsset("cornell-glossy", 8);
   ManyLightSettings s = batchSettings(l, 2000, 1, 6);
@@ -214,13 +215,23 @@ TEST(ManyLightBatches, TimeLeftIsUnknownThenPredictedThenZero) {
   ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
   ASSERT_TRUE(r.lobeGathering());
   EXPECT_FALSE(r.remainingSeconds().has_value());
+  EXPECT_FALSE(r.nextBatchSeconds().has_value());
   for (int b = 0; b < r.batchCount(); ++b) {
     ASSERT_TRUE(r.renderBatch(b));
-    const std::optional<double> left = r.remainingSeconds();
+    const std::optional<double> left = r.remainingSeconds(), next = r.nextBatchSeconds();
     ASSERT_TRUE(left.has_value()) << "batch " << b;
-    if (b + 1 < r.batchCount())
+    if (b + 1 < r.batchCount()) {
       EXPECT_GT(*left, 0.0) << "batch " << b;
-    else
+      // The next batch is part of what is left, and the last of it.
+      ASSERT_TRUE(next.has_value()) << "batch " << b;
+      EXPECT_GT(*next, 0.0) << "batch " << b;
+      EXPECT_LE(*next, *left * (1 + 1e-12)) << "batch " << b;
+      if (b + 2 == r.batchCount()) {
+        EXPECT_NEAR(*next, *left, 1e-12 * *left);
+      }
+    } else {
       EXPECT_EQ(*left, 0.0);
+      EXPECT_FALSE(next.has_value());
+    }
   }
 }
