@@ -101,10 +101,10 @@ struct Script {
     auto snap = studio.snapshot();
     if (headlessProgress && sinceProgress.seconds() > 5 && snap) {
       sinceProgress.reset();
-      std::fprintf(stderr, "rendering: %zu/%zu lights (%.0f%%), reference %d/%d spp, %.0f s\n", snap->lightsProcessed,
-                   snap->lightsTotal,
-                   100.0 * double(snap->lightsProcessed) / double(std::max<size_t>(snap->lightsTotal, 1)), snap->ptSpp,
-                   snap->settings.maxReferenceSpp, el);
+      std::fprintf(stderr,
+                   "rendering: %zu/%zu lights (%.0f%% of the time, ~%.0f s left), reference %d/%d spp, %.0f s\n",
+                   snap->lightsProcessed, snap->lightsTotal, 100.0 * snap->manyFractionDone, snap->manyRemainingSeconds,
+                   snap->ptSpp, snap->settings.maxReferenceSpp, el);
     }
     // The render is done (or --after has passed): time for the export, or for
     // the end of a headless run without one.

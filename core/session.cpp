@@ -825,6 +825,8 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
                           : left           ? st.gatherSeconds + *left
                                            : double(setSize) * perLight;
     snap->manyRemainingSeconds = current + untraced * (perSet + prepSeconds);
+    const double spent = snap->lightTracingSeconds + snap->knnSeconds + snap->gatherSeconds;
+    snap->manyFractionDone = spent / std::max(spent + snap->manyRemainingSeconds, 1e-9);
   }
   if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
     snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
@@ -842,6 +844,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   else
     recordError(w, job, liveNoise, *snap);
   snap->manyLightDone = job.setsDone >= job.settings.lightSets;
+  if (snap->manyLightDone) snap->manyFractionDone = 1.0;
   snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
   return snap;
 }

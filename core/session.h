@@ -152,11 +152,15 @@ struct Snapshot {
   uint64_t pairs = 0, vslEvaluations = 0;
   uint64_t rouletteDropped = 0;  // pairs the pair roulette dropped (ManyLightSettings::pairRoulette)
   double pairsPerSecond = 0;
-  // Progress. The many-light work is proportional to the lights gathered (every
-  // light costs every pixel the same), so lightsProcessed / lightsTotal is its
-  // fraction of the work; rates and remaining times come from compute time.
+  // Progress. A brute-force batch costs its lights and, whatever its lights,
+  // every pixel's eye path and direct samples (the first of 16 batches holds
+  // one light), so the work's fraction done is in time: the time spent
+  // (tracing, k-NN, gathers) over that plus the time left, which the batches
+  // done predict part by part (BatchCostModel); lightsProcessed counts
+  // lights.
   double lightsPerSecond = 0;       // gathered per second of gather time
-  double manyRemainingSeconds = 0;  // at that rate; 0 when done
+  double manyRemainingSeconds = 0;  // 0 when done
+  double manyFractionDone = 0;      // in [0, 1]; 1 when done
   double referenceSppPerSecond = 0;
   double referenceRemainingSeconds = 0;  // if it had the machine to itself
   uint64_t nonFinite = 0;

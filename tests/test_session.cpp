@@ -361,10 +361,24 @@ TEST(Session, FirstSceneMissingIsReported) {
 TEST(Session, ProgressCountsLightsAndTime) {
   Session session;
   uint64_t g = session.restart(small("cornell-glossy", 500, 16)).value();
-  auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone; });
+  // Every snapshot on the way: the fraction done (in time) within [0, 1],
+  // and a time left once a batch has been measured.
+  int partial = 0;
+  auto snap = waitFor(session, g, [&](const Snapshot& s) {
+    EXPECT_GE(s.manyFractionDone, 0.0);
+    EXPECT_LE(s.manyFractionDone, 1.0);
+    if (!s.manyLightDone && s.batchesDone > 0) {
+      ++partial;
+      EXPECT_GT(s.manyRemainingSeconds, 0.0) << "batch " << s.batchesDone;
+      EXPECT_LT(s.manyFractionDone, 1.0);
+    }
+    return s.manyLightDone;
+  });
   ASSERT_TRUE(snap);
+  RecordProperty("partialSnapshots", partial);
   EXPECT_GT(snap->lightsPerSecond, 0);
   EXPECT_EQ(snap->manyRemainingSeconds, 0);
+  EXPECT_EQ(snap->manyFractionDone, 1.0);
   EXPECT_GT(snap->clampBound, 0);
   EXPECT_GT(snap->radiusMedian, 0);
   EXPECT_LE(snap->radiusMin, snap->radiusMedian);

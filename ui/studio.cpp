@@ -977,7 +977,7 @@ void Studio::statusBar() {
   }
   const Snapshot& s = *snap_;
   char overlay[64], detail[160];
-  float fm = s.lightsTotal ? float(double(s.lightsProcessed) / double(s.lightsTotal)) : 0.0f;
+  const float fm = float(std::clamp(s.manyFractionDone, 0.0, 1.0));
   if (s.vplPending) {
     // An MRCS light set shows VSL before its clamped-VPL columns: no rate or
     // time left is known for the set yet (the status line names the stage).
