@@ -282,6 +282,14 @@ int runHeadless(const Args& a, const Launch& launch, int w, int h) {
       if (script.fatal(studio) || script.afterFrame(studio, frame, w, h, true)) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(33));  // the renderer gets the cores
     }
+    // A run that ended (--frames) while its first scene was still loading
+    // waits for the load, so that a scene that cannot load ends it with exit
+    // status 1, as it would have a longer run.
+    if (!script.failed) {
+      for (int i = 0; i < 6000 && !studio.firstSceneSettled(); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      script.fatal(studio);
+    }
     result = script.failed ? 1 : 0;
     if (!script.failed) rememberSession(studio);
     if (!script.exportFolder.empty())

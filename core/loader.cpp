@@ -1386,6 +1386,21 @@ std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary
       throw LoadError{path + ": GLB container version " + std::to_string(version) +
                       " is not supported (glTF 2.0 binary is version 2)"};
   }
+  if (!isBinary) {
+    // A .gltf file is a JSON object: anything else (an image, a binary file,
+    // another format) is named as such rather than failing deep in the parse.
+    size_t i = 0;
+    if (bytes.size() >= 3 && bytes[0] == 0xef && bytes[1] == 0xbb && bytes[2] == 0xbf) i = 3;  // UTF-8 BOM
+    while (i < bytes.size() && (bytes[i] == ' ' || bytes[i] == '\t' || bytes[i] == '\n' || bytes[i] == '\r')) ++i;
+    if (i == bytes.size() || bytes[i] != '{') {
+      const bool png = bytes.size() >= 4 && std::memcmp(bytes.data(), "\x89PNG", 4) == 0;
+      const bool jpeg = bytes.size() >= 3 && bytes[0] == 0xff && bytes[1] == 0xd8 && bytes[2] == 0xff;
+      throw LoadError{path + ": not a glTF file: it begins neither with a JSON object (glTF) nor with 'glTF' (GLB)" +
+                      std::string(png    ? "; it is a PNG image"
+                                  : jpeg ? "; it is a JPEG image"
+                                         : "")};
+    }
+  }
   std::string_view text = jsonText(bytes, isBinary);
   if (size_t at = jsonDepthExceeded(text, kMaxJsonDepth); at != std::string_view::npos)
     throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +

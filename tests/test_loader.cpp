@@ -217,6 +217,21 @@ TEST_F(LoaderTest, UnreadableAndGarbageFilesFail) {
   EXPECT_FALSE(load(write("array.gltf", "[1,2,3]")));
   std::string binary(4096, '\xff');
   EXPECT_FALSE(load(write("noise.gltf", binary)));
+  // A file that is not glTF at all is named as such (a PNG image's bytes
+  // were once refused as "JSON nests deeper than 64 levels").
+  std::string png = "\x89PNG\r\n\x1a\n";
+  png += std::string(300, '[');
+  for (const char* name : {"picture.png", "picture.gltf"}) {
+    SceneResult image = load(write(name, png));
+    ASSERT_FALSE(image);
+    EXPECT_NE(image.error().find(std::string(name) + ": not a glTF file"), std::string::npos) << image.error();
+    EXPECT_NE(image.error().find("it is a PNG image"), std::string::npos) << image.error();
+  }
+  SceneResult text = load(write("text.gltf", "hello, not a scene\n"));
+  ASSERT_FALSE(text);
+  EXPECT_NE(text.error().find("text.gltf: not a glTF file"), std::string::npos) << text.error();
+  // Leading white space and a UTF-8 byte-order mark are still JSON's.
+  EXPECT_EQ(load(write("bom.gltf", "\xef\xbb\xbf  \n{")).error().find("not a glTF file"), std::string::npos);
 }
 
 TEST_F(LoaderTest, WrongJsonTypesFail) {

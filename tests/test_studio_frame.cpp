@@ -778,6 +778,15 @@ TEST(StudioCli, SplitAlphaReachesTheRender) {
     const std::string replay = metrics["replay"].get<std::string>();
     EXPECT_NE(replay.find("--split-alpha 0.05"), std::string::npos) << replay;
     EXPECT_NE(replay.find("--lobe-floor 0.5"), std::string::npos) << replay;
+    // The replay command runs as written (it had no output file and was
+    // refused) and renders the first light set.
+    ASSERT_EQ(replay.rfind("vsl render ", 0), 0u) << replay;
+    const std::string cmd =
+        "cd '" + dir + "' && " + std::string(VSL_BINARY_DIR) + "/bin/" + replay + " > /dev/null 2>&1";
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/first-light-set.exr")) << replay;
+    EXPECT_NE(metrics["replayRenders"].get<std::string>().find("the first of the 1 light sets"), std::string::npos)
+        << metrics["replayRenders"];
     // The export's settings name them too.
     EXPECT_FLOAT_EQ(metrics["settings"]["splitAlpha"].get<float>(), 0.05f);
     EXPECT_FLOAT_EQ(metrics["settings"]["lobeFloor"].get<float>(), 0.5f);
@@ -903,6 +912,30 @@ TEST(StudioCli, HeadlessRunsWithoutAnExportEnd) {
     EXPECT_EQ(r.code, 2) << empty << ": " << r.out;
     EXPECT_NE(r.out.find("the path is empty"), std::string::npos) << r.out;
   }
+}
+
+// A headless run whose frame count ends before its scene has loaded still
+// ends with exit status 1 if the scene cannot load (it ended with 0, and a
+// screenshot of "loading ...", before the load had failed).
+TEST(StudioCli, HeadlessRunWithFewFramesReportsASceneThatCannotLoad) {
+  const std::string dir = freshDir("studio-frames-bad-scene");
+  const std::string dark = dir + "/dark.gltf";
+  {
+    std::ofstream f(dark);
+    f << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+      "bufferViews":[{"buffer":0,"byteLength":36}],
+      "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
+  }
+  const std::string common = "--headless --fresh --window 320x240 --lights 20 --width 8 --light-sets 1 ";
+  StudioRun r = runStudio(dir + "/config", common + "--frames 1 " + dark);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("error: " + dark), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no emitters"), std::string::npos) << r.out;
+  r = runStudio(dir + "/config", common + "--frames 1 " + dir + "/missing.gltf");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("missing.gltf"), std::string::npos) << r.out;
 }
 
 TEST(LastSession, RoundTripAndCorruptFiles) {

@@ -334,6 +334,12 @@ std::string Studio::fatalError() const {
   return "";
 }
 
+bool Studio::firstSceneSettled() const {
+  if (!session_) return true;
+  Session::Status st = session_->status();
+  return !st.scene.empty() || st.loadErrorSerial > 0;
+}
+
 std::string Studio::referenceError() const {
   if (!session_ || accepted_.referencePath.empty()) return "";
   return session_->status().referenceError;
@@ -1404,6 +1410,20 @@ void cell(double v, double bestV, const char* fmt) {
   else
     ImGui::Text(fmt, v);
 }
+// A relMSE less the reference's own noise (now, or when the history's point
+// was taken) that is not above zero: the method's error cannot be told from
+// the reference's noise yet (a young live reference), so it has no number
+// and is never the best.
+bool belowNoise(double v) { return std::isfinite(v) && v <= 0; }
+void errorCell(double v, double bestV) {
+  if (!belowNoise(v)) return cell(v, bestV, "%.4g");
+  ImGui::TextDisabled("< noise");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "relMSE less the reference's own noise is %.3g: this error is within the reference's noise, so it cannot be "
+        "measured yet; it can once the reference has converged further",
+        v);
+}
 }  // namespace
 
 Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
@@ -1411,18 +1431,22 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   t.indirect = view_.component == Component::Indirect;
   t.noise = t.indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
   t.budget = equalTimeBudget(s.history);
+  // Errors within the reference's noise are not candidates for the best.
+  auto least = [](double& best, double v) {
+    if (std::isfinite(v) && !belowNoise(v)) best = std::min(best, v);
+  };
   for (int i = 0; i < 4; ++i) {
     if (!metricShown(i)) continue;
     t.best[0] = std::min(t.best[0], metrics_[i].average.rmse);
-    t.best[1] = std::min(t.best[1], metrics_[i].average.relMse - t.noise);
-    if (double e = t.atEqualTime(s, i); std::isfinite(e)) t.best[2] = std::min(t.best[2], e);
+    least(t.best[1], metrics_[i].average.relMse - t.noise);
+    least(t.best[2], t.atEqualTime(s, i));
   }
   if (s.convergedReference) {
     t.best[0] = std::min(t.best[0], livePtMetrics_.average.rmse);
-    t.best[1] = std::min(t.best[1], livePtMetrics_.average.relMse - t.noise);
+    least(t.best[1], livePtMetrics_.average.relMse - t.noise);
   }
   t.ptEqual = t.indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, t.budget) : NAN;
-  if (std::isfinite(t.ptEqual)) t.best[2] = std::min(t.best[2], t.ptEqual);
+  least(t.best[2], t.ptEqual);
   t.flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
   t.flipFresh = t.flipHere && flip_->serial == s.serial;
   if (t.flipHere)
@@ -1494,12 +1518,12 @@ void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
   ImGui::TableNextColumn();
   cell(c.average.rmse, t.best[0], "%.4g");
   ImGui::TableNextColumn();
-  cell(c.average.relMse - t.noise, t.best[1], "%.4g");
-  if (ImGui::IsItemHovered())
+  errorCell(c.average.relMse - t.noise, t.best[1]);
+  if (ImGui::IsItemHovered() && !belowNoise(c.average.relMse - t.noise))
     ImGui::SetTooltip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
                       t.noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
   ImGui::TableNextColumn();
-  cell(t.atEqualTime(s, i), t.best[2], "%.4g");
+  errorCell(t.atEqualTime(s, i), t.best[2]);
   biasCells(s, t, BiasNoiseRow(i));
   ImGui::TableNextColumn();
   flipCell(s, t, i);
@@ -1525,7 +1549,7 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   // methods; as the reference itself its value is its own noise, which is
   // estimated for the indirect component only.
   if (s.convergedReference) {
-    cell(livePtMetrics_.average.relMse - t.noise, t.best[1], "%.4g");
+    errorCell(livePtMetrics_.average.relMse - t.noise, t.best[1]);
   } else if (t.indirect) {
     ImGui::Text("~%.3g", s.referenceNoise);
   } else {
@@ -1533,7 +1557,7 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("The path tracer's error is tracked for the indirect component only");
   }
   ImGui::TableNextColumn();
-  cell(t.ptEqual, t.best[2], "%.4g");
+  errorCell(t.ptEqual, t.best[2]);
   biasCells(s, t, BiasNoiseRow::Pt);
   ImGui::TableNextColumn();
   flipCell(s, t, 4);

@@ -146,6 +146,8 @@ class Studio {
   // Why the session cannot render ("" if it can): the first scene did not
   // load. The headless front end exits with it.
   std::string fatalError() const;
+  // The first scene has loaded or failed to (fatalError() then says why).
+  bool firstSceneSettled() const;
   // Why the reference file in the settings was refused ("" if it is in use,
   // or none was given): the file and the reason. The studio goes on against
   // the live path tracer; the headless front end exits with it.

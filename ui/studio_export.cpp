@@ -118,6 +118,18 @@ std::string Studio::uniquePath(const std::string& dir, const std::string& stem, 
 
 namespace {
 
+// A word for a POSIX shell: as it is if it holds only safe characters, else
+// in single quotes (a quote inside as '\'').
+std::string shellWord(const std::string& w) {
+  const bool safe = !w.empty() && w.find_first_not_of(
+                                      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                                      "0123456789_-+./=:,@%") == std::string::npos;
+  if (safe) return w;
+  std::string q = "'";
+  for (char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
 // A new folder per export under dir; create_directory fails if it exists, so
 // two exports in the same second (or two studios) never share one.
 Result<std::filesystem::path> makeExportFolder(const std::string& dir, const std::string& stem) {
@@ -380,11 +392,16 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
   return {{"version", VSL_VERSION},
           {"scene", s.settings.scene},
           {"exportedUtc", utcStamp()},
-          {"replay", "vsl render " + s.settings.scene + " --method all " + firstSet.describe() +
+          {"replay", "vsl render " + shellWord(s.settings.scene) + " --method all " + firstSet.describe() +
                          (s.settings.estimator.kind == EstimatorKind::Mrcs
                               ? " --mrcs " + std::to_string(s.settings.estimator.mrcs.rows) + "," +
                                     std::to_string(s.settings.estimator.mrcs.clusters)
-                              : std::string())},
+                              : std::string()) +
+                         " -o first-light-set.exr"},
+          {"replayRenders", "the first of the " + std::to_string(s.lightSets) + " light sets (seeds " +
+                                std::to_string(s.settings.many.seed) + " to " +
+                                std::to_string(s.settings.many.seed + uint64_t(std::max(s.lightSets, 1)) - 1) +
+                                ") whose mean the studio shows"},
           {"settings", settingsJson(s)},
           {"width", s.width},
           {"height", s.height},
