@@ -621,12 +621,19 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     }
     // The reference catches up to the many-light methods' compute time (at
     // least one pass per step), so the error-vs-time plot compares equal time.
+    // A long catch-up (after an MRCS light set: seconds) shows the reference
+    // refining every kCatchUpShowSeconds instead of only at its end.
     bool ptStep = false;
+    Stopwatch sinceShown;
     while (ref.spp() < job.settings.maxReferenceSpp && !stopped() &&
            (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
       if (!ref.stepPass(&stop_)) break;
       ptStep = progressed = true;
       if (firstPictureDue()) break;  // it goes out below
+      if (!firstPicture && sinceShown.seconds() >= kCatchUpShowSeconds) {
+        show();
+        sinceShown.reset();
+      }
     }
     if (stopped() || !progressed) break;
     show();

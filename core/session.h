@@ -188,6 +188,9 @@ class Session {
   // and the current render goes on. fromScratch: never resume an interrupted
   // render with the same settings.
   Result<uint64_t> restart(const StudioSettings& settings, bool fromScratch = false);
+  // While the reference catches up with a many-light step's time (it takes
+  // turns with the many-light methods), a snapshot goes out this often.
+  static constexpr double kCatchUpShowSeconds = 0.5;
   // The newest snapshot of the current generation if its serial is greater
   // than `haveSerial`, else null.
   std::shared_ptr<const Snapshot> latest(uint64_t haveSerial) const;

@@ -995,12 +995,20 @@ void Studio::statusBar() {
     std::snprintf(overlay, sizeof overlay, "VSL+VPL %.0f%%", 100 * fm);
     ImGui::ProgressBar(fm, ImVec2(130, 0), overlay);
     ImGui::SameLine();
-    std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s lights/s  %s", s.lightsProcessed,
-                  s.lightsTotal, std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
-                  humanCount(s.lightsPerSecond).c_str(),
+    // No lights-per-second rate: the first batches hold few lights and every
+    // pixel's eye path, so it contradicted the time left (predicted per part
+    // of a batch, Snapshot::manyFractionDone); the throughput is in the
+    // metrics tab (pairs/s).
+    std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s", s.lightsProcessed, s.lightsTotal,
+                  std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
                   s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
   }
   ImGui::TextUnformatted(detail);
+  if (ImGui::IsItemHovered() && !s.vplPending)
+    ImGui::SetTooltip(
+        "Lights gathered over every light set; the bar and the time left are in time, predicted from what "
+        "each part of the batches done cost (eye paths and direct light, the lobe gather's directions, the "
+        "lights)");
   ImGui::SameLine(0, 24);
   float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
   std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
@@ -1012,8 +1020,10 @@ void Studio::statusBar() {
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(
-        "Time left at the current rate with the machine to itself; the reference shares it with the "
-        "many-light methods until they finish.");
+        "The live path tracer takes turns with the many-light methods: after each of their steps it renders "
+        "until it has had as much compute time as they have (so that the error plot compares equal time), so "
+        "it pauses while a long step runs (an MRCS light set, a large batch). Its rate is over its own compute "
+        "time; the time left is at that rate with the machine to itself.");
 }
 
 namespace {
@@ -1080,9 +1090,14 @@ void Studio::viewsPanel() {
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
   auto missing = [&](Source s) { return !hasPicture(s, view_.component); };
+  // The text wraps inside the box (a panel can be narrower than one line)
+  // and is clipped to it.
   auto waitBox = [&](ImVec2 p0, ImVec2 p1, const char* text) {
     dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
-    dl->AddText(ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), text);
+    const float wrap = std::max(p1.x - p0.x - 16, 40.0f);
+    const ImVec4 clip(p0.x, p0.y, p1.x, p1.y);
+    dl->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), text,
+                nullptr, wrap, &clip);
   };
   auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
@@ -1356,7 +1371,7 @@ void Studio::metricsSummary(const Snapshot& s, bool stale) {
   if (s.gatherSeconds > 0) std::snprintf(rate, sizeof rate, "%.2f", s.pairsPerSecond * 1e-6);
   ImGui::TextWrapped("gather %s M pairs/s  tracing %.2f s  k-NN %.2f s  non-finite %llu", rate, s.lightTracingSeconds,
                      s.knnSeconds, (unsigned long long)s.nonFinite);
-  ImGui::TextWrapped("UI frame %.1f ms  change -> picture %.0f ms  launch -> picture %.0f ms", lastFrameMs_,
+  ImGui::TextWrapped("UI frame %.1f ms  change->picture %.0f ms  launch->picture %.0f ms", lastFrameMs_,
                      restartToPictureMs_, launchToPictureMs_);
   ImGui::PopTextWrapPos();
 }
@@ -1550,14 +1565,23 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   // estimated for the indirect component only.
   if (s.convergedReference) {
     errorCell(livePtMetrics_.average.relMse - t.noise, t.best[1]);
-  } else if (t.indirect) {
+  } else if (t.indirect && s.referenceNoise >= 0) {
     ImGui::Text("~%.3g", s.referenceNoise);
+  } else if (t.indirect) {
+    // Its noise is measured from two halves, which the first pass lacks.
+    ImGui::TextDisabled("?");
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The reference's own noise is measured once it has two halves");
   } else {
     ImGui::TextDisabled("n/a");
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("The path tracer's error is tracked for the indirect component only");
   }
   ImGui::TableNextColumn();
-  errorCell(t.ptEqual, t.best[2]);
+  // As the reference, its error at equal time is its own noise, unknown (0
+  // in the history) before it has two halves.
+  if (!s.convergedReference && !(t.ptEqual > 0))
+    ImGui::TextDisabled("-");
+  else
+    errorCell(t.ptEqual, t.best[2]);
   biasCells(s, t, BiasNoiseRow::Pt);
   ImGui::TableNextColumn();
   flipCell(s, t, 4);
