@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -88,6 +89,20 @@ void sectionTitle(const char* title) {
   ImGui::Spacing();
   ImGui::Separator();
   ImGui::TextUnformatted(title);
+}
+
+// ImGui::SetTooltip, wrapped at about 36 characters' width: the long help
+// texts ran off the right of a 1280-pixel window on one line.
+void tip(const char* fmt, ...) IM_FMTARGS(1);
+void tip(const char* fmt, ...) {
+  va_list args;
+  va_start(args, fmt);
+  ImGui::BeginTooltip();
+  ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+  ImGui::TextV(fmt, args);
+  ImGui::PopTextWrapPos();
+  ImGui::EndTooltip();
+  va_end(args);
 }
 }  // namespace
 
@@ -558,7 +573,7 @@ void Studio::sceneControls() {
   bool enter = ImGui::InputText("##path", &scenePath_, ImGuiInputTextFlags_EnterReturnsTrue);
   ImGui::SameLine();
   if (ImGui::Button("Load") || enter) openScene(scenePath_);
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Or drop a .gltf/.glb on the window");
+  if (ImGui::IsItemHovered()) tip("Or drop a .gltf/.glb on the window");
   if (!options_.bundled.empty()) {
     std::string current = std::filesystem::path(settings_.scene).stem().string();
     ImGui::SetNextItemWidth(-1);
@@ -615,19 +630,17 @@ bool Studio::virtualLightControls() {
   errorField("vsl-samples");
   changed |= track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Spread each light's flux over the part of its disk on the receiver's side of the receiver's "
+    tip("Spread each light's flux over the part of its disk on the receiver's side of the receiver's "
         "tangent plane (less darkening near corners).");
   changed |= track("lobe-radius",
                    ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
+    tip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
   errorField("lobe-radius");
   changed |=
       track("lobe-floor", ImGui::SliderFloat("lobe floor", &m.lobeFloor, 0.0f, 2.0f, m.lobeFloor > 0 ? "%.2f" : "off"));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Each metal light's GGX alpha at least F x the cone's half-angle: narrow metal lights seen through "
+    tip("Each metal light's GGX alpha at least F x the cone's half-angle: narrow metal lights seen through "
         "wide cones glow as spheres instead of beams (fewer speckles, blurrier glossy reflections); not for "
         "dielectric lights, not at near-mirror receivers (alpha below 0.05); there the light's sphere is 1.5x "
         "wider too. Default 1; 0 = off.");
@@ -642,21 +655,18 @@ bool Studio::gatherControls() {
   ManyLightSettings& m = settings_.many;
   changed |= track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Eye paths continue through pure metals with GGX alpha below this instead of gathering "
+    tip("Eye paths continue through pure metals with GGX alpha below this instead of gathering "
         "there (near-mirrors reflect the gather at the next surface).");
   errorField("continue-alpha");
   changed |= track("split-alpha",
                    ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
+    tip("Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
         "continue the eye path with the specular lobe (glossy floors reflect the gather at the next surface).");
   errorField("split-alpha");
   changed |= track("lobe-gather", ImGui::Checkbox("lobe gather", &lobeGather_));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "VSL only (brute force or MRCS): receivers narrower than GGX alpha %.2f along either axis (near-mirrors, "
+    tip("VSL only (brute force or MRCS): receivers narrower than GGX alpha %.2f along either axis (near-mirrors, "
         "brushed metals) gather their specular lobe by sampling it (%d directions); the light where each "
         "direction lands comes from the %d nearest lights of a second, denser light set. Fewer bright disks "
         "and streaks on polished and brushed surfaces; the second set costs its tracing at every restart.",
@@ -668,15 +678,13 @@ bool Studio::gatherControls() {
     changed |= track("lobe-gather", ImGui::SliderInt("lobe rays", &settings_.many.lobeGatherRays, 1, 1024, "%d",
                                                      ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip(
-          "Directions sampled per gather point and light batch: the lobe gather's cost grows with them and its "
+      tip("Directions sampled per gather point and light batch: the lobe gather's cost grows with them and its "
           "noise falls (tableau at 256 px wide wants 256).");
     changed |= track("lobe-gather",
                      ImGui::SliderFloat("lobe alpha", &m.lobeGatherAlpha, ManyLightSettings::kMinLobeGatherAlpha, 1.0f,
                                         "%.3f", ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip(
-          "Receivers whose specular lobe is narrower than this GGX alpha are lobe-gathered: 0.05 takes "
+      tip("Receivers whose specular lobe is narrower than this GGX alpha are lobe-gathered: 0.05 takes "
           "near-mirrors and brushed metals; 0.15 also glossy metals such as hall's walls.");
   }
   errorField("lobe-gather");
@@ -684,8 +692,7 @@ bool Studio::gatherControls() {
                                                        m.pairRoulette > 0 ? "%.2f" : "off",
                                                        ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Brute force: a pair whose contribution (VSL's estimated from above, VPL's exactly) is below K x the mean "
+    tip("Brute force: a pair whose contribution (VSL's estimated from above, VPL's exactly) is below K x the mean "
         "pair's of the batches before is gathered with probability estimate / (K x mean), weighted by its "
         "inverse; dropped pairs trace no ray. Unbiased. Pays where most pairs are dark (narrow metal lobes: "
         "hall's VPL gather 1.55x as fast at 1), costs variance where they are not (kitchen); 0 = off.");
@@ -702,8 +709,7 @@ bool Studio::gatherControls() {
           track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
   }
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Bound on the luminance of f_x cos_x f_p cos_p / d^2 per virtual light.\nAuto: 1/(pi^2 (0.1 R)^2), R the "
+    tip("Bound on the luminance of f_x cos_x f_p cos_p / d^2 per virtual light.\nAuto: 1/(pi^2 (0.1 R)^2), R the "
         "scene's bounding radius.");
   if (snap_ && !clampOff_ && clampAuto_) ImGui::TextDisabled("auto bound = %.4g", snap_->clampBound);
   errorField("clamp");
@@ -723,8 +729,7 @@ bool Studio::estimatorControls() {
     changed |= track("estimator", true);
   }
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Brute force gathers every (pixel, light) pair in progressive batches. MRCS computes ROWS sampled pixels "
+    tip("Brute force gathers every (pixel, light) pair in progressive batches. MRCS computes ROWS sampled pixels "
         "against every light, clusters the lights into CLUSTERS and renders one representative per cluster; "
         "each light set is one MRCS render, and the sets are averaged.");
   if (e.kind == EstimatorKind::Mrcs) {
@@ -734,8 +739,7 @@ bool Studio::estimatorControls() {
   }
   changed |= track("estimator", ImGui::Checkbox("progressive radius", &e.progressiveRadius));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Consistent progressive VSL: light set k's radii are scaled by sqrt(prod_{i<=k} (i + alpha) / (i + 1)), "
+    tip("Consistent progressive VSL: light set k's radii are scaled by sqrt(prod_{i<=k} (i + alpha) / (i + 1)), "
         "so the mean over the sets converges to the unbiased image. Raise the light sets to see it converge.");
   if (e.progressiveRadius) changed |= track("estimator", ImGui::SliderFloat("alpha", &e.alpha, 0.05f, 0.95f, "%.2f"));
   errorField("estimator");
@@ -763,8 +767,7 @@ bool Studio::renderControls() {
   changed |=
       track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
+    tip("Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
         "mean, and from two sets on the table shows each method's bias^2 and noise. 1: one set.");
   errorField("light sets");
   changed |= track("reference spp", ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d",
@@ -784,8 +787,7 @@ bool Studio::referenceControls() {
     changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "An EXR of the render's size with an 'indirect' layer (vsl reference writes one); empty: a "
+    tip("An EXR of the render's size with an 'indirect' layer (vsl reference writes one); empty: a "
         "matching cached reference, else the live path tracer");
   if (!settings_.referencePath.empty() && ImGui::Button("Use cache / live path tracer")) {
     settings_.referencePath.clear();
@@ -798,8 +800,7 @@ bool Studio::referenceControls() {
     changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "Once the methods are done, render a converged reference into the cache (kept for the next "
+    tip("Once the methods are done, render a converged reference into the cache (kept for the next "
         "session), then measure every error against it");
   if (ImGui::SliderInt("background spp", &backgroundSpp_, 64, 65536, "%d", ImGuiSliderFlags_Logarithmic) &&
       background) {
@@ -814,7 +815,7 @@ void Studio::viewControls() {
   sectionTitle("View");
   int mode = int(view_.mode);
   if (ImGui::Combo("layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Keys: T swaps VSL and VPL; 1-7 put that image in panel 1");
+  if (ImGui::IsItemHovered()) tip("Keys: T swaps VSL and VPL; 1-7 put that image in panel 1");
   int panels = view_.mode == ViewMode::Single ? 1 : view_.mode == ViewMode::SideBySide3 ? 3 : 2;
   for (int i = 0; i < panels; ++i) {
     int src = int(view_.panels[i]);
@@ -829,15 +830,13 @@ void Studio::viewControls() {
   const char* displays[] = {"image", "error map", "signed difference", "FLIP map"};
   if (ImGui::Combo("display", &disp, displays, 4)) view_.display = Display(disp);
   if (ImGui::IsItemHovered() && view_.display == Display::Flip)
-    ImGui::SetTooltip(
-        "LDR-FLIP (HPG 2020) of each method against the reference, both tone-mapped at this exposure, per pixel "
+    tip("LDR-FLIP (HPG 2020) of each method against the reference, both tone-mapped at this exposure, per pixel "
         "in [0,1]; computed off the UI thread with the table's FLIP column. Colours: magma.");
   if (view_.display == Display::Error) {
     int metric = int(view_.metric);
     if (ImGui::Combo("metric", &metric, kMetricNames, 4)) view_.metric = ErrorMetric(metric);
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip(
-          "t = method, r = reference (same component), eps = %.2g (0.01 x the reference's mean luminance^2; its "
+      tip("t = method, r = reference (same component), eps = %.2g (0.01 x the reference's mean luminance^2; its "
           "square root for the absolute metric).\nColours: black 0 -> blue -> magenta -> yellow -> white max.",
           mapEps_);
   }
@@ -857,7 +856,7 @@ void Studio::viewControls() {
   ImGui::TextDisabled("zoom %.2fx (wheel), pan (drag)", view_.zoom);
   ImGui::Checkbox("crop tool", &view_.cropTool);
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("On: a drag on an image draws the crop rectangle. Off: Shift+drag does; Shift+click clears it.");
+    tip("On: a drag on an image draws the crop rectangle. Off: Shift+drag does; Shift+click clears it.");
   ImGui::SameLine();
   ImGui::TextDisabled(view_.cropTool ? "drag: crop inset" : "Shift+drag: crop inset");
   if (!view_.crop.empty()) {
@@ -876,7 +875,7 @@ void Studio::exportControls() {
     savePngPath_ = uniquePath(exportDir_, exportStem() + "-view", ".png");
     savePngPending_ = true;
   }
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("A screen grab of the view area, in a new file");
+  if (ImGui::IsItemHovered()) tip("A screen grab of the view area, in a new file");
   ImGui::SameLine();
   if (ImGui::Button("Export images")) {
     std::string folder;
@@ -886,8 +885,7 @@ void Studio::exportControls() {
     else
       errorDialog_ = "Export failed; existing files are untouched.\n\n" + exported.error();
   }
-  if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
+  if (ImGui::IsItemHovered()) tip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
   if (!message_.empty()) ImGui::TextWrapped("%s", message_.c_str());
 }
 
@@ -908,7 +906,7 @@ void Studio::controlsPanel() {
     changeTimed_ = true;
   }
   if (ImGui::Button("Restart")) restart(true);
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Render the current settings again from scratch");
+  if (ImGui::IsItemHovered()) tip("Render the current settings again from scratch");
   ImGui::SameLine();
   if (ImGui::Button("Reset to defaults")) {
     StudioSettings d = options_.defaults ? *options_.defaults : options_.settings;
@@ -1005,8 +1003,7 @@ void Studio::statusBar() {
   }
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered() && !s.vplPending)
-    ImGui::SetTooltip(
-        "Lights gathered over every light set; the bar and the time left are in time, predicted from what "
+    tip("Lights gathered over every light set; the bar and the time left are in time, predicted from what "
         "each part of the batches done cost (eye paths and direct light, the lobe gather's directions, the "
         "lights)");
   ImGui::SameLine(0, 24);
@@ -1019,8 +1016,7 @@ void Studio::statusBar() {
                 s.referenceDone ? "done" : ("~" + humanSeconds(s.referenceRemainingSeconds) + " left").c_str());
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "The live path tracer takes turns with the many-light methods: after each of their steps it renders "
+    tip("The live path tracer takes turns with the many-light methods: after each of their steps it renders "
         "until it has had as much compute time as they have (so that the error plot compares equal time), so "
         "it pauses while a long step runs (an MRCS light set, a large batch). Its rate is over its own compute "
         "time; the time left is at that rate with the machine to itself.");
@@ -1328,11 +1324,11 @@ void Studio::legend(float vmax) {
   dl->AddText(ImVec2(p.x + W + 8, p.y - 2), IM_COL32_WHITE, buf);
   ImGui::Dummy(ImVec2(W, H));
   if (ImGui::IsItemHovered() && flipView)
-    ImGui::SetTooltip("LDR-FLIP per pixel, mean-pooled in the table's FLIP column; the maximum is %s",
-                      view_.errorScale > 0 ? "set by hand" : "1, FLIP's largest value");
+    tip("LDR-FLIP per pixel, mean-pooled in the table's FLIP column; the maximum is %s",
+        view_.errorScale > 0 ? "set by hand" : "1, FLIP's largest value");
   else if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("eps = %.2g (squared; 0.01 x the reference's mean luminance^2); the maximum is %s", mapEps_,
-                      view_.errorScale > 0 ? "set by hand" : "the 99th percentile");
+    tip("eps = %.2g (squared; 0.01 x the reference's mean luminance^2); the maximum is %s", mapEps_,
+        view_.errorScale > 0 ? "set by hand" : "the 99th percentile");
 }
 
 // ---- [5] Metrics and plot -------------------------------------------------------------
@@ -1364,7 +1360,7 @@ void Studio::metricsSummary(const Snapshot& s, bool stale) {
   if (stale) {
     ImGui::SameLine();
     ImGui::TextColored(ImVec4(1, 0.75f, 0.2f, 1), "[stale]");
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("These numbers belong to the previous settings");
+    if (ImGui::IsItemHovered()) tip("These numbers belong to the previous settings");
   }
   // No gather time yet (an MRCS step counts its pairs when it ends): no rate.
   char rate[32] = "-";
@@ -1431,12 +1427,16 @@ void cell(double v, double bestV, const char* fmt) {
 // and is never the best.
 bool belowNoise(double v) { return std::isfinite(v) && v <= 0; }
 void errorCell(double v, double bestV) {
-  if (!belowNoise(v)) return cell(v, bestV, "%.4g");
+  if (!belowNoise(v)) {
+    cell(v, bestV, "%.4g");
+    if (std::isnan(bestV) && std::isfinite(v) && ImGui::IsItemHovered())
+      tip("No error in this column is marked the best while one of them is within the reference's noise");
+    return;
+  }
   ImGui::TextDisabled("< noise");
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "relMSE less the reference's own noise is %.3g: this error is within the reference's noise, so it cannot be "
-        "measured yet; it can once the reference has converged further",
+    tip("relMSE less the reference's own noise is %.3g: this error is within the reference's noise, so it cannot be "
+        "measured or ranked yet; it can once the reference has converged further",
         v);
 }
 }  // namespace
@@ -1446,9 +1446,15 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   t.indirect = view_.component == Component::Indirect;
   t.noise = t.indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
   t.budget = equalTimeBudget(s.history);
-  // Errors within the reference's noise are not candidates for the best.
+  // An error within the reference's noise cannot be ranked, and then no
+  // error of its column is marked the best (hall's first seconds showed a
+  // black-ish diffuse-only image's -13.9 in green; ranked by the raw relMSE
+  // instead, a noisy reference can prefer a dark image).
   auto least = [](double& best, double v) {
-    if (std::isfinite(v) && !belowNoise(v)) best = std::min(best, v);
+    if (belowNoise(v) || std::isnan(best))
+      best = NAN;
+    else if (std::isfinite(v))
+      best = std::min(best, v);
   };
   for (int i = 0; i < 4; ++i) {
     if (!metricShown(i)) continue;
@@ -1461,7 +1467,7 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
     least(t.best[1], livePtMetrics_.average.relMse - t.noise);
   }
   t.ptEqual = t.indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, t.budget) : NAN;
-  least(t.best[2], t.ptEqual);
+  if (s.convergedReference || t.ptEqual > 0) least(t.best[2], t.ptEqual);
   t.flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
   t.flipFresh = t.flipHere && flip_->serial == s.serial;
   if (t.flipHere)
@@ -1483,8 +1489,7 @@ void Studio::flipCell(const Snapshot& s, const TableState& t, int i) {
   else
     cell(flip_->mean[i], t.bestFlip, "%.4f");
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip(
-        "LDR-FLIP (HPG 2020, mean pooled) of the tone-mapped images at this exposure, against the "
+    tip("LDR-FLIP (HPG 2020, mean pooled) of the tone-mapped images at this exposure, against the "
         "reference; computed off the UI thread%s",
         t.flipFresh ? "" : " (grey: from an earlier picture)");
 }
@@ -1507,19 +1512,18 @@ void Studio::biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row)
     if (!ImGui::IsItemHovered()) continue;
     const bool pt = row == BiasNoiseRow::Pt;
     if (!t.indirect)
-      ImGui::SetTooltip("Bias and noise are measured on the indirect component");
+      tip("Bias and noise are measured on the indirect component");
     else if (b.renders < 2 && pt)
-      ImGui::SetTooltip("The path tracer's two halves are measured against a converged reference only");
+      tip("The path tracer's two halves are measured against a converged reference only");
     else if (b.renders < 2)
-      ImGui::SetTooltip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
+      tip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
     else if (k == 0)
-      ImGui::SetTooltip(
-          "bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s", b.renders,
+      tip("bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s", b.renders,
           pt ? "halves" : "light sets",
           t.noise > 0 ? ", less the reference's own noise" : "; it includes the reference's own noise");
     else
-      ImGui::SetTooltip("noise = mean(w s^2): the variance of one %s (relMSE units); the mean of K has 1/K of it",
-                        pt ? "half" : "light set");
+      tip("noise = mean(w s^2): the variance of one %s (relMSE units); the mean of K has 1/K of it",
+          pt ? "half" : "light set");
   }
 }
 
@@ -1535,8 +1539,8 @@ void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
   ImGui::TableNextColumn();
   errorCell(c.average.relMse - t.noise, t.best[1]);
   if (ImGui::IsItemHovered() && !belowNoise(c.average.relMse - t.noise))
-    ImGui::SetTooltip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
-                      t.noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
+    tip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
+        t.noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
   ImGui::TableNextColumn();
   errorCell(t.atEqualTime(s, i), t.best[2]);
   biasCells(s, t, BiasNoiseRow(i));
@@ -1549,9 +1553,9 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   ImGui::TableNextColumn();
   ImGui::TextUnformatted(s.convergedReference ? "Path tracer (live)" : "Reference (live PT)");
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("%s", s.convergedReference ? "The live path tracer, measured against the converged reference"
-                                                 : "The live path tracer is the reference: its value is its own "
-                                                   "noise, relMSE(A, B)/4 from two independent halves");
+    tip("%s", s.convergedReference ? "The live path tracer, measured against the converged reference"
+                                   : "The live path tracer is the reference: its value is its own "
+                                     "noise, relMSE(A, B)/4 from two independent halves");
   ImGui::TableNextColumn();
   ImGui::Text("%.5g", s.convergedReference ? livePtMetrics_.average.meanTest : referenceMean_);
   ImGui::TableNextColumn();
@@ -1570,10 +1574,10 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   } else if (t.indirect) {
     // Its noise is measured from two halves, which the first pass lacks.
     ImGui::TextDisabled("?");
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The reference's own noise is measured once it has two halves");
+    if (ImGui::IsItemHovered()) tip("The reference's own noise is measured once it has two halves");
   } else {
     ImGui::TextDisabled("n/a");
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The path tracer's error is tracked for the indirect component only");
+    if (ImGui::IsItemHovered()) tip("The path tracer's error is tracked for the indirect component only");
   }
   ImGui::TableNextColumn();
   // As the reference, its error at equal time is its own noise, unknown (0
@@ -1906,7 +1910,7 @@ void Studio::cropsPanel() {
     ImGui::GetWindowDrawList()->AddText(ImGui::GetFont(), ImGui::GetFontSize(), p, ImGui::GetColorU32(ImGuiCol_Text),
                                         title.c_str(), nullptr, 0.0f, &clip);
     ImGui::Dummy(ImVec2(tw, ImGui::GetTextLineHeight()));
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", title.c_str());
+    if (ImGui::IsItemHovered()) tip("%s", title.c_str());
     p = ImGui::GetCursorScreenPos();
     DisplayParams dp;
     if (c.error) {
@@ -1921,13 +1925,11 @@ void Studio::cropsPanel() {
     if (c.error) {
       ImGui::TextDisabled("0 .. %.3g", cropErrorMax_);
       if (ImGui::IsItemHovered())
-        ImGui::SetTooltip("%s per pixel; the colour map's range (shared by every error map)",
-                          kMetricNames[int(view_.metric)]);
+        tip("%s per pixel; the colour map's range (shared by every error map)", kMetricNames[int(view_.metric)]);
     } else if (c.hasMetrics) {
       ImGui::Text("relMSE %.3g", c.metrics.average.relMse);
       if (ImGui::IsItemHovered())
-        ImGui::SetTooltip(
-            "This crop against the reference's crop (%s, eps %.2g):\nmean %.5g (reference %.5g)\nRMSE "
+        tip("This crop against the reference's crop (%s, eps %.2g):\nmean %.5g (reference %.5g)\nRMSE "
             "%.4g\nMAE %.4g\nbias %+.4g",
             componentName(view_.component), c.metrics.epsilon, c.metrics.average.meanTest, c.metrics.average.meanRef,
             c.metrics.average.rmse, c.metrics.average.mae, c.metrics.average.bias);
