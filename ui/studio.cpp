@@ -575,9 +575,18 @@ void Studio::sceneControls() {
   if (ImGui::Button("Load") || enter) openScene(scenePath_);
   if (ImGui::IsItemHovered()) tip("Or drop a .gltf/.glb on the window");
   if (!options_.bundled.empty()) {
-    std::string current = std::filesystem::path(settings_.scene).stem().string();
+    // The combo names the current scene if it is bundled, else asks for one.
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path scene = fs::absolute(settings_.scene, ec).lexically_normal();
+    const bool isBundled = std::any_of(options_.bundled.begin(), options_.bundled.end(), [&](const std::string& b) {
+      std::error_code e;
+      return fs::absolute(b, e).lexically_normal() == scene;
+    });
+    const std::string label =
+        isBundled ? "bundled: " + std::filesystem::path(settings_.scene).stem().string() : "bundled scenes...";
     ImGui::SetNextItemWidth(-1);
-    if (ImGui::BeginCombo("##bundled", ("bundled: " + current).c_str())) {
+    if (ImGui::BeginCombo("##bundled", label.c_str())) {
       for (const std::string& b : options_.bundled) {
         std::string name = std::filesystem::path(b).stem().string();
         if (ImGui::Selectable(name.c_str(), b == settings_.scene)) openScene(b);
