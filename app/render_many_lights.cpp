@@ -221,6 +221,11 @@ int renderManyLights(RenderArgs& a, const RenderContext& ctx) {
                "traced %zu virtual lights from %llu paths in %.2f s (%zu bytes each, %.1f MB); radii in %.2f s\n",
                run.set.lights.size(), (unsigned long long)run.set.paths, run.set.seconds, sizeof(VirtualLight),
                run.set.bytes() / 1e6, run.knnSeconds);
+  if (run.set.lights.empty())
+    std::fprintf(stderr,
+                 "warning: %s: no light path met a surface, so there is no virtual light and no indirect light: "
+                 "every many-light image is the direct light alone\n",
+                 a.scene.c_str());
   // Gather them, and write what came out.
   MrcsProgress mp;
   std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, std::move(run), a.many, a.estimator, &mp);

@@ -475,6 +475,10 @@ bool Session::prepareSet(Worker& w, Job& job) {
   ManyLightRun prep;
   prep.set = traceVirtualLights(scene, w.ctx->accel(), w.ctx->lights(), lt, &stop_);
   if (stopped()) return false;
+  if (prep.set.lights.empty() && job.setsDone == 0)
+    log::warning(
+        "no light path met a surface, so there is no virtual light and no indirect light: every many-light "
+        "image is the direct light alone");
   const double tracingSeconds = prep.set.seconds;
   setStage("k-NN radii", many.lights);
   Stopwatch knnClock;
