@@ -672,6 +672,10 @@ int main(int argc, char** argv) {
   bool noDisplay = (!display || !*display) && (!wayland || !*wayland);
   bool fallback = false;
   if (!a.headless && !noDisplay) {
+    if (app.count("--after") && a.exportDir.empty())
+      std::fprintf(stderr,
+                   "warning: --after times an export (--export) or the end of a headless run (--headless); with a "
+                   "window and no export it does nothing\n");
     int rc = runWindowed(a, launch, w, h, &fallback);
     if (!fallback) return rc;
   }
