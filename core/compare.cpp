@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <sstream>
 #include <vector>
@@ -192,8 +193,45 @@ Vec3 falseColour(float t) {
   return lerp(x - i, stops[i], stops[i + 1]);
 }
 
+namespace {
+
+// A 3x5 pixel font for the colour bar's numbers: each glyph is five rows of
+// three bits (most significant on the left).
+struct Glyph {
+  char c;
+  uint8_t row[5];
+};
+constexpr Glyph kGlyphs[] = {{'0', {7, 5, 5, 5, 7}}, {'1', {2, 6, 2, 2, 7}}, {'2', {7, 1, 7, 4, 7}},
+                             {'3', {7, 1, 7, 1, 7}}, {'4', {5, 5, 7, 1, 1}}, {'5', {7, 4, 7, 1, 7}},
+                             {'6', {7, 4, 7, 5, 7}}, {'7', {7, 1, 1, 1, 1}}, {'8', {7, 5, 7, 5, 7}},
+                             {'9', {7, 5, 7, 1, 7}}, {'.', {0, 0, 0, 0, 2}}, {'-', {0, 0, 7, 0, 0}},
+                             {'+', {0, 2, 7, 2, 0}}, {'e', {0, 7, 7, 4, 7}}};
+
+// Width in pixels of text in that font (3 per glyph, 1 between).
+int textWidth(const std::string& t) { return t.empty() ? 0 : int(t.size()) * 4 - 1; }
+
+// Draws text with its top-left corner at (x, y), clipped to the image.
+void drawText(std::vector<uint8_t>& px, int w, int h, int x, int y, const std::string& t) {
+  for (char ch : t) {
+    for (const Glyph& g : kGlyphs) {
+      if (g.c != ch) continue;
+      for (int r = 0; r < 5; ++r)
+        for (int c = 0; c < 3; ++c)
+          if ((g.row[r] >> (2 - c)) & 1) {
+            const int X = x + c, Y = y + r;
+            if (X < 0 || X >= w || Y < 0 || Y >= h) continue;
+            uint8_t* q = &px[(size_t(Y) * w + X) * 3];
+            q[0] = q[1] = q[2] = 230;
+          }
+    }
+    x += 4;
+  }
+}
+
+}  // namespace
+
 std::vector<uint8_t> colourMapWithBar(const Image& map, Vec3 (*colour)(float), float vmax, int* rows) {
-  const int w = map.width, h = map.height, bar = 16;
+  const int w = map.width, h = map.height, bar = kColourBarRows;
   const float scale = 1.0f / std::max(vmax, 1e-12f);
   std::vector<uint8_t> px(size_t(w) * size_t(h + bar) * 3, 20);
   auto put = [&](int x, int y, const Vec3& c) {
@@ -204,8 +242,14 @@ std::vector<uint8_t> colourMapWithBar(const Image& map, Vec3 (*colour)(float), f
   };
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) put(x, y, colour(map.at(x, y).x * scale));
-  for (int y = h + 4; y < h + bar; ++y)
+  for (int y = h + 4; y < h + 16; ++y)
     for (int x = 0; x < w; ++x) put(x, y, colour((x + 0.5f) / float(w)));
+  // The scale under the bar: 0 at the left, vmax at the right (if both fit).
+  char label[32];
+  std::snprintf(label, sizeof label, "%.3g", double(vmax));
+  const std::string right = label;
+  drawText(px, w, h + bar, 1, h + 18, "0");
+  if (textWidth(right) + 6 <= w) drawText(px, w, h + bar, w - 1 - textWidth(right), h + 18, right);
   *rows = h + bar;
   return px;
 }

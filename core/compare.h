@@ -100,8 +100,11 @@ BiasVarianceResult biasVariance(const std::vector<const Image*>& tests, const Im
 Vec3 falseColour(float t);
 
 // A map (values in the R channel) as 8-bit sRGB pixels through a colour map
-// of value / vmax, with a colour bar from 0 (left) to vmax (right) in 16 rows
-// below it (4 of them a dark gap); *rows = height + 16.
+// of value / vmax, with a colour bar from 0 (left) to vmax (right) in the
+// kColourBarRows rows below it: a dark gap of 4, the bar's 12, then its scale
+// ("0" at the left, vmax as %.3g at the right where it fits) in a 3x5 pixel
+// font; *rows = height + kColourBarRows.
+constexpr int kColourBarRows = 25;
 std::vector<uint8_t> colourMapWithBar(const Image& map, Vec3 (*colour)(float), float vmax, int* rows);
 
 }  // namespace vsl

@@ -95,6 +95,43 @@ TEST(Compare, ErrorImagesAreFinite) {
   EXPECT_EQ(z.relSquared.at(0, 0).x, 0.0f);
 }
 
+// The colour bar's scale is printed under it: "0" at the left, vmax at the
+// right, in the 3x5 font (read back here glyph by glyph), and only where it
+// fits.
+TEST(Compare, ColourBarPrintsItsScale) {
+  const int w = 64, h = 8;
+  Image map(w, h);
+  int rows = 0;
+  std::vector<uint8_t> px = colourMapWithBar(map, falseColour, 0.25f, &rows);
+  ASSERT_EQ(rows, h + kColourBarRows);
+  ASSERT_EQ(px.size(), size_t(w) * rows * 3);
+  // Glyph k of a text whose top-left corner is (x0, y0), as five rows of
+  // three bits (the font's own form).
+  auto glyphAt = [&](int x0, int y0) {
+    std::array<int, 5> g{};
+    for (int r = 0; r < 5; ++r)
+      for (int c = 0; c < 3; ++c)
+        if (px[(size_t(y0 + r) * w + size_t(x0 + c)) * 3] > 200) g[size_t(r)] |= 1 << (2 - c);
+    return g;
+  };
+  const std::array<int, 5> zero{7, 5, 5, 5, 7}, dot{0, 0, 0, 0, 2}, two{7, 1, 7, 4, 7}, five{7, 4, 7, 1, 7};
+  const int y0 = h + 18;
+  EXPECT_EQ(glyphAt(1, y0), zero);
+  // "0.25": four glyphs, 15 pixels, ending one pixel from the right edge.
+  const int x0 = w - 1 - 15;
+  EXPECT_EQ(glyphAt(x0, y0), zero);
+  EXPECT_EQ(glyphAt(x0 + 4, y0), dot);
+  EXPECT_EQ(glyphAt(x0 + 8, y0), two);
+  EXPECT_EQ(glyphAt(x0 + 12, y0), five);
+  // Too narrow for the right label: only "0" is printed.
+  Image narrow(12, h);
+  px = colourMapWithBar(narrow, falseColour, 0.25f, &rows);
+  int lit = 0;
+  for (int y = h + 16; y < rows; ++y)
+    for (int x = 4; x < 12; ++x) lit += px[(size_t(y) * 12 + size_t(x)) * 3] > 200;
+  EXPECT_EQ(lit, 0);
+}
+
 TEST(Compare, BiasVarianceOfKnownImages) {
   // Renders ref + 0.1 and ref + 0.3 (alternating sign is not needed): mean
   // ref + 0.2, sample variance 0.02; ref = 1 everywhere, eps absolute 0 -> 1e-30.

@@ -498,7 +498,7 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
     ASSERT_TRUE(stbi_info(f.c_str(), &w, &h, &n)) << f;
     EXPECT_EQ(w, 64) << f;
     const bool map = f.find("/error-") != std::string::npos || f.find("/flip-") != std::string::npos;
-    EXPECT_EQ(h, map ? 32 + 16 : 32) << f << ": maps have a colour bar below them";
+    EXPECT_EQ(h, map ? 32 + kColourBarRows : 32) << f << ": maps have a colour bar and its scale below them";
   }
   EXPECT_GE(pngs, 11);
   std::ifstream js(f1 + "/metrics.json");
