@@ -101,10 +101,12 @@ struct Script {
     auto snap = studio.snapshot();
     if (headlessProgress && sinceProgress.seconds() > 5 && snap) {
       sinceProgress.reset();
-      std::fprintf(stderr,
-                   "rendering: %zu/%zu lights (%.0f%% of the time, ~%.0f s left), reference %d/%d spp, %.0f s\n",
-                   snap->lightsProcessed, snap->lightsTotal, 100.0 * snap->manyFractionDone, snap->manyRemainingSeconds,
-                   snap->ptSpp, snap->settings.maxReferenceSpp, el);
+      char left[48] = "time left not known yet";  // nothing gathered is timed yet (an MRCS set's first picture)
+      if (snap->manyLightDone || snap->manyRemainingSeconds > 0)
+        std::snprintf(left, sizeof left, "~%.0f s left", snap->manyRemainingSeconds);
+      std::fprintf(stderr, "rendering: %zu/%zu lights (%.0f%% of the time, %s), reference %d/%d spp, %.0f s\n",
+                   snap->lightsProcessed, snap->lightsTotal, 100.0 * snap->manyFractionDone, left, snap->ptSpp,
+                   snap->settings.maxReferenceSpp, el);
     }
     // The render is done (or --after has passed): time for the export, or for
     // the end of a headless run without one.
@@ -288,7 +290,12 @@ int runHeadless(const Args& a, const Launch& launch, int w, int h) {
     if (!script.failed) {
       for (int i = 0; i < 6000 && !studio.firstSceneSettled(); ++i)
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
-      script.fatal(studio);
+      if (!studio.firstSceneSettled()) {
+        std::fprintf(stderr, "error: %s: still loading after the run's frames and 60 s more\n", a.scene.c_str());
+        script.failed = true;
+      } else {
+        script.fatal(studio);
+      }
     }
     result = script.failed ? 1 : 0;
     if (!script.failed) rememberSession(studio);

@@ -268,9 +268,9 @@ struct SweepContext {
   // The latest point of a run capped by --time that may be its final one.
   double budget() const { return a.time * 1.02; }
   // Does a step of dt seconds started at el end within the budget? A run does
-  // not start a step that would not (predicted from its last step's length,
-  // scaled for a brute-force batch by its lights over the last one's; passes
-  // cost alike), since the point it would give could not be the run's final
+  // not start a step that would not (a brute-force batch predicted by the
+  // estimator from what the batches done cost, part by part; a pass as long
+  // as the last), since the point it would give could not be the run's final
   // one.
   bool nextFits(double el, double dt) const { return el + dt <= budget(); }
   // Records a point; it becomes the run's final candidate unless the run is

@@ -203,7 +203,7 @@ struct ManyLightRenderer::Batch {
   std::atomic<bool> abandoned{false};
   std::mutex timeMutex;
   double threadTime = 0, vplTime = 0, vslTime = 0;  // summed over threads
-  double pixelTime = 0, lobeTime = 0;               // the per-pixel part of threadTime, and the lobe gather's
+  double lightTime = 0, lobeTime = 0;               // threadTime's loops over the lights, and the lobe gather's
   float rouletteThreshold = 0;                      // the pair roulette's (0: not played)
   uint64_t roulettePairs = 0;                       // offered to it, summed over threads
 };
@@ -276,7 +276,6 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   const int eyes = sharedEyes(batch.b);
   Gatherer::EyePathOptions options = Gatherer::eyePathOptions(eyes);
   options.lobeRays = lobeRays(batch.b);
-  Stopwatch pixelClock;
   for (int i = 0; i < n; ++i) {
     const int x = x0 + i % tw, y = y0 + i / tw;
     const size_t pix = pixelOf(i);
@@ -286,7 +285,6 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c, options);
     batch.shared[pix] = gatherer.sharedLight(gps[size_t(i)], eyes, x, y, width_, height_, uint64_t(batch.b), c);
   }
-  const double pixelSeconds = pixelClock.seconds(), lobeSeconds = c.vslOwnSeconds;
   // Each light against the tile's gather points in three timed parts: the
   // shared connection (orientation, the batch of shadow rays), then VPL's
   // and VSL's own transfers, so that each method is charged its own time
@@ -316,6 +314,10 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   Gatherer::ConnectScratch scratch;
   double vplOwn = 0, vslOwn = 0;
   size_t checked = 0;
+  // The loop over the lights is the part of the tile's time that grows with
+  // them (BatchCostModel); the rest (eye paths, direct light, set-up and
+  // writing out) is per pixel.
+  Stopwatch lightClock;
   for (size_t l0 = 0; l0 < nb; l0 += kOrderBlock)
     for (int k = 0; k < kMaxGatherPoints; ++k) {
       if (!any[k]) continue;
@@ -350,6 +352,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
         }
       }
     }
+  const double lightSeconds = lightClock.seconds(), lobeSeconds = c.vslOwnSeconds;
   // The lobe gather's estimates (per eye sample, not per light) go to their
   // own film, each batch's weighted by its directions (lobeRays).
   if (batch.lobe)
@@ -370,7 +373,7 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     batch.threadTime += tileClock.seconds();
     batch.vplTime += vplOwn;
     batch.vslTime += vslOwn;
-    batch.pixelTime += std::max(pixelSeconds - lobeSeconds, 0.0);
+    batch.lightTime += lightSeconds;
     batch.lobeTime += lobeSeconds;
     batch.roulettePairs += c.rouletteOffered;
   }
@@ -447,10 +450,12 @@ void ManyLightRenderer::mergeBatch(const Batch& batch, double wall) {
   if (batch.threadTime > 0) {
     stats_.vslSeconds += wall * std::max(0.0, 1.0 - batch.vplTime / batch.threadTime);
     stats_.vplSeconds += wall * std::max(0.0, 1.0 - batch.vslTime / batch.threadTime);
-    // The batch's wall time split in the proportions of its thread time.
-    const double pixel = wall * std::min(batch.pixelTime / batch.threadTime, 1.0);
+    // The batch's wall time split in the proportions of its thread time:
+    // the lights' loops, the lobe gather's directions, and the rest (per
+    // pixel; with the batch's serial set-up).
+    const double lights = wall * std::min(batch.lightTime / batch.threadTime, 1.0);
     const double lobe = wall * std::min(batch.lobeTime / batch.threadTime, 1.0);
-    costs_.add({pixel, lobe, std::max(wall - pixel - lobe, 0.0)}, batchUnits(batch.b));
+    costs_.add({std::max(wall - lights - lobe, 0.0), lobe, lights}, batchUnits(batch.b));
   }
 }
 

@@ -189,8 +189,10 @@ class Session {
   // render with the same settings.
   Result<uint64_t> restart(const StudioSettings& settings, bool fromScratch = false);
   // While the reference catches up with a many-light step's time (it takes
-  // turns with the many-light methods), a snapshot goes out this often.
-  static constexpr double kCatchUpShowSeconds = 0.5;
+  // turns with the many-light methods), a snapshot goes out this often: each
+  // costs image copies and comparisons here and the studio's FLIP maps,
+  // which share the cores with the reference's passes.
+  static constexpr double kCatchUpShowSeconds = 2.0;
   // The newest snapshot of the current generation if its serial is greater
   // than `haveSerial`, else null.
   std::shared_ptr<const Snapshot> latest(uint64_t haveSerial) const;

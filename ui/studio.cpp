@@ -91,8 +91,10 @@ void sectionTitle(const char* title) {
   ImGui::TextUnformatted(title);
 }
 
-// ImGui::SetTooltip, wrapped at about 36 characters' width: the long help
-// texts ran off the right of a 1280-pixel window on one line.
+// ImGui::SetTooltip, wrapped at 36 times the font's height (about 65
+// characters): the long help texts ran off the right of a 1280-pixel window
+// on one line. Like SetTooltip it is one call per item (a second call in the
+// same frame adds to the same tooltip).
 void tip(const char* fmt, ...) IM_FMTARGS(1);
 void tip(const char* fmt, ...) {
   va_list args;
@@ -589,7 +591,7 @@ void Studio::sceneControls() {
     if (ImGui::BeginCombo("##bundled", label.c_str())) {
       for (const std::string& b : options_.bundled) {
         std::string name = std::filesystem::path(b).stem().string();
-        if (ImGui::Selectable(name.c_str(), b == settings_.scene)) openScene(b);
+        if (ImGui::Selectable(name.c_str(), isBundled && fs::absolute(b, ec).lexically_normal() == scene)) openScene(b);
       }
       ImGui::EndCombo();
     }
@@ -1436,12 +1438,7 @@ void cell(double v, double bestV, const char* fmt) {
 // and is never the best.
 bool belowNoise(double v) { return std::isfinite(v) && v <= 0; }
 void errorCell(double v, double bestV) {
-  if (!belowNoise(v)) {
-    cell(v, bestV, "%.4g");
-    if (std::isnan(bestV) && std::isfinite(v) && ImGui::IsItemHovered())
-      tip("No error in this column is marked the best while one of them is within the reference's noise");
-    return;
-  }
+  if (!belowNoise(v)) return cell(v, bestV, "%.4g");
   ImGui::TextDisabled("< noise");
   if (ImGui::IsItemHovered())
     tip("relMSE less the reference's own noise is %.3g: this error is within the reference's noise, so it cannot be "
@@ -1548,8 +1545,10 @@ void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
   ImGui::TableNextColumn();
   errorCell(c.average.relMse - t.noise, t.best[1]);
   if (ImGui::IsItemHovered() && !belowNoise(c.average.relMse - t.noise))
-    tip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s", c.epsilon,
-        t.noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted");
+    tip("relMSE = mean((t-r)^2/(r^2+eps)), eps %.3g%s%s", c.epsilon,
+        t.noise > 0 ? ", less the reference's own noise" : "; the reference's noise is not subtracted",
+        std::isnan(t.best[1]) ? ". None is marked the best while an error of the column is within the reference's noise"
+                              : "");
   ImGui::TableNextColumn();
   errorCell(t.atEqualTime(s, i), t.best[2]);
   biasCells(s, t, BiasNoiseRow(i));
