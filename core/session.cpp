@@ -857,6 +857,13 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->manyLightDone = job.setsDone >= job.settings.lightSets;
   if (snap->manyLightDone) snap->manyFractionDone = 1.0;
   snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
+  // Both times left in wall-clock time: the reference and the many-light
+  // methods take turns (equal time, render()), so while neither is done each
+  // advances at about half its own rate.
+  const double many = snap->manyLightDone ? 0.0 : snap->manyRemainingSeconds;
+  const double reference = snap->referenceDone ? 0.0 : snap->referenceRemainingSeconds;
+  snap->manyRemainingSeconds = many + std::min(many, reference);
+  snap->referenceRemainingSeconds = reference + std::min(many, reference);
   return snap;
 }
 

@@ -158,11 +158,14 @@ struct Snapshot {
   // (tracing, k-NN, gathers) over that plus the time left, which the batches
   // done predict part by part (BatchCostModel); lightsProcessed counts
   // lights.
-  double lightsPerSecond = 0;       // gathered per second of gather time
+  double lightsPerSecond = 0;  // gathered per second of gather time
+  // The times left are wall-clock: until one of the many-light methods and
+  // the reference is done, they take turns (equal time), each at about half
+  // its own rate.
   double manyRemainingSeconds = 0;  // 0 when done
   double manyFractionDone = 0;      // in [0, 1]; 1 when done
   double referenceSppPerSecond = 0;
-  double referenceRemainingSeconds = 0;  // if it had the machine to itself
+  double referenceRemainingSeconds = 0;  // wall-clock, as above
   uint64_t nonFinite = 0;
   std::vector<ErrorSample> history;
   bool manyLightDone = false;  // every light set is done

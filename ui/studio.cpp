@@ -1014,9 +1014,9 @@ void Studio::statusBar() {
   }
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered() && !s.vplPending)
-    tip("Lights gathered over every light set; the bar and the time left are in time, predicted from what "
-        "each part of the batches done cost (eye paths and direct light, the lobe gather's directions, the "
-        "lights)");
+    tip("Lights gathered over every light set. The bar is the many-light work's share done in its own compute "
+        "time, predicted from what each part of the batches done cost (eye paths and direct light, the lobe "
+        "gather's directions, the lights); the time left is wall-clock, with the reference's turns");
   ImGui::SameLine(0, 24);
   float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
   std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
@@ -1030,7 +1030,7 @@ void Studio::statusBar() {
     tip("The live path tracer takes turns with the many-light methods: after each of their steps it renders "
         "until it has had as much compute time as they have (so that the error plot compares equal time), so "
         "it pauses while a long step runs (an MRCS light set, a large batch). Its rate is over its own compute "
-        "time; the time left is at that rate with the machine to itself.");
+        "time; the time left is wall-clock, with those turns.");
 }
 
 namespace {
@@ -1782,7 +1782,10 @@ void Studio::logPanel() {
     ImVec4 col = entries[i].level >= LogLevel::Error     ? ImVec4(1, 0.4f, 0.4f, 1)
                  : entries[i].level == LogLevel::Warning ? ImVec4(1, 0.85f, 0.3f, 1)
                                                          : ImVec4(0.8f, 0.8f, 0.8f, 1);
-    ImGui::TextColored(col, "[%s] %s", log::levelName(entries[i].level), entries[i].message.c_str());
+    // Wrapped: a long warning ran past the panel's edge on one line.
+    ImGui::PushStyleColor(ImGuiCol_Text, col);
+    ImGui::TextWrapped("[%s] %s", log::levelName(entries[i].level), entries[i].message.c_str());
+    ImGui::PopStyleColor();
   }
   if (ImGui::GetScrollY() >= ImGui::GetScrollMaxY()) ImGui::SetScrollHereY(1.0f);
   ImGui::EndChild();
