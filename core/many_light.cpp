@@ -481,12 +481,8 @@ std::optional<double> ManyLightRenderer::nextBatchSeconds() const {
 }
 
 void BatchCostModel::add(const Units& seconds, const Units& units) {
-  seconds_.pixel += seconds.pixel;
-  seconds_.lobe += seconds.lobe;
-  seconds_.lights += seconds.lights;
-  units_.pixel += units.pixel;
-  units_.lobe += units.lobe;
-  units_.lights += units.lights;
+  seconds_ += seconds;
+  units_ += units;
   ++batches_;
 }
 

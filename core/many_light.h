@@ -212,6 +212,12 @@ struct ManyLightStats {
 struct BatchCostModel {
   struct Units {
     double pixel = 0, lobe = 0, lights = 0;
+    Units& operator+=(const Units& o) {
+      pixel += o.pixel;
+      lobe += o.lobe;
+      lights += o.lights;
+      return *this;
+    }
   };
   // One batch's measured wall seconds of each part and its units.
   void add(const Units& seconds, const Units& units);
@@ -271,6 +277,8 @@ class ManyLightRenderer {
   void mergeBatch(const Batch& batch, double wallSeconds);
   // The eye paths batch b traces per pixel for its shared light.
   int sharedEyes(int b) const;
+  // Batch b's work in BatchCostModel's units.
+  BatchCostModel::Units batchUnits(int b) const;
 
   const Scene& scene_;
   const Accel& accel_;
@@ -288,7 +296,6 @@ class ManyLightRenderer {
   size_t processed_ = 0;
   int batchesDone_ = 0;
   BatchCostModel costs_;  // over the batches merged
-  BatchCostModel::Units batchUnits(int b) const;
   // The pair roulette's measure: the luminance VSL and unclamped VPL gathered
   // (roulette weights applied) and the pairs offered to it (gathered or
   // dropped), over the batches merged.

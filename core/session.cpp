@@ -825,6 +825,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   // set not yet begun at the mean gather time of the sets done (or the one
   // in progress, done plus left) and the mean preparation time of those
   // prepared. Without a prediction, lights at the mean rate.
+  double manyLeft = 0;  // compute seconds; made wall-clock below
   if (snap->gatherSeconds > 0) {
     snap->lightsPerSecond = double(snap->lightsProcessed) / snap->gatherSeconds;
     const double perLight = 1.0 / std::max(snap->lightsPerSecond, 1e-9);
@@ -835,9 +836,9 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     const double perSet = job.setsDone > 0 ? d.gatherSeconds / job.setsDone
                           : left           ? st.gatherSeconds + *left
                                            : double(setSize) * perLight;
-    snap->manyRemainingSeconds = current + untraced * (perSet + prepSeconds);
+    manyLeft = current + untraced * (perSet + prepSeconds);
     const double spent = snap->lightTracingSeconds + snap->knnSeconds + snap->gatherSeconds;
-    snap->manyFractionDone = spent / std::max(spent + snap->manyRemainingSeconds, 1e-9);
+    snap->manyFractionDone = spent / std::max(spent + manyLeft, 1e-9);
   }
   if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
     snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
@@ -860,7 +861,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   // Both times left in wall-clock time: the reference and the many-light
   // methods take turns (equal time, render()), so while neither is done each
   // advances at about half its own rate.
-  const double many = snap->manyLightDone ? 0.0 : snap->manyRemainingSeconds;
+  const double many = snap->manyLightDone ? 0.0 : manyLeft;
   const double reference = snap->referenceDone ? 0.0 : snap->referenceRemainingSeconds;
   snap->manyRemainingSeconds = many + std::min(many, reference);
   snap->referenceRemainingSeconds = reference + std::min(many, reference);

@@ -60,6 +60,17 @@ inline std::string slurp(const std::filesystem::path& path) {
   return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
+// Writes a glTF file of one grey triangle and no emitter (a scene that loads
+// but cannot be rendered: "no emitters").
+inline void writeNoEmitterTriangle(const std::string& path) {
+  std::ofstream f(path);
+  f << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+    "bufferViews":[{"buffer":0,"byteLength":36}],
+    "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
+}
+
 // An empty folder NAME under the system's temporary folder (emptied if it exists).
 inline std::filesystem::path scratchDir(const std::string& name) {
   std::filesystem::path d = std::filesystem::temp_directory_path() / name;

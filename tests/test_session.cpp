@@ -20,6 +20,7 @@
 #include "core/render_context.h"
 #include "core/session.h"
 #include "core/virtual_lights.h"
+#include "support.h"
 
 using namespace vsl;
 using namespace std::chrono_literals;
@@ -323,14 +324,7 @@ TEST(Session, FailedLoadResumesTheRunningRender) {
 TEST(Session, SceneWithoutEmittersIsReportedAndKeepsThePreviousScene) {
   // A single grey triangle and no light.
   std::string path = std::string(VSL_BINARY_DIR) + "/no-emitters.gltf";
-  {
-    std::ofstream f(path);
-    f << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
-      "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
-      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
-      "bufferViews":[{"buffer":0,"byteLength":36}],
-      "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
-  }
+  test::writeNoEmitterTriangle(path);
   Session session;
   uint64_t g1 = session.restart(small("furnace", 50, 8)).value();
   ASSERT_TRUE(waitFor(session, g1, [](const Snapshot& s) { return s.batchesDone > 0; }));

@@ -18,6 +18,7 @@
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/reference.h"
+#include "support.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
@@ -920,14 +921,7 @@ TEST(StudioCli, HeadlessRunsWithoutAnExportEnd) {
 TEST(StudioCli, HeadlessRunWithFewFramesReportsASceneThatCannotLoad) {
   const std::string dir = freshDir("studio-frames-bad-scene");
   const std::string dark = dir + "/dark.gltf";
-  {
-    std::ofstream f(dark);
-    f << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
-      "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
-      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
-      "bufferViews":[{"buffer":0,"byteLength":36}],
-      "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]})";
-  }
+  test::writeNoEmitterTriangle(dark);
   const std::string common = "--headless --fresh --window 320x240 --lights 20 --width 8 --light-sets 1 ";
   StudioRun r = runStudio(dir + "/config", common + "--frames 1 " + dark);
   EXPECT_EQ(r.code, 1) << r.out;
