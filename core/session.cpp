@@ -391,8 +391,8 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
   if (ctx && !ctx->hasEmitters()) {
     noEmitters = true;
     err = s.scene +
-          ": the scene has no emitters (no emissive material and no KHR_lights_punctual light), so every method "
-          "renders black";
+          ": the scene has no emitters (no emissive material and no point or spot light; directional lights are "
+          "not modelled), so every method renders black";
     for (const std::string& warning : ctx->scene().warnings) err += "\n" + warning;  // e.g. an unsupported extension
   }
   if (!ctx || noEmitters) {

@@ -932,6 +932,18 @@ TEST(StudioCli, HeadlessRunWithFewFramesReportsASceneThatCannotLoad) {
   EXPECT_NE(r.out.find("missing.gltf"), std::string::npos) << r.out;
 }
 
+// The time left counts down between snapshots (an MRCS light set publishes
+// none while it runs) and says "finishing" once it has run out.
+TEST(StudioText, TimeLeftCountsDownBetweenSnapshots) {
+  EXPECT_EQ(ui::timeLeftText(90.0, 0.0), "~1 min 30 s left");
+  EXPECT_EQ(ui::timeLeftText(90.0, 30.0), "~1 min 00 s left");
+  EXPECT_EQ(ui::timeLeftText(12.0, 2.5), "~10 s left");
+  EXPECT_EQ(ui::timeLeftText(5.0, 5.5), "~0 s left");  // within a second of the prediction
+  EXPECT_EQ(ui::timeLeftText(5.0, 7.0), "finishing");
+  EXPECT_EQ(ui::timeLeftText(5.0, -3.0), "~5 s left");  // no age: the prediction as made
+  EXPECT_EQ(ui::timeLeftText(std::nan(""), 0.0), "finishing");
+}
+
 TEST(LastSession, RoundTripAndCorruptFiles) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-test";
   std::filesystem::remove_all(dir);

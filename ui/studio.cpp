@@ -253,6 +253,7 @@ void Studio::pullSnapshot() {
                 std::to_string(int(restartToPictureMs_)) + " ms after the settings changed");
     }
     snap_ = std::move(s);
+    sinceSnapshot_.reset();
     texturesDirty_ = true;
   }
   Session::Status st = session_->status();
@@ -943,6 +944,17 @@ std::string humanSeconds(double t) {
     std::snprintf(buf, sizeof buf, "%.1f h", t / 3600);
   return buf;
 }
+}  // namespace
+
+std::string timeLeftText(double predictedSeconds, double ageSeconds) {
+  const double left = predictedSeconds - std::max(ageSeconds, 0.0);
+  // A second of grace: a prediction that ends between two snapshots is not
+  // late yet.
+  if (!(left > -1.0)) return "finishing";
+  return "~" + humanSeconds(std::max(left, 0.0)) + " left";
+}
+
+namespace {
 std::string humanCount(double v) {
   char buf[32];
   if (v >= 1e6)
@@ -1010,7 +1022,7 @@ void Studio::statusBar() {
     // metrics tab (pairs/s).
     std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s", s.lightsProcessed, s.lightsTotal,
                   std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
-                  s.manyLightDone ? "done" : ("~" + humanSeconds(s.manyRemainingSeconds) + " left").c_str());
+                  s.manyLightDone ? "done" : timeLeftText(s.manyRemainingSeconds, sinceSnapshot_.seconds()).c_str());
   }
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered() && !s.vplPending)
@@ -1024,7 +1036,7 @@ void Studio::statusBar() {
   ImGui::SameLine();
   std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
                 humanCount(s.referenceSppPerSecond).c_str(),
-                s.referenceDone ? "done" : ("~" + humanSeconds(s.referenceRemainingSeconds) + " left").c_str());
+                s.referenceDone ? "done" : timeLeftText(s.referenceRemainingSeconds, sinceSnapshot_.seconds()).c_str());
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered())
     tip("The live path tracer takes turns with the many-light methods: after each of their steps it renders "
