@@ -44,6 +44,7 @@ struct Args {
   std::string screenshot, exportDir;
   double after = -1;  // seconds; < 0 = when the many-light render is complete
   std::string window = "1280x800";
+  bool windowGiven = false;  // --window on the command line: used as given, not fitted to the screen
   uint32_t lights = 5000;
   int width = 256;
   bool lightsGiven = false, widthGiven = false;  // on the command line: they win over the last session
@@ -366,10 +367,22 @@ void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
 void onGlfwError(int code, const char* msg) { log::warning("GLFW error " + std::to_string(code) + ": " + msg); }
 
 // A GL 3.3 window with ImGui on it and our input callbacks; null (GLFW
-// terminated) if there is no window system or it refuses.
-GLFWwindow* openWindow(int w, int h) {
+// terminated) if there is no window system or it refuses. fitScreen: the
+// size is a default, made to fit the primary monitor's work area (less a
+// margin for the window's frame), so that a 1280x800 window does not run off
+// a smaller screen with the reference panel and the status line cut off.
+GLFWwindow* openWindow(int w, int h, bool fitScreen) {
   glfwSetErrorCallback(onGlfwError);
   if (!glfwInit()) return nullptr;
+  if (fitScreen)
+    if (GLFWmonitor* monitor = glfwGetPrimaryMonitor()) {
+      int x = 0, y = 0, aw = 0, ah = 0;
+      glfwGetMonitorWorkarea(monitor, &x, &y, &aw, &ah);
+      if (aw > 0 && ah > 0) {
+        w = std::clamp(aw - 16, 640, w);
+        h = std::clamp(ah - 48, 480, h);
+      }
+    }
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
@@ -493,7 +506,7 @@ void closeWindow(GLFWwindow* win) {
 }
 
 int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
-  GLFWwindow* win = openWindow(w, h);
+  GLFWwindow* win = openWindow(w, h, !a.windowGiven);
   if (!win) {
     *fellBack = true;
     return 0;
@@ -621,6 +634,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: --window must be WxH between 320x240 and 8192x8192 (got '%s')\n", a.window.c_str());
     return 2;
   }
+  a.windowGiven = app.count("--window") > 0;
   a.lightsGiven = app.count("--lights") > 0;
   a.widthGiven = app.count("--width") > 0;
   a.lightSetsGiven = app.count("--light-sets") > 0;

@@ -1029,14 +1029,18 @@ void Studio::statusBar() {
     tip("Lights gathered over every light set. The bar is the many-light work's share done in its own compute "
         "time, predicted from what each part of the batches done cost (eye paths and direct light, the lobe "
         "gather's directions, the lights); the time left is wall-clock, with the reference's turns");
-  ImGui::SameLine(0, 24);
   float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
-  std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
-  ImGui::ProgressBar(fr, ImVec2(130, 0), overlay);
-  ImGui::SameLine();
   std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
                 humanCount(s.referenceSppPerSecond).c_str(),
                 s.referenceDone ? "done" : timeLeftText(s.referenceRemainingSeconds, sinceSnapshot_.seconds()).c_str());
+  // The reference's half on the same line where it fits, else on the next
+  // (a narrow window cut it off).
+  const float needed = 24 + 130 + ImGui::GetStyle().ItemSpacing.x + ImGui::CalcTextSize(detail).x;
+  const float lineRight = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x;
+  if (lineRight - ImGui::GetItemRectMax().x >= needed) ImGui::SameLine(0, 24);
+  std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
+  ImGui::ProgressBar(fr, ImVec2(130, 0), overlay);
+  ImGui::SameLine();
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered())
     tip("The live path tracer takes turns with the many-light methods: after each of their steps it renders "
