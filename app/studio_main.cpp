@@ -506,7 +506,9 @@ void closeWindow(GLFWwindow* win) {
 }
 
 int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
-  GLFWwindow* win = openWindow(w, h, !a.windowGiven);
+  // A scripted run (frames, export) keeps the size it is given, so that its
+  // screenshots do not depend on the screen.
+  GLFWwindow* win = openWindow(w, h, !a.windowGiven && a.frames == 0 && a.exportDir.empty());
   if (!win) {
     *fellBack = true;
     return 0;

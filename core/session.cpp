@@ -282,6 +282,7 @@ bool Session::publish(std::shared_ptr<Snapshot> s) {
     // A snapshot of an older generation is stale: drop it.
     if (s->generation != generation_.load()) return false;
     s->serial = ++serial_;
+    s->publishedAt = std::chrono::steady_clock::now();
     if (publishHook_) publishHook_(*s);
     latest_ = std::move(s);
   }

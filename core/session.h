@@ -26,6 +26,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <memory>
@@ -162,10 +163,12 @@ struct Snapshot {
   // The times left are wall-clock: until one of the many-light methods and
   // the reference is done, they take turns (equal time), each at about half
   // its own rate.
-  double manyRemainingSeconds = 0;  // 0 when done
+  double manyRemainingSeconds = 0;  // 0 when done or not known yet
   double manyFractionDone = 0;      // in [0, 1]; 1 when done
   double referenceSppPerSecond = 0;
-  double referenceRemainingSeconds = 0;  // wall-clock, as above
+  double referenceRemainingSeconds = 0;  // wall-clock, as above; 0 when done or not known yet
+  // When the session published it (the times left count down from here).
+  std::chrono::steady_clock::time_point publishedAt{};
   uint64_t nonFinite = 0;
   std::vector<ErrorSample> history;
   bool manyLightDone = false;  // every light set is done

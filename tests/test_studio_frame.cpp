@@ -940,8 +940,10 @@ TEST(StudioText, TimeLeftCountsDownBetweenSnapshots) {
   EXPECT_EQ(ui::timeLeftText(12.0, 2.5), "~10 s left");
   EXPECT_EQ(ui::timeLeftText(5.0, 5.5), "~0 s left");  // within a second of the prediction
   EXPECT_EQ(ui::timeLeftText(5.0, 7.0), "finishing");
-  EXPECT_EQ(ui::timeLeftText(5.0, -3.0), "~5 s left");  // no age: the prediction as made
-  EXPECT_EQ(ui::timeLeftText(std::nan(""), 0.0), "finishing");
+  EXPECT_EQ(ui::timeLeftText(5.0, -3.0), "~5 s left");               // no age: the prediction as made
+  EXPECT_EQ(ui::timeLeftText(0.0, 0.0), "time left not known yet");  // the snapshot has none yet
+  EXPECT_EQ(ui::timeLeftText(0.0, 10.0), "time left not known yet");
+  EXPECT_EQ(ui::timeLeftText(std::nan(""), 0.0), "time left not known yet");
 }
 
 TEST(LastSession, RoundTripAndCorruptFiles) {

@@ -253,7 +253,6 @@ void Studio::pullSnapshot() {
                 std::to_string(int(restartToPictureMs_)) + " ms after the settings changed");
     }
     snap_ = std::move(s);
-    sinceSnapshot_.reset();
     texturesDirty_ = true;
   }
   Session::Status st = session_->status();
@@ -947,6 +946,7 @@ std::string humanSeconds(double t) {
 }  // namespace
 
 std::string timeLeftText(double predictedSeconds, double ageSeconds) {
+  if (!(predictedSeconds > 0)) return "time left not known yet";
   const double left = predictedSeconds - std::max(ageSeconds, 0.0);
   // A second of grace: a prediction that ends between two snapshots is not
   // late yet.
@@ -1003,6 +1003,11 @@ void Studio::statusBar() {
     return;
   }
   const Snapshot& s = *snap_;
+  // Seconds since the session published it (a snapshot made for a test has
+  // no time: its predictions are shown as made).
+  const double age = s.publishedAt == std::chrono::steady_clock::time_point()
+                         ? 0.0
+                         : std::chrono::duration<double>(std::chrono::steady_clock::now() - s.publishedAt).count();
   char overlay[64], detail[160];
   const float fm = float(std::clamp(s.manyFractionDone, 0.0, 1.0));
   if (s.vplPending) {
@@ -1022,7 +1027,7 @@ void Studio::statusBar() {
     // metrics tab (pairs/s).
     std::snprintf(detail, sizeof detail, "%zu / %zu lights  set %d / %d  %s", s.lightsProcessed, s.lightsTotal,
                   std::min(s.lightSetsDone + (s.manyLightDone ? 0 : 1), s.lightSets), s.lightSets,
-                  s.manyLightDone ? "done" : timeLeftText(s.manyRemainingSeconds, sinceSnapshot_.seconds()).c_str());
+                  s.manyLightDone ? "done" : timeLeftText(s.manyRemainingSeconds, age).c_str());
   }
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered() && !s.vplPending)
@@ -1032,12 +1037,15 @@ void Studio::statusBar() {
   float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
   std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
                 humanCount(s.referenceSppPerSecond).c_str(),
-                s.referenceDone ? "done" : timeLeftText(s.referenceRemainingSeconds, sinceSnapshot_.seconds()).c_str());
+                s.referenceDone ? "done" : timeLeftText(s.referenceRemainingSeconds, age).c_str());
   // The reference's half on the same line where it fits, else on the next
-  // (a narrow window cut it off).
+  // (a narrow window cut it off). Back on one line only with room to spare
+  // (40 px), so that a time left that grows by a digit does not move the
+  // panels by a line from one second to the next.
   const float needed = 24 + 130 + ImGui::GetStyle().ItemSpacing.x + ImGui::CalcTextSize(detail).x;
-  const float lineRight = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x;
-  if (lineRight - ImGui::GetItemRectMax().x >= needed) ImGui::SameLine(0, 24);
+  const float room = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x - ImGui::GetItemRectMax().x;
+  statusTwoLines_ = statusTwoLines_ ? room < needed + 40 : room < needed;
+  if (!statusTwoLines_) ImGui::SameLine(0, 24);
   std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
   ImGui::ProgressBar(fr, ImVec2(130, 0), overlay);
   ImGui::SameLine();

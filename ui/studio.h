@@ -57,10 +57,11 @@ Image cropImage(const Image& img, const CropRect& r);
 // the longer side becomes about 256 pixels, between 1x and 32x.
 int cropMagnification(const CropRect& r);
 
-// The words for a time left predicted ageSeconds ago (a snapshot's): "~T
-// left", counted down by the age, so that it moves between snapshots (an
-// MRCS light set publishes none while it runs, for up to minutes), and
-// "finishing" once the prediction has run out without the work being done.
+// The words for a time left predicted ageSeconds ago (a snapshot's, for work
+// not done): "~T left", counted down by the age, so that it moves between
+// snapshots (an MRCS light set publishes none while it runs, for up to
+// minutes); "finishing" once a prediction has run out; "time left not known
+// yet" where there is none (0, as the snapshot says it, or not a number).
 std::string timeLeftText(double predictedSeconds, double ageSeconds);
 
 struct StudioOptions {
@@ -363,8 +364,8 @@ class Studio {
   // generation.
   static constexpr int kSettleMs = 50;  // a drag rests this long before a restart
   Stopwatch sinceLaunch_, sinceChange_ = sinceLaunch_;
-  Stopwatch sinceSnapshot_;   // since snap_ arrived (the times left count down from it)
-  bool changeTimed_ = false;  // sinceChange_ already runs from a control's change
+  bool statusTwoLines_ = false;  // the status line's reference half on a line of its own
+  bool changeTimed_ = false;     // sinceChange_ already runs from a control's change
   uint64_t restartGeneration_ = 0, firstPictureGeneration_ = 0;
   double launchToPictureMs_ = -1, restartToPictureMs_ = -1;
 };
