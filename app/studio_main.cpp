@@ -45,6 +45,9 @@ struct Args {
   double after = -1;  // seconds; < 0 = when the many-light render is complete
   std::string window = "1280x800";
   bool windowGiven = false;  // --window on the command line: used as given, not fitted to the screen
+  // A run that ends by itself (frames or an export): no waiting for input, and
+  // its window keeps the size it is given.
+  bool scripted() const { return frames > 0 || !exportDir.empty(); }
   uint32_t lights = 5000;
   int width = 256;
   bool lightsGiven = false, widthGiven = false;  // on the command line: they win over the last session
@@ -420,7 +423,7 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
   Script script{a};
   double busyMs = 0;
   int frames = 0, settle = 3;  // frames still owed after input
-  const bool scripted = a.frames > 0 || !a.exportDir.empty();
+  const bool scripted = a.scripted();
   Stopwatch sinceDraw;
   for (int frame = 0; !glfwWindowShouldClose(win);) {
     // Idle when idle: sleep in the event queue; draw after input (a few
@@ -506,9 +509,9 @@ void closeWindow(GLFWwindow* win) {
 }
 
 int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBack) {
-  // A scripted run (frames, export) keeps the size it is given, so that its
-  // screenshots do not depend on the screen.
-  GLFWwindow* win = openWindow(w, h, !a.windowGiven && a.frames == 0 && a.exportDir.empty());
+  // A scripted run keeps the size it is given, so that its screenshots do not
+  // depend on the screen.
+  GLFWwindow* win = openWindow(w, h, !a.windowGiven && !a.scripted());
   if (!win) {
     *fellBack = true;
     return 0;
