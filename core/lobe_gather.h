@@ -36,10 +36,9 @@
 #include <vector>
 
 #include "core/gather.h"
+#include "core/point_tree.h"
 
 namespace vsl {
-
-class PointTree;
 
 // The denser light set, decoded, with a k-d tree over its positions.
 // Immutable after construction; safe to share between threads.
@@ -91,9 +90,16 @@ class LobeGatherMap {
   // search of the tree (that search was 40% of a lobe-gathered tableau
   // render; docs/PERFORMANCE.md, "Session 36").
   static constexpr size_t kMaxCandidates = 1024;
+  // Steps of a query's walk toward z from its Morton neighbour (nearest()).
+  static constexpr int kMaxWalk = 8;
+  static constexpr size_t kWalkWidth = 12;
   int candidates_ = 0;          // per light; 0: every query searches the tree
   std::vector<uint32_t> cand_;  // candidates_ per light
   std::vector<float> candR2_;   // the squared distance to each light's farthest candidate
+  // Where a query starts: the lights' Morton codes (ascending: the lights are
+  // in that order) and the box they were taken in.
+  MortonBox box_;
+  std::vector<uint32_t> codes_;
 };
 
 // The lobe gather's light set for a render with these settings (a seed of its

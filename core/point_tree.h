@@ -29,6 +29,11 @@ class PointTree {
   // The min(k, size()) points nearest to q, closest first: their indices in
   // idx and squared distances in d2 (each with room for k). Returns how many.
   size_t nearest(const Vec3& q, size_t k, uint32_t* idx, float* d2) const;
+  // The same where the caller knows that the k nearest lie within a squared
+  // distance below maxD2 (k points closer than it, for one): the search skips
+  // every branch farther than that from its start, with the same answer (the
+  // points at or beyond maxD2 are never the k nearest then).
+  size_t nearestWithin(const Vec3& q, size_t k, float maxD2, uint32_t* idx, float* d2) const;
   size_t size() const;
   // Point i's coordinates (3 floats), as given to the constructor.
   const float* point(size_t i) const { return xyz_ + 3 * i; }
@@ -53,5 +58,18 @@ std::vector<float> packedPositions(const std::vector<T>& items) {
 // close in that order lie close in space, so a sequence of nearby queries, or
 // the points one query finds, stay close in memory.
 std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz);
+
+// The Morton code (10 bits per axis) of a point within the bounding box of a
+// set of points (3 floats each), as mortonOrder orders them; points outside
+// the box take the code of the nearest point of it.
+class MortonBox {
+ public:
+  MortonBox() = default;
+  explicit MortonBox(const std::vector<float>& xyz);
+  uint32_t code(const float* p) const;
+
+ private:
+  float lo_[3] = {0, 0, 0}, extent_[3] = {0, 0, 0};
+};
 
 }  // namespace vsl
