@@ -25,6 +25,13 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
       g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
     lights_.push_back(g);
   }
+  // The chains' widened lobes (radiance(..., kWideAlpha)), kept for the lights
+  // narrower than that (the others are never widened to it).
+  wide_.resize(lights_.size());
+  for (size_t i = 0; i < lights_.size(); ++i) {
+    VslEmitter wide;
+    wide_[i] = widenLobeTo(lights_[i].em, kWideAlpha, wide) ? wide.f : lights_[i].em.f;
+  }
   tree_ = std::make_unique<PointTree>(packedPositions(lights_));
   const size_t n = lights_.size();
   codes_.resize(n);
@@ -140,20 +147,44 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
   if (!(r2 > 0)) return Vec3(0.0f);
   // The k-th light only sets the radius: (k - 1) / (pi r_k^2) is the
   // unbiased density of independent points (k / (pi r_k^2) is k / (k - 1)
-  // too high: 3% at k = 32).
+  // too high: 3% at k = 32). The lights on z's side that face wOut are
+  // evaluated together (BrdfAt::evalTotalsEach), in blocks, then summed in
+  // the order found.
+  constexpr int kBlock = 64;
+  const BrdfAt* brdf[kBlock];
+  alignas(32) float wx[kBlock], wy[kBlock], wz[kBlock], f[3][kBlock];
+  float* const out[3] = {f[0], f[1], f[2]};
+  uint32_t which[kBlock];
+  std::vector<BrdfAt> wideHere;  // widened lobes where minAlpha is not the one kept
   Vec3 sum(0.0f);
-  for (size_t i = 0; i + 1 < found; ++i) {
-    const GatherLight& L = lights_[idx[i]];
-    if (dot(L.ng, nz) < 0.5f || dot(L.n, wOut) <= 0 || dot(L.ng, wOut) <= 0) continue;
-    if (diffuseOnly) {
-      sum += L.Phi * L.em.f.evalParts(L.em.frame.toLocal(wOut)).diffuse;
-      continue;
+  for (size_t i0 = 0; i0 + 1 < found;) {
+    int n = 0;
+    for (; i0 + 1 < found && n < kBlock; ++i0) {
+      const GatherLight& L = lights_[idx[i0]];
+      if (dot(L.ng, nz) < 0.5f || dot(L.n, wOut) <= 0 || dot(L.ng, wOut) <= 0) continue;
+      const BrdfAt* b = &L.em.f;
+      if (!diffuseOnly && L.alpha < minAlpha) b = widened(idx[i0], minAlpha, wideHere);
+      const Vec3 w = L.em.frame.toLocal(wOut);
+      brdf[n] = b;
+      wx[n] = w.x;
+      wy[n] = w.y;
+      wz[n] = w.z;
+      which[n++] = idx[i0];
     }
-    VslEmitter wide;
-    const VslEmitter& em = L.alpha < minAlpha && widenLobeTo(L.em, minAlpha, wide) ? wide : L.em;
-    sum += L.Phi * em.f.evalParts(em.frame.toLocal(wOut)).total();
+    BrdfAt::evalTotalsEach(n, brdf, wx, wy, wz, diffuseOnly, out);
+    for (int j = 0; j < n; ++j) sum += lights_[which[j]].Phi * Vec3(f[0][j], f[1][j], f[2][j]);
   }
   return sum / float(kPi * r2);
+}
+
+const BrdfAt* LobeGatherMap::widened(uint32_t i, float minAlpha, std::vector<BrdfAt>& scratch) const {
+  if (minAlpha == kWideAlpha && !wide_.empty()) return &wide_[i];
+  VslEmitter wide;
+  if (!widenLobeTo(lights_[i].em, minAlpha, wide)) return &lights_[i].em.f;
+  // Stable addresses for the block: reserved once for every light of a query.
+  if (scratch.capacity() == 0) scratch.reserve(size_t(k_));
+  scratch.push_back(wide.f);
+  return &scratch.back();
 }
 
 std::unique_ptr<LobeGatherMap> buildLobeGatherMap(const Scene& scene, const Accel& accel, const LightSampler& lights,

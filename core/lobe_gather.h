@@ -82,7 +82,13 @@ class LobeGatherMap {
   const GatherLight& light(size_t i) const { return lights_[i]; }
 
  private:
+  // The BRDF of light i widened to minAlpha (it is narrower): from wide_
+  // where minAlpha is kWideAlpha, else made now and kept in scratch.
+  const BrdfAt* widened(uint32_t i, float minAlpha, std::vector<BrdfAt>& scratch) const;
+
   std::vector<GatherLight> lights_;  // in Morton order of their positions
+  static constexpr float kWideAlpha = ManyLightSettings::kLobeGatherChainAlpha;
+  std::vector<BrdfAt> wide_;  // each light's BRDF at least kWideAlpha wide
   std::unique_ptr<PointTree> tree_;
   int k_;
   // Each light's 2k nearest lights (itself among them), so that a query

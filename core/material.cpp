@@ -271,6 +271,24 @@ void BrdfAt::evalTotals(int n, const float* wx, const float* wy, const float* wz
     evalTotalsScalar(n, wx, wy, wz, f, pdf);
 }
 
+void BrdfAt::evalTotalsEach(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
+                            bool diffuseOnly, float* const f[3]) {
+  constexpr int kMinSimd = 4;
+  if (n >= kMinSimd && simdAvailable())
+    evalTotalsEachAvx2(n, brdfs, wx, wy, wz, diffuseOnly, f);
+  else
+    evalTotalsEachScalar(n, brdfs, wx, wy, wz, diffuseOnly, f);
+}
+
+void BrdfAt::evalTotalsEachScalar(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
+                                  bool diffuseOnly, float* const f[3]) {
+  for (int i = 0; i < n; ++i) {
+    const Parts p = brdfs[i]->evalParts(Vec3(wx[i], wy[i], wz[i]));
+    const Vec3 v = diffuseOnly ? p.diffuse : p.total();
+    for (int c = 0; c < 3; ++c) f[c][i] = v[c];
+  }
+}
+
 void BrdfAt::evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3],
                               float* pdf) const {
   for (int i = 0; i < n; ++i) {
@@ -288,11 +306,15 @@ void BrdfAt::evalTotalsScalar(int n, const float* wx, const float* wy, const flo
 #define VSL_AVX2 __attribute__((target("avx2")))
 namespace {
 
-struct BrdfConsts {  // a BrdfAt's fixed terms
-  Vec3 base, kd, w;
-  float s, m, ax, ay, lambdaW, ps, specPdfScale;
-  AlbedoRow row;
-  bool diffuse, specular;
+// A BrdfAt's fixed terms on eight lanes: one BRDF on every lane
+// (evalTotalsAvx2) or eight BRDFs (evalTotalsEachAvx2). Derived constants
+// (1 - m, 4 w.z, ...) are computed on the lanes with the scalar code's
+// operations, so they round as there.
+struct BrdfLanes {
+  __m256 base[3], kd[3], w[3];
+  __m256 s, m, ax, ay, lambdaW, ps, specPdfScale, da;
+  __m256i a0;
+  __m256 above, diffuse, specular;  // masks: w.z > 0, m < 1, the specular lobe on
 };
 
 VSL_AVX2 inline __m256 splat(float v) { return _mm256_set1_ps(v); }
@@ -303,19 +325,23 @@ VSL_AVX2 inline __m256 div(__m256 a, __m256 b) { return _mm256_div_ps(a, b); }
 VSL_AVX2 inline __m256 clamp01(__m256 v) { return _mm256_min_ps(splat(1), _mm256_max_ps(_mm256_setzero_ps(), v)); }
 VSL_AVX2 inline __m256 where(__m256 mask, __m256 v) { return _mm256_and_ps(mask, v); }
 VSL_AVX2 inline __m256 greater(__m256 a, __m256 b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
+VSL_AVX2 inline __m256 mask(bool on) { return _mm256_castsi256_ps(_mm256_set1_epi32(on ? -1 : 0)); }
+VSL_AVX2 inline bool none(__m256 m) { return _mm256_movemask_ps(m) == 0; }
 
-// albedoAt(r, cosTheta) on eight lanes.
-VSL_AVX2 __m256 albedoAt8(AlbedoRow r, __m256 cosTheta) {
-  const AlbedoTable& t = albedoTable();
+// albedoAt(r, cosTheta) on eight lanes, each with its own row.
+VSL_AVX2 __m256 albedoAt8(const BrdfLanes& k, __m256 cosTheta) {
+  const float* E = albedoTable().E[0].data();  // rows of kTableMu, one after the other
   __m256 fm = mul(clamp01(cosTheta), splat(kTableMu - 1));
   __m256i m0 = _mm256_min_epi32(_mm256_cvttps_epi32(fm), _mm256_set1_epi32(kTableMu - 2));
-  __m256i m1 = _mm256_add_epi32(m0, _mm256_set1_epi32(1));
   __m256 dm = sub(fm, _mm256_cvtepi32_ps(m0)), rdm = sub(splat(1), dm);
-  const float* E0 = t.E[r.a0].data();
-  const float* E1 = t.E[r.a0 + 1].data();
-  __m256 e0 = add(mul(_mm256_i32gather_ps(E0, m0, 4), rdm), mul(_mm256_i32gather_ps(E0, m1, 4), dm));
-  __m256 e1 = add(mul(_mm256_i32gather_ps(E1, m0, 4), rdm), mul(_mm256_i32gather_ps(E1, m1, 4), dm));
-  return add(mul(e0, splat(1 - r.da)), mul(e1, splat(r.da)));
+  const __m256i i00 = _mm256_add_epi32(_mm256_mullo_epi32(k.a0, _mm256_set1_epi32(kTableMu)), m0);
+  const __m256i one = _mm256_set1_epi32(1), row = _mm256_set1_epi32(kTableMu);
+  const __m256i i10 = _mm256_add_epi32(i00, row);
+  __m256 e0 =
+      add(mul(_mm256_i32gather_ps(E, i00, 4), rdm), mul(_mm256_i32gather_ps(E, _mm256_add_epi32(i00, one), 4), dm));
+  __m256 e1 =
+      add(mul(_mm256_i32gather_ps(E, i10, 4), rdm), mul(_mm256_i32gather_ps(E, _mm256_add_epi32(i10, one), 4), dm));
+  return add(mul(e0, sub(splat(1), k.da)), mul(e1, k.da));
 }
 
 // schlickWeight(max(c, 0)) and GGX::lambda(wi) on eight lanes.
@@ -324,18 +350,18 @@ VSL_AVX2 __m256 schlick8(__m256 c) {
   __m256 m2 = mul(m, m);
   return mul(mul(m2, m2), m);
 }
-VSL_AVX2 __m256 lambda8(const BrdfConsts& k, __m256 x, __m256 y, __m256 z) {
+VSL_AVX2 __m256 lambda8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z) {
   __m256 z2 = mul(z, z);
-  __m256 ax = mul(splat(k.ax), x), ay = mul(splat(k.ay), y);
+  __m256 ax = mul(k.ax, x), ay = mul(k.ay, y);
   __m256 a2tan2 = div(add(mul(ax, ax), mul(ay, ay)), z2);
   __m256 l = mul(sub(_mm256_sqrt_ps(add(splat(1), a2tan2)), splat(1)), splat(0.5f));
   return _mm256_blendv_ps(splat(kInf), l, greater(z2, _mm256_setzero_ps()));
 }
 
 // The specular lobe of evalParts(wi, pdf) on eight lanes: adds its pdf term
-// to pdf and returns the RGB value in spec.
-VSL_AVX2 void specular8(const BrdfConsts& k, __m256 x, __m256 y, __m256 z, __m256 spec[3], __m256& pdf) {
-  __m256 hx = add(splat(k.w.x), x), hy = add(splat(k.w.y), y), hz = add(splat(k.w.z), z);
+// to pdf and returns the RGB value in spec (zero where the half vector is).
+VSL_AVX2 void specular8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m256 spec[3], __m256& pdf) {
+  __m256 hx = add(k.w[0], x), hy = add(k.w[1], y), hz = add(k.w[2], z);
   __m256 hl = _mm256_sqrt_ps(add(add(mul(hx, hx), mul(hy, hy)), mul(hz, hz)));
   const __m256 hok = greater(hl, _mm256_setzero_ps());
   __m256 inv = div(splat(1), hl);
@@ -343,35 +369,41 @@ VSL_AVX2 void specular8(const BrdfConsts& k, __m256 x, __m256 y, __m256 z, __m25
   hy = mul(hy, inv);
   hz = mul(hz, inv);
   // GGX::D(h)
-  __m256 ex = div(hx, splat(k.ax)), ey = div(hy, splat(k.ay));
+  __m256 ex = div(hx, k.ax), ey = div(hy, k.ay);
   __m256 e = add(add(mul(ex, ex), mul(ey, ey)), mul(hz, hz));
-  __m256 D = div(splat(1), mul(mul(splat(kPi * k.ax * k.ay), e), e));
+  __m256 D = div(splat(1), mul(mul(mul(mul(splat(kPi), k.ax), k.ay), e), e));
   D = where(greater(hz, _mm256_setzero_ps()), D);
-  __m256 voh = add(add(mul(splat(k.w.x), hx), mul(splat(k.w.y), hy)), mul(splat(k.w.z), hz));
-  pdf = add(pdf, where(_mm256_and_ps(hok, greater(voh, _mm256_setzero_ps())), mul(splat(k.specPdfScale), D)));
+  __m256 voh = add(add(mul(k.w[0], hx), mul(k.w[1], hy)), mul(k.w[2], hz));
+  pdf = add(pdf, where(_mm256_and_ps(hok, greater(voh, _mm256_setzero_ps())), mul(k.specPdfScale, D)));
   // Fresnel blended between the dielectric and the metal; Smith's G2.
   __m256 w = schlick8(voh);
-  __m256 Fd = mul(splat(k.s), add(splat(kDielectricF0), mul(splat(1 - kDielectricF0), w)));
-  __m256 Fdm = mul(Fd, splat(1 - k.m));
-  __m256 G2 = div(splat(1), add(splat(1.0f + k.lambdaW), lambda8(k, x, y, z)));
-  __m256 t = div(mul(D, G2), mul(splat(4 * k.w.z), z));
+  __m256 Fd = mul(k.s, add(splat(kDielectricF0), mul(splat(1 - kDielectricF0), w)));
+  __m256 Fdm = mul(Fd, sub(splat(1), k.m));
+  __m256 G2 = div(splat(1), add(add(splat(1.0f), k.lambdaW), lambda8(k, x, y, z)));
+  __m256 t = div(mul(D, G2), mul(mul(splat(4), k.w[2]), z));
   for (int c = 0; c < 3; ++c) {
-    __m256 Fm = add(splat(k.base[c]), mul(splat(1.0f - k.base[c]), w));
-    spec[c] = where(hok, mul(add(Fdm, mul(Fm, splat(k.m))), t));
+    __m256 Fm = add(k.base[c], mul(sub(splat(1.0f), k.base[c]), w));
+    spec[c] = where(hok, mul(add(Fdm, mul(Fm, k.m)), t));
   }
 }
 
-// evalParts(wi, pdf).total() on eight lanes (k's BrdfAt is above its surface).
-VSL_AVX2 void evalTotals8(const BrdfConsts& k, __m256 x, __m256 y, __m256 z, __m256 f[3], __m256& pdf) {
-  const __m256 up = greater(z, _mm256_setzero_ps());
+// evalParts(wi, pdf).total() on eight lanes (zero where a lane's BrdfAt is
+// below its surface or wi is).
+VSL_AVX2 void evalTotals8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m256 f[3], __m256& pdf) {
+  const __m256 up = _mm256_and_ps(k.above, greater(z, _mm256_setzero_ps()));
   __m256 diff[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
-  if (k.diffuse) {
-    __m256 t = sub(splat(1), mul(splat(k.s), albedoAt8(k.row, z)));
-    for (int c = 0; c < 3; ++c) diff[c] = mul(splat(k.kd[c]), t);
+  if (!none(k.diffuse)) {
+    __m256 t = sub(splat(1), mul(k.s, albedoAt8(k, z)));
+    for (int c = 0; c < 3; ++c) diff[c] = where(k.diffuse, mul(k.kd[c], t));
   }
-  pdf = mul(splat(1 - k.ps), mul(z, splat(kInvPi)));
+  pdf = mul(sub(splat(1), k.ps), mul(z, splat(kInvPi)));
   __m256 spec[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
-  if (k.specular) specular8(k, x, y, z, spec, pdf);
+  if (!none(k.specular)) {
+    __m256 specPdf = _mm256_setzero_ps();
+    specular8(k, x, y, z, spec, specPdf);
+    for (int c = 0; c < 3; ++c) spec[c] = where(k.specular, spec[c]);
+    pdf = _mm256_blendv_ps(pdf, add(pdf, specPdf), k.specular);
+  }
   for (int c = 0; c < 3; ++c) f[c] = where(up, add(diff[c], spec[c]));
   pdf = where(up, pdf);
 }
@@ -387,8 +419,24 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
     }
     return;
   }
-  const BrdfConsts k{b_.baseColor, kd_,           w_,   b_.specularWeight, b_.metallic, b_.ggx.ax, b_.ggx.ay, lambdaW_,
-                     ps_,          specPdfScale_, row_, b_.metallic < 1,   specularOn_};
+  BrdfLanes k;
+  for (int c = 0; c < 3; ++c) {
+    k.base[c] = splat(b_.baseColor[c]);
+    k.kd[c] = splat(kd_[c]);
+    k.w[c] = splat(w_[c]);
+  }
+  k.s = splat(b_.specularWeight);
+  k.m = splat(b_.metallic);
+  k.ax = splat(b_.ggx.ax);
+  k.ay = splat(b_.ggx.ay);
+  k.lambdaW = splat(lambdaW_);
+  k.ps = splat(ps_);
+  k.specPdfScale = splat(specPdfScale_);
+  k.da = splat(row_.da);
+  k.a0 = _mm256_set1_epi32(row_.a0);
+  k.above = mask(true);
+  k.diffuse = mask(b_.metallic < 1);
+  k.specular = mask(specularOn_);
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
     // Lanes past n get wi.z = 0, which evaluates to zero.
@@ -406,6 +454,64 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
       for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
       if (pdf) pdf[i0 + j] = out[3][j];
     }
+  }
+}
+
+VSL_AVX2 void BrdfAt::evalTotalsEachAvx2(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy,
+                                         const float* wz, bool diffuseOnly, float* const f[3]) {
+  for (int i0 = 0; i0 < n; i0 += 8) {
+    const int m = std::min(8, n - i0);
+    // Eight BrdfAts' terms, lane by lane. Lanes past n are below their
+    // surface (above 0), which evaluates to zero.
+    alignas(32) float v[23][8] = {};
+    alignas(32) int32_t a0[8] = {}, flags[3][8] = {};
+    alignas(32) float x[8] = {}, y[8] = {}, z[8] = {}, out[3][8];
+    for (int j = 0; j < m; ++j) {
+      const BrdfAt& b = *brdfs[i0 + j];
+      for (int c = 0; c < 3; ++c) {
+        v[c][j] = b.b_.baseColor[c];
+        v[3 + c][j] = b.kd_[c];
+        v[6 + c][j] = b.w_[c];
+      }
+      v[9][j] = b.b_.specularWeight;
+      v[10][j] = b.b_.metallic;
+      v[11][j] = b.b_.ggx.ax;
+      v[12][j] = b.b_.ggx.ay;
+      v[13][j] = b.lambdaW_;
+      v[14][j] = b.ps_;
+      v[15][j] = b.specPdfScale_;
+      v[16][j] = b.row_.da;
+      a0[j] = b.row_.a0;
+      flags[0][j] = b.above_ ? -1 : 0;
+      flags[1][j] = b.b_.metallic < 1 ? -1 : 0;
+      flags[2][j] = b.specularOn_ && !diffuseOnly ? -1 : 0;
+      x[j] = wx[i0 + j];
+      y[j] = wy[i0 + j];
+      z[j] = wz[i0 + j];
+    }
+    BrdfLanes k;
+    for (int c = 0; c < 3; ++c) {
+      k.base[c] = _mm256_load_ps(v[c]);
+      k.kd[c] = _mm256_load_ps(v[3 + c]);
+      k.w[c] = _mm256_load_ps(v[6 + c]);
+    }
+    k.s = _mm256_load_ps(v[9]);
+    k.m = _mm256_load_ps(v[10]);
+    k.ax = _mm256_load_ps(v[11]);
+    k.ay = _mm256_load_ps(v[12]);
+    k.lambdaW = _mm256_load_ps(v[13]);
+    k.ps = _mm256_load_ps(v[14]);
+    k.specPdfScale = _mm256_load_ps(v[15]);
+    k.da = _mm256_load_ps(v[16]);
+    k.a0 = _mm256_load_si256(reinterpret_cast<const __m256i*>(a0));
+    k.above = _mm256_load_ps(reinterpret_cast<const float*>(flags[0]));
+    k.diffuse = _mm256_load_ps(reinterpret_cast<const float*>(flags[1]));
+    k.specular = _mm256_load_ps(reinterpret_cast<const float*>(flags[2]));
+    __m256 fv[3], pv;
+    evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
+    for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);
+    for (int j = 0; j < m; ++j)
+      for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
   }
 }
 #undef VSL_AVX2

@@ -152,6 +152,16 @@ class BrdfAt {
   void evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
+  // Many BrdfAts, each at its own direction (local frames), in one call:
+  // f[c][i] = brdfs[i]->evalParts(w_i).total() (diffuseOnly: .diffuse). The
+  // AVX2 form takes eight BRDFs to a register and agrees with the scalar one
+  // bit for bit, as evalTotals does.
+  static void evalTotalsEach(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
+                             bool diffuseOnly, float* const f[3]);
+  static void evalTotalsEachScalar(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
+                                   bool diffuseOnly, float* const f[3]);
+  static void evalTotalsEachAvx2(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
+                                 bool diffuseOnly, float* const f[3]);
   float pdf(const Vec3& wi) const;
   std::optional<BrdfSample> sample(float u1, Vec2 u2) const;
   // The direction half of sample(): false when wi would be below the surface.

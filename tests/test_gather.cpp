@@ -4,6 +4,8 @@
 // to float precision (in practice bit for bit) on random pairs.
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "core/material.h"
 #include "core/rng.h"
 #include "core/vsl_integral.h"
@@ -71,6 +73,49 @@ TEST(GatherSimd, BrdfBlockEqualsScalar) {
     for (int i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c) ASSERT_FLOAT_EQ(v[c][i], s[c][i]) << "trial " << trial << " lane " << i;
   }
+}
+
+// BrdfAt::evalTotalsEachAvx2 (eight BRDFs to a register, each at its own
+// direction: the lobe gather's map lights) equals evalParts per BRDF, the
+// total or the diffuse lobe alone, with BRDFs below their surfaces, mixed
+// lobes and block lengths that are not a multiple of eight.
+TEST(GatherSimd, ManyBrdfsBlockEqualsScalar) {
+  if (!simdAvailable()) GTEST_SKIP() << "this CPU has no AVX2";
+  Rng rng(10, 6);
+  constexpr int kMax = 45;
+  int nonZero = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int n = 1 + int(rng.uniformInt(kMax));
+    std::vector<BrdfAt> brdfs;
+    brdfs.reserve(kMax);
+    const BrdfAt* ptr[kMax];
+    float wx[kMax], wy[kMax], wz[kMax];
+    for (int i = 0; i < n; ++i) {
+      brdfs.push_back(randomBrdfAt(rng));
+      ptr[i] = &brdfs.back();
+      Vec3 w = randomDirection(rng, -0.3f);
+      wx[i] = w.x;
+      wy[i] = w.y;
+      wz[i] = w.z;
+    }
+    for (bool diffuseOnly : {false, true}) {
+      float s[3][kMax], v[3][kMax];
+      float* const sRows[3] = {s[0], s[1], s[2]};
+      float* const vRows[3] = {v[0], v[1], v[2]};
+      BrdfAt::evalTotalsEachScalar(n, ptr, wx, wy, wz, diffuseOnly, sRows);
+      BrdfAt::evalTotalsEachAvx2(n, ptr, wx, wy, wz, diffuseOnly, vRows);
+      for (int i = 0; i < n; ++i) {
+        const BrdfAt::Parts p = brdfs[size_t(i)].evalParts(Vec3(wx[i], wy[i], wz[i]));
+        const Vec3 want = diffuseOnly ? p.diffuse : p.total();
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(s[c][i], want[c]) << "trial " << trial << " lane " << i;
+          ASSERT_FLOAT_EQ(v[c][i], s[c][i]) << "trial " << trial << " lane " << i << " diffuse only " << diffuseOnly;
+        }
+        nonZero += want.y > 0;
+      }
+    }
+  }
+  EXPECT_GT(nonZero, 4000);  // most lanes evaluate to something
 }
 
 // vslTransferBlock equals the scalar vslTransfer on random (receiver, light)
