@@ -25,12 +25,21 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
       g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
     lights_.push_back(g);
   }
-  // The chains' widened lobes (radiance(..., kWideAlpha)), kept for the lights
-  // narrower than that (the others are never widened to it).
-  wide_.resize(lights_.size());
+  // Each light's record for the estimates (its BRDF packed, then where it
+  // lies and faces, its flux and its frame) and its BRDF widened as the
+  // chains take it (radiance(..., kWideAlpha)), packed.
+  records_.assign(lights_.size() * kRecordFloats, 0.0f);
+  wideRecords_.assign(lights_.size() * BrdfAt::kPackedFloats, 0.0f);
   for (size_t i = 0; i < lights_.size(); ++i) {
+    const GatherLight& L = lights_[i];
+    float* r = &records_[i * kRecordFloats];
+    L.em.f.pack(r);
+    const Vec3* parts[] = {&L.ng, &L.n, &L.Phi, &L.em.frame.s, &L.em.frame.t, &L.em.frame.n};
+    const int at[] = {kNg, kN, kPhi, kS, kT, kFn};
+    for (int v = 0; v < 6; ++v)
+      for (int c = 0; c < 3; ++c) r[at[v] + c] = (*parts[v])[c];
     VslEmitter wide;
-    wide_[i] = widenLobeTo(lights_[i].em, kWideAlpha, wide) ? wide.f : lights_[i].em.f;
+    (widenLobeTo(L.em, kWideAlpha, wide) ? wide.f : L.em.f).pack(&wideRecords_[i * BrdfAt::kPackedFloats]);
   }
   tree_ = std::make_unique<PointTree>(packedPositions(lights_));
   const size_t n = lights_.size();
@@ -148,37 +157,46 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
   // The k-th light only sets the radius: (k - 1) / (pi r_k^2) is the
   // unbiased density of independent points (k / (pi r_k^2) is k / (k - 1)
   // too high: 3% at k = 32). The lights on z's side that face wOut are
-  // evaluated together (BrdfAt::evalTotalsEach), in blocks, then summed in
-  // the order found.
+  // evaluated together, in blocks, from their packed records (the map's
+  // lobes, or the chains' widened ones), then summed in the order found.
+  const bool packedWide = minAlpha == kWideAlpha;
+  const bool packed = minAlpha <= 0 || diffuseOnly || packedWide;
   constexpr int kBlock = 64;
   const BrdfAt* brdf[kBlock];
+  const float* rec[kBlock];
   alignas(32) float wx[kBlock], wy[kBlock], wz[kBlock], f[3][kBlock];
   float* const out[3] = {f[0], f[1], f[2]};
-  uint32_t which[kBlock];
-  std::vector<BrdfAt> wideHere;  // widened lobes where minAlpha is not the one kept
+  Vec3 phi[kBlock];
+  std::vector<BrdfAt> wideHere;  // widened lobes where minAlpha is neither
   Vec3 sum(0.0f);
   for (size_t i0 = 0; i0 + 1 < found;) {
     int n = 0;
     for (; i0 + 1 < found && n < kBlock; ++i0) {
-      const GatherLight& L = lights_[idx[i0]];
-      if (dot(L.ng, nz) < 0.5f || dot(L.n, wOut) <= 0 || dot(L.ng, wOut) <= 0) continue;
-      const BrdfAt* b = &L.em.f;
-      if (!diffuseOnly && L.alpha < minAlpha) b = widened(idx[i0], minAlpha, wideHere);
-      const Vec3 w = L.em.frame.toLocal(wOut);
-      brdf[n] = b;
-      wx[n] = w.x;
-      wy[n] = w.y;
-      wz[n] = w.z;
-      which[n++] = idx[i0];
+      const uint32_t i = idx[i0];
+      const float* r = &records_[size_t(i) * kRecordFloats];
+      const Vec3 ng(r[kNg], r[kNg + 1], r[kNg + 2]), ns(r[kN], r[kN + 1], r[kN + 2]);
+      if (dot(ng, nz) < 0.5f || dot(ns, wOut) <= 0 || dot(ng, wOut) <= 0) continue;
+      const Vec3 s(r[kS], r[kS + 1], r[kS + 2]), t(r[kT], r[kT + 1], r[kT + 2]);
+      wx[n] = dot(wOut, s);
+      wy[n] = dot(wOut, t);
+      wz[n] = dot(wOut, Vec3(r[kFn], r[kFn + 1], r[kFn + 2]));
+      phi[n] = Vec3(r[kPhi], r[kPhi + 1], r[kPhi + 2]);
+      if (packed)
+        rec[n] = packedWide && !diffuseOnly ? &wideRecords_[size_t(i) * BrdfAt::kPackedFloats] : r;
+      else
+        brdf[n] = lights_[i].alpha < minAlpha ? widened(i, minAlpha, wideHere) : &lights_[i].em.f;
+      ++n;
     }
-    BrdfAt::evalTotalsEach(n, brdf, wx, wy, wz, diffuseOnly, out);
-    for (int j = 0; j < n; ++j) sum += lights_[which[j]].Phi * Vec3(f[0][j], f[1][j], f[2][j]);
+    if (packed)
+      BrdfAt::evalTotalsPacked(n, rec, wx, wy, wz, diffuseOnly, out);
+    else
+      BrdfAt::evalTotalsEach(n, brdf, wx, wy, wz, diffuseOnly, out);
+    for (int j = 0; j < n; ++j) sum += phi[j] * Vec3(f[0][j], f[1][j], f[2][j]);
   }
   return sum / float(kPi * r2);
 }
 
 const BrdfAt* LobeGatherMap::widened(uint32_t i, float minAlpha, std::vector<BrdfAt>& scratch) const {
-  if (minAlpha == kWideAlpha && !wide_.empty()) return &wide_[i];
   VslEmitter wide;
   if (!widenLobeTo(lights_[i].em, minAlpha, wide)) return &lights_[i].em.f;
   // Stable addresses for the block: reserved once for every light of a query.

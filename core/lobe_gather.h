@@ -82,13 +82,20 @@ class LobeGatherMap {
   const GatherLight& light(size_t i) const { return lights_[i]; }
 
  private:
-  // The BRDF of light i widened to minAlpha (it is narrower): from wide_
-  // where minAlpha is kWideAlpha, else made now and kept in scratch.
+  // The BRDF of light i widened to minAlpha (it is narrower), made now and
+  // kept in scratch (minAlpha other than kWideAlpha).
   const BrdfAt* widened(uint32_t i, float minAlpha, std::vector<BrdfAt>& scratch) const;
 
   std::vector<GatherLight> lights_;  // in Morton order of their positions
   static constexpr float kWideAlpha = ManyLightSettings::kLobeGatherChainAlpha;
-  std::vector<BrdfAt> wide_;  // each light's BRDF at least kWideAlpha wide
+  // Per light, what an estimate reads, together (one light's record is three
+  // cache lines): its BRDF (BrdfAt::pack), then its geometric normal, its
+  // shading frame (s, t and the normal n) and its flux.
+  static constexpr int kNg = BrdfAt::kPackedFloats, kN = kNg + 3, kPhi = kN + 3, kS = kPhi + 3, kT = kS + 3,
+                       kFn = kT + 3;
+  static constexpr int kRecordFloats = kFn + 3 + 3;  // 48: three lines of 64 bytes
+  std::vector<float> records_;
+  std::vector<float> wideRecords_;  // each light's BRDF at least kWideAlpha wide, packed
   std::unique_ptr<PointTree> tree_;
   int k_;
   // Each light's 2k nearest lights (itself among them), so that a query

@@ -3,6 +3,7 @@
 #include <immintrin.h>
 
 #include <array>
+#include <cstring>
 #include <mutex>
 
 #include "core/sampling.h"
@@ -271,6 +272,92 @@ void BrdfAt::evalTotals(int n, const float* wx, const float* wy, const float* wz
     evalTotalsScalar(n, wx, wy, wz, f, pdf);
 }
 
+// The packed layout: three rows of eight floats (evalTotalsPackedAvx2
+// transposes each into eight lanes).
+namespace {
+enum PackedTerm {
+  kBase = 0,  // 3
+  kKd = 3,    // 3
+  kW = 6,     // 3
+  kS = 9,
+  kM,
+  kAx,
+  kAy,
+  kLambdaW,
+  kPs,
+  kSpecPdfScale,
+  kDa,
+  kA0,  // the bits of an int32
+  kAbove,
+  kDiffuse,
+  kSpecular,  // masks: all bits set or none
+};
+static_assert(kSpecular < BrdfAt::kPackedFloats, "the packed terms fit");
+float bitsOf(int32_t v) {
+  float f;
+  std::memcpy(&f, &v, sizeof f);
+  return f;
+}
+int32_t intOf(float f) {
+  int32_t v;
+  std::memcpy(&v, &f, sizeof v);
+  return v;
+}
+}  // namespace
+
+void BrdfAt::pack(float* out) const {
+  for (int i = 0; i < kPackedFloats; ++i) out[i] = 0;
+  for (int c = 0; c < 3; ++c) {
+    out[kBase + c] = b_.baseColor[c];
+    out[kKd + c] = kd_[c];
+    out[kW + c] = w_[c];
+  }
+  out[kS] = b_.specularWeight;
+  out[kM] = b_.metallic;
+  out[kAx] = b_.ggx.ax;
+  out[kAy] = b_.ggx.ay;
+  out[kLambdaW] = lambdaW_;
+  out[kPs] = ps_;
+  out[kSpecPdfScale] = specPdfScale_;
+  out[kDa] = row_.da;
+  out[kA0] = bitsOf(row_.a0);
+  out[kAbove] = bitsOf(above_ ? -1 : 0);
+  out[kDiffuse] = bitsOf(b_.metallic < 1 ? -1 : 0);
+  out[kSpecular] = bitsOf(specularOn_ ? -1 : 0);
+}
+
+BrdfAt BrdfAt::unpack(const float* in) {
+  BrdfAt b;
+  for (int c = 0; c < 3; ++c) {
+    b.b_.baseColor[c] = in[kBase + c];
+    b.kd_[c] = in[kKd + c];
+    b.w_[c] = in[kW + c];
+  }
+  b.b_.specularWeight = in[kS];
+  b.b_.metallic = in[kM];
+  b.b_.ggx.ax = in[kAx];
+  b.b_.ggx.ay = in[kAy];
+  b.lambdaW_ = in[kLambdaW];
+  b.ps_ = in[kPs];
+  b.specPdfScale_ = in[kSpecPdfScale];
+  b.row_.da = in[kDa];
+  b.row_.a0 = intOf(in[kA0]);
+  b.above_ = intOf(in[kAbove]) != 0;
+  b.specularOn_ = intOf(in[kSpecular]) != 0;
+  return b;
+}
+
+void BrdfAt::evalTotalsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                              bool diffuseOnly, float* const f[3]) {
+  constexpr int kMinSimd = 4;
+  if (n >= kMinSimd && simdAvailable()) return evalTotalsPackedAvx2(n, packed, wx, wy, wz, diffuseOnly, f);
+  for (int i = 0; i < n; ++i) {
+    const Parts p = unpack(packed[i]).evalParts(Vec3(wx[i], wy[i], wz[i]));
+    const Vec3 v = diffuseOnly ? p.diffuse : p.total();
+    for (int c = 0; c < 3; ++c) f[c][i] = v[c];
+  }
+}
+
 void BrdfAt::evalTotalsEach(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
                             bool diffuseOnly, float* const f[3]) {
   constexpr int kMinSimd = 4;
@@ -507,6 +594,71 @@ VSL_AVX2 void BrdfAt::evalTotalsEachAvx2(int n, const BrdfAt* const* brdfs, cons
     k.above = _mm256_load_ps(reinterpret_cast<const float*>(flags[0]));
     k.diffuse = _mm256_load_ps(reinterpret_cast<const float*>(flags[1]));
     k.specular = _mm256_load_ps(reinterpret_cast<const float*>(flags[2]));
+    __m256 fv[3], pv;
+    evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
+    for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);
+    for (int j = 0; j < m; ++j)
+      for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
+  }
+}
+namespace {
+// Rows r[0..7] (eight floats each) transposed: out[j] holds float j of every row.
+VSL_AVX2 void transpose8(const __m256 r[8], __m256 out[8]) {
+  const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+  const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+  const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+  const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xee);
+  const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xee);
+  const __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xee);
+  const __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xee);
+  out[0] = _mm256_permute2f128_ps(u0, u4, 0x20);
+  out[1] = _mm256_permute2f128_ps(u1, u5, 0x20);
+  out[2] = _mm256_permute2f128_ps(u2, u6, 0x20);
+  out[3] = _mm256_permute2f128_ps(u3, u7, 0x20);
+  out[4] = _mm256_permute2f128_ps(u0, u4, 0x31);
+  out[5] = _mm256_permute2f128_ps(u1, u5, 0x31);
+  out[6] = _mm256_permute2f128_ps(u2, u6, 0x31);
+  out[7] = _mm256_permute2f128_ps(u3, u7, 0x31);
+}
+}  // namespace
+
+VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy,
+                                           const float* wz, bool diffuseOnly, float* const f[3]) {
+  // Lanes past n read a record of zeros: below its surface (above 0).
+  static const float kZero[kPackedFloats] = {};
+  for (int i0 = 0; i0 < n; i0 += 8) {
+    const int m = std::min(8, n - i0);
+    __m256 v[kPackedFloats];
+    for (int g = 0; g < kPackedFloats / 8; ++g) {
+      __m256 rows[8];
+      for (int j = 0; j < 8; ++j) rows[j] = _mm256_loadu_ps((j < m ? packed[i0 + j] : kZero) + 8 * g);
+      transpose8(rows, v + 8 * g);
+    }
+    alignas(32) float x[8] = {}, y[8] = {}, z[8] = {}, out[3][8];
+    for (int j = 0; j < m; ++j) {
+      x[j] = wx[i0 + j];
+      y[j] = wy[i0 + j];
+      z[j] = wz[i0 + j];
+    }
+    BrdfLanes k;
+    for (int c = 0; c < 3; ++c) {
+      k.base[c] = v[kBase + c];
+      k.kd[c] = v[kKd + c];
+      k.w[c] = v[kW + c];
+    }
+    k.s = v[kS];
+    k.m = v[kM];
+    k.ax = v[kAx];
+    k.ay = v[kAy];
+    k.lambdaW = v[kLambdaW];
+    k.ps = v[kPs];
+    k.specPdfScale = v[kSpecPdfScale];
+    k.da = v[kDa];
+    k.a0 = _mm256_castps_si256(v[kA0]);
+    k.above = v[kAbove];
+    k.diffuse = v[kDiffuse];
+    k.specular = diffuseOnly ? _mm256_setzero_ps() : v[kSpecular];
     __m256 fv[3], pv;
     evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
     for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);

@@ -162,6 +162,16 @@ class BrdfAt {
                                    bool diffuseOnly, float* const f[3]);
   static void evalTotalsEachAvx2(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
                                  bool diffuseOnly, float* const f[3]);
+  // The same for BRDFs kept packed (pack(): kPackedFloats floats each), which
+  // the AVX2 form reads eight at a time by transposing rows of eight floats
+  // instead of gathering members one by one.
+  static constexpr int kPackedFloats = 24;
+  void pack(float* out) const;
+  static BrdfAt unpack(const float* packed);
+  static void evalTotalsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                               bool diffuseOnly, float* const f[3]);
+  static void evalTotalsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                                   bool diffuseOnly, float* const f[3]);
   float pdf(const Vec3& wi) const;
   std::optional<BrdfSample> sample(float u1, Vec2 u2) const;
   // The direction half of sample(): false when wi would be below the surface.

@@ -54,8 +54,9 @@ uint64_t lobeGatherBytes(uint64_t lobeLights) {
   // The tree's index, nodes and packed positions (8 + 8 + 12), each light's
   // widened BRDF for the chains, its candidate list (2k indices and a
   // radius) and its Morton code.
-  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) + sizeof(BrdfAt) + 8 + 8 + 12 +
-                       2 * ManyLightSettings::kLobeGatherK * sizeof(uint32_t) + sizeof(float) + sizeof(uint32_t));
+  return lobeLights *
+         (2 * sizeof(VirtualLight) + sizeof(GatherLight) + (48 + BrdfAt::kPackedFloats) * sizeof(float) + 8 + 8 + 12 +
+          2 * ManyLightSettings::kLobeGatherK * sizeof(uint32_t) + sizeof(float) + sizeof(uint32_t));
 }
 
 uint64_t availableMemoryBytes() {

@@ -75,8 +75,9 @@ TEST(GatherSimd, BrdfBlockEqualsScalar) {
   }
 }
 
-// BrdfAt::evalTotalsEachAvx2 (eight BRDFs to a register, each at its own
-// direction: the lobe gather's map lights) equals evalParts per BRDF, the
+// BrdfAt::evalTotalsEachAvx2 and evalTotalsPackedAvx2 (eight BRDFs to a
+// register, each at its own direction: the lobe gather's map lights) equal
+// evalParts per BRDF, the
 // total or the diffuse lobe alone, with BRDFs below their surfaces, mixed
 // lobes and block lengths that are not a multiple of eight.
 TEST(GatherSimd, ManyBrdfsBlockEqualsScalar) {
@@ -98,18 +99,31 @@ TEST(GatherSimd, ManyBrdfsBlockEqualsScalar) {
       wy[i] = w.y;
       wz[i] = w.z;
     }
+    // The same BRDFs packed (the lobe gather's records), one after the other
+    // with no alignment.
+    std::vector<float> packed(size_t(n) * BrdfAt::kPackedFloats + 1);
+    const float* packedPtr[kMax];
+    for (int i = 0; i < n; ++i) {
+      brdfs[size_t(i)].pack(&packed[1 + size_t(i) * BrdfAt::kPackedFloats]);
+      packedPtr[i] = &packed[1 + size_t(i) * BrdfAt::kPackedFloats];
+    }
     for (bool diffuseOnly : {false, true}) {
-      float s[3][kMax], v[3][kMax];
+      float s[3][kMax], v[3][kMax], q[3][kMax];
       float* const sRows[3] = {s[0], s[1], s[2]};
       float* const vRows[3] = {v[0], v[1], v[2]};
+      float* const qRows[3] = {q[0], q[1], q[2]};
       BrdfAt::evalTotalsEachScalar(n, ptr, wx, wy, wz, diffuseOnly, sRows);
       BrdfAt::evalTotalsEachAvx2(n, ptr, wx, wy, wz, diffuseOnly, vRows);
+      BrdfAt::evalTotalsPackedAvx2(n, packedPtr, wx, wy, wz, diffuseOnly, qRows);
       for (int i = 0; i < n; ++i) {
         const BrdfAt::Parts p = brdfs[size_t(i)].evalParts(Vec3(wx[i], wy[i], wz[i]));
+        const BrdfAt::Parts u = BrdfAt::unpack(packedPtr[i]).evalParts(Vec3(wx[i], wy[i], wz[i]));
         const Vec3 want = diffuseOnly ? p.diffuse : p.total();
         for (int c = 0; c < 3; ++c) {
           ASSERT_EQ(s[c][i], want[c]) << "trial " << trial << " lane " << i;
+          ASSERT_EQ((diffuseOnly ? u.diffuse : u.total())[c], want[c]) << "trial " << trial << " lane " << i;
           ASSERT_FLOAT_EQ(v[c][i], s[c][i]) << "trial " << trial << " lane " << i << " diffuse only " << diffuseOnly;
+          ASSERT_FLOAT_EQ(q[c][i], s[c][i]) << "trial " << trial << " lane " << i << " diffuse only " << diffuseOnly;
         }
         nonZero += want.y > 0;
       }
