@@ -1,5 +1,6 @@
 // Google Benchmark microbenchmarks for the inner loops: BRDF evaluation and
-// sampling, the VSL cone integral, and k-NN radii.
+// sampling (one BRDF, or many each at its own direction), the VSL cone
+// integral, and k-NN radii.
 //   build/bin/vsl_microbench [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 
@@ -81,6 +82,51 @@ void BM_VslCone(benchmark::State& state) {
 }
 BENCHMARK(BM_VslCone<false>)->Arg(1)->Arg(27)->Arg(50);
 BENCHMARK(BM_VslCone<true>)->Arg(1)->Arg(27)->Arg(50);
+
+// One lobe-gather estimate's BRDF evaluations: 31 map lights, each its own
+// BRDF (metals and dielectrics, rough to narrow) at its own direction: one
+// BrdfAt::evalParts after the other (0), or eight packed records to a register
+// (1, BrdfAt::evalTotalsPackedAvx2, what LobeGatherMap::radiance uses).
+void BM_ManyBrdfs(benchmark::State& state) {
+  constexpr int kN = 31;
+  Rng r(13, 13);
+  std::vector<BrdfAt> brdfs;
+  std::vector<float> packed(kN * BrdfAt::kPackedFloats);
+  const BrdfAt* ptr[kN];
+  const float* rec[kN];
+  float wx[kN], wy[kN], wz[kN], f[3][kN];
+  float* const out[3] = {f[0], f[1], f[2]};
+  brdfs.reserve(kN);
+  auto wi = directions(kN, 4), wo = directions(kN, 5);
+  for (int i = 0; i < kN; ++i) {
+    const float metallic = i % 3 == 0 ? 0.0f : 1.0f, roughness = 0.05f + 0.9f * r.uniform();
+    brdfs.emplace_back(Brdf::fromGltf(Vec3(0.9f, 0.7f, 0.5f), metallic, roughness, i % 4 == 0 ? 0.8f : 0.0f), wo[i]);
+    brdfs.back().pack(&packed[size_t(i) * BrdfAt::kPackedFloats]);
+    ptr[i] = &brdfs.back();
+    rec[i] = &packed[size_t(i) * BrdfAt::kPackedFloats];
+    wx[i] = wi[i].x;
+    wy[i] = wi[i].y;
+    wz[i] = wi[i].z;
+  }
+  const int mode = int(state.range(0));
+  if (mode > 0 && !simdAvailable()) {
+    state.SkipWithError("this CPU has no AVX2");
+    return;
+  }
+  for (auto _ : state) {
+    if (mode == 0) {
+      for (int i = 0; i < kN; ++i) {
+        const Vec3 v = ptr[i]->evalParts(Vec3(wx[i], wy[i], wz[i])).total();
+        for (int c = 0; c < 3; ++c) f[c][i] = v[c];
+      }
+    } else {
+      BrdfAt::evalTotalsPackedAvx2(kN, rec, wx, wy, wz, false, out);
+    }
+    benchmark::DoNotOptimize(f[1][kN - 1]);
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * kN);
+}
+BENCHMARK(BM_ManyBrdfs)->Arg(0)->Arg(1);
 
 void BM_KnnRadii(benchmark::State& state) {
   Rng r(11, 11);

@@ -159,15 +159,13 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
   // too high: 3% at k = 32). The lights on z's side that face wOut are
   // evaluated together, in blocks, from their packed records (the map's
   // lobes, or the chains' widened ones), then summed in the order found.
-  const bool packedWide = minAlpha == kWideAlpha;
-  const bool packed = minAlpha <= 0 || diffuseOnly || packedWide;
+  const bool keptWide = minAlpha == kWideAlpha && !diffuseOnly;
   constexpr int kBlock = 64;
-  const BrdfAt* brdf[kBlock];
   const float* rec[kBlock];
   alignas(32) float wx[kBlock], wy[kBlock], wz[kBlock], f[3][kBlock];
   float* const out[3] = {f[0], f[1], f[2]};
   Vec3 phi[kBlock];
-  std::vector<BrdfAt> wideHere;  // widened lobes where minAlpha is neither
+  float widenedHere[kBlock][BrdfAt::kPackedFloats];  // other minAlpha: widened now
   Vec3 sum(0.0f);
   for (size_t i0 = 0; i0 + 1 < found;) {
     int n = 0;
@@ -181,28 +179,20 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
       wy[n] = dot(wOut, t);
       wz[n] = dot(wOut, Vec3(r[kFn], r[kFn + 1], r[kFn + 2]));
       phi[n] = Vec3(r[kPhi], r[kPhi + 1], r[kPhi + 2]);
-      if (packed)
-        rec[n] = packedWide && !diffuseOnly ? &wideRecords_[size_t(i) * BrdfAt::kPackedFloats] : r;
-      else
-        brdf[n] = lights_[i].alpha < minAlpha ? widened(i, minAlpha, wideHere) : &lights_[i].em.f;
+      rec[n] = r;
+      VslEmitter wide;
+      if (keptWide)
+        rec[n] = &wideRecords_[size_t(i) * BrdfAt::kPackedFloats];
+      else if (!diffuseOnly && lights_[i].alpha < minAlpha && widenLobeTo(lights_[i].em, minAlpha, wide)) {
+        wide.f.pack(widenedHere[n]);
+        rec[n] = widenedHere[n];
+      }
       ++n;
     }
-    if (packed)
-      BrdfAt::evalTotalsPacked(n, rec, wx, wy, wz, diffuseOnly, out);
-    else
-      BrdfAt::evalTotalsEach(n, brdf, wx, wy, wz, diffuseOnly, out);
+    BrdfAt::evalTotalsPacked(n, rec, wx, wy, wz, diffuseOnly, out);
     for (int j = 0; j < n; ++j) sum += phi[j] * Vec3(f[0][j], f[1][j], f[2][j]);
   }
   return sum / float(kPi * r2);
-}
-
-const BrdfAt* LobeGatherMap::widened(uint32_t i, float minAlpha, std::vector<BrdfAt>& scratch) const {
-  VslEmitter wide;
-  if (!widenLobeTo(lights_[i].em, minAlpha, wide)) return &lights_[i].em.f;
-  // Stable addresses for the block: reserved once for every light of a query.
-  if (scratch.capacity() == 0) scratch.reserve(size_t(k_));
-  scratch.push_back(wide.f);
-  return &scratch.back();
 }
 
 std::unique_ptr<LobeGatherMap> buildLobeGatherMap(const Scene& scene, const Accel& accel, const LightSampler& lights,

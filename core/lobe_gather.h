@@ -82,10 +82,6 @@ class LobeGatherMap {
   const GatherLight& light(size_t i) const { return lights_[i]; }
 
  private:
-  // The BRDF of light i widened to minAlpha (it is narrower), made now and
-  // kept in scratch (minAlpha other than kWideAlpha).
-  const BrdfAt* widened(uint32_t i, float minAlpha, std::vector<BrdfAt>& scratch) const;
-
   std::vector<GatherLight> lights_;  // in Morton order of their positions
   static constexpr float kWideAlpha = ManyLightSettings::kLobeGatherChainAlpha;
   // Per light, what an estimate reads, together (one light's record is three

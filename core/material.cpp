@@ -358,24 +358,6 @@ void BrdfAt::evalTotalsPacked(int n, const float* const* packed, const float* wx
   }
 }
 
-void BrdfAt::evalTotalsEach(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
-                            bool diffuseOnly, float* const f[3]) {
-  constexpr int kMinSimd = 4;
-  if (n >= kMinSimd && simdAvailable())
-    evalTotalsEachAvx2(n, brdfs, wx, wy, wz, diffuseOnly, f);
-  else
-    evalTotalsEachScalar(n, brdfs, wx, wy, wz, diffuseOnly, f);
-}
-
-void BrdfAt::evalTotalsEachScalar(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
-                                  bool diffuseOnly, float* const f[3]) {
-  for (int i = 0; i < n; ++i) {
-    const Parts p = brdfs[i]->evalParts(Vec3(wx[i], wy[i], wz[i]));
-    const Vec3 v = diffuseOnly ? p.diffuse : p.total();
-    for (int c = 0; c < 3; ++c) f[c][i] = v[c];
-  }
-}
-
 void BrdfAt::evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3],
                               float* pdf) const {
   for (int i = 0; i < n; ++i) {
@@ -394,7 +376,7 @@ void BrdfAt::evalTotalsScalar(int n, const float* wx, const float* wy, const flo
 namespace {
 
 // A BrdfAt's fixed terms on eight lanes: one BRDF on every lane
-// (evalTotalsAvx2) or eight BRDFs (evalTotalsEachAvx2). Derived constants
+// (evalTotalsAvx2) or eight BRDFs (evalTotalsPackedAvx2). Derived constants
 // (1 - m, 4 w.z, ...) are computed on the lanes with the scalar code's
 // operations, so they round as there.
 struct BrdfLanes {
@@ -544,63 +526,6 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
   }
 }
 
-VSL_AVX2 void BrdfAt::evalTotalsEachAvx2(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy,
-                                         const float* wz, bool diffuseOnly, float* const f[3]) {
-  for (int i0 = 0; i0 < n; i0 += 8) {
-    const int m = std::min(8, n - i0);
-    // Eight BrdfAts' terms, lane by lane. Lanes past n are below their
-    // surface (above 0), which evaluates to zero.
-    alignas(32) float v[23][8] = {};
-    alignas(32) int32_t a0[8] = {}, flags[3][8] = {};
-    alignas(32) float x[8] = {}, y[8] = {}, z[8] = {}, out[3][8];
-    for (int j = 0; j < m; ++j) {
-      const BrdfAt& b = *brdfs[i0 + j];
-      for (int c = 0; c < 3; ++c) {
-        v[c][j] = b.b_.baseColor[c];
-        v[3 + c][j] = b.kd_[c];
-        v[6 + c][j] = b.w_[c];
-      }
-      v[9][j] = b.b_.specularWeight;
-      v[10][j] = b.b_.metallic;
-      v[11][j] = b.b_.ggx.ax;
-      v[12][j] = b.b_.ggx.ay;
-      v[13][j] = b.lambdaW_;
-      v[14][j] = b.ps_;
-      v[15][j] = b.specPdfScale_;
-      v[16][j] = b.row_.da;
-      a0[j] = b.row_.a0;
-      flags[0][j] = b.above_ ? -1 : 0;
-      flags[1][j] = b.b_.metallic < 1 ? -1 : 0;
-      flags[2][j] = b.specularOn_ && !diffuseOnly ? -1 : 0;
-      x[j] = wx[i0 + j];
-      y[j] = wy[i0 + j];
-      z[j] = wz[i0 + j];
-    }
-    BrdfLanes k;
-    for (int c = 0; c < 3; ++c) {
-      k.base[c] = _mm256_load_ps(v[c]);
-      k.kd[c] = _mm256_load_ps(v[3 + c]);
-      k.w[c] = _mm256_load_ps(v[6 + c]);
-    }
-    k.s = _mm256_load_ps(v[9]);
-    k.m = _mm256_load_ps(v[10]);
-    k.ax = _mm256_load_ps(v[11]);
-    k.ay = _mm256_load_ps(v[12]);
-    k.lambdaW = _mm256_load_ps(v[13]);
-    k.ps = _mm256_load_ps(v[14]);
-    k.specPdfScale = _mm256_load_ps(v[15]);
-    k.da = _mm256_load_ps(v[16]);
-    k.a0 = _mm256_load_si256(reinterpret_cast<const __m256i*>(a0));
-    k.above = _mm256_load_ps(reinterpret_cast<const float*>(flags[0]));
-    k.diffuse = _mm256_load_ps(reinterpret_cast<const float*>(flags[1]));
-    k.specular = _mm256_load_ps(reinterpret_cast<const float*>(flags[2]));
-    __m256 fv[3], pv;
-    evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
-    for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);
-    for (int j = 0; j < m; ++j)
-      for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
-  }
-}
 namespace {
 // Rows r[0..7] (eight floats each) transposed: out[j] holds float j of every row.
 VSL_AVX2 void transpose8(const __m256 r[8], __m256 out[8]) {

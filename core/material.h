@@ -152,19 +152,11 @@ class BrdfAt {
   void evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
-  // Many BrdfAts, each at its own direction (local frames), in one call:
-  // f[c][i] = brdfs[i]->evalParts(w_i).total() (diffuseOnly: .diffuse). The
-  // AVX2 form takes eight BRDFs to a register and agrees with the scalar one
-  // bit for bit, as evalTotals does.
-  static void evalTotalsEach(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
-                             bool diffuseOnly, float* const f[3]);
-  static void evalTotalsEachScalar(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
-                                   bool diffuseOnly, float* const f[3]);
-  static void evalTotalsEachAvx2(int n, const BrdfAt* const* brdfs, const float* wx, const float* wy, const float* wz,
-                                 bool diffuseOnly, float* const f[3]);
-  // The same for BRDFs kept packed (pack(): kPackedFloats floats each), which
-  // the AVX2 form reads eight at a time by transposing rows of eight floats
-  // instead of gathering members one by one.
+  // Many BRDFs, each at its own direction (local frames), in one call:
+  // f[c][i] = the packed BRDF i's evalParts(w_i).total() (diffuseOnly:
+  // .diffuse), the BRDFs kept packed (pack(): kPackedFloats floats each). The
+  // AVX2 form reads eight at a time by transposing rows of eight floats, and
+  // agrees with the scalar one bit for bit, as evalTotals does.
   static constexpr int kPackedFloats = 24;
   void pack(float* out) const;
   static BrdfAt unpack(const float* packed);
