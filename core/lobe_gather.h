@@ -72,32 +72,38 @@ class LobeGatherMap {
   // alpha wide on each axis for this estimate (0: as kept).
   Vec3 radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly, float minAlpha = 0.0f) const;
   size_t size() const { return lights_.size(); }
+  // Floats per light in the map's records for its estimates (its memory).
+  static constexpr int kRecordFloats = 48;
   // The min(k, size()) lights nearest to z (indices into the map's own
   // order, see light(); squared distances), the farthest of them last, the
-  // others in no set order; returns how many. Read from the candidate list
-  // of the light nearest to z (below) where it must hold them all, else from
-  // the tree: the same lights either way. fromList (if given): whether the
-  // list answered.
+  // others in no set order; returns how many (0 where z is not finite or
+  // is so far away that its distances overflow). Read from the candidate
+  // list of a light next to z (where a walk from z's Morton neighbour toward
+  // z stops) where that list must hold them all, else from the tree: the
+  // same lights either way. fromList (if given): whether the list answered.
   size_t nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2, bool* fromList = nullptr) const;
   const GatherLight& light(size_t i) const { return lights_[i]; }
 
  private:
   std::vector<GatherLight> lights_;  // in Morton order of their positions
   static constexpr float kWideAlpha = ManyLightSettings::kLobeGatherChainAlpha;
-  // Per light, what an estimate reads, together (one light's record is three
-  // cache lines): its BRDF (BrdfAt::pack), then its geometric normal, its
-  // shading frame (s, t and the normal n) and its flux.
+  // Per light, what an estimate reads, together: its BRDF (BrdfAt::pack),
+  // then its geometric normal, its shading normal, its flux and its shading
+  // frame (s, t, n), padded to 48 floats (three cache lines of 64 bytes; the
+  // records start on a line: recordAt()).
   static constexpr int kNg = BrdfAt::kPackedFloats, kN = kNg + 3, kPhi = kN + 3, kS = kPhi + 3, kT = kS + 3,
                        kFn = kT + 3;
-  static constexpr int kRecordFloats = kFn + 3 + 3;  // 48: three lines of 64 bytes
+  static_assert(kFn + 3 <= kRecordFloats, "a light's record holds its terms");
+  const float* recordAt(size_t i) const { return records_.data() + recordStart_ + i * kRecordFloats; }
   std::vector<float> records_;
+  size_t recordStart_ = 0;          // where the first record begins (64-byte aligned)
   std::vector<float> wideRecords_;  // each light's BRDF at least kWideAlpha wide, packed
   std::unique_ptr<PointTree> tree_;
   int k_;
   // Each light's 2k nearest lights (itself among them), so that a query
-  // costs a nearest-light search and 2k distances instead of a k-nearest
-  // search of the tree (that search was 40% of a lobe-gathered tableau
-  // render; docs/PERFORMANCE.md, "Session 36").
+  // costs a short walk and 2k distances instead of a k-nearest search of the
+  // tree (that search was 40% of a lobe-gathered tableau render;
+  // docs/PERFORMANCE.md, "Session 36" and "Session 42").
   static constexpr size_t kMaxCandidates = 1024;
   // Steps of a query's walk toward z from its Morton neighbour (nearest()).
   static constexpr int kMaxWalk = 8;

@@ -115,7 +115,8 @@ AlbedoRow albedoRow(float alpha) {
 
 float albedoAt(AlbedoRow r, float cosTheta) {
   const AlbedoTable& t = albedoTable();
-  float fm = clamp(cosTheta, 0.0f, 1.0f) * (kTableMu - 1);
+  // NaN reads row 0 (clamp() would pass it on to the index).
+  float fm = (cosTheta > 0 ? std::min(cosTheta, 1.0f) : 0.0f) * (kTableMu - 1);
   int m0 = std::min(int(fm), kTableMu - 2);
   float dm = fm - m0;
   float e0 = t.E[r.a0][m0] * (1 - dm) + t.E[r.a0][m0 + 1] * dm;
@@ -204,7 +205,7 @@ BrdfAt BrdfAt::specularLobe() const {
 BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
   Parts p{Vec3(0.0f), Vec3(0.0f)};
   if (pdfOut) *pdfOut = 0;
-  if (!above_ || wi.z <= 0) return p;
+  if (!above_ || !(wi.z > 0)) return p;  // (NaN too: zero, as the block forms give)
   const float s = b_.specularWeight, m = b_.metallic;
   if (m < 1) p.diffuse = kd_ * (1 - s * albedoAt(row_, wi.z));
   if (pdfOut) *pdfOut = (1 - ps_) * cosineHemispherePdf(wi.z);
@@ -400,7 +401,8 @@ VSL_AVX2 inline bool none(__m256 m) { return _mm256_movemask_ps(m) == 0; }
 // albedoAt(r, cosTheta) on eight lanes, each with its own row.
 VSL_AVX2 __m256 albedoAt8(const BrdfLanes& k, __m256 cosTheta) {
   const float* E = albedoTable().E[0].data();  // rows of kTableMu, one after the other
-  __m256 fm = mul(clamp01(cosTheta), splat(kTableMu - 1));
+  // As albedoAt: NaN reads row 0 (_mm256_max_ps returns its second operand then).
+  __m256 fm = mul(_mm256_min_ps(splat(1), _mm256_max_ps(cosTheta, _mm256_setzero_ps())), splat(kTableMu - 1));
   __m256i m0 = _mm256_min_epi32(_mm256_cvttps_epi32(fm), _mm256_set1_epi32(kTableMu - 2));
   __m256 dm = sub(fm, _mm256_cvtepi32_ps(m0)), rdm = sub(splat(1), dm);
   const __m256i i00 = _mm256_add_epi32(_mm256_mullo_epi32(k.a0, _mm256_set1_epi32(kTableMu)), m0);

@@ -8,6 +8,7 @@
 
 #include "core/film.h"
 #include "core/gather.h"
+#include "core/lobe_gather.h"
 #include "core/many_light.h"
 #include "core/virtual_lights.h"
 
@@ -51,12 +52,13 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
 }
 
 uint64_t lobeGatherBytes(uint64_t lobeLights) {
-  // The tree's index, nodes and packed positions (8 + 8 + 12), each light's
-  // widened BRDF for the chains, its candidate list (2k indices and a
-  // radius) and its Morton code.
-  return lobeLights *
-         (2 * sizeof(VirtualLight) + sizeof(GatherLight) + (48 + BrdfAt::kPackedFloats) * sizeof(float) + 8 + 8 + 12 +
-          2 * ManyLightSettings::kLobeGatherK * sizeof(uint32_t) + sizeof(float) + sizeof(uint32_t));
+  // The set while it grows (twice), the decoded lights, their records for
+  // the estimates and their widened BRDFs for the chains, the tree's index,
+  // nodes and packed positions (8 + 8 + 12), each light's candidate list (2k
+  // indices and a radius) and its Morton code.
+  return lobeLights * (2 * sizeof(VirtualLight) + sizeof(GatherLight) +
+                       (LobeGatherMap::kRecordFloats + BrdfAt::kPackedFloats) * sizeof(float) + 8 + 8 + 12 +
+                       2 * ManyLightSettings::kLobeGatherK * sizeof(uint32_t) + sizeof(float) + sizeof(uint32_t));
 }
 
 uint64_t availableMemoryBytes() {

@@ -47,6 +47,9 @@ size_t PointTree::nearestWithin(const Vec3& q, size_t k, float maxD2, uint32_t* 
   // k points closer than it are found (KNNResultSet keeps its last slot then).
   if (maxD2 > 0) d2[k - 1] = maxD2;
   impl_->kd.findNeighbors(result, at, nanoflann::SearchParams());
+  // A bound that held fewer than k points (the caller's promise broken):
+  // the unbounded search, so that the answer is what nearest() gives.
+  if (result.size() < std::min(k, size())) return nearest(q, k, idx, d2);
   return result.size();
 }
 

@@ -32,7 +32,8 @@ class PointTree {
   // The same where the caller knows that the k nearest lie within a squared
   // distance below maxD2 (k points closer than it, for one): the search skips
   // every branch farther than that from its start, with the same answer (the
-  // points at or beyond maxD2 are never the k nearest then).
+  // points at or beyond maxD2 are never the k nearest then). Where fewer than
+  // min(k, size()) points lie within maxD2, the unbounded search answers.
   size_t nearestWithin(const Vec3& q, size_t k, float maxD2, uint32_t* idx, float* d2) const;
   size_t size() const;
   // Point i's coordinates (3 floats), as given to the constructor.

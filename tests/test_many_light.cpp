@@ -1789,6 +1789,80 @@ TEST(LobeGather, EstimateDoesNotDependOnTheLightsOrder) {
   EXPECT_GT(sum, 0.0);
 }
 
+// LobeGatherMap::radiance (packed records, eight lights to a register)
+// equals its scalar definition, summed from nearest() and light() in the
+// order found, bit for bit: random lights of every kind (metals,
+// dielectrics, anisotropic, narrow to rough, first hits and indirect ones,
+// some facing away), the full BRDF and the diffuse lobe alone, the lobes as
+// kept, widened to the chains' alpha (kept packed) and to other alphas
+// (widened per query).
+TEST(LobeGather, EstimateEqualsItsScalarDefinition) {
+  Rng rng(21, 3);
+  auto direction = [&](float zMin) {
+    for (;;) {
+      const Vec3 v(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
+      const float l = length(v);
+      if (l > 0.1f && l < 1 && v.z / l >= zMin) return v / l;
+    }
+  };
+  auto unorm = [](float x) { return uint16_t(std::lround(std::clamp(x, 0.0f, 1.0f) * 65535.0f)); };
+  VirtualLightSet set;
+  for (int i = 0; i < 6000; ++i) {
+    VirtualLight v{};
+    v.p = Vec3(rng.uniform(), rng.uniform(), 0.03f * rng.uniform());
+    const Vec3 n = normalize(Vec3(0.3f * (rng.uniform() - 0.5f), 0.3f * (rng.uniform() - 0.5f), 1.0f));
+    v.n = v.ng = encodeUnit(rng.uniform() < 0.1f ? -n : n);
+    v.s = encodeUnit(normalize(cross(n, Vec3(0, 1, 0))));
+    v.wi = encodeUnit(direction(0.05f));
+    v.Phi = Vec3(rng.uniform(), rng.uniform(), rng.uniform()) * 1e-3f;
+    for (uint16_t& b : v.base) b = unorm(rng.uniform());
+    const float u = rng.uniform();
+    v.metallic = unorm(u < 0.35f ? 0.0f : u < 0.7f ? 1.0f : rng.uniform());
+    v.roughX = unorm(rng.uniform() < 0.3f ? 0.15f * rng.uniform() : rng.uniform());
+    v.roughY = rng.uniform() < 0.5f ? v.roughX : unorm(rng.uniform());
+    v.specular = unorm(rng.uniform() < 0.1f ? 0.0f : 1.0f);
+    v.depth = uint16_t(1 + rng.uniformInt(3));
+    set.lights.push_back(v);
+  }
+  const int k = ManyLightSettings::kLobeGatherK;
+  const LobeGatherMap map(set, k);
+  auto scalar = [&](const Vec3& z, const Vec3& nz, const Vec3& wOut, bool diffuseOnly, float minAlpha) {
+    uint32_t idx[64];
+    float d2[64];
+    const size_t found = map.nearest(z, size_t(k), idx, d2);
+    if (found == 0 || !(d2[found - 1] > 0)) return Vec3(0.0f);
+    Vec3 sum(0.0f);
+    for (size_t i = 0; i + 1 < found; ++i) {
+      const GatherLight& L = map.light(idx[i]);
+      if (!(dot(L.ng, nz) >= 0.5f) || !(dot(L.n, wOut) > 0) || !(dot(L.ng, wOut) > 0)) continue;
+      VslEmitter wide;
+      const VslEmitter& em = !diffuseOnly && L.alpha < minAlpha && widenLobeTo(L.em, minAlpha, wide) ? wide : L.em;
+      const BrdfAt::Parts p = em.f.evalParts(em.frame.toLocal(wOut));
+      sum += L.Phi * (diffuseOnly ? p.diffuse : p.total());
+    }
+    return sum / float(kPi * d2[found - 1]);
+  };
+  int compared = 0, nonZero = 0, widened = 0;
+  for (int q = 0; q < 1500; ++q) {
+    const Vec3 z(rng.uniform(), rng.uniform(), 0.03f * rng.uniform());
+    const Vec3 wOut = direction(0.0f), nz(0, 0, 1);
+    for (bool diffuseOnly : {false, true})
+      for (float minAlpha : {0.0f, ManyLightSettings::kLobeGatherChainAlpha, 0.05f, 0.3f}) {
+        const Vec3 got = map.radiance(z, nz, wOut, diffuseOnly, minAlpha);
+        const Vec3 want = scalar(z, nz, wOut, diffuseOnly, minAlpha);
+        ASSERT_EQ(std::memcmp(&got, &want, sizeof got), 0)
+            << "query " << q << " diffuse only " << diffuseOnly << " minAlpha " << minAlpha << ": " << got.y
+            << " against " << want.y;
+        ++compared;
+        nonZero += want.y > 0;
+        widened += minAlpha == 0.3f && !diffuseOnly && got.y != map.radiance(z, nz, wOut, false, 0.0f).y;
+      }
+  }
+  EXPECT_EQ(compared, 12000);
+  EXPECT_GT(nonZero, 9000);  // most estimates see lights
+  EXPECT_GT(widened, 1000);  // and widening changes them
+}
+
 // The map answers most queries from the candidate list of the light nearest
 // to the query (each light's 2k nearest) and falls back to its tree where
 // that list might miss one: either way the k nearest lights must be exactly
