@@ -184,13 +184,14 @@ Vec3 LobeGatherMap::radiance(const Vec3& z, const Vec3& nz, const Vec3& wOut, bo
       wy[n] = dot(wOut, t);
       wz[n] = dot(wOut, Vec3(r[kFn], r[kFn + 1], r[kFn + 2]));
       phi[n] = Vec3(r[kPhi], r[kPhi + 1], r[kPhi + 2]);
-      rec[n] = r;
-      VslEmitter wide;
-      if (keptWide)
-        rec[n] = &wideRecords_[size_t(i) * BrdfAt::kPackedFloats];
-      else if (!diffuseOnly && lights_[i].alpha < minAlpha && widenLobeTo(lights_[i].em, minAlpha, wide)) {
-        wide.f.pack(widenedHere[n]);
-        rec[n] = widenedHere[n];
+      rec[n] = keptWide ? &wideRecords_[size_t(i) * BrdfAt::kPackedFloats] : r;
+      // (minAlpha first: the common minAlpha = 0 reads no decoded light.)
+      if (!keptWide && !diffuseOnly && minAlpha > 0 && lights_[i].alpha < minAlpha) {
+        VslEmitter wide;
+        if (widenLobeTo(lights_[i].em, minAlpha, wide)) {
+          wide.f.pack(widenedHere[n]);
+          rec[n] = widenedHere[n];
+        }
       }
       ++n;
     }

@@ -395,7 +395,6 @@ VSL_AVX2 inline __m256 div(__m256 a, __m256 b) { return _mm256_div_ps(a, b); }
 VSL_AVX2 inline __m256 clamp01(__m256 v) { return _mm256_min_ps(splat(1), _mm256_max_ps(_mm256_setzero_ps(), v)); }
 VSL_AVX2 inline __m256 where(__m256 mask, __m256 v) { return _mm256_and_ps(mask, v); }
 VSL_AVX2 inline __m256 greater(__m256 a, __m256 b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
-VSL_AVX2 inline __m256 mask(bool on) { return _mm256_castsi256_ps(_mm256_set1_epi32(on ? -1 : 0)); }
 VSL_AVX2 inline bool none(__m256 m) { return _mm256_movemask_ps(m) == 0; }
 
 // albedoAt(r, cosTheta) on eight lanes, each with its own row.
@@ -479,6 +478,30 @@ VSL_AVX2 void evalTotals8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m2
   pdf = where(up, pdf);
 }
 
+// The lanes of packed BRDF terms (pack()'s layout, one vector per term);
+// diffuseOnly turns every lane's specular lobe off.
+VSL_AVX2 BrdfLanes lanesOf(const __m256 v[BrdfAt::kPackedFloats], bool diffuseOnly) {
+  BrdfLanes k;
+  for (int c = 0; c < 3; ++c) {
+    k.base[c] = v[kBase + c];
+    k.kd[c] = v[kKd + c];
+    k.w[c] = v[kW + c];
+  }
+  k.s = v[kS];
+  k.m = v[kM];
+  k.ax = v[kAx];
+  k.ay = v[kAy];
+  k.lambdaW = v[kLambdaW];
+  k.ps = v[kPs];
+  k.specPdfScale = v[kSpecPdfScale];
+  k.da = v[kDa];
+  k.a0 = _mm256_castps_si256(v[kA0]);
+  k.above = v[kAbove];
+  k.diffuse = v[kDiffuse];
+  k.specular = diffuseOnly ? _mm256_setzero_ps() : v[kSpecular];
+  return k;
+}
+
 }  // namespace
 
 VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3],
@@ -490,24 +513,12 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
     }
     return;
   }
-  BrdfLanes k;
-  for (int c = 0; c < 3; ++c) {
-    k.base[c] = splat(b_.baseColor[c]);
-    k.kd[c] = splat(kd_[c]);
-    k.w[c] = splat(w_[c]);
-  }
-  k.s = splat(b_.specularWeight);
-  k.m = splat(b_.metallic);
-  k.ax = splat(b_.ggx.ax);
-  k.ay = splat(b_.ggx.ay);
-  k.lambdaW = splat(lambdaW_);
-  k.ps = splat(ps_);
-  k.specPdfScale = splat(specPdfScale_);
-  k.da = splat(row_.da);
-  k.a0 = _mm256_set1_epi32(row_.a0);
-  k.above = mask(true);
-  k.diffuse = mask(b_.metallic < 1);
-  k.specular = mask(specularOn_);
+  // This BRDF's packed terms on every lane.
+  float terms[kPackedFloats];
+  pack(terms);
+  __m256 v[kPackedFloats];
+  for (int i = 0; i < kPackedFloats; ++i) v[i] = splat(terms[i]);
+  const BrdfLanes k = lanesOf(v, false);
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
     // Lanes past n get wi.z = 0, which evaluates to zero.
@@ -568,24 +579,7 @@ VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, co
       y[j] = wy[i0 + j];
       z[j] = wz[i0 + j];
     }
-    BrdfLanes k;
-    for (int c = 0; c < 3; ++c) {
-      k.base[c] = v[kBase + c];
-      k.kd[c] = v[kKd + c];
-      k.w[c] = v[kW + c];
-    }
-    k.s = v[kS];
-    k.m = v[kM];
-    k.ax = v[kAx];
-    k.ay = v[kAy];
-    k.lambdaW = v[kLambdaW];
-    k.ps = v[kPs];
-    k.specPdfScale = v[kSpecPdfScale];
-    k.da = v[kDa];
-    k.a0 = _mm256_castps_si256(v[kA0]);
-    k.above = v[kAbove];
-    k.diffuse = v[kDiffuse];
-    k.specular = diffuseOnly ? _mm256_setzero_ps() : v[kSpecular];
+    const BrdfLanes k = lanesOf(v, diffuseOnly);
     __m256 fv[3], pv;
     evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
     for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);
