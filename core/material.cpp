@@ -1,12 +1,11 @@
 #include "core/material.h"
 
-#include <immintrin.h>
-
 #include <array>
 #include <cstring>
 #include <mutex>
 
 #include "core/sampling.h"
+#include "core/simd.h"
 
 namespace vsl {
 
@@ -25,19 +24,25 @@ float GGX::lambda(const Vec3& w) const {
   return (std::sqrt(1.0f + a2tan2) - 1.0f) * 0.5f;
 }
 
-Vec3 GGX::sampleVisibleNormal(const Vec3& wo, Vec2 u) const {
+GGX::VisibleFrame GGX::visibleNormalFrame(const Vec3& wo) const {
+  VisibleFrame v;
   // Stretch the view vector to the unit-roughness configuration.
-  Vec3 vh = normalize(Vec3(ax * wo.x, ay * wo.y, wo.z));
+  v.vh = normalize(Vec3(ax * wo.x, ay * wo.y, wo.z));
   // Orthonormal basis around vh (T1 is horizontal).
-  float lensq = vh.x * vh.x + vh.y * vh.y;
-  Vec3 t1 = lensq > 1e-14f ? Vec3(-vh.y, vh.x, 0) / std::sqrt(lensq) : Vec3(1, 0, 0);
-  Vec3 t2 = cross(vh, t1);
+  float lensq = v.vh.x * v.vh.x + v.vh.y * v.vh.y;
+  v.t1 = lensq > 1e-14f ? Vec3(-v.vh.y, v.vh.x, 0) / std::sqrt(lensq) : Vec3(1, 0, 0);
+  v.t2 = cross(v.vh, v.t1);
+  v.s = 0.5f * (1.0f + v.vh.z);
+  return v;
+}
+
+Vec3 GGX::sampleVisibleNormal(const VisibleFrame& v, Vec2 u) const {
   // Sample the projected area of the hemisphere: a disk warped toward vh.
-  float r = std::sqrt(u.x), phi = 2 * kPi * u.y;
-  float p1 = r * std::cos(phi), p2 = r * std::sin(phi);
-  float s = 0.5f * (1.0f + vh.z);
-  p2 = (1.0f - s) * safeSqrt(1.0f - p1 * p1) + s * p2;
-  Vec3 nh = p1 * t1 + p2 * t2 + safeSqrt(1.0f - p1 * p1 - p2 * p2) * vh;
+  float r = std::sqrt(u.x), sinPhi, cosPhi;
+  sinCosTwoPi(u.y, sinPhi, cosPhi);
+  float p1 = r * cosPhi, p2 = r * sinPhi;
+  p2 = (1.0f - v.s) * safeSqrt(1.0f - p1 * p1) + v.s * p2;
+  Vec3 nh = p1 * v.t1 + p2 * v.t2 + safeSqrt(1.0f - p1 * p1 - p2 * p2) * v.vh;
   // Unstretch.
   return normalize(Vec3(ax * nh.x, ay * nh.y, std::max(1e-7f, nh.z)));
 }
@@ -237,14 +242,35 @@ float BrdfAt::pdf(const Vec3& wi) const {
 
 bool BrdfAt::sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const {
   if (!above_) return false;
+  return sampleDirectionIn(b_.ggx.visibleNormalFrame(w_), u1, u2, wi, specular);
+}
+
+bool BrdfAt::sampleDirectionIn(const GGX::VisibleFrame& v, float u1, Vec2 u2, Vec3& wi, bool& specular) const {
   specular = u1 < ps_;
   if (specular) {
-    Vec3 h = b_.ggx.sampleVisibleNormal(w_, u2);
+    Vec3 h = b_.ggx.sampleVisibleNormal(v, u2);
     wi = reflect(w_, h);
   } else {
     wi = sampleCosineHemisphere(u2);
   }
   return wi.z > 0;
+}
+
+void BrdfAt::sampleDirections(int n, const float* const u[3], float* const wi[3], int32_t* ok) const {
+  if (n >= 4 && simdAvailable())
+    sampleDirectionsAvx2(n, u, wi, ok);
+  else
+    sampleDirectionsScalar(n, u, wi, ok);
+}
+
+void BrdfAt::sampleDirectionsScalar(int n, const float* const u[3], float* const wi[3], int32_t* ok) const {
+  const GGX::VisibleFrame v = b_.ggx.visibleNormalFrame(w_);
+  for (int i = 0; i < n; ++i) {
+    Vec3 w(0.0f);
+    bool specular;
+    ok[i] = above_ && sampleDirectionIn(v, u[0][i], {u[1][i], u[2][i]}, w, specular) ? -1 : 0;
+    for (int c = 0; c < 3; ++c) wi[c][i] = w[c];
+  }
 }
 
 std::optional<BrdfSample> BrdfAt::sample(float u1, Vec2 u2) const {
@@ -373,8 +399,8 @@ void BrdfAt::evalTotalsScalar(int n, const float* wx, const float* wy, const flo
 // same order (no FMA, so no contraction: the results are bit-identical).
 // std::max(v, lo) is _mm256_max_ps(lo, v) and std::min(v, hi) is
 // _mm256_min_ps(hi, v), which agree with std:: on every input.
-#define VSL_AVX2 __attribute__((target("avx2")))
 namespace {
+using namespace simd;
 
 // A BrdfAt's fixed terms on eight lanes: one BRDF on every lane
 // (evalTotalsAvx2) or eight BRDFs (evalTotalsPackedAvx2). Derived constants
@@ -386,16 +412,6 @@ struct BrdfLanes {
   __m256i a0;
   __m256 above, diffuse, specular;  // masks: w.z > 0, m < 1, the specular lobe on
 };
-
-VSL_AVX2 inline __m256 splat(float v) { return _mm256_set1_ps(v); }
-VSL_AVX2 inline __m256 add(__m256 a, __m256 b) { return _mm256_add_ps(a, b); }
-VSL_AVX2 inline __m256 sub(__m256 a, __m256 b) { return _mm256_sub_ps(a, b); }
-VSL_AVX2 inline __m256 mul(__m256 a, __m256 b) { return _mm256_mul_ps(a, b); }
-VSL_AVX2 inline __m256 div(__m256 a, __m256 b) { return _mm256_div_ps(a, b); }
-VSL_AVX2 inline __m256 clamp01(__m256 v) { return _mm256_min_ps(splat(1), _mm256_max_ps(_mm256_setzero_ps(), v)); }
-VSL_AVX2 inline __m256 where(__m256 mask, __m256 v) { return _mm256_and_ps(mask, v); }
-VSL_AVX2 inline __m256 greater(__m256 a, __m256 b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
-VSL_AVX2 inline bool none(__m256 m) { return _mm256_movemask_ps(m) == 0; }
 
 // albedoAt(r, cosTheta) on eight lanes, each with its own row.
 VSL_AVX2 __m256 albedoAt8(const BrdfLanes& k, __m256 cosTheta) {
@@ -522,20 +538,10 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
     // Lanes past n get wi.z = 0, which evaluates to zero.
-    alignas(32) float x[8] = {}, y[8] = {}, z[8] = {}, out[4][8];
-    for (int j = 0; j < m; ++j) {
-      x[j] = wx[i0 + j];
-      y[j] = wy[i0 + j];
-      z[j] = wz[i0 + j];
-    }
     __m256 fv[3], pv;
-    evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
-    for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);
-    _mm256_store_ps(out[3], pv);
-    for (int j = 0; j < m; ++j) {
-      for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
-      if (pdf) pdf[i0 + j] = out[3][j];
-    }
+    evalTotals8(k, loadFirst(wx + i0, m), loadFirst(wy + i0, m), loadFirst(wz + i0, m), fv, pv);
+    for (int c = 0; c < 3; ++c) storeFirst(f[c] + i0, fv[c], m);
+    if (pdf) storeFirst(pdf + i0, pv, m);
   }
 }
 
@@ -587,7 +593,6 @@ VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, co
       for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
   }
 }
-#undef VSL_AVX2
 
 // ---- Texture --------------------------------------------------------------
 
@@ -612,6 +617,70 @@ void Texture::lookup(Vec2 uv, bool srgb, float out[4]) const {
     }
   if (srgb)
     for (int c = 0; c < 3; ++c) out[c] = srgbToLinear(out[c]);
+}
+
+// sampleDirection on eight lanes: both lobes' directions computed, one kept
+// per lane, with the scalar operations in their order (sampleCosineHemisphere,
+// GGX::sampleVisibleNormal and reflect, as written in math.h and sampling.cpp).
+VSL_AVX2 void BrdfAt::sampleDirectionsAvx2(int n, const float* const u[3], float* const wi[3], int32_t* ok) const {
+  if (!above_) {
+    for (int i = 0; i < n; ++i) {
+      wi[0][i] = wi[1][i] = wi[2][i] = 0;
+      ok[i] = 0;
+    }
+    return;
+  }
+  const GGX::VisibleFrame v = b_.ggx.visibleNormalFrame(w_);
+  const __m256 one = splat(1.0f), zero = _mm256_setzero_ps(), signBit = splat(-0.0f);
+  for (int i0 = 0; i0 < n; i0 += 8) {
+    const int m = std::min(8, n - i0);
+    const __m256 u1 = loadFirst(u[0] + i0, m), ux = loadFirst(u[1] + i0, m), uy = loadFirst(u[2] + i0, m);
+    const __m256 specular = less(u1, splat(ps_));
+    const int specularLanes = _mm256_movemask_ps(specular);
+    __m256 sx = zero, sy = zero, sz = zero, dx = zero, dy = zero, dz = zero;
+    if (specularLanes != 0) {
+      // The specular lobe: a visible normal, then the mirror of w about it.
+      __m256 sinPhi, cosPhi;
+      sinCosTwoPi8(uy, sinPhi, cosPhi);
+      const __m256 r = _mm256_sqrt_ps(ux);
+      const __m256 p1 = mul(r, cosPhi);
+      const __m256 vs = splat(v.s);
+      __m256 p2 = mul(r, sinPhi);
+      p2 = add(mul(sub(one, vs), safeSqrt8(sub(one, mul(p1, p1)))), mul(vs, p2));
+      const __m256 q = safeSqrt8(sub(sub(one, mul(p1, p1)), mul(p2, p2)));
+      const __m256 nx = add(add(mul(splat(v.t1.x), p1), mul(splat(v.t2.x), p2)), mul(splat(v.vh.x), q));
+      const __m256 ny = add(add(mul(splat(v.t1.y), p1), mul(splat(v.t2.y), p2)), mul(splat(v.vh.y), q));
+      const __m256 nz = add(add(mul(splat(v.t1.z), p1), mul(splat(v.t2.z), p2)), mul(splat(v.vh.z), q));
+      // std::max(1e-7f, nz) is _mm256_max_ps(nz, 1e-7f), NaN included.
+      __m256 hx = mul(splat(b_.ggx.ax), nx), hy = mul(splat(b_.ggx.ay), ny), hz = _mm256_max_ps(nz, splat(1e-7f));
+      const __m256 len = _mm256_sqrt_ps(add(add(mul(hx, hx), mul(hy, hy)), mul(hz, hz)));
+      const __m256 inv = div(one, len), lenOk = greater(len, zero);
+      hx = where(lenOk, mul(hx, inv));
+      hy = where(lenOk, mul(hy, inv));
+      hz = where(lenOk, mul(hz, inv));
+      const __m256 wx = splat(w_.x), wy = splat(w_.y), wz = splat(w_.z);
+      const __m256 twoDot = mul(splat(2.0f), add(add(mul(wx, hx), mul(wy, hy)), mul(wz, hz)));
+      sx = sub(mul(twoDot, hx), wx);
+      sy = sub(mul(twoDot, hy), wy);
+      sz = sub(mul(twoDot, hz), wz);
+    }
+    if (specularLanes != 0xff) {
+      // The diffuse lobe: the concentric disk lifted to the hemisphere.
+      const __m256 ox = sub(mul(splat(2.0f), ux), one), oy = sub(mul(splat(2.0f), uy), one);
+      const __m256 wide = greater(_mm256_andnot_ps(signBit, ox), _mm256_andnot_ps(signBit, oy));
+      const __m256 centre = both(_mm256_cmp_ps(ox, zero, _CMP_EQ_OQ), _mm256_cmp_ps(oy, zero, _CMP_EQ_OQ));
+      __m256 sa, ca;
+      sinCosQuarterPi8(div(select(wide, oy, ox), select(wide, ox, oy)), sa, ca);
+      dx = _mm256_andnot_ps(centre, select(wide, mul(ox, ca), mul(oy, sa)));
+      dy = _mm256_andnot_ps(centre, select(wide, mul(ox, sa), mul(oy, ca)));
+      dz = safeSqrt8(sub(sub(one, mul(dx, dx)), mul(dy, dy)));
+    }
+    const __m256 x = select(specular, sx, dx), y = select(specular, sy, dy), z = select(specular, sz, dz);
+    storeFirst(wi[0] + i0, x, m);
+    storeFirst(wi[1] + i0, y, m);
+    storeFirst(wi[2] + i0, z, m);
+    storeFirst(reinterpret_cast<float*>(ok + i0), greater(z, zero), m);
+  }
 }
 
 }  // namespace vsl

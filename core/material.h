@@ -50,7 +50,15 @@ struct GGX {
   float G2(const Vec3& wo, const Vec3& wi) const { return 1.0f / (1.0f + lambda(wo) + lambda(wi)); }
   // Samples a visible microfacet normal for wo (wo.z > 0).
   // pdf(h) = G1(wo) max(0, wo.h) D(h) / wo.z (solid angle about h).
-  Vec3 sampleVisibleNormal(const Vec3& wo, Vec2 u) const;
+  Vec3 sampleVisibleNormal(const Vec3& wo, Vec2 u) const { return sampleVisibleNormal(visibleNormalFrame(wo), u); }
+  // What the sampling computes from wo alone: the stretched view vector vh,
+  // a basis t1, t2 about it and the warp s. Many samples for one wo share it.
+  struct VisibleFrame {
+    Vec3 vh, t1, t2;
+    float s;
+  };
+  VisibleFrame visibleNormalFrame(const Vec3& wo) const;
+  Vec3 sampleVisibleNormal(const VisibleFrame& v, Vec2 u) const;
   float visibleNormalPdf(const Vec3& wo, const Vec3& h) const;
 };
 
@@ -170,6 +178,13 @@ class BrdfAt {
   // sample() is this, then evalParts(wi, &pdf) and a check that the pdf is
   // positive and finite (callers that evaluate in blocks do those later).
   bool sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const;
+  // sampleDirection for n draws (u[0] the lobe's, u[1] and u[2] the
+  // direction's uniforms): wi[0..2][i] the direction, ok[i] -1 where it
+  // succeeded and 0 where not. The AVX2 form (where simdAvailable() and n >= 4)
+  // repeats the scalar operations in order and gives the same bits.
+  void sampleDirections(int n, const float* const u[3], float* const wi[3], int32_t* ok) const;
+  void sampleDirectionsScalar(int n, const float* const u[3], float* const wi[3], int32_t* ok) const;
+  void sampleDirectionsAvx2(int n, const float* const u[3], float* const wi[3], int32_t* ok) const;
   float specularProbability() const { return ps_; }
   // False for a BRDF restricted to its diffuse lobe (diffuseLobe()).
   bool specularOn() const { return specularOn_; }
@@ -184,6 +199,9 @@ class BrdfAt {
   AlbedoRow row_;
   bool above_ = false;      // w.z > 0
   bool specularOn_ = true;  // false: restricted to the diffuse lobe
+
+  // sampleDirection past its w.z > 0 test, the visible-normal frame given.
+  bool sampleDirectionIn(const GGX::VisibleFrame& v, float u1, Vec2 u2, Vec3& wi, bool& specular) const;
 };
 
 // True when this CPU runs the AVX2 block forms (BrdfAt::evalTotalsAvx2).

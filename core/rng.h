@@ -41,19 +41,48 @@ class Rng {
 
   uint32_t next() {
     uint64_t old = state_;
-    state_ = old * 6364136223846793005ULL + inc_;
-    uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
-    uint32_t rot = uint32_t(old >> 59u);
-    return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31));
+    state_ = old * kMul + inc_;
+    return output(old);
   }
 
   // Uniform in [0, 1): 24 random mantissa bits, never returns 1.
-  float uniform() { return float(next() >> 8) * 0x1p-24f; }
+  float uniform() { return toUniform(next()); }
+  // n uniforms, the ones n calls of uniform() would give, in that order. The
+  // state k steps on is M^k s + inc (M^(k-1) + ... + 1), so four chains a
+  // step apart, each striding four steps, make them without waiting on one
+  // multiply after the other.
+  void uniforms(float* out, int n) {
+    int i = 0;
+    if (n >= 8) {
+      constexpr uint64_t kMul2 = kMul * kMul, kMul4 = kMul2 * kMul2;
+      const uint64_t inc4 = inc_ * (1 + kMul + kMul2 + kMul2 * kMul);
+      uint64_t s0 = state_, s1 = s0 * kMul + inc_, s2 = s1 * kMul + inc_, s3 = s2 * kMul + inc_;
+      for (; i + 4 <= n; i += 4) {
+        out[i] = toUniform(output(s0));
+        out[i + 1] = toUniform(output(s1));
+        out[i + 2] = toUniform(output(s2));
+        out[i + 3] = toUniform(output(s3));
+        s0 = s0 * kMul4 + inc4;
+        s1 = s1 * kMul4 + inc4;
+        s2 = s2 * kMul4 + inc4;
+        s3 = s3 * kMul4 + inc4;
+      }
+      state_ = s0;
+    }
+    for (; i < n; ++i) out[i] = uniform();
+  }
   double uniformDouble() { return double((uint64_t(next()) << 21) ^ next()) * 0x1p-53; }
   // Uniform integer in [0, n) for n > 0.
   uint32_t uniformInt(uint32_t n) { return uint32_t((uint64_t(next()) * n) >> 32); }
 
  private:
+  static constexpr uint64_t kMul = 6364136223846793005ULL;
+  static uint32_t output(uint64_t old) {
+    uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
+    uint32_t rot = uint32_t(old >> 59u);
+    return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31));
+  }
+  static float toUniform(uint32_t v) { return float(v >> 8) * 0x1p-24f; }
   uint64_t state_ = 0, inc_ = 1;
 };
 

@@ -39,15 +39,15 @@ void multiJittered(int count, Rng& rng, Vec2* out) {
 Vec2 sampleUniformDiskConcentric(Vec2 u) {
   float ox = 2 * u.x - 1, oy = 2 * u.y - 1;
   if (ox == 0 && oy == 0) return {0, 0};
-  float r, theta;
+  // theta = pi/4 (oy/ox), or pi/2 - pi/4 (ox/oy), whose cosine and sine are
+  // the sine and cosine of pi/4 (ox/oy).
+  float s, c;
   if (std::abs(ox) > std::abs(oy)) {
-    r = ox;
-    theta = (kPi / 4) * (oy / ox);
-  } else {
-    r = oy;
-    theta = kPi / 2 - (kPi / 4) * (ox / oy);
+    sinCosQuarterPi(oy / ox, s, c);
+    return {ox * c, ox * s};
   }
-  return {r * std::cos(theta), r * std::sin(theta)};
+  sinCosQuarterPi(ox / oy, s, c);
+  return {oy * s, oy * c};
 }
 
 Vec2 invertUniformDiskConcentric(Vec2 p) {
@@ -100,8 +100,9 @@ Vec3 sampleUniformConeOmc(Vec2 u, float oneMinusCosMax) {
   float v = u.x * oneMinusCosMax;
   float cosTheta = 1 - v;
   float sinTheta = safeSqrt(v * (2 - v));
-  float phi = u.y * 2 * kPi;
-  return {std::cos(phi) * sinTheta, std::sin(phi) * sinTheta, cosTheta};
+  float sinPhi, cosPhi;
+  sinCosTwoPi(u.y, sinPhi, cosPhi);
+  return {cosPhi * sinTheta, sinPhi * sinTheta, cosTheta};
 }
 
 Vec2 invertUniformCone(const Vec3& w, float cosMax) { return invertUniformConeOmc(w, 1 - cosMax); }

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "core/sampling.h"
+#include "core/simd.h"
 
 namespace vsl {
 
@@ -90,9 +91,6 @@ bool widenLobeTo(const VslEmitter& p, float alpha, VslEmitter& out) {
 
 namespace {
 
-// Marks a BRDF sample whose value and pdf are not evaluated yet (block form).
-constexpr float kPendingPdf = -1.0f;
-
 // What both forms of the quadrature share: the cone toward the sphere, the
 // sample count, the strategies in use and the normalisation.
 struct VslCone {
@@ -102,6 +100,7 @@ struct VslCone {
   int n;  // rounds: the largest count
   bool useX, useP;
   int nCone, nX, nP;  // samples per strategy (0: not used)
+  double coneTerm;    // nCone pdfCone, pdfSum's first term
 
   VslCone(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius, const VslOptions& options) {
     d = length(toLight);
@@ -124,10 +123,11 @@ struct VslCone {
     nX = c.x;
     nP = c.p;
     n = std::max({nCone, nX, nP});  // rounds: round i draws strategy s if i < its count
+    coneTerm = nCone * pdfCone;
   }
   int draws() const { return nCone + nX + nP; }
   // The balance heuristic's denominator: sum over strategies of count x pdf.
-  double pdfSum(double pdfX, double pdfP) const { return nCone * pdfCone + nX * pdfX + nP * pdfP; }
+  double pdfSum(double pdfX, double pdfP) const { return coneTerm + nX * pdfX + nP * pdfP; }
   // Is l inside the cone? 1 - cos(l, axis) = |l - axis|^2 / 2 keeps precision.
   bool inCone(const Vec3& l) const { return 0.5 * double(lengthSquared(l - axis)) <= omc; }
 
@@ -143,20 +143,21 @@ struct VslCone {
     return lx.z > 0 && lp.z > 0;
   }
 
-  // Draws the samples of strategy round i in order (the random stream is the
-  // same for both forms) and hands each to visit(l, coneSample, fromX, fromP);
-  // a failed BRDF sample is visited with l = 0 and both pointers null. With
-  // kDefer, a BRDF sample comes with its direction only, its f and pdf set to
-  // kPendingPdf (the block form evaluates them with the others and drops the
-  // sample then if sample() would have failed).
-  template <bool kDefer, typename Visit>
+  // Draws the samples of strategy round i in order and hands each to
+  // visit(l, coneSample, fromX, fromP); a failed BRDF sample is visited with
+  // l = 0 and both pointers null. The random stream, which the block form
+  // draws in the same order: per round, the cone's two uniforms, then the
+  // receiver's BRDF's three (lobe, then direction), then the light's three.
+  template <typename Visit>
   void drawRound(int round, const VslReceiver& x, const VslEmitter& p, Rng& rng, Visit&& visit) const {
     // Strategy 1: uniform in the cone.
-    if (round < nCone)
-      visit(frame.toWorld(sampleUniformConeOmc({rng.uniform(), rng.uniform()}, float(omc))), true, nullptr, nullptr);
+    if (round < nCone) {
+      const float u0 = rng.uniform(), u1 = rng.uniform();
+      visit(frame.toWorld(sampleUniformConeOmc({u0, u1}, float(omc))), true, nullptr, nullptr);
+    }
     // Strategy 2: the receiver's BRDF.
     if (round < nX) {
-      if (auto s = sampleBrdf<kDefer>(x.f, rng))
+      if (auto s = sampleBrdf(x.f, rng))
         visit(x.frame.toWorld(s->wi), false, &*s, nullptr);
       else
         visit(Vec3(0.0f), false, nullptr, nullptr);
@@ -164,25 +165,22 @@ struct VslCone {
     // Strategy 3: the light's BRDF about its incoming direction (emission
     // leaves p along w; the receiver sees it along l = -w).
     if (round < nP) {
-      if (auto s = sampleBrdf<kDefer>(p.f, rng))
+      if (auto s = sampleBrdf(p.f, rng))
         visit(-p.frame.toWorld(s->wi), false, nullptr, &*s);
       else
         visit(Vec3(0.0f), false, nullptr, nullptr);
     }
   }
-  // Both branches draw u1 and u2 in one call expression, as the quadrature
-  // always has: the order of the three draws is the compiler's (unspecified
-  // argument order), and writing them out in sequence would change every
-  // VSL image.
-  template <bool kDefer>
   static std::optional<BrdfSample> sampleBrdf(const BrdfAt& f, Rng& rng) {
-    if constexpr (!kDefer) {
-      return f.sample(rng.uniform(), {rng.uniform(), rng.uniform()});
-    } else {
-      BrdfSample s{Vec3(0.0f), Vec3(kPendingPdf), kPendingPdf, false};
-      if (!f.sampleDirection(rng.uniform(), {rng.uniform(), rng.uniform()}, s.wi, s.specularLobe)) return std::nullopt;
-      return s;
-    }
+    const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+    return f.sample(u0, {u1, u2});
+  }
+  // The largest float t with 0.5 double(t) <= omc: inCone's test as a float
+  // comparison of |l - axis|^2 with t (the block form's).
+  float inConeLimit() const {
+    float t = float(2.0 * omc);
+    if (0.5 * double(t) > omc) t = std::nextafter(t, -kInf);
+    return t;
   }
 
   // Balance heuristic with n_j samples of strategy j: sum f / sum_j n_j pdf_j
@@ -203,6 +201,16 @@ void addBalanced(const Vec3& f, double pdfSum, double sum[3]) {
   for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
 }
 
+// The quadrature's sum: each strategy's terms added in the order drawn, the
+// three sums then added, cone + receiver's BRDF first. (Both forms sum so;
+// the block form's strategies are blocks of their own.)
+struct VslSums {
+  double s[3][3] = {};  // [strategy: cone, receiver, light][channel]
+  void total(double out[3]) const {
+    for (int c = 0; c < 3; ++c) out[c] = (s[0][c] + s[1][c]) + s[2][c];
+  }
+};
+
 }  // namespace
 
 namespace {
@@ -211,7 +219,7 @@ namespace {
 VslResult scalarQuadrature(const VslReceiver& x, const VslEmitter& p, const VslCone& cone, const Vec3& toLight,
                            double radius, const VslOptions& options, Rng& rng) {
   VslResult res;
-  double sum[3] = {0, 0, 0};
+  VslSums sums;
   // Cone samples are inside by construction (re-testing them in float would
   // reject some near the rim of tiny cones). A BRDF-sampled direction brings
   // its own BRDF's value and pdf.
@@ -224,9 +232,11 @@ VslResult scalarQuadrature(const VslReceiver& x, const VslEmitter& p, const VslC
     Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, cone.useP ? &pdfP : nullptr).total();
     if (fromX) pdfX = fromX->pdf;
     if (fromP) pdfP = fromP->pdf;
-    addBalanced(fx * fp * (lx.z * lp.z), cone.pdfSum(pdfX, pdfP), sum);
+    addBalanced(fx * fp * (lx.z * lp.z), cone.pdfSum(pdfX, pdfP), sums.s[fromX ? 1 : fromP ? 2 : 0]);
   };
-  for (int i = 0; i < cone.n; ++i) cone.drawRound<false>(i, x, p, rng, accumulate);
+  for (int i = 0; i < cone.n; ++i) cone.drawRound(i, x, p, rng, accumulate);
+  double sum[3];
+  sums.total(sum);
   res.transfer = cone.normalise(sum, x, toLight, radius, options);
   return res;
 }
@@ -242,51 +252,252 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
 
 namespace {
 
-// Samples that passed the cone and hemisphere tests, in the order drawn,
-// waiting for their BRDF values (structure of arrays for BrdfAt::evalTotals).
-struct VslPending {
-  static constexpr int kCapacity = 64;
-  int n = 0;
-  float lx[3][kCapacity], lp[3][kCapacity];
-  float fx[3][kCapacity], fp[3][kCapacity], pdfX[kCapacity], pdfP[kCapacity];
-  bool haveX[kCapacity], haveP[kCapacity];        // the value came with a BRDF sample
-  bool sampledX[kCapacity], sampledP[kCapacity];  // a BRDF sample still to be evaluated
-
-  void push(const Vec3& lxv, const Vec3& lpv, const BrdfSample* fromX, const BrdfSample* fromP) {
-    for (int c = 0; c < 3; ++c) {
-      lx[c][n] = lxv[c];
-      lp[c][n] = lpv[c];
-      if (fromX) fx[c][n] = fromX->f[c];
-      if (fromP) fp[c][n] = fromP->f[c];
+// For each 8-bit mask, the lanes it keeps, in order, then the others: a
+// left-pack by _mm256_permutevar8x32_ps.
+struct LeftPackTable {
+  alignas(32) int32_t index[256][8];
+  LeftPackTable() {
+    for (int m = 0; m < 256; ++m) {
+      int k = 0;
+      for (int j = 0; j < 8; ++j)
+        if (m >> j & 1) index[m][k++] = j;
+      for (int j = 0; j < 8; ++j)
+        if (!(m >> j & 1)) index[m][k++] = j;
     }
-    sampledX[n] = fromX && fromX->pdf == kPendingPdf;
-    sampledP[n] = fromP && fromP->pdf == kPendingPdf;
-    haveX[n] = fromX && !sampledX[n];
-    haveP[n] = fromP && !sampledP[n];
-    if (fromX) pdfX[n] = fromX->pdf;
-    if (fromP) pdfP[n] = fromP->pdf;
-    ++n;
+  }
+};
+const LeftPackTable kLeftPack;
+
+// Samples that passed the cone and hemisphere tests, each strategy's in the
+// order drawn and the strategies one after the other, waiting for their
+// BRDF values (structure of arrays for BrdfAt::evalTotals).
+struct VslPending {
+  static constexpr int kCapacity = 96;
+  int n = 0;
+  int start[4] = {0, 0, 0, 0};  // strategy s's samples: [start[s], start[s + 1])
+  // Eight lanes of slack: a left-pack stores a whole register.
+  alignas(32) float lx[3][kCapacity + 8], lp[3][kCapacity + 8];
+
+  // Queues the samples of a strategy's block that passed (b.ok), in order.
+  template <typename Block>
+  VSL_AVX2 void push(const Block& b) {
+    for (int i0 = 0; i0 < b.count; i0 += 8) {
+      const int m = std::min(8, b.count - i0);
+      const int keep = _mm256_movemask_ps(_mm256_load_ps(reinterpret_cast<const float*>(b.ok + i0))) & ((1 << m) - 1);
+      const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLeftPack.index[keep]));
+      for (int c = 0; c < 3; ++c) {
+        _mm256_storeu_ps(lx[c] + n, _mm256_permutevar8x32_ps(_mm256_load_ps(b.lx[c] + i0), perm));
+        _mm256_storeu_ps(lp[c] + n, _mm256_permutevar8x32_ps(_mm256_load_ps(b.lp[c] + i0), perm));
+      }
+      n += __builtin_popcount(unsigned(keep));
+    }
   }
   // Evaluates both BRDFs on every pending sample at once, adds the balance
-  // heuristic's terms in the order drawn, and empties the block.
-  void flush(const VslReceiver& x, const VslEmitter& p, const VslCone& cone, double sum[3]) {
-    float ex[3][kCapacity], ep[3][kCapacity], exPdf[kCapacity], epPdf[kCapacity];
+  // heuristic's terms to their strategies' sums in order, and empties the
+  // queue. The terms are addBalanced's, eight (float) and four (double)
+  // lanes at a time; only the additions, whose order is fixed, are scalar.
+  VSL_AVX2 void flush(const VslReceiver& x, const VslEmitter& p, const VslCone& cone, VslSums& sums) {
+    using namespace simd;
+    alignas(32) float ex[3][kCapacity], ep[3][kCapacity], exPdf[kCapacity], epPdf[kCapacity];
     float* const exRows[3] = {ex[0], ex[1], ex[2]};
     float* const epRows[3] = {ep[0], ep[1], ep[2]};
     x.f.evalTotals(n, lx[0], lx[1], lx[2], exRows, cone.useX ? exPdf : nullptr);
     p.f.evalTotals(n, lp[0], lp[1], lp[2], epRows, cone.useP ? epPdf : nullptr);
-    for (int i = 0; i < n; ++i) {
-      Vec3 fxv = haveX[i] ? Vec3(fx[0][i], fx[1][i], fx[2][i]) : Vec3(ex[0][i], ex[1][i], ex[2][i]);
-      Vec3 fpv = haveP[i] ? Vec3(fp[0][i], fp[1][i], fp[2][i]) : Vec3(ep[0][i], ep[1][i], ep[2][i]);
-      float px = haveX[i] ? pdfX[i] : cone.useX ? exPdf[i] : 0.0f;
-      float pp = haveP[i] ? pdfP[i] : cone.useP ? epPdf[i] : 0.0f;
-      // sample() fails on a pdf that is not positive and finite.
-      if ((sampledX[i] && !(px > 0 && std::isfinite(px))) || (sampledP[i] && !(pp > 0 && std::isfinite(pp)))) continue;
-      addBalanced(fxv * fpv * (lx[2][i] * lp[2][i]), cone.pdfSum(px, pp), sum);
+    alignas(32) double terms[kCapacity][4];
+    const __m256 zero = _mm256_setzero_ps(), inf = splat(kInf), signBit = splat(-0.0f);
+    const __m256i allBits = _mm256_set1_epi32(-1);
+    for (int i0 = 0; i0 < n; i0 += 8) {
+      // px, pp: the pdfs of the BRDF strategies in use, else 0.
+      const __m256 px = cone.useX ? _mm256_load_ps(exPdf + i0) : zero;
+      const __m256 pp = cone.useP ? _mm256_load_ps(epPdf + i0) : zero;
+      // A BRDF sample whose pdf is not positive and finite failed
+      // (BrdfAt::sample()); fromX, fromP: the lanes of those strategies.
+      const __m256i lane = _mm256_add_epi32(_mm256_set1_epi32(i0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+      auto within = [&](int lo, int hi) VSL_AVX2 {
+        return _mm256_castsi256_ps(_mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(lo), lane),
+                                                       _mm256_cmpgt_epi32(_mm256_set1_epi32(hi), lane)));
+      };
+      auto positiveFinite = [&](__m256 v)
+                                VSL_AVX2 { return both(greater(v, zero), less(_mm256_andnot_ps(signBit, v), inf)); };
+      const __m256 failed = _mm256_or_ps(_mm256_andnot_ps(positiveFinite(px), within(start[1], start[2])),
+                                         _mm256_andnot_ps(positiveFinite(pp), within(start[2], start[3])));
+      // f = fx fp (lx.z lp.z), and whether it is black.
+      const __m256 cosines = mul(_mm256_load_ps(lx[2] + i0), _mm256_load_ps(lp[2] + i0));
+      __m256 f[3], black = _mm256_castsi256_ps(allBits);
+      for (int c = 0; c < 3; ++c) {
+        f[c] = mul(mul(_mm256_load_ps(ex[c] + i0), _mm256_load_ps(ep[c] + i0)), cosines);
+        black = both(black, _mm256_cmp_ps(f[c], zero, _CMP_EQ_OQ));
+      }
+      const __m256 skip = _mm256_or_ps(failed, black);
+      for (int h = 0; h < 2; ++h) {
+        auto half = [&](__m256 v) VSL_AVX2 { return h == 0 ? _mm256_castps256_ps128(v) : _mm256_extractf128_ps(v, 1); };
+        // pdfSum in double: coneTerm + nX px + nP pp.
+        const __m256d sumPdf =
+            _mm256_add_pd(_mm256_add_pd(_mm256_set1_pd(cone.coneTerm),
+                                        _mm256_mul_pd(_mm256_set1_pd(double(cone.nX)), _mm256_cvtps_pd(half(px)))),
+                          _mm256_mul_pd(_mm256_set1_pd(double(cone.nP)), _mm256_cvtps_pd(half(pp))));
+        // Kept: not skipped and pdfSum > 0 (addBalanced's tests).
+        const __m256d skipWide = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_castps_si128(half(skip))));
+        const __m256d keep = _mm256_andnot_pd(skipWide, _mm256_cmp_pd(sumPdf, _mm256_setzero_pd(), _CMP_GT_OQ));
+        __m256d t[4];
+        for (int c = 0; c < 3; ++c) t[c] = _mm256_and_pd(keep, _mm256_div_pd(_mm256_cvtps_pd(half(f[c])), sumPdf));
+        t[3] = _mm256_setzero_pd();
+        // Four samples' (r, g, b, 0) rows: a 4x4 transpose.
+        const __m256d a0 = _mm256_unpacklo_pd(t[0], t[1]), a1 = _mm256_unpackhi_pd(t[0], t[1]);
+        const __m256d a2 = _mm256_unpacklo_pd(t[2], t[3]), a3 = _mm256_unpackhi_pd(t[2], t[3]);
+        double* row = terms[i0 + 4 * h];
+        _mm256_store_pd(row, _mm256_permute2f128_pd(a0, a2, 0x20));
+        _mm256_store_pd(row + 4, _mm256_permute2f128_pd(a1, a3, 0x20));
+        _mm256_store_pd(row + 8, _mm256_permute2f128_pd(a0, a2, 0x31));
+        _mm256_store_pd(row + 12, _mm256_permute2f128_pd(a1, a3, 0x31));
+      }
+    }
+    // Each strategy's sum, its terms in order (a dropped term is +0, which
+    // leaves the non-negative sums as they are); the channels side by side.
+    for (int st = 0; st < 3; ++st) {
+      __m256d acc = _mm256_setr_pd(sums.s[st][0], sums.s[st][1], sums.s[st][2], 0.0);
+      for (int i = start[st]; i < start[st + 1]; ++i) acc = _mm256_add_pd(acc, _mm256_load_pd(terms[i]));
+      alignas(32) double out[4];
+      _mm256_store_pd(out, acc);
+      for (int c = 0; c < 3; ++c) sums.s[st][c] = out[c];
     }
     n = 0;
   }
 };
+
+// One strategy's samples of up to kRounds rounds: their uniforms, then each
+// sample's direction in both local frames and whether it passed the tests.
+struct VslStrategyBlock {
+  static constexpr int kRounds = 32;
+  alignas(32) float u[3][kRounds];
+  alignas(32) float lx[3][kRounds], lp[3][kRounds];
+  alignas(32) int32_t ok[kRounds];
+  int count = 0;
+  // Zeroes the uniforms of the lanes past count, up to the last register.
+  void clearTail() {
+    for (int k = 0; k < 3; ++k)
+      for (int j = count; j < ((count + 7) & ~7); ++j) u[k][j] = 0;
+  }
+};
+
+enum class VslStrategy { Cone, X, P };
+
+// The directions of a block of one strategy's samples, and VslCone::accept's
+// tests on them, eight lanes at a time with the scalar form's operations:
+// the cone's samples from their uniforms, a BRDF's (directions already drawn
+// in its local frame, in b.lx or b.lp) turned to the other side's frame.
+template <VslStrategy kS>
+VSL_AVX2 void connectBlock(const VslReceiver& x, const VslEmitter& p, const VslCone& cone, float coneLimit,
+                           VslStrategyBlock& b) {
+  using namespace simd;
+  const __m256 zero = _mm256_setzero_ps();
+  for (int i0 = 0; i0 < b.count; i0 += 8) {
+    Vec3x8 l, lx, lp;
+    __m256 pass;
+    if constexpr (kS == VslStrategy::Cone) {
+      // sampleUniformConeOmc, then the cone's frame.
+      const __m256 v = mul(_mm256_load_ps(b.u[0] + i0), splat(float(cone.omc)));
+      const __m256 sinTheta = safeSqrt8(mul(v, sub(splat(2.0f), v)));
+      __m256 sinPhi, cosPhi;
+      sinCosTwoPi8(_mm256_load_ps(b.u[1] + i0), sinPhi, cosPhi);
+      const Vec3x8 local{mul(cosPhi, sinTheta), mul(sinPhi, sinTheta), sub(splat(1.0f), v)};
+      toWorld8(cone.frame, local, l);
+      pass = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    } else {
+      const Frame& f = kS == VslStrategy::X ? x.frame : p.frame;
+      const float(*wi)[VslStrategyBlock::kRounds] = kS == VslStrategy::X ? b.lx : b.lp;
+      const Vec3x8 local{_mm256_load_ps(wi[0] + i0), _mm256_load_ps(wi[1] + i0), _mm256_load_ps(wi[2] + i0)};
+      toWorld8(f, local, l);
+      if constexpr (kS == VslStrategy::P) l = {neg(l.x), neg(l.y), neg(l.z)};
+      // inCone: |l - axis|^2 against the float form of 2 omc.
+      const __m256 dx = sub(l.x, splat(cone.axis.x)), dy = sub(l.y, splat(cone.axis.y)),
+                   dz = sub(l.z, splat(cone.axis.z));
+      const __m256 d2 = add(add(mul(dx, dx), mul(dy, dy)), mul(dz, dz));
+      pass = both(_mm256_castsi256_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(b.ok + i0))),
+                  lessEqual(d2, splat(coneLimit)));
+      if constexpr (kS == VslStrategy::X) lx = local;
+      if constexpr (kS == VslStrategy::P) lp = local;
+    }
+    // dot(l, ng) <= 0 fails (a NaN passes, as in the scalar test).
+    pass = both(pass, _mm256_cmp_ps(dot8(l, x.ng), zero, _CMP_NLE_UQ));
+    if constexpr (kS != VslStrategy::X) toLocal8(x.frame, l, lx);
+    if constexpr (kS != VslStrategy::P) {
+      const Vec3x8 back{neg(l.x), neg(l.y), neg(l.z)};
+      toLocal8(p.frame, back, lp);
+    }
+    pass = both(pass, both(greater(lx.z, zero), greater(lp.z, zero)));
+    _mm256_store_ps(b.lx[0] + i0, lx.x);
+    _mm256_store_ps(b.lx[1] + i0, lx.y);
+    _mm256_store_ps(b.lx[2] + i0, lx.z);
+    _mm256_store_ps(b.lp[0] + i0, lp.x);
+    _mm256_store_ps(b.lp[1] + i0, lp.y);
+    _mm256_store_ps(b.lp[2] + i0, lp.z);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(b.ok + i0), _mm256_castps_si256(pass));
+  }
+}
+
+// The quadrature in blocks of rounds: the uniforms drawn in the scalar form's
+// order, each strategy's directions and tests eight at a time, the samples
+// that pass queued strategy by strategy and their BRDFs evaluated in blocks.
+VSL_AVX2 VslResult blockQuadrature(const VslReceiver& x, const VslEmitter& p, const VslCone& cone, const Vec3& toLight,
+                                   double radius, const VslOptions& options, Rng& rng) {
+  constexpr int kRounds = VslStrategyBlock::kRounds;
+  static_assert(3 * kRounds <= VslPending::kCapacity, "a block's samples fit the queue");
+  VslResult res;
+  res.evaluations = cone.draws();
+  VslSums sums;
+  const float coneLimit = cone.inConeLimit();
+  VslPending pending;
+  VslStrategyBlock c, bx, bp;
+  for (int r0 = 0; r0 < cone.n; r0 += kRounds) {
+    const int r1 = std::min(cone.n, r0 + kRounds);
+    c.count = std::clamp(cone.nCone - r0, 0, kRounds);
+    bx.count = std::clamp(cone.nX - r0, 0, kRounds);
+    bp.count = std::clamp(cone.nP - r0, 0, kRounds);
+    // The chunk's uniforms in one stream, handed out in the scalar form's
+    // order (per round: cone 2, receiver 3, light 3); lanes past a count
+    // are zero.
+    float draws[8 * kRounds];
+    rng.uniforms(draws, 2 * c.count + 3 * bx.count + 3 * bp.count);
+    const float* d = draws;
+    for (int j = 0; j < r1 - r0; ++j) {
+      if (j < c.count)
+        for (int k = 0; k < 2; ++k) c.u[k][j] = *d++;
+      if (j < bx.count)
+        for (int k = 0; k < 3; ++k) bx.u[k][j] = *d++;
+      if (j < bp.count)
+        for (int k = 0; k < 3; ++k) bp.u[k][j] = *d++;
+    }
+    c.clearTail();
+    bx.clearTail();
+    bp.clearTail();
+    if (c.count) connectBlock<VslStrategy::Cone>(x, p, cone, coneLimit, c);
+    if (bx.count) {
+      const float* const u[3] = {bx.u[0], bx.u[1], bx.u[2]};
+      float* const wi[3] = {bx.lx[0], bx.lx[1], bx.lx[2]};
+      x.f.sampleDirections(bx.count, u, wi, bx.ok);
+      connectBlock<VslStrategy::X>(x, p, cone, coneLimit, bx);
+    }
+    if (bp.count) {
+      const float* const u[3] = {bp.u[0], bp.u[1], bp.u[2]};
+      float* const wi[3] = {bp.lp[0], bp.lp[1], bp.lp[2]};
+      p.f.sampleDirections(bp.count, u, wi, bp.ok);
+      connectBlock<VslStrategy::P>(x, p, cone, coneLimit, bp);
+    }
+    // The samples that passed, strategy by strategy.
+    pending.push(c);
+    pending.start[1] = pending.n;
+    pending.push(bx);
+    pending.start[2] = pending.n;
+    pending.push(bp);
+    pending.start[3] = pending.n;
+    pending.flush(x, p, cone, sums);
+  }
+  double sum[3];
+  sums.total(sum);
+  res.transfer = cone.normalise(sum, x, toLight, radius, options);
+  return res;
+}
 
 }  // namespace
 
@@ -296,23 +507,8 @@ VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3
   // Fewer than four samples in all would be evaluated one by one anyway
   // (BrdfAt::evalTotals): the scalar form does that without the block's
   // bookkeeping (most pairs at 100,000 lights). Both give the same bits.
-  if (cone.draws() < 4) return scalarQuadrature(x, p, cone, toLight, radius, options, rng);
-  VslResult res;
-  double sum[3] = {0, 0, 0};
-  VslPending pending;
-  // The same tests as vslTransfer's (VslCone::accept); the BRDF values wait.
-  auto collect = [&](const Vec3& l, bool coneSample, const BrdfSample* fromX, const BrdfSample* fromP) {
-    ++res.evaluations;
-    Vec3 lx, lp;
-    if (cone.accept(x, p, l, coneSample, fromX, fromP, lx, lp)) pending.push(lx, lp, fromX, fromP);
-  };
-  for (int i = 0; i < cone.n; ++i) {
-    cone.drawRound<true>(i, x, p, rng, collect);
-    if (pending.n > VslPending::kCapacity - 3) pending.flush(x, p, cone, sum);
-  }
-  pending.flush(x, p, cone, sum);
-  res.transfer = cone.normalise(sum, x, toLight, radius, options);
-  return res;
+  if (cone.draws() < 4 || !simdAvailable()) return scalarQuadrature(x, p, cone, toLight, radius, options, rng);
+  return blockQuadrature(x, p, cone, toLight, radius, options, rng);
 }
 
 }  // namespace vsl

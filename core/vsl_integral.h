@@ -181,13 +181,20 @@ bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p);
 // kitchen and tableau within 1.5% of the floor alone.
 constexpr float kVslLobeFloorRadiusScale = 1.5f;
 
-// toLight = p - x. The scalar reference form.
+// toLight = p - x. The scalar reference form: per round, the cone's sample
+// (two uniforms), then the receiver's BRDF's (three: the lobe, then the
+// direction) and the light's (three); each strategy's terms summed in the
+// order drawn, the three sums then added (cone + receiver, + light).
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                       const VslOptions& options, Rng& rng);
-// The same quadrature with the BRDF evaluations done in blocks of samples
-// (BrdfAt::evalTotals, AVX2 where the CPU has it): the same random stream,
-// the same samples and the same sums in the same order, so the same result
-// as vslTransfer (bit-identical; the tests check float precision).
+// The same quadrature eight samples to a register (AVX2, where the CPU has
+// it; else vslTransfer): up to 32 rounds' uniforms drawn at once in the
+// scalar form's order (Rng::uniforms), each strategy's directions and tests
+// (BrdfAt::sampleDirections, the cone's sampling, VslCone::accept), the
+// samples that pass left-packed strategy by strategy, both BRDFs evaluated
+// on them (BrdfAt::evalTotals) and their terms added in the scalar order.
+// Every operation repeats the scalar one without fused multiply-adds, so the
+// result is vslTransfer's bit for bit (tests/test_gather.cpp checks it).
 VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                            const VslOptions& options, Rng& rng);
 

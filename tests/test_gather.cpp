@@ -139,13 +139,13 @@ TEST(GatherSimd, ManyBrdfsBlockEqualsScalar) {
   EXPECT_GT(nonZero, 4000);  // most lanes evaluate to something
 }
 
-// vslTransferBlock equals the scalar vslTransfer on random (receiver, light)
-// pairs: tiny to wide cones, the receiver inside the sphere, automatic and
+// vslTransferBlock equals the scalar vslTransfer bit for bit on random
+// (receiver, light) pairs: tiny to wide cones, the receiver inside the sphere, automatic and
 // fixed sample counts (long blocks flush several times), both normalisations.
 TEST(GatherSimd, VslBlockEqualsScalar) {
   Rng rng(10, 5);
   int nonZero = 0, unequalCounts = 0;
-  for (int trial = 0; trial < 600; ++trial) {
+  for (int trial = 0; trial < 1200; ++trial) {
     VslReceiver x;
     x.frame = Frame(randomDirection(rng, -1.0f), randomDirection(rng, -1.0f));
     x.ng = normalize(x.frame.n + randomDirection(rng, -1.0f) * 0.2f);
@@ -165,7 +165,9 @@ TEST(GatherSimd, VslBlockEqualsScalar) {
     VslResult s = vslTransfer(x, p, toLight, radius, options, r1);
     VslResult v = vslTransferBlock(x, p, toLight, radius, options, r2);
     ASSERT_EQ(v.evaluations, s.evaluations) << "trial " << trial;
-    for (int c = 0; c < 3; ++c) ASSERT_FLOAT_EQ(v.transfer[c], s.transfer[c]) << "trial " << trial << " c " << c;
+    for (int c = 0; c < 3; ++c)
+      ASSERT_TRUE(sameBits(v.transfer[c], s.transfer[c]))
+          << "trial " << trial << " c " << c << ": " << v.transfer[c] << " " << s.transfer[c];
     // Both consumed the same random numbers.
     ASSERT_EQ(r1.uniformInt(1u << 30), r2.uniformInt(1u << 30)) << "trial " << trial;
     nonZero += s.transfer.y > 0;
@@ -181,6 +183,6 @@ TEST(GatherSimd, VslBlockEqualsScalar) {
   // Most pairs face each other somewhere in the cone: the test compares
   // values, not zeros; and the block form's rounds with unequal counts (a
   // strategy past its count skips the round) are among them.
-  EXPECT_GT(nonZero, 200);
-  EXPECT_GT(unequalCounts, 10);
+  EXPECT_GT(nonZero, 350);  // 388 with this stream
+  EXPECT_GT(unequalCounts, 20);
 }

@@ -573,3 +573,38 @@ TEST(Sampling, MultiJitteredIsStratifiedAndEachPointUniform) {
   EXPECT_LT(varMj, 0.25 * varInd);
   RecordProperty("varianceRatio", std::to_string(varMj / varInd));
 }
+
+// Rng::uniforms gives the numbers uniform() would, one call after the other,
+// and leaves the generator where they would (every length, the four chains'
+// tails included).
+TEST(Rng, UniformsEqualOneByOne) {
+  for (int n = 0; n < 70; ++n) {
+    Rng a(uint64_t(n) * 977 + 5, uint64_t(n) * 31 + 1), b = a;
+    float block[70];
+    a.uniforms(block, n);
+    for (int i = 0; i < n; ++i) ASSERT_EQ(block[i], b.uniform()) << "n " << n << " i " << i;
+    ASSERT_EQ(a.next(), b.next()) << "n " << n;
+  }
+}
+
+// sinCosTwoPi and sinCosQuarterPi against libm's double sin and cos: within
+// float rounding over the whole turn (every quadrant and its edges).
+TEST(Rng, SinCosWithinFloatRounding) {
+  double worst = 0;
+  for (int i = 0; i <= 1 << 20; ++i) {
+    const float u = float(i) / float(1 << 20);
+    float s, c;
+    sinCosTwoPi(u, s, c);
+    const double phi = 2.0 * M_PI * double(u);
+    worst = std::max({worst, std::abs(double(s) - std::sin(phi)), std::abs(double(c) - std::cos(phi))});
+    const float t = 2.0f * u - 1.0f;
+    sinCosQuarterPi(t, s, c);
+    worst =
+        std::max({worst, std::abs(double(s) - std::sin(M_PI / 4 * t)), std::abs(double(c) - std::cos(M_PI / 4 * t))});
+  }
+  EXPECT_LT(worst, 2.5e-7);  // a few float ulps of 1
+  float s, c;
+  sinCosTwoPi(0.25f, s, c);
+  EXPECT_EQ(s, 1.0f);
+  EXPECT_EQ(c, 0.0f);
+}
