@@ -139,6 +139,50 @@ TEST(GatherSimd, ManyBrdfsBlockEqualsScalar) {
   EXPECT_GT(nonZero, 4000);  // most lanes evaluate to something
 }
 
+// BrdfAt::sampleDirections' AVX2 form gives sampleDirection's bits: random
+// BRDFs (both lobes, one lobe alone, w below the surface), uniforms including
+// 0 and the concentric map's centre, every count up to three registers; the
+// slots past n stay untouched.
+TEST(GatherSimd, SampleDirectionsBlockEqualsScalar) {
+  Rng rng(21, 4);
+  constexpr int kMax = 24;
+  constexpr float kUntouched = 12345.0f;
+  int specular = 0, diffuse = 0, failed = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const BrdfAt f = randomBrdfAt(rng);
+    const int n = 1 + int(rng.uniformInt(kMax));
+    float u[3][kMax + 1], wi[3][kMax + 1];
+    int32_t ok[kMax + 1];
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const float pick = rng.uniform();
+        u[k][i] = pick < 0.05f ? 0.0f : pick < 0.1f ? 0.5f : rng.uniform();
+      }
+    for (int k = 0; k < 3; ++k) wi[k][n] = kUntouched;
+    ok[n] = 7;
+    const float* const uRows[3] = {u[0], u[1], u[2]};
+    float* const wiRows[3] = {wi[0], wi[1], wi[2]};
+    f.sampleDirections(n, uRows, wiRows, ok);
+    for (int i = 0; i < n; ++i) {
+      Vec3 w;
+      bool spec = false;
+      const bool sampled = f.sampleDirection(u[0][i], {u[1][i], u[2][i]}, w, spec);
+      ASSERT_EQ(ok[i] != 0, sampled) << "trial " << trial << " i " << i;
+      failed += !sampled;
+      if (!sampled) continue;
+      (spec ? specular : diffuse) += 1;
+      for (int c = 0; c < 3; ++c)
+        ASSERT_TRUE(sameBits(wi[c][i], w[c]))
+            << "trial " << trial << " i " << i << " c " << c << ": " << wi[c][i] << " " << w[c];
+    }
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(wi[k][n], kUntouched) << "trial " << trial;
+    ASSERT_EQ(ok[n], 7) << "trial " << trial;
+  }
+  EXPECT_GT(specular, 5000);
+  EXPECT_GT(diffuse, 5000);
+  EXPECT_GT(failed, 500);
+}
+
 // vslTransferBlock equals the scalar vslTransfer bit for bit on random
 // (receiver, light) pairs: tiny to wide cones, the receiver inside the sphere, automatic and
 // fixed sample counts (long blocks flush several times), both normalisations.
