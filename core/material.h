@@ -204,9 +204,6 @@ class BrdfAt {
   bool sampleDirectionIn(const GGX::VisibleFrame& v, float u1, Vec2 u2, Vec3& wi, bool& specular) const;
 };
 
-// True when this CPU runs the AVX2 block forms (BrdfAt::evalTotalsAvx2).
-bool simdAvailable();
-
 // An RGBA image in [0,1] (as stored, not yet linearised).
 struct Texture {
   std::string name;

@@ -84,6 +84,9 @@ inline T sqr(T v) {
   return v * v;
 }
 
+// True when this CPU runs the AVX2 block forms (core/simd.h).
+bool simdAvailable();
+
 // sin and cos of t pi/4 for t in [-1, 1]: Taylor polynomials to x^9 and x^8,
 // whose truncation error (below 3e-8 at pi/4) is under float's rounding. The
 // samplers use these instead of libm so that their AVX2 forms (core/simd.h),

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "core/simd.h"
+
 namespace vsl {
 
 void multiJittered(int count, Rng& rng, Vec2* out) {
@@ -169,6 +171,50 @@ size_t DiscreteDistribution::sample(float u, float* pmf, float* uRemapped) const
     if (*uRemapped < 0) *uRemapped = 0;
   }
   return i;
+}
+
+namespace {
+// a * b mod 2^64 on four 64-bit lanes, b a constant: the low product plus
+// the two cross products shifted up (the high one falls off).
+VSL_AVX2 __m256i mul64(__m256i a, uint64_t b) {
+  const __m256i lo = _mm256_set1_epi64x(int64_t(b & 0xffffffffu)), hi = _mm256_set1_epi64x(int64_t(b >> 32));
+  const __m256i cross = _mm256_add_epi64(_mm256_mul_epu32(_mm256_srli_epi64(a, 32), lo), _mm256_mul_epu32(a, hi));
+  return _mm256_add_epi64(_mm256_mul_epu32(a, lo), _mm256_slli_epi64(cross, 32));
+}
+// Rng's output and toUniform on four states, the results in the even
+// 32-bit slots.
+VSL_AVX2 __m256 uniformsOf(__m256i old) {
+  const __m256i x = _mm256_srli_epi64(_mm256_xor_si256(_mm256_srli_epi64(old, 18), old), 27);
+  const __m256i rot = _mm256_srli_epi64(old, 59);
+  const __m256i back = _mm256_and_si256(_mm256_sub_epi32(_mm256_setzero_si256(), rot), _mm256_set1_epi32(31));
+  const __m256i r = _mm256_or_si256(_mm256_srlv_epi32(x, rot), _mm256_sllv_epi32(x, back));
+  return _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(r, 8)), _mm256_set1_ps(0x1p-24f));
+}
+}  // namespace
+
+VSL_AVX2 void Rng::uniformsAvx2(float* out, int n) {
+  // Chain k starts k steps on, at M^k s + inc a_k (a_0 = 0, a_k+1 = M a_k + 1),
+  // and strides eight steps: M^8 s + inc a_8.
+  uint64_t mk = 1, ak = 0, start[8];
+  for (int k = 0; k < 8; ++k) {
+    start[k] = mk * state_ + inc_ * ak;
+    ak = kMul * ak + 1;
+    mk *= kMul;
+  }
+  const uint64_t inc8 = inc_ * ak;
+  __m256i lo = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(start));
+  __m256i hi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(start + 4));
+  const __m256i step = _mm256_set1_epi64x(int64_t(inc8));
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    // Chains 0, 1 (lo) and 4, 5 (hi), then 2, 3 and 6, 7, in 64-bit units.
+    const __m256 mixed = _mm256_shuffle_ps(uniformsOf(lo), uniformsOf(hi), 0x88);
+    _mm256_storeu_ps(out + i, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(mixed), 0xd8)));
+    lo = _mm256_add_epi64(mul64(lo, mk), step);
+    hi = _mm256_add_epi64(mul64(hi, mk), step);
+  }
+  state_ = uint64_t(_mm256_extract_epi64(lo, 0));
+  for (; i < n; ++i) out[i] = uniform();
 }
 
 }  // namespace vsl
