@@ -60,8 +60,9 @@ void BM_BrdfSample(benchmark::State& state) {
 }
 BENCHMARK(BM_BrdfSample);
 
-// The cone integral for a narrow cone (0.6 degrees: 1 sample per strategy), a
-// 15-degree cone (17 per strategy) and a 29-degree one (33 per strategy), in
+// The cone integral for a narrow cone (0.6 degrees: 1 sample per strategy),
+// cones of 1.1, 2.8 and 5.6 degrees (2, 4 and 7 per strategy), a 15-degree
+// cone (17 per strategy) and a 29-degree one (33 per strategy), in
 // the scalar reference form and the block form the gather uses.
 template <bool kBlock>
 void BM_VslCone(benchmark::State& state) {
@@ -80,8 +81,8 @@ void BM_VslCone(benchmark::State& state) {
                                     : vslTransfer(x, p, toLight, radius, {}, r));
   state.SetItemsProcessed(int64_t(state.iterations()));
 }
-BENCHMARK(BM_VslCone<false>)->Arg(1)->Arg(27)->Arg(50);
-BENCHMARK(BM_VslCone<true>)->Arg(1)->Arg(27)->Arg(50);
+BENCHMARK(BM_VslCone<false>)->Arg(1)->Arg(2)->Arg(5)->Arg(10)->Arg(27)->Arg(50);
+BENCHMARK(BM_VslCone<true>)->Arg(1)->Arg(2)->Arg(5)->Arg(10)->Arg(27)->Arg(50);
 
 // One lobe-gather estimate's BRDF evaluations: 31 map lights, each its own
 // BRDF (metals and dielectrics, rough to narrow) at its own direction: one
