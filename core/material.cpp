@@ -579,18 +579,10 @@ VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, co
       for (int j = 0; j < 8; ++j) rows[j] = _mm256_loadu_ps((j < m ? packed[i0 + j] : kZero) + 8 * g);
       transpose8(rows, v + 8 * g);
     }
-    alignas(32) float x[8] = {}, y[8] = {}, z[8] = {}, out[3][8];
-    for (int j = 0; j < m; ++j) {
-      x[j] = wx[i0 + j];
-      y[j] = wy[i0 + j];
-      z[j] = wz[i0 + j];
-    }
     const BrdfLanes k = lanesOf(v, diffuseOnly);
     __m256 fv[3], pv;
-    evalTotals8(k, _mm256_load_ps(x), _mm256_load_ps(y), _mm256_load_ps(z), fv, pv);
-    for (int c = 0; c < 3; ++c) _mm256_store_ps(out[c], fv[c]);
-    for (int j = 0; j < m; ++j)
-      for (int c = 0; c < 3; ++c) f[c][i0 + j] = out[c][j];
+    evalTotals8(k, loadFirst(wx + i0, m), loadFirst(wy + i0, m), loadFirst(wz + i0, m), fv, pv);
+    for (int c = 0; c < 3; ++c) storeFirst(f[c] + i0, fv[c], m);
   }
 }
 

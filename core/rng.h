@@ -21,6 +21,18 @@ inline uint64_t mix64(uint64_t v) {
 
 inline uint64_t hashCombine(uint64_t a, uint64_t b) { return mix64(a ^ (mix64(b) + 0x9e3779b97f4a7c15ULL)); }
 
+// PCG32's multiplier M, and k of its steps in one: state' = mul state +
+// inc add, with mul = M^k and add = 1 + M + ... + M^(k-1) (Rng::uniforms).
+constexpr uint64_t kPcgMultiplier = 6364136223846793005ULL;
+struct PcgJump {
+  uint64_t mul, add;
+};
+constexpr PcgJump pcgJump(int k) {
+  PcgJump j{1, 0};
+  for (int i = 0; i < k; ++i) j = {j.mul * kPcgMultiplier, j.add * kPcgMultiplier + 1};
+  return j;
+}
+
 // PCG32 (O'Neill 2014): 64-bit state, 32-bit output, selectable stream.
 class Rng {
  public:
@@ -49,26 +61,33 @@ class Rng {
 
   // Uniform in [0, 1): 24 random mantissa bits, never returns 1.
   float uniform() { return toUniform(next()); }
-  // n uniforms, the ones n calls of uniform() would give, in that order. The
-  // state k steps on is M^k s + inc (M^(k-1) + ... + 1), so four chains a
-  // step apart, each striding four steps, make them without waiting on one
-  // multiply after the other.
+  // n uniforms, the ones n calls of uniform() would give, in that order, and
+  // the generator left where they would leave it. The state k steps on is
+  // M^k s + inc a_k (pcgJump(k)), so chains a step apart, each striding k steps,
+  // make them without waiting on one multiply after the other: four chains
+  // (uniformsScalar) or eight in AVX2 lanes (uniformsAvx2, where
+  // simdAvailable(); the same numbers).
   void uniforms(float* out, int n) {
-    if (n >= 16 && simdAvailable()) return uniformsAvx2(out, n);
+    if (n >= 16 && simdAvailable())
+      uniformsAvx2(out, n);
+    else
+      uniformsScalar(out, n);
+  }
+  void uniformsScalar(float* out, int n) {
     int i = 0;
     if (n >= 8) {
-      constexpr uint64_t kMul2 = kMul * kMul, kMul4 = kMul2 * kMul2;
-      const uint64_t inc4 = inc_ * (1 + kMul + kMul2 + kMul2 * kMul);
+      constexpr PcgJump k4 = pcgJump(4);
+      const uint64_t inc4 = inc_ * k4.add;
       uint64_t s0 = state_, s1 = s0 * kMul + inc_, s2 = s1 * kMul + inc_, s3 = s2 * kMul + inc_;
       for (; i + 4 <= n; i += 4) {
         out[i] = toUniform(output(s0));
         out[i + 1] = toUniform(output(s1));
         out[i + 2] = toUniform(output(s2));
         out[i + 3] = toUniform(output(s3));
-        s0 = s0 * kMul4 + inc4;
-        s1 = s1 * kMul4 + inc4;
-        s2 = s2 * kMul4 + inc4;
-        s3 = s3 * kMul4 + inc4;
+        s0 = s0 * k4.mul + inc4;
+        s1 = s1 * k4.mul + inc4;
+        s2 = s2 * k4.mul + inc4;
+        s3 = s3 * k4.mul + inc4;
       }
       state_ = s0;
     }
@@ -82,7 +101,7 @@ class Rng {
   uint32_t uniformInt(uint32_t n) { return uint32_t((uint64_t(next()) * n) >> 32); }
 
  private:
-  static constexpr uint64_t kMul = 6364136223846793005ULL;
+  static constexpr uint64_t kMul = kPcgMultiplier;
   static uint32_t output(uint64_t old) {
     uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
     uint32_t rot = uint32_t(old >> 59u);

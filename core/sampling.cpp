@@ -193,25 +193,22 @@ VSL_AVX2 __m256 uniformsOf(__m256i old) {
 }  // namespace
 
 VSL_AVX2 void Rng::uniformsAvx2(float* out, int n) {
-  // Chain k starts k steps on, at M^k s + inc a_k (a_0 = 0, a_k+1 = M a_k + 1),
-  // and strides eight steps: M^8 s + inc a_8.
-  uint64_t mk = 1, ak = 0, start[8];
-  for (int k = 0; k < 8; ++k) {
-    start[k] = mk * state_ + inc_ * ak;
-    ak = kMul * ak + 1;
-    mk *= kMul;
-  }
-  const uint64_t inc8 = inc_ * ak;
+  // Chain k starts k steps on and strides eight steps.
+  static constexpr PcgJump kStart[8] = {pcgJump(0), pcgJump(1), pcgJump(2), pcgJump(3),
+                                        pcgJump(4), pcgJump(5), pcgJump(6), pcgJump(7)};
+  uint64_t start[8];
+  for (int k = 0; k < 8; ++k) start[k] = kStart[k].mul * state_ + inc_ * kStart[k].add;
+  constexpr PcgJump k8 = pcgJump(8);
   __m256i lo = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(start));
   __m256i hi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(start + 4));
-  const __m256i step = _mm256_set1_epi64x(int64_t(inc8));
+  const __m256i step = _mm256_set1_epi64x(int64_t(inc_ * k8.add));
   int i = 0;
   for (; i + 8 <= n; i += 8) {
     // Chains 0, 1 (lo) and 4, 5 (hi), then 2, 3 and 6, 7, in 64-bit units.
     const __m256 mixed = _mm256_shuffle_ps(uniformsOf(lo), uniformsOf(hi), 0x88);
     _mm256_storeu_ps(out + i, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(mixed), 0xd8)));
-    lo = _mm256_add_epi64(mul64(lo, mk), step);
-    hi = _mm256_add_epi64(mul64(hi, mk), step);
+    lo = _mm256_add_epi64(mul64(lo, k8.mul), step);
+    hi = _mm256_add_epi64(mul64(hi, k8.mul), step);
   }
   state_ = uint64_t(_mm256_extract_epi64(lo, 0));
   for (; i < n; ++i) out[i] = uniform();

@@ -1,8 +1,9 @@
 // Eight-lane (AVX2) helpers for the block forms of the BRDF and the VSL
 // quadrature. Each function is compiled for AVX2 only (the VSL_AVX2
 // attribute; callers check simdAvailable() first) and without fused
-// multiply-adds, so that a lane computed with the scalar code's operations in
-// the scalar code's order gives the scalar code's bits.
+// multiply-adds (-ffp-contract=off for the whole build, CMakeLists.txt), so
+// that a lane computed with the scalar code's operations in the scalar code's
+// order gives the scalar code's bits.
 #pragma once
 
 #include <immintrin.h>

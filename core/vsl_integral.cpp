@@ -256,17 +256,19 @@ namespace {
 // left-pack by _mm256_permutevar8x32_ps.
 struct LeftPackTable {
   alignas(32) int32_t index[256][8];
-  LeftPackTable() {
-    for (int m = 0; m < 256; ++m) {
-      int k = 0;
-      for (int j = 0; j < 8; ++j)
-        if (m >> j & 1) index[m][k++] = j;
-      for (int j = 0; j < 8; ++j)
-        if (!(m >> j & 1)) index[m][k++] = j;
-    }
-  }
 };
-const LeftPackTable kLeftPack;
+constexpr LeftPackTable leftPackTable() {
+  LeftPackTable t{};
+  for (int m = 0; m < 256; ++m) {
+    int k = 0;
+    for (int j = 0; j < 8; ++j)
+      if (m >> j & 1) t.index[m][k++] = j;
+    for (int j = 0; j < 8; ++j)
+      if (!(m >> j & 1)) t.index[m][k++] = j;
+  }
+  return t;
+}
+constexpr LeftPackTable kLeftPack = leftPackTable();
 
 // Samples that passed the cone and hemisphere tests, each strategy's in the
 // order drawn and the strategies one after the other, waiting for their
@@ -311,7 +313,8 @@ struct VslPending {
       const __m256 px = cone.useX ? _mm256_load_ps(exPdf + i0) : zero;
       const __m256 pp = cone.useP ? _mm256_load_ps(epPdf + i0) : zero;
       // A BRDF sample whose pdf is not positive and finite failed
-      // (BrdfAt::sample()); fromX, fromP: the lanes of those strategies.
+      // (BrdfAt::sample()'s guard, mirrored; no sampled direction has been
+      // seen to need it); fromX, fromP: the lanes of those strategies.
       const __m256i lane = _mm256_add_epi32(_mm256_set1_epi32(i0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
       auto within = [&](int lo, int hi) VSL_AVX2 {
         return _mm256_castsi256_ps(_mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(lo), lane),
@@ -468,9 +471,7 @@ VSL_AVX2 VslResult blockQuadrature(const VslReceiver& x, const VslEmitter& p, co
       if (j < bp.count)
         for (int k = 0; k < 3; ++k) bp.u[k][j] = *d++;
     }
-    c.clearTail();
-    bx.clearTail();
-    bp.clearTail();
+    c.clearTail();  // sampleDirections loads no lane past its count
     if (c.count) connectBlock<VslStrategy::Cone>(x, p, cone, coneLimit, c);
     if (bx.count) {
       const float* const u[3] = {bx.u[0], bx.u[1], bx.u[2]};
@@ -506,7 +507,8 @@ VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3
   const VslCone cone(x, p, toLight, radius, options);
   // Fewer than four samples in all would be evaluated one by one anyway
   // (BrdfAt::evalTotals): the scalar form does that without the block's
-  // bookkeeping (most pairs at 100,000 lights). Both give the same bits.
+  // bookkeeping (most pairs at 100,000 lights), and it is the whole
+  // quadrature on a CPU without AVX2. Both give the same bits.
   if (cone.draws() < 4 || !simdAvailable()) return scalarQuadrature(x, p, cone, toLight, radius, options, rng);
   return blockQuadrature(x, p, cone, toLight, radius, options, rng);
 }

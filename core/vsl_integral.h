@@ -194,7 +194,8 @@ VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toL
 // samples that pass left-packed strategy by strategy, both BRDFs evaluated
 // on them (BrdfAt::evalTotals) and their terms added in the scalar order.
 // Every operation repeats the scalar one without fused multiply-adds, so the
-// result is vslTransfer's bit for bit (tests/test_gather.cpp checks it).
+// result is vslTransfer's bit for bit (tests/test_gather.cpp checks the float
+// result; the double sums are added in the same order by construction).
 VslResult vslTransferBlock(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                            const VslOptions& options, Rng& rng);
 

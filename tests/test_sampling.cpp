@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <utility>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "core/lights.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "core/simd.h"
 #include "support.h"
 
 using namespace vsl;
@@ -575,21 +577,32 @@ TEST(Sampling, MultiJitteredIsStratifiedAndEachPointUniform) {
 }
 
 // Rng::uniforms gives the numbers uniform() would, one call after the other,
-// and leaves the generator where they would (every length, the four chains'
-// tails included).
+// and leaves the generator where they would: both forms (four scalar chains,
+// eight AVX2 lanes), every length to 200 (the chains' tails included), many
+// seeds and streams; nothing is written past n.
 TEST(Rng, UniformsEqualOneByOne) {
-  for (int n = 0; n < 70; ++n) {
-    Rng a(uint64_t(n) * 977 + 5, uint64_t(n) * 31 + 1), b = a;
-    float block[70];
-    a.uniforms(block, n);
-    for (int i = 0; i < n; ++i) ASSERT_EQ(block[i], b.uniform()) << "n " << n << " i " << i;
-    ASSERT_EQ(a.next(), b.next()) << "n " << n;
+  constexpr int kMax = 200;
+  for (int form = 0; form < 2; ++form) {
+    if (form == 1 && !simdAvailable()) continue;
+    for (int n = 0; n <= kMax; ++n)
+      for (uint64_t seed = 0; seed < 6; ++seed) {
+        Rng a(uint64_t(n) * 977 + seed * 31337 + 5, uint64_t(n) * 31 + seed + 1), b = a;
+        float block[kMax + 1];
+        block[n] = -1.0f;
+        if (form == 0)
+          a.uniformsScalar(block, n);
+        else
+          a.uniformsAvx2(block, n);
+        for (int i = 0; i < n; ++i) ASSERT_EQ(block[i], b.uniform()) << "form " << form << " n " << n << " i " << i;
+        ASSERT_EQ(block[n], -1.0f) << "form " << form << " n " << n;
+        ASSERT_EQ(a.next(), b.next()) << "form " << form << " n " << n;
+      }
   }
 }
 
 // sinCosTwoPi and sinCosQuarterPi against libm's double sin and cos: within
 // float rounding over the whole turn (every quadrant and its edges).
-TEST(Rng, SinCosWithinFloatRounding) {
+TEST(Sampling, SinCosWithinFloatRounding) {
   double worst = 0;
   for (int i = 0; i <= 1 << 20; ++i) {
     const float u = float(i) / float(1 << 20);
@@ -607,4 +620,31 @@ TEST(Rng, SinCosWithinFloatRounding) {
   sinCosTwoPi(0.25f, s, c);
   EXPECT_EQ(s, 1.0f);
   EXPECT_EQ(c, 0.0f);
+}
+
+namespace {
+// sinCosTwoPi8 on the eight uniforms from k (k 2^-24, ... (k + 7) 2^-24).
+VSL_AVX2 void sinCosTwoPiLanes(uint32_t k, float s[8], float c[8]) {
+  const __m256i ks = _mm256_add_epi32(_mm256_set1_epi32(int32_t(k)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  __m256 sv, cv;
+  simd::sinCosTwoPi8(_mm256_mul_ps(_mm256_cvtepi32_ps(ks), _mm256_set1_ps(0x1p-24f)), sv, cv);
+  _mm256_storeu_ps(s, sv);
+  _mm256_storeu_ps(c, cv);
+}
+}  // namespace
+
+// The AVX2 sin and cos give the scalar bits on every uniform Rng can return
+// (k 2^-24 for k < 2^24), so the samplers' two forms agree.
+TEST(Sampling, SinCosLanesEqualScalar) {
+  if (!simdAvailable()) GTEST_SKIP() << "no AVX2";
+  float s[8], c[8];
+  for (uint32_t k = 0; k < (1u << 24); k += 8) {
+    sinCosTwoPiLanes(k, s, c);
+    for (int j = 0; j < 8; ++j) {
+      float ws, wc;
+      sinCosTwoPi(float(k + uint32_t(j)) * 0x1p-24f, ws, wc);
+      ASSERT_EQ(std::memcmp(&s[j], &ws, 4), 0) << "k " << k + j;
+      ASSERT_EQ(std::memcmp(&c[j], &wc, 4), 0) << "k " << k + j;
+    }
+  }
 }
