@@ -96,6 +96,12 @@ struct Point {
   // variance of the configuration's finals over its independent runs (the
   // same on each of them; NaN with one run).
   double flip = NAN, bias2 = NAN, variance = NAN;
+  // Where the run predicted, after this point, the next step would end
+  // (seconds; NaN where it did not predict: the -sets methods, which stop
+  // after --batches). It starts that step only if the end is within the
+  // budget (sweep.json's nextStepPredictedEnd; null in a merged sweep, whose
+  // points come from the shards' CSV; test Cli.SweepFinalsAreAtEqualTime).
+  double nextEnd = NAN;
   std::string series() const {
     std::ostringstream s;
     const Method gather = sweepMethod(method).gather;
@@ -273,6 +279,12 @@ struct SweepContext {
   // as the last), since the point it would give could not be the run's final
   // one.
   bool nextFits(double el, double dt) const { return el + dt <= budget(); }
+  // The same, keeping the prediction on the run's latest point
+  // (Point::nextEnd): the steps of brute force and of passes.
+  bool nextFitsAfterPoint(double el, double dt) {
+    pts.back().nextEnd = el + dt;
+    return nextFits(el, dt);
+  }
   // Records a point; it becomes the run's final candidate unless the run is
   // time-capped, already has a candidate and this point is past the budget.
   void record(const std::string& method, uint32_t n, float sc, int set, int step, double seconds, const Image& img,
@@ -409,7 +421,7 @@ struct SweepContext {
       for (float& x : mean.rgb) x /= float(pass + 1);
       double el = clock.seconds();
       record(method, n, sc, set, pass + 1, el, mean, !sm.passesCappedByBatches);
-      if (sm.passesCappedByBatches ? pass + 1 >= a.batches : !nextFits(el, el - before)) break;
+      if (sm.passesCappedByBatches ? pass + 1 >= a.batches : !nextFitsAfterPoint(el, el - before)) break;
       before = el;
     }
     finish();
@@ -435,7 +447,7 @@ struct SweepContext {
       // the comparison).
       const double gathered = est->stats().gatherSeconds;
       const double outside = std::max(el - before - (gathered - gatheredBefore), 0.0);
-      if (!nextFits(el, est->nextStepSeconds().value_or(el - before) + outside)) break;
+      if (!nextFitsAfterPoint(el, est->nextStepSeconds().value_or(el - before) + outside)) break;
       before = el;
       gatheredBefore = gathered;
     }
@@ -573,6 +585,8 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   std::vector<Point> exact;
   if (Result<void> parsed = parsePoints(pointsCsv(pts, reference.noise), exact); !parsed)
     return fail(kExitBadInput, parsed.error());
+  // The CSV does not hold the predictions: they are carried over (sweep.json).
+  for (size_t i = 0; i < exact.size() && i < pts.size(); ++i) exact[i].nextEnd = pts[i].nextEnd;
   pts = std::move(exact);
   return 0;
 }
@@ -694,7 +708,8 @@ nlohmann::json pointsJson(const SweepMeta& meta, const std::vector<Point>& pts) 
                             {"final", p.final},
                             {"flipLdr", jsonNumber(p.flip)},
                             {"bias2", jsonNumber(p.bias2)},
-                            {"variance", jsonNumber(p.variance)}});
+                            {"variance", jsonNumber(p.variance)},
+                            {"nextStepPredictedEnd", jsonNumber(p.nextEnd)}});
   }
   return js;
 }

@@ -208,23 +208,47 @@ static void expectFinalsWithinBudget(const std::vector<std::vector<std::string>>
   }
 }
 
-// A run does not start a step it predicts (from its last step's length) to end
-// past the budget: such a step's point could not be final. Checked on the
-// runs that record every step (not the path tracer's, recorded at powers of
-// two). The first step's length excludes light tracing, which the CSV does not
-// show, so after it only its end is checked.
-static void expectNoStepStartedPastBudget(const std::vector<std::vector<std::string>>& points, double time) {
-  std::map<std::string, std::vector<double>> runs;  // configuration and set -> each step's end, in order
-  for (const std::vector<std::string>& f : points)
-    if (f[0] != "pt" && f[0].find("-sets") == std::string::npos)
-      runs[f[0] + " " + f[1] + " s " + f[2] + " set " + f[3]].push_back(std::stod(f[5]));
-  const double budget = time * 1.02 * (1 + 1e-5);  // the CSV's six digits
-  for (const auto& [run, ends] : runs)
-    for (size_t k = 1; k < ends.size(); ++k) {
-      const double predicted = k == 1 ? ends[0] : 2 * ends[k - 1] - ends[k - 2];
-      EXPECT_LE(predicted, budget) << run << ": step " << k + 1 << " started at " << ends[k - 1]
-                                   << " s, predicted to end at " << predicted << " s";
+// A run does not start a step it predicts to end past the budget: such a
+// step's point could not be final. sweep.json holds each point's prediction
+// of the next step's end (brute force: the estimator's cost model; passes: as
+// long as the last). Every step started was predicted within the budget; a
+// run that stopped was predicted past it, or had done all its batches
+// (brute force: --batches); passes predict their own length (the CSV's six
+// significant digits of seconds aside: the points are read back from it),
+// which checks that the prediction is the one they acted on.
+static void expectNoStepStartedPastBudget(const std::string& sweepJson, double time, int batches) {
+  std::ifstream in(sweepJson);
+  ASSERT_TRUE(in) << sweepJson;
+  const nlohmann::json js = nlohmann::json::parse(in);
+  std::map<std::string, std::vector<const nlohmann::json*>> runs;  // configuration and set -> its points, in order
+  for (const nlohmann::json& p : js.at("points")) {
+    const std::string method = p.at("method");
+    if (method == "pt" || method.find("-sets") != std::string::npos) continue;
+    runs[method + " " + std::to_string(int(p.at("lights"))) + " set " + std::to_string(int(p.at("set")))].push_back(&p);
+  }
+  ASSERT_FALSE(runs.empty());
+  const double budget = time * 1.02;
+  for (const auto& [run, pts] : runs) {
+    const bool passes = run.find("mrcs") != std::string::npos;
+    for (size_t k = 0; k < pts.size(); ++k) {
+      const nlohmann::json& p = *pts[k];
+      ASSERT_EQ(int(p.at("step")), int(k) + 1) << run;
+      ASSERT_TRUE(p.at("nextStepPredictedEnd").is_number()) << run << " step " << k + 1;
+      const double predicted = p.at("nextStepPredictedEnd"), end = p.at("seconds");
+      EXPECT_GT(predicted, end) << run << " step " << k + 1;
+      if (k + 1 < pts.size()) {
+        EXPECT_LE(predicted, budget) << run << ": step " << k + 2 << " started at " << end << " s, predicted to end at "
+                                     << predicted << " s";
+      } else if (passes || int(p.at("step")) < batches) {
+        EXPECT_GT(predicted, budget) << run << ": stopped at step " << k + 1 << " (" << end
+                                     << " s) though the next was predicted to end at " << predicted << " s";
+      }
+      if (passes) {
+        const double before = k == 0 ? 0.0 : double(pts[k - 1]->at("seconds"));
+        EXPECT_NEAR(predicted, 2 * end - before, 2e-5 * predicted) << run << " step " << k + 1;
+      }
     }
+  }
 }
 
 // vsl-sets and vpl-sets average --batches independent light sets (the studio's
@@ -252,13 +276,13 @@ TEST_F(Cli, SweepFinalsAreAtEqualTime) {
       "--methods pt,vsl,vsl-mrcs --lights 3000 --batches 4 --mrcs 20,40 --time 0.05 --sets 2", "sweep-eq", &header);
   ASSERT_FALSE(points.empty());
   expectFinalsWithinBudget(points, 0.05);
-  expectNoStepStartedPastBudget(points, 0.05);
+  expectNoStepStartedPastBudget(file("sweep-eq/sweep.json"), 0.05, 4);
   // Many short steps: brute force in 32 batches, MRCS passes of a few rows.
   const std::vector<std::vector<std::string>> many = sweepCsv(
       "--methods vpl,vsl-mrcs --lights 2000 --batches 32 --mrcs 4,8 --time 0.1 --sets 2", "sweep-eq-many", &header);
   ASSERT_FALSE(many.empty());
   expectFinalsWithinBudget(many, 0.1);
-  expectNoStepStartedPastBudget(many, 0.1);
+  expectNoStepStartedPastBudget(file("sweep-eq-many/sweep.json"), 0.1, 32);
   // The check above needs a few steps per run; how many fit in the budget
   // depends on the machine (sanitizer builds are slower), so it is only said.
   std::map<std::string, int> steps;
