@@ -158,9 +158,10 @@ struct GatherBench {
 std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                       OcclusionBench& occlusion, double rawBefore, const BenchArgs& a) {
   std::vector<GatherBench> gathers;
-  auto gather = [&](const std::string& name, bool vsl, VslCount count, uint32_t n, int sz, int szY = 0) {
+  auto gather = [&](const std::string& name, bool vsl, VslCount count, int samples, uint32_t n, int sz, int szY = 0) {
     ManyLightSettings m;
     m.vslCount = count;
+    m.vslSamples = samples;
     m.lights = n;
     m.width = sz;
     m.height = szY > 0 ? szY : sz;
@@ -188,17 +189,25 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
   // Few lights (wide VSL cones, all in cache), more lights, a larger image,
   // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
   // (eight 16x16 tiles, so that two threads share the work evenly).
-  // VPL, VSL with the default count, then VSL with each other automatic count.
+  // VPL, VSL with the default count, then VSL with each other automatic count,
+  // and VSL at one sample per strategy ("VSL-1", --vsl-samples 1: what a pair
+  // costs besides its quadrature's count).
   const VslCount dflt = ManyLightSettings().vslCount;
-  std::vector<std::pair<std::string, VslCount>> variants = {{"VPL", dflt}, {"VSL", dflt}};
+  struct Variant {
+    std::string name;
+    VslCount count;
+    int samples;  // per strategy; 0: the automatic count
+  };
+  std::vector<Variant> variants = {{"VPL", dflt, 0}, {"VSL", dflt, 0}};
   for (VslCount c : kVslCounts)
-    if (c != dflt) variants.push_back({std::string("VSL-") + vslCountName(c), c});
-  for (const auto& [name, count] : variants) {
-    const bool vsl = name != "VPL";
-    gather(name, vsl, count, 1000, a.size / 2);
-    gather(name, vsl, count, 4000, a.size / 2);
-    gather(name, vsl, count, 1000, a.size);
-    gather(name, vsl, count, 100000, 64, 32);
+    if (c != dflt) variants.push_back({std::string("VSL-") + vslCountName(c), c, 0});
+  variants.push_back({"VSL-1", dflt, 1});
+  for (const Variant& v : variants) {
+    const bool vsl = v.name != "VPL";
+    gather(v.name, vsl, v.count, v.samples, 1000, a.size / 2);
+    gather(v.name, vsl, v.count, v.samples, 4000, a.size / 2);
+    gather(v.name, vsl, v.count, v.samples, 1000, a.size);
+    gather(v.name, vsl, v.count, v.samples, 100000, 64, 32);
   }
   return gathers;
 }

@@ -1,6 +1,8 @@
 #include "core/vsl_integral.h"
 
 #include <algorithm>
+#include <cstring>
+#include <limits>
 #include <optional>
 
 #include "core/sampling.h"
@@ -14,15 +16,62 @@ double vslConeOneMinusCos(double r, double d) {
   return s2 / (1.0 + std::sqrt(1.0 - s2));
 }
 
-int vslAutoSamples(double oneMinusCos) {
-  // Below theta = pi/200 (0.9 degrees) the count is 1: most pairs at 100,000
-  // lights, answered without the asin. The bound sits a hair inside that
-  // angle, so the rule below decides every cone near it exactly as before.
-  static const double kOneSample = 2.0 * std::pow(std::sin(0.5 * 0.99999 * M_PI / 200.0), 2);
-  if (oneMinusCos < kOneSample) return 1;
-  // theta = 2 asin(sqrt((1 - cos) / 2)) keeps precision for tiny cones.
+namespace {
+
+// The authors' rule as written: 1 + floor(100 theta / (pi/2)), theta =
+// 2 asin(sqrt((1 - cos) / 2)) (which keeps precision for tiny cones).
+int vslAutoSamplesByAngle(double oneMinusCos) {
   double theta = 2.0 * std::asin(std::sqrt(std::clamp(0.5 * oneMinusCos, 0.0, 1.0)));
   return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));
+}
+
+// The rule's steps: at[k] is the smallest double 1 - cos at which it gives
+// k + 2 samples (found by bisecting the doubles' bit patterns, which order
+// as the non-negative doubles do), so that counting the steps at or below a
+// cone's 1 - cos gives the rule's answer without its asin; +inf pads the
+// table to a power of two.
+struct AutoSampleSteps {
+  static constexpr int kSize = 256;  // the rule's largest count, 201 at 1 - cos = 2, fits
+  double at[kSize];
+  AutoSampleSteps() {
+    auto bits = [](double v) {
+      uint64_t b;
+      std::memcpy(&b, &v, sizeof b);
+      return b;
+    };
+    auto value = [](uint64_t b) {
+      double v;
+      std::memcpy(&v, &b, sizeof v);
+      return v;
+    };
+    const int largest = vslAutoSamplesByAngle(2.0);
+    for (int k = 0; k < kSize; ++k) {
+      at[k] = std::numeric_limits<double>::infinity();
+      if (k + 2 > largest) continue;
+      uint64_t lo = bits(0.0), hi = bits(2.0);  // the rule gives fewer at lo, at least k + 2 at hi
+      while (hi - lo > 1) {
+        const uint64_t mid = lo + (hi - lo) / 2;
+        (vslAutoSamplesByAngle(value(mid)) >= k + 2 ? hi : lo) = mid;
+      }
+      at[k] = value(hi);
+    }
+  }
+};
+const AutoSampleSteps kAutoSampleSteps;
+
+}  // namespace
+
+int vslAutoSamples(double oneMinusCos) {
+  // Most pairs at 100,000 lights take one sample (below 0.9 degrees).
+  const double* at = kAutoSampleSteps.at;
+  if (!(oneMinusCos >= at[0])) return 1;     // NaN too
+  oneMinusCos = std::min(oneMinusCos, 2.0);  // the rule's clamp
+  // The number of steps at or below oneMinusCos: a binary search without
+  // branches on the data (the rule is monotonic in 1 - cos: test
+  // VslIntegral.AutoSamplesFollowTheRule).
+  int i = 0;
+  for (int half = AutoSampleSteps::kSize / 2; half > 0; half /= 2) i += at[i + half - 1] <= oneMinusCos ? half : 0;
+  return 1 + i;
 }
 
 const char* vslCountName(VslCount c) {
@@ -270,6 +319,22 @@ constexpr LeftPackTable leftPackTable() {
 }
 constexpr LeftPackTable kLeftPack = leftPackTable();
 
+// One strategy's samples of up to kRounds rounds: their uniforms, then each
+// sample's direction in both local frames and whether it passed the tests.
+struct VslStrategyBlock {
+  static constexpr int kRounds = 32;
+  alignas(32) float u[3][kRounds];
+  alignas(32) float lx[3][kRounds], lp[3][kRounds];
+  alignas(32) int32_t ok[kRounds];
+  int count = 0;
+  // Zeroes the first `rows` rows of uniforms in the lanes past count, up to
+  // the last register (the cone's two, which it loads whole).
+  void clearTail(int rows) {
+    for (int k = 0; k < rows; ++k)
+      for (int j = count; j < ((count + 7) & ~7); ++j) u[k][j] = 0;
+  }
+};
+
 // Samples that passed the cone and hemisphere tests, each strategy's in the
 // order drawn and the strategies one after the other, waiting for their
 // BRDF values (structure of arrays for BrdfAt::evalTotals).
@@ -281,8 +346,7 @@ struct VslPending {
   alignas(32) float lx[3][kCapacity + 8], lp[3][kCapacity + 8];
 
   // Queues the samples of a strategy's block that passed (b.ok), in order.
-  template <typename Block>
-  VSL_AVX2 void push(const Block& b) {
+  VSL_AVX2 void push(const VslStrategyBlock& b) {
     for (int i0 = 0; i0 < b.count; i0 += 8) {
       const int m = std::min(8, b.count - i0);
       const int keep = _mm256_movemask_ps(_mm256_load_ps(reinterpret_cast<const float*>(b.ok + i0))) & ((1 << m) - 1);
@@ -368,21 +432,6 @@ struct VslPending {
   }
 };
 
-// One strategy's samples of up to kRounds rounds: their uniforms, then each
-// sample's direction in both local frames and whether it passed the tests.
-struct VslStrategyBlock {
-  static constexpr int kRounds = 32;
-  alignas(32) float u[3][kRounds];
-  alignas(32) float lx[3][kRounds], lp[3][kRounds];
-  alignas(32) int32_t ok[kRounds];
-  int count = 0;
-  // Zeroes the uniforms of the lanes past count, up to the last register.
-  void clearTail() {
-    for (int k = 0; k < 3; ++k)
-      for (int j = count; j < ((count + 7) & ~7); ++j) u[k][j] = 0;
-  }
-};
-
 enum class VslStrategy { Cone, X, P };
 
 // The directions of a block of one strategy's samples, and VslCone::accept's
@@ -458,8 +507,7 @@ VSL_AVX2 VslResult blockQuadrature(const VslReceiver& x, const VslEmitter& p, co
     bx.count = std::clamp(cone.nX - r0, 0, kRounds);
     bp.count = std::clamp(cone.nP - r0, 0, kRounds);
     // The chunk's uniforms in one stream, handed out in the scalar form's
-    // order (per round: cone 2, receiver 3, light 3); lanes past a count
-    // are zero.
+    // order (per round: cone 2, receiver 3, light 3).
     float draws[8 * kRounds];
     rng.uniforms(draws, 2 * c.count + 3 * bx.count + 3 * bp.count);
     const float* d = draws;
@@ -471,7 +519,7 @@ VSL_AVX2 VslResult blockQuadrature(const VslReceiver& x, const VslEmitter& p, co
       if (j < bp.count)
         for (int k = 0; k < 3; ++k) bp.u[k][j] = *d++;
     }
-    c.clearTail();  // sampleDirections loads no lane past its count
+    c.clearTail(2);  // the BRDFs' sampleDirections loads no lane past its count
     if (c.count) connectBlock<VslStrategy::Cone>(x, p, cone, coneLimit, c);
     if (bx.count) {
       const float* const u[3] = {bx.u[0], bx.u[1], bx.u[2]};
