@@ -57,13 +57,13 @@ struct AutoSampleSteps {
     }
   }
 };
-const AutoSampleSteps kAutoSampleSteps;
 
 }  // namespace
 
 int vslAutoSamples(double oneMinusCos) {
   // Most pairs at 100,000 lights take one sample (below 0.9 degrees).
-  const double* at = kAutoSampleSteps.at;
+  static const AutoSampleSteps steps;  // built on first use (no static order to rely on)
+  const double* at = steps.at;
   if (!(oneMinusCos >= at[0])) return 1;     // NaN too
   oneMinusCos = std::min(oneMinusCos, 2.0);  // the rule's clamp
   // The number of steps at or below oneMinusCos: a binary search without
