@@ -554,6 +554,26 @@ void runConfigurations(SweepContext& ctx, int shardIndex, int shardCount) {
   }
 }
 
+// The settings every run of the sweep shares, as options (sweep.json's
+// "settings", which --merge compares): the many-light template as
+// SweepContext::manySettings applies it (one direct sample, the reference's
+// size; the grid's light counts and radius scales are the grid's, the seeds
+// per set derived from --seed), the brute-force batches, --alpha and the
+// -mrcs methods' settings.
+std::string sweepSettings(const SweepArgs& a, int W, int H) {
+  ManyLightSettings m = a.many;
+  m.seed = a.seed;
+  m.batches = a.batches;
+  m.directSamples = 1;
+  m.width = W;
+  m.height = H;
+  std::ostringstream s;
+  s << m.describe(false) << " --alpha " << a.alpha << " --mrcs " << a.mrcs.rows << "," << a.mrcs.clusters << ","
+    << a.mrcs.uniformMix;
+  if (a.mrcs.spreadVslRadius) s << " --mrcs-spread";
+  return s.str();
+}
+
 // Runs this shard's part of the grid; fills the points and what the outputs need.
 // imageError: the first final image that could not be written, if any.
 int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta, std::vector<Point>& pts,
@@ -577,9 +597,10 @@ int runGrid(const SweepArgs& a, int shardIndex, int shardCount, SweepMeta& meta,
   if (!ctx.imageError.empty()) return fail(kExitBadInput, ctx.imageError);
   runConfigurations(ctx, shardIndex, shardCount);
   imageError = ctx.imageError;
-  meta = {a.scene,      reference.name,       a.referenceB,    a.many.describe(), W,         H,        a.sets,
-          self.epsilon, self.average.meanRef, reference.noise, self.epsilonSpec,  a.methods, a.lights, a.radiusScales,
-          shardIndex,   shardCount,           a.time};
+  meta = {
+      a.scene,      reference.name,       a.referenceB,    sweepSettings(a, W, H), W,         H,        a.sets,
+      self.epsilon, self.average.meanRef, reference.noise, self.epsilonSpec,       a.methods, a.lights, a.radiusScales,
+      shardIndex,   shardCount,           a.time};
   // Summaries are taken from the points as the CSV holds them, so a merged
   // run reproduces them exactly.
   std::vector<Point> exact;

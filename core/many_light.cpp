@@ -63,17 +63,20 @@ Result<void> ManyLightSettings::validate() const {
   return {};
 }
 
-std::string ManyLightSettings::describe() const {
+std::string ManyLightSettings::describe(bool withGrid) const {
   std::ostringstream s;
-  s << "--lights " << lights << " --seed " << seed;
+  if (withGrid) s << "--lights " << lights << " ";
+  s << "--seed " << seed;
   // A size of 0 means "the scene's"; the CLI refuses --width 0, so it is left out.
   if (width > 0) s << " --width " << width;
   if (height > 0) s << " --height " << height;
   s << " --batches " << batches << " --direct-samples " << directSamples;
-  if (globalRadius > 0)
+  if (globalRadius > 0) {
     s << " --radius " << globalRadius;
-  else
-    s << " --radius-scale " << radiusScale << " --knn " << knn;
+  } else {
+    if (withGrid) s << " --radius-scale " << radiusScale;
+    s << " --knn " << knn;
+  }
   s << " --vsl-samples " << (vslSamples > 0 ? std::to_string(vslSamples) : std::string("auto")) << " --clamp ";
   if (clamp < 0)
     s << "auto";

@@ -172,7 +172,9 @@ struct ManyLightSettings {
   bool computeVsl = true, computeVpl = true;
   // Success, or the first invalid setting: "setting: reason (got value)".
   Result<void> validate() const;
-  std::string describe() const;
+  // The settings as CLI options; withGrid false leaves out --lights and
+  // --radius-scale (a sweep's grid sets them per configuration).
+  std::string describe(bool withGrid = true) const;
 };
 
 // Layers the gather accumulates, per pair.

@@ -385,5 +385,27 @@ TEST(CompareCli, ShardedSweepMergesToTheUnshardedOne) {
       vslOut("sweep --merge " + (d / "s0").string() + " " + (d / "t1").string() + " -o " + (d / "x").string(), true);
   EXPECT_EQ(t.code, 1) << t.out;
   EXPECT_NE(t.out.find("time budget"), std::string::npos) << t.out;
+  // So are shards run with other settings the runs share: the seed, the
+  // brute-force batches, --alpha and the -mrcs methods' settings, which
+  // sweep.json records as the runs used them (one direct sample, no light
+  // count: the grid's).
+  const std::string settings = ja["settings"];
+  for (const char* want : {"--seed 1 ", "--batches 2 ", "--direct-samples 1 ", "--alpha 0.7", "--mrcs 300,900,0"})
+    EXPECT_NE(settings.find(want), std::string::npos) << want << " in " << settings;
+  EXPECT_EQ(settings.find("--lights"), std::string::npos) << settings;
+  EXPECT_EQ(settings.find("--radius-scale"), std::string::npos) << settings;
+  for (const char* other : {"--seed 5", "--batches 3", "--alpha 0.5", "--mrcs 20,40", "--mrcs-spread"}) {
+    std::string g = grid;
+    if (std::string(other) == "--batches 3")
+      g.replace(g.find("--batches 2"), 11, other);
+    else
+      g.replace(g.find("--time"), 0, std::string(other) + " ");
+    ASSERT_EQ(vslOut(g + (d / "o1").string() + " --shard 1/2").code, 0) << other;
+    Proc o =
+        vslOut("sweep --merge " + (d / "s0").string() + " " + (d / "o1").string() + " -o " + (d / "x").string(), true);
+    EXPECT_EQ(o.code, 1) << other << ": " << o.out;
+    EXPECT_NE(o.out.find("another sweep"), std::string::npos) << o.out;
+    fs::remove_all(d / "o1");
+  }
   fs::remove_all(d);
 }
