@@ -5,8 +5,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 
 namespace vsl {
@@ -94,6 +97,12 @@ float percentile(std::vector<float> values, double q) {
 
 namespace {
 
+bool hasExtension(const std::string& path, const char* ext) {
+  std::string e = std::filesystem::path(path).extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return e == ext;
+}
+
 bool sameFile(const std::string& a, const std::string& b) {
   namespace fs = std::filesystem;
   std::error_code ea, eb;
@@ -114,10 +123,13 @@ void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std:
         name == "--output" || name == "--png" || name == "--json" || name == "--flip-exr" || name == "--flip-png";
     const bool input = o->get_positional() || name == "--reference" || name == "--reference-b" || name == "--merge";
     for (const std::string& path : o->results()) {
+      if (output) outputs->push_back({name, path});  // an empty one too: clashingOutput refuses it
       if (path.empty()) continue;
-      if (output) outputs->push_back({name, path});
       if (name == "--flip-png") outputs->push_back({"--flip-png's HDR map", flipHdrPngPath(path)});
       if (input) inputs->push_back({name, path});
+      // A scene's buffers and images are inputs too.
+      if (input && o->get_positional() && (hasExtension(path, ".gltf") || hasExtension(path, ".glb")))
+        for (const std::string& f : sceneReferencedFiles(path)) inputs->push_back({"scene " + path, f});
     }
   }
 }
@@ -133,10 +145,14 @@ std::string clashingOutput(const CLI::App& subcommand) {
   std::vector<NamedPath> inputs, outputs;
   namedPaths(subcommand, &inputs, &outputs);
   for (size_t i = 0; i < outputs.size(); ++i) {
-    for (const NamedPath& in : inputs)
-      if (sameFile(outputs[i].path, in.path))
-        return outputs[i].option + " " + outputs[i].path + " is also the input " + in.path +
-               " (it would be overwritten)";
+    if (outputs[i].path.empty()) return outputs[i].option + " is an empty path";
+    for (const NamedPath& in : inputs) {
+      if (!sameFile(outputs[i].path, in.path)) continue;
+      if (in.option.rfind("scene ", 0) == 0)  // a buffer or image the scene reads
+        return outputs[i].option + " " + outputs[i].path + " is " + in.path + ", which the " + in.option +
+               " reads (it would be overwritten)";
+      return outputs[i].option + " " + outputs[i].path + " is also the input " + in.path + " (it would be overwritten)";
+    }
     for (size_t j = 0; j < i; ++j)
       if (sameFile(outputs[i].path, outputs[j].path))
         return outputs[i].option + " " + outputs[i].path + " is also " + outputs[j].option + " " + outputs[j].path;
@@ -156,6 +172,10 @@ std::string unwritableOutput(const CLI::App& subcommand) {
     if (fs::is_directory(path, ec)) return out.option + " " + out.path + " is a folder, not a file";
     if (!fs::is_directory(parent, ec))
       return out.option + " " + out.path + ": the folder " + parent.string() + " does not exist";
+    // The finished file is written beside its name and renamed into place.
+    if (::access(parent.c_str(), W_OK) != 0)
+      return out.option + " " + out.path + ": the folder " + parent.string() + " is not writable (" +
+             std::strerror(errno) + ")";
   }
   return {};
 }

@@ -57,13 +57,16 @@ int fail(int exitCode, const std::string& message);
 // path otherwise), as "-o a.exr is also the input a.exr"; empty if none. A bad
 // argument (exit 2). Outputs are the parsed subcommand's --output, --png,
 // --json, --flip-exr and --flip-png (with its HDR map, flipHdrPngPath); inputs
-// its positionals, --reference, --reference-b and --merge.
+// its positionals, --reference, --reference-b and --merge, and the buffers and
+// images a positional .gltf or .glb reads (sceneReferencedFiles). An empty
+// output path is refused here too.
 std::string clashingOutput(const CLI::App& subcommand);
 // Where `vsl compare --flip-png PATH` writes the HDR-FLIP map: PATH without
 // ".png", then "-hdr.png".
 std::string flipHdrPngPath(const std::string& flipPng);
-// An output file whose folder does not exist, or that is a folder, found before
-// any work rather than after a long render; empty if none. An I/O failure (exit 1).
+// An output file whose folder does not exist or is not writable, or that is a
+// folder, found before any work rather than after a long render; empty if none.
+// An I/O failure (exit 1).
 std::string unwritableOutput(const CLI::App& subcommand);
 
 // ---- Shared options (defined in vsl_main.cpp) ---------------------------------

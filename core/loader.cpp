@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -993,6 +994,28 @@ bool insideRoot(const std::filesystem::path& p, const std::filesystem::path& roo
   return !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
 }
 
+// A URI (already percent-decoded) as the file it names inside root (the
+// scene's folder, canonical), or why it is refused.
+Result<std::filesystem::path> resolveUri(const std::filesystem::path& root, const std::string& uri) {
+  if (uri.empty()) return Error("empty");
+  if (uri[0] == '/' || uri[0] == '\\')
+    return Error("absolute paths are refused; URIs are resolved inside the scene's folder only");
+  std::filesystem::path candidate = (root / uri).lexically_normal();
+  if (!insideRoot(candidate, root)) return Error("points outside the scene's folder (refused)");
+  std::error_code ec;
+  std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
+  if (ec || !insideRoot(resolved, root)) return Error("points outside the scene's folder (refused)");
+  return resolved;
+}
+
+// The scene's folder, canonical (where its URIs resolve).
+std::filesystem::path sceneRoot(const std::string& scenePath) {
+  std::error_code ec;
+  std::filesystem::path parent = std::filesystem::absolute(scenePath, ec).parent_path();
+  std::filesystem::path root = std::filesystem::weakly_canonical(parent, ec);
+  return ec ? parent.lexically_normal() : root;
+}
+
 bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
   const auto* policy = static_cast<const UriPolicy*>(user);
   std::string uri = path.rfind(policy->rootPrefix, 0) == 0 ? path.substr(policy->rootPrefix.size()) : path;
@@ -1000,15 +1023,9 @@ bool uriReadFile(std::vector<unsigned char>* out, std::string* err, const std::s
     if (err) *err += "URI '" + abbreviated(uri) + "': " + why + "\n";
     return false;
   };
-  if (uri.empty()) return fail("empty");
-  if (uri[0] == '/' || uri[0] == '\\')
-    return fail("absolute paths are refused; URIs are resolved inside the scene's folder only");
-  std::filesystem::path candidate = (policy->root / uri).lexically_normal();
-  if (!insideRoot(candidate, policy->root)) return fail("points outside the scene's folder (refused)");
-  std::error_code ec;
-  std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
-  if (ec || !insideRoot(resolved, policy->root)) return fail("points outside the scene's folder (refused)");
-  Result<std::vector<unsigned char>> bytes = readRegularFile(resolved.string());
+  Result<std::filesystem::path> resolved = resolveUri(policy->root, uri);
+  if (!resolved) return fail(resolved.error());
+  Result<std::vector<unsigned char>> bytes = readRegularFile(resolved->string());
   if (!bytes) return fail("cannot be read (" + bytes.error() + ")");
   *out = std::move(bytes).value();
   return true;
@@ -1415,10 +1432,7 @@ std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary
 std::string parseGltf(const std::string& path, const std::vector<unsigned char>& bytes, bool isBinary,
                       tinygltf::Model& model) {
   UriPolicy policy;
-  std::error_code ec;
-  std::filesystem::path parent = std::filesystem::absolute(path, ec).parent_path();
-  policy.root = std::filesystem::weakly_canonical(parent, ec);
-  if (ec) policy.root = parent.lexically_normal();
+  policy.root = sceneRoot(path);
   policy.rootPrefix = policy.root.string();
   if (policy.rootPrefix.empty() || policy.rootPrefix.back() != '/') policy.rootPrefix += '/';
   tinygltf::TinyGLTF gltf;
@@ -1564,6 +1578,79 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   } catch (const std::exception& e) {
     return Error(path + ": " + e.what());
   }
+}
+
+namespace {
+
+// tinygltf's decoding of a URI before it looks the file up: '+' is a space,
+// %XX a byte (a non-hex digit counts as 0).
+std::string decodeUri(const std::string& uri) {
+  auto hex = [](unsigned char c) -> int {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return 0;
+  };
+  std::string out;
+  for (size_t i = 0; i < uri.size(); ++i) {
+    if (uri[i] == '+') {
+      out += ' ';
+    } else if (uri[i] == '%' && uri.size() > i + 2) {
+      out += char((hex(uri[i + 1]) << 4) | hex(uri[i + 2]));
+      i += 2;
+    } else {
+      out += uri[i];
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> sceneReferencedFiles(const std::string& path) {
+  std::vector<std::string> files;
+  try {
+    // The JSON only: a .glb's header and JSON chunk, not its binary chunk.
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return files;
+    char head[20] = {};
+    in.read(head, sizeof head);
+    const size_t got = size_t(in.gcount());
+    std::string text;
+    if (got >= 4 && std::memcmp(head, "glTF", 4) == 0) {
+      uint32_t len = 0;
+      if (got < 20) return files;
+      std::memcpy(&len, head + 12, 4);
+      if (len > kMaxFileBytes) return files;
+      text.resize(len);
+      in.read(text.data(), std::streamsize(len));
+      text.resize(size_t(in.gcount()));
+    } else {
+      std::error_code ec;
+      const uintmax_t size = std::filesystem::file_size(path, ec);
+      if (ec || size > kMaxFileBytes) return files;
+      text.assign(head, got);
+      text.resize(size_t(size));
+      in.read(text.data() + got, std::streamsize(size - got));
+      text.resize(got + size_t(in.gcount()));
+    }
+    if (jsonDepthExceeded(text, kMaxJsonDepth) != std::string::npos) return files;
+    const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
+    if (!doc.is_object()) return files;
+    const std::filesystem::path root = sceneRoot(path);
+    for (const char* kind : {"buffers", "images"}) {
+      if (!doc.contains(kind) || !doc[kind].is_array()) continue;
+      for (const nlohmann::json& e : doc[kind]) {
+        if (!e.is_object() || !e.contains("uri") || !e["uri"].is_string()) continue;
+        const std::string uri = e["uri"];
+        if (uri.rfind("data:", 0) == 0) continue;
+        if (Result<std::filesystem::path> f = resolveUri(root, decodeUri(uri)); f) files.push_back(f->string());
+      }
+    }
+  } catch (const std::exception&) {
+    // An unreadable scene names no files: loading it reports why.
+  }
+  return files;
 }
 
 }  // namespace vsl

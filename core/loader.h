@@ -19,6 +19,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/result.h"
 
@@ -46,5 +47,12 @@ struct LoadOptions {
 // On failure the error reads "file: element: reason".
 using SceneResult = Result<std::shared_ptr<const Scene>>;
 SceneResult loadScene(const std::string& path, const LoadOptions& options = {});
+
+// The files a .gltf or .glb names in its buffers' and images' URIs that
+// loading it would read (decoded and resolved inside its folder as the loader
+// does; data: URIs and refused ones left out), from its JSON alone, so that a
+// command can refuse to write over them before it starts. Empty for a file
+// that cannot be read or parsed (loading it says why).
+std::vector<std::string> sceneReferencedFiles(const std::string& path);
 
 }  // namespace vsl

@@ -833,4 +833,30 @@ TEST_F(Cli, OutputsNeverOverwriteInputs) {
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
   }
   EXPECT_FALSE(fs::exists(file("same.exr")));
+  // The files a scene reads are inputs too: its external buffers and images
+  // (URIs decoded and resolved as the loader does), and an empty path is no
+  // output at all (exit 2, before any work).
+  fs::create_directories(file("ext"));
+  std::ofstream(file("ext/tri.bin")) << std::string(36, '\0');
+  std::ofstream(file("ext/tex.png")) << "not read here";
+  std::ofstream(file("ext/ext.gltf"))
+      << R"({"asset":{"version":"2.0"},"buffers":[{"uri":"tri%2Ebin","byteLength":36}],)"
+      << R"("images":[{"uri":"sub/../tex.png"}],"bufferViews":[{"buffer":0,"byteLength":36}],)"
+      << R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],)"
+      << R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]})";
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {"render " + file("ext/ext.gltf") + " --spp 1 --width 8 -o " + file("ext/tri.bin"),
+            "which the scene " + file("ext/ext.gltf") + " reads"},
+           {"render " + file("ext/ext.gltf") + " --spp 1 --width 8 -o " + file("x.exr") + " --png " +
+                file("ext/../ext/tex.png"),
+            "tex.png, which the scene"},
+           {"render " + file("ext/ext.gltf") + " --spp 1 --width 8 -o " + file("x.exr") + " --json ''",
+            "--json is an empty path"}}) {
+    r = run(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
+  EXPECT_EQ(fs::file_size(file("ext/tri.bin")), 36u);
+  EXPECT_EQ(fs::file_size(file("ext/tex.png")), 13u);
+  EXPECT_FALSE(fs::exists(file("x.exr")));
 }
