@@ -1621,7 +1621,9 @@ std::vector<std::string> sceneReferencedFiles(const std::string& path) {
       uint32_t len = 0;
       if (got < 20) return files;
       std::memcpy(&len, head + 12, 4);
-      if (len > kMaxFileBytes) return files;
+      std::error_code ec;
+      const uintmax_t size = std::filesystem::file_size(path, ec);
+      if (ec || size < 20 || len > size - 20) return files;  // a declared length past the file's end
       text.resize(len);
       in.read(text.data(), std::streamsize(len));
       text.resize(size_t(in.gcount()));

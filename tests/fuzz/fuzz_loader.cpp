@@ -1,4 +1,5 @@
-// libFuzzer harness over the glTF / GLB loader (vsl::loadScene). The input is
+// libFuzzer harness over the glTF / GLB loader (vsl::loadScene, and
+// vsl::sceneReferencedFiles, which the CLI runs on a scene first). The input is
 // written to a file in a private temporary folder (the loader reads files,
 // and URIs resolve inside that folder), then loaded. Any crash, sanitizer
 // report, leak, timeout or out-of-memory is a finding; a SceneResult with an
@@ -8,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 
 #include "core/scene.h"
@@ -33,6 +35,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!f) std::abort();
   if (size > 0 && std::fwrite(data, 1, size, f) != size) std::abort();
   if (std::fclose(f) != 0) std::abort();
+  // Every file a scene names lies in its folder (the URI policy).
+  static const std::string folder =
+      std::filesystem::weakly_canonical(std::filesystem::path(path).parent_path()).string() + "/";
+  for (const std::string& named : vsl::sceneReferencedFiles(path))
+    if (named.rfind(folder, 0) != 0) std::abort();
   vsl::LoadOptions options;
   options.maxTriangles = 2'000'000;  // keeps every input within libFuzzer's memory limit
   vsl::SceneResult r = vsl::loadScene(path, options);
