@@ -495,6 +495,29 @@ struct SweepReference {
 // from a second, independent reference B (relMSE(B, A) / 2); every measured
 // relMSE carries it on top of the method's error, and the "minus reference
 // noise" columns subtract it. Returns 0, or the exit code after reporting.
+// A reference's indirect layer must be light to measure against: a black or
+// negative mean makes every relMSE meaningless (exit 1). A few negative values
+// (a reconstruction filter with negative lobes) are kept, with a warning.
+Result<void> checkRadiance(const Image& ind, const std::string& name) {
+  double sum = 0;
+  size_t negative = 0;
+  for (float v : ind.rgb) {
+    sum += v;
+    negative += v < 0;
+  }
+  const double mean = ind.rgb.empty() ? 0.0 : sum / double(ind.rgb.size());
+  char meanText[32];
+  std::snprintf(meanText, sizeof meanText, "%g", mean);
+  if (!(mean > 0))
+    return Error(name + ": the indirect layer's mean is " + meanText +
+                 "; a reference must hold the scene's indirect light (radiance is never negative), or every "
+                 "relMSE against it means nothing");
+  if (negative > 0)
+    std::fprintf(stderr, "warning: %s: %zu of %zu values of the indirect layer are negative (kept)\n", name.c_str(),
+                 negative, ind.rgb.size());
+  return {};
+}
+
 int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& out) {
   out.name = a.reference;
   if (!a.reference.empty()) {
@@ -517,13 +540,17 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
     out.name = "cache: " + referenceCachePath(key);
   }
   const Image& ref = out.ref.indirect;
+  if (Result<void> radiance = checkRadiance(ref, out.name); !radiance) return fail(kExitBadInput, radiance.error());
   out.noise = std::max(out.ref.indirectNoise(), 0.0);
-  std::fprintf(stderr, "sweep: reference %s (%dx%d, %d spp), own noise %s\n", out.name.c_str(), ref.width, ref.height,
-               out.ref.spp,
+  const std::string spp = out.ref.spp > 0 ? ", " + std::to_string(out.ref.spp) + " spp" : "";
+  std::fprintf(stderr, "sweep: reference %s (%dx%d%s), own noise %s\n", out.name.c_str(), ref.width, ref.height,
+               spp.c_str(),
                out.ref.hasHalves() ? ("relMSE(A, B) / 4 = " + std::to_string(out.noise)).c_str() : "unknown");
   if (!a.referenceB.empty()) {
     Result<Reference> b = readReference(a.referenceB, ref.width, ref.height);
     if (!b) return fail(kExitBadInput, b.error());
+    if (Result<void> radiance = checkRadiance(b->indirect, a.referenceB); !radiance)
+      return fail(kExitBadInput, radiance.error());
     if (Result<void> same = checkReferenceScene(*b, scene, a.referenceB); !same)
       return fail(kExitBadInput, same.error());
     out.noise = 0.5 * compareImages(b->indirect, ref).average.relMse;

@@ -291,6 +291,35 @@ TEST(CompareCli, NoFinitePixelIsNotAPerfectScore) {
   fs::remove_all(d);
 }
 
+// A sweep's reference must hold light: a black or negative indirect layer is
+// refused (exit 1, before any run), where it scored relMSE 3e27 or 1 for
+// every method; a few negative values are kept with a warning.
+TEST(CompareCli, SweepRefusesABlackReference) {
+  fs::path d = scratch("black");
+  const std::string sceneFile = std::string(VSL_SOURCE_DIR) + "/assets/scenes/cornell-glossy.gltf";
+  Image zero(8, 8), negative(8, 8), mostlyLight(8, 8);
+  for (float& v : negative.rgb) v = -1;
+  for (float& v : mostlyLight.rgb) v = 0.5f;
+  mostlyLight.rgb[5] = -0.01f;
+  for (auto [name, img] : {std::pair<std::string, Image*>{"zero", &zero}, {"negative", &negative}}) {
+    ASSERT_TRUE(writeExr((d / (name + ".exr")).string(), {{"indirect", *img}}));
+    Proc p = vslOut("sweep " + sceneFile + " --methods vpl --lights 20 --time 0.05 --sets 1 --reference " +
+                        (d / (name + ".exr")).string() + " -o " + (d / name).string(),
+                    true);
+    EXPECT_EQ(p.code, 1) << name << ": " << p.out;
+    EXPECT_NE(p.out.find("the indirect layer's mean is " + std::string(name == "zero" ? "0" : "-1")), std::string::npos)
+        << p.out;
+    EXPECT_FALSE(fs::exists(d / name / "sweep.csv")) << name;
+  }
+  ASSERT_TRUE(writeExr((d / "light.exr").string(), {{"indirect", mostlyLight}}));
+  Proc p = vslOut("sweep " + sceneFile + " --methods vpl --lights 20 --time 0.05 --sets 1 --reference " +
+                      (d / "light.exr").string() + " -o " + (d / "light").string(),
+                  true);
+  EXPECT_EQ(p.code, 0) << p.out;
+  EXPECT_NE(p.out.find("1 of 192 values of the indirect layer are negative (kept)"), std::string::npos) << p.out;
+  fs::remove_all(d);
+}
+
 TEST(CompareCli, SeveralRendersSplitBiasAndNoise) {
   fs::path d = scratch("bv");
   Image ref(8, 8), a(8, 8), b(8, 8), c(8, 8);
