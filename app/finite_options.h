@@ -54,4 +54,16 @@ inline CLI::Validator positiveSeconds() {
       "SECONDS");
 }
 
+// A check for seeds (unsigned 64-bit): digits only. The parse of an unsigned
+// option takes "-1" as 2^64 - 1, a seed nobody meant.
+inline CLI::Validator seedValue() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos)
+          return "must be a whole number from 0 to 2^64 - 1 (got '" + text + "')";
+        return {};
+      },
+      "UINT");
+}
+
 }  // namespace vsl

@@ -94,7 +94,7 @@ int cmdReference(ReferenceArgs& a) {
   RenderSettings& s = a.settings;
   if (Result<void> v = s.validate(); !v) return fail(kExitBadArguments, v.error());
   if (!(a.target >= 0) || a.target >= 1e3)
-    return failf(kExitBadArguments, "--target-relmse must be in (0, 1000) (got %g)", a.target);
+    return failf(kExitBadArguments, "--target-relmse must be in (0, 1000), or 0 for none (got %g)", a.target);
   // Without a time or noise target, --spp (default 1024) decides; with one,
   // --spp is an upper bound only when given.
   const bool bySpp = s.timeLimit <= 0 && a.target <= 0;
@@ -139,7 +139,8 @@ Subcommand addReferenceCommand(CLI::App& app) {
       reference->add_option("--spp", rfa.settings.spp, "Samples per pixel (rounded up to even)")->default_str("1024");
   reference->add_option("--time", rfa.settings.timeLimit, "Stop after this many seconds")->check(positiveSeconds());
   reference->add_option("--target-relmse", rfa.target,
-                        "Stop once the reference's own indirect relMSE, estimated from its halves, is at most this");
+                        "Stop once the reference's own indirect relMSE, estimated from its halves, is at most this (0: "
+                        "no target, the default)");
   reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)")
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)")
@@ -147,7 +148,8 @@ Subcommand addReferenceCommand(CLI::App& app) {
   reference
       ->add_option("--seed", rfa.settings.seed,
                    "Random seed (default: one that neither the studio's live path tracer nor vsl sweep uses)")
-      ->default_str(std::to_string(kReferenceSeed));
+      ->default_str(std::to_string(kReferenceSeed))
+      ->check(seedValue());
   reference->add_option("--max-depth", rfa.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
   reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");

@@ -37,8 +37,10 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render->add_option("--radius-scale", ra.many.radiusScale, "VSL radius = scale x distance to the k-th nearest light")
       ->default_str("1");
   render->add_option("--knn", ra.many.knn, "k for the VSL radius")->default_str("10");
-  render->add_option("--radius", ra.many.globalRadius,
-                     "One global VSL radius, as a fraction of the scene's bounding radius (replaces k-NN radii)");
+  render->add_option(
+      "--radius", ra.many.globalRadius,
+      "One global VSL radius, as a fraction of the scene's bounding radius (replaces k-NN radii; 0: k-NN "
+      "radii, the default)");
   render
       ->add_option("--clamp", ra.clamp,
                    "VPL clamp: bound on the luminance of f_x cos f_p cos / d^2 per light; auto (scene-relative) or "
@@ -63,7 +65,7 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   render->add_option("--height", ra.settings.height, "Image height (default: from the scene, or 512)")
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
-  render->add_option("--seed", ra.settings.seed, "Random seed")->default_str("0");
+  render->add_option("--seed", ra.settings.seed, "Random seed")->default_str("0")->check(seedValue());
   render->add_option("--max-depth", ra.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   render->add_option("--component", ra.component, "Component for the default EXR layer and the PNG")
       ->check(CLI::IsMember({"full", "direct", "indirect"}))

@@ -23,6 +23,7 @@
 #include "app/sweep.h"
 
 #include "app/cli.h"
+#include "app/finite_options.h"
 
 #include <algorithm>
 #include <cmath>
@@ -1046,7 +1047,9 @@ Subcommand addSweepCommand(CLI::App& app) {
       ->check(CLI::Range(1, 64));
   sweep->add_option("--mrcs", args->mrcs, "ROWS,CLUSTERS[,MIX] for the -mrcs methods")->default_str("300,900");
   sweep->add_flag("--mrcs-spread", args->spread, "-mrcs methods: VSL representatives get radius r sqrt(weight)");
-  sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")->default_str("1");
+  sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")
+      ->default_str("1")
+      ->check(seedValue());
   sweep->add_option("--reference", sw.reference,
                     "Reference EXR with an 'indirect' layer (vsl reference writes one with halves that measure its "
                     "noise); default: the cached reference at --width");

@@ -65,7 +65,11 @@ Result<void> RenderSettings::validate() const {
 
 std::string RenderSettings::describe() const {
   std::ostringstream s;
-  s << "--method " << method << " --width " << width << " --height " << height;
+  s << "--method " << method;
+  // A size of 0 means "from the camera's aspect"; the CLI refuses --width 0
+  // or --height 0, so it is left out (the string stays a command line).
+  if (width > 0) s << " --width " << width;
+  if (height > 0) s << " --height " << height;
   if (timeLimit > 0)
     s << " --time " << timeLimit;
   else

@@ -81,7 +81,9 @@ class Cli : public ::testing::Test {
 TEST_F(Cli, BadArgumentsExitTwoWithUsage) {
   for (const char* args :
        {"", "render", "render " /* no -o */, "frobnicate", "render x.gltf -o y.exr --spp nope",
-        "render x.gltf -o y.exr --method vcm", "render x.gltf -o y.exr --spp 5 --time 3", "compare onlyone.exr"}) {
+        "render x.gltf -o y.exr --method vcm", "render x.gltf -o y.exr --spp 5 --time 3", "compare onlyone.exr",
+        // A negative seed (an unsigned parse would wrap it to 2^64 - 1).
+        "render x.gltf -o y.exr --seed -1", "sweep x.gltf -o d --seed -2", "reference x.gltf -o y.exr --seed 1.5"}) {
     Proc r = run(args);
     EXPECT_EQ(r.code, 2) << "vsl " << args << "\n" << r.out;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << "vsl " << args << "\n" << r.out;
@@ -583,6 +585,15 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   ASSERT_EQ(r.code, 0) << r.out;
   j = nlohmann::json::parse(std::ifstream(file("p.json")));
   EXPECT_GT(j["seconds"]["bvh"].get<double>(), 0);
+  // The path tracer's recorded settings are a command line that renders the
+  // same image (its height, from the camera, was "--height 0", refused).
+  const std::string settings = j["settings"];
+  EXPECT_EQ(settings.find("--height"), std::string::npos) << settings;
+  r = run("render " + scene("furnace") + " " + settings + " -o " + file("p2.exr"));
+  ASSERT_EQ(r.code, 0) << settings << "\n" << r.out;
+  std::ifstream a(file("p.exr"), std::ios::binary), b(file("p2.exr"), std::ios::binary);
+  EXPECT_TRUE(std::equal(std::istreambuf_iterator<char>(a), {}, std::istreambuf_iterator<char>(b), {}))
+      << "the same settings give another image";
 }
 
 // VSL's automatic sample count: the lobe-aware one by default, the authors'
