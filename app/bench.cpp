@@ -228,7 +228,7 @@ json benchStages(const Scene& scene, const Accel& accel, const LightSampler& lig
               bigRun.set.lights.size(), bigRun.set.seconds);
   std::printf("k-NN radii (k = 10)        %.3f M lights/s (%.2f s)\n", knnRate * 1e-6, bigRun.knnSeconds);
   std::printf(
-      "MRCS 300 rows, 900 clusters %.2f s at %dx%d (rows %.2f, clustering %.2f, columns %.2f): %.0fx fewer "
+      "MRCS 300 rows, 900 clusters %.2f s at %dx%d (rows %.2f, clustering %.2f, columns %.2f): %.3gx fewer "
       "pairs than brute force\n",
       mrcsSeconds, big.width, big.height, mr.rowSeconds, mr.clusterSeconds, mr.columnSeconds,
       brutePairs / std::max(double(mr.pairs), 1.0));

@@ -836,6 +836,15 @@ int writeOutputs(const SweepMeta& meta, const std::vector<Point>& pts, const std
     if (Result<void> written = writeTextFile((dir / name).string(), text); !written)
       return fail(kExitBadInput, written.error());
 
+  // A shard with no configuration of the grid has nothing to plot (gnuplot
+  // fails on an empty plot command).
+  if (pts.empty()) {
+    std::fprintf(stderr,
+                 "sweep: this shard holds no configuration of the grid; wrote %s/{sweep.csv, summary.csv, "
+                 "sweep.json} without points\n",
+                 outDir.c_str());
+    return 0;
+  }
   if (int rc = writePlots(meta, pts, summary, finals, fronts, dir); rc != 0) return rc;
   printSummary(meta, summary);
   std::fprintf(stderr,
