@@ -99,7 +99,10 @@ size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2,
   float dy = dist2(y);
   if (j > 0 && j < n) {
     const float dPrev = dist2(uint32_t(j - 1));
-    if (dPrev < dy) y = uint32_t(j - 1), dy = dPrev;
+    if (dPrev < dy) {
+      y = uint32_t(j - 1);
+      dy = dPrev;
+    }
   }
   // A step looks at the nearest few of y's list only (the list is sorted by
   // distance to y), which is where a nearer light usually is.
@@ -108,7 +111,10 @@ size_t LobeGatherMap::nearest(const Vec3& z, size_t k, uint32_t* idx, float* d2,
     uint32_t next = y;
     for (size_t i = 1; i < std::min(m, kWalkWidth); ++i) {
       const float d = dist2(list[i]);
-      if (d < dy) dy = d, next = list[i];
+      if (d < dy) {
+        dy = d;
+        next = list[i];
+      }
     }
     if (next == y) break;
     y = next;
