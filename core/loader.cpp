@@ -991,7 +991,8 @@ bool uriFileExists(const std::string& path, void* user) {
 
 bool insideRoot(const std::filesystem::path& p, const std::filesystem::path& root) {
   std::filesystem::path rel = p.lexically_relative(root);
-  return !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
+  // The folder itself ("." or "") is not inside it.
+  return !rel.empty() && rel != "." && *rel.begin() != ".." && !rel.is_absolute();
 }
 
 // A URI (already percent-decoded) as the file it names inside root (the
@@ -1001,6 +1002,7 @@ Result<std::filesystem::path> resolveUri(const std::filesystem::path& root, cons
   if (uri[0] == '/' || uri[0] == '\\')
     return Error("absolute paths are refused; URIs are resolved inside the scene's folder only");
   std::filesystem::path candidate = (root / uri).lexically_normal();
+  if (candidate.lexically_relative(root) == ".") return Error("names the scene's folder, not a file");
   if (!insideRoot(candidate, root)) return Error("points outside the scene's folder (refused)");
   std::error_code ec;
   std::filesystem::path resolved = std::filesystem::weakly_canonical(candidate, ec);
