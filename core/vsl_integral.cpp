@@ -1,8 +1,6 @@
 #include "core/vsl_integral.h"
 
 #include <algorithm>
-#include <cstring>
-#include <limits>
 #include <optional>
 
 #include "core/sampling.h"
@@ -16,62 +14,16 @@ double vslConeOneMinusCos(double r, double d) {
   return s2 / (1.0 + std::sqrt(1.0 - s2));
 }
 
-namespace {
-
-// The authors' rule as written: 1 + floor(100 theta / (pi/2)), theta =
-// 2 asin(sqrt((1 - cos) / 2)) (which keeps precision for tiny cones).
-int vslAutoSamplesByAngle(double oneMinusCos) {
+int vslAutoSamples(double oneMinusCos) {
+  // Below theta = pi/200 (0.9 degrees) the count is 1: most pairs at 100,000
+  // lights, answered without the asin. The bound sits a hair inside that
+  // angle, so the rule below decides every cone near it exactly as before.
+  // NaN gives 1 too.
+  static const double kOneSample = 2.0 * std::pow(std::sin(0.5 * 0.99999 * M_PI / 200.0), 2);
+  if (!(oneMinusCos >= kOneSample)) return 1;
+  // theta = 2 asin(sqrt((1 - cos) / 2)) keeps precision for tiny cones.
   double theta = 2.0 * std::asin(std::sqrt(std::clamp(0.5 * oneMinusCos, 0.0, 1.0)));
   return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));
-}
-
-// The rule's steps: at[k] is the smallest double 1 - cos at which it gives
-// k + 2 samples (found by bisecting the doubles' bit patterns, which order
-// as the non-negative doubles do), so that counting the steps at or below a
-// cone's 1 - cos gives the rule's answer without its asin; +inf pads the
-// table to a power of two.
-struct AutoSampleSteps {
-  static constexpr int kSize = 256;  // the rule's largest count, 201 at 1 - cos = 2, fits
-  double at[kSize];
-  AutoSampleSteps() {
-    auto bits = [](double v) {
-      uint64_t b;
-      std::memcpy(&b, &v, sizeof b);
-      return b;
-    };
-    auto value = [](uint64_t b) {
-      double v;
-      std::memcpy(&v, &b, sizeof v);
-      return v;
-    };
-    const int largest = vslAutoSamplesByAngle(2.0);
-    for (int k = 0; k < kSize; ++k) {
-      at[k] = std::numeric_limits<double>::infinity();
-      if (k + 2 > largest) continue;
-      uint64_t lo = bits(0.0), hi = bits(2.0);  // the rule gives fewer at lo, at least k + 2 at hi
-      while (hi - lo > 1) {
-        const uint64_t mid = lo + (hi - lo) / 2;
-        (vslAutoSamplesByAngle(value(mid)) >= k + 2 ? hi : lo) = mid;
-      }
-      at[k] = value(hi);
-    }
-  }
-};
-
-}  // namespace
-
-int vslAutoSamples(double oneMinusCos) {
-  // Most pairs at 100,000 lights take one sample (below 0.9 degrees).
-  static const AutoSampleSteps steps;  // built on first use (no static order to rely on)
-  const double* at = steps.at;
-  if (!(oneMinusCos >= at[0])) return 1;     // NaN too
-  oneMinusCos = std::min(oneMinusCos, 2.0);  // the rule's clamp
-  // The number of steps at or below oneMinusCos: a binary search without
-  // branches on the data (the rule is monotonic in 1 - cos: test
-  // VslIntegral.AutoSamplesFollowTheRule).
-  int i = 0;
-  for (int half = AutoSampleSteps::kSize / 2; half > 0; half /= 2) i += at[i + half - 1] <= oneMinusCos ? half : 0;
-  return 1 + i;
 }
 
 const char* vslCountName(VslCount c) {

@@ -270,10 +270,10 @@ TEST(VslIntegral, ConeSolidAngleIsPreciseForTinyCones) {
   EXPECT_EQ(vslAutoSamples(omc(0.91)), 2);
 }
 
-// vslAutoSamples counts the rule's steps in a table instead of taking the
-// asin: the same count as the rule written out, at a million cones spread
-// over [0, 2] (uniformly and by octave), at 64 doubles on each side of every
-// step (found by bisecting vslAutoSamples), and at the ends.
+// vslAutoSamples (with its one-sample shortcut below 0.9 degrees) gives the
+// rule's count: at a million cones spread over [0, 2] (uniformly and by
+// octave), at 64 doubles on each side of every step (found by bisecting
+// vslAutoSamples), at the ends, and 1 for NaN.
 TEST(VslIntegral, AutoSamplesFollowTheRule) {
   auto rule = [](double omc) {
     const double theta = 2.0 * std::asin(std::sqrt(std::clamp(0.5 * omc, 0.0, 1.0)));
