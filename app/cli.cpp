@@ -114,8 +114,10 @@ struct NamedPath {
   std::string option, path;
 };
 
-// The parsed subcommand's output and input paths (see clashingOutput).
-void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std::vector<NamedPath>* outputs) {
+// The parsed subcommand's output and input paths (see clashingOutput); with
+// sceneFiles, a scene's buffers and images among the inputs.
+void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std::vector<NamedPath>* outputs,
+                bool sceneFiles) {
   for (const CLI::Option* o : subcommand.get_options()) {
     if (o->count() == 0) continue;
     const std::string name = o->get_name();
@@ -128,7 +130,7 @@ void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std:
       if (name == "--flip-png") outputs->push_back({"--flip-png's HDR map", flipHdrPngPath(path)});
       if (input) inputs->push_back({name, path});
       // A scene's buffers and images are inputs too.
-      if (input && o->get_positional() && (hasExtension(path, ".gltf") || hasExtension(path, ".glb")))
+      if (sceneFiles && input && o->get_positional() && (hasExtension(path, ".gltf") || hasExtension(path, ".glb")))
         for (const std::string& f : sceneReferencedFiles(path)) inputs->push_back({"scene " + path, f});
     }
   }
@@ -143,7 +145,12 @@ std::string flipHdrPngPath(const std::string& flipPng) {
 
 std::string clashingOutput(const CLI::App& subcommand) {
   std::vector<NamedPath> inputs, outputs;
-  namedPaths(subcommand, &inputs, &outputs);
+  // A scene's own files are looked up only where there is an output.
+  namedPaths(subcommand, &inputs, &outputs, false);
+  if (outputs.empty()) return {};
+  inputs.clear();
+  outputs.clear();
+  namedPaths(subcommand, &inputs, &outputs, true);
   for (size_t i = 0; i < outputs.size(); ++i) {
     if (outputs[i].path.empty()) return outputs[i].option + " is an empty path";
     for (const NamedPath& in : inputs) {
@@ -163,7 +170,7 @@ std::string clashingOutput(const CLI::App& subcommand) {
 std::string unwritableOutput(const CLI::App& subcommand) {
   namespace fs = std::filesystem;
   std::vector<NamedPath> inputs, outputs;
-  namedPaths(subcommand, &inputs, &outputs);
+  namedPaths(subcommand, &inputs, &outputs, false);
   const bool outputIsFolder = subcommand.get_name() == "sweep";  // created with its parents
   for (const NamedPath& out : outputs) {
     if (outputIsFolder && out.option == "--output") continue;
@@ -172,9 +179,17 @@ std::string unwritableOutput(const CLI::App& subcommand) {
     if (fs::is_directory(path, ec)) return out.option + " " + out.path + " is a folder, not a file";
     if (!fs::is_directory(parent, ec))
       return out.option + " " + out.path + ": the folder " + parent.string() + " does not exist";
-    // The finished file is written beside its name and renamed into place.
-    if (::access(parent.c_str(), W_OK) != 0)
-      return out.option + " " + out.path + ": the folder " + parent.string() + " is not writable (" +
+    // A file (or a new one) is written beside the file its links lead to and
+    // renamed into place: that folder must take it. Devices, FIFOs and
+    // sockets are written through.
+    Result<std::string> target = atomicWriteTarget(out.path);
+    if (!target) return out.option + " " + target.error();
+    if (target->empty()) continue;
+    const fs::path to(*target), toParent = to.parent_path().empty() ? "." : to.parent_path();
+    if (!fs::is_directory(toParent, ec))
+      return out.option + " " + out.path + ": the folder " + toParent.string() + " does not exist";
+    if (::access(toParent.c_str(), W_OK) != 0)
+      return out.option + " " + out.path + ": the folder " + toParent.string() + " is not writable (" +
              std::strerror(errno) + ")";
   }
   return {};

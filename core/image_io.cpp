@@ -114,16 +114,13 @@ Result<void> writeAndRename(const std::string& path, const char* data, size_t si
 
 }  // namespace
 
-Result<void> writeFileAtomically(const std::string& path, const void* data, size_t size) {
-  const char* bytes = static_cast<const char*>(data);
+Result<std::string> atomicWriteTarget(const std::string& path) {
   // Devices, FIFOs and sockets (also behind links such as /dev/stdout, whose
   // /proc/self/fd/1 may name a pipe) are written through; directories refused.
   struct stat st;
   if (::stat(path.c_str(), &st) == 0) {
-    if (S_ISDIR(st.st_mode)) {
-      return Error(path + ": is a directory");
-    }
-    if (!S_ISREG(st.st_mode)) return writeThrough(path, bytes, size);
+    if (S_ISDIR(st.st_mode)) return Error(path + ": is a directory");
+    if (!S_ISREG(st.st_mode)) return std::string();
   }
   // A regular file or none: follow symbolic links (also dangling ones) to the
   // file to replace, and keep the links.
@@ -136,7 +133,15 @@ Result<void> writeFileAtomically(const std::string& path, const void* data, size
     }
     target = next.is_absolute() ? next : target.parent_path() / next;
   }
-  return writeAndRename(target.string(), bytes, size);
+  return target.string();
+}
+
+Result<void> writeFileAtomically(const std::string& path, const void* data, size_t size) {
+  const char* bytes = static_cast<const char*>(data);
+  Result<std::string> target = atomicWriteTarget(path);
+  if (!target) return Error(target.error());
+  if (target->empty()) return writeThrough(path, bytes, size);
+  return writeAndRename(*target, bytes, size);
 }
 
 namespace {

@@ -28,6 +28,11 @@ struct Layer {
 
 // Writes size bytes to path as described above. Thread-safe.
 Result<void> writeFileAtomically(const std::string& path, const void* data, size_t size);
+// The file writeFileAtomically(path) would replace (beside which it writes
+// its temporary file): path with its symbolic links followed (dangling ones
+// too); empty for a device, FIFO or socket, written through; an error for a
+// directory or a link that does not resolve.
+Result<std::string> atomicWriteTarget(const std::string& path);
 
 Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
                       const std::map<std::string, std::string>& attributes = {});

@@ -1612,31 +1612,40 @@ std::string decodeUri(const std::string& uri) {
 std::vector<std::string> sceneReferencedFiles(const std::string& path) {
   std::vector<std::string> files;
   try {
-    // The JSON only: a .glb's header and JSON chunk, not its binary chunk.
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return files;
-    char head[20] = {};
-    in.read(head, sizeof head);
-    const size_t got = size_t(in.gcount());
+    // As readRegularFile: a FIFO, device or socket is not read (a FIFO would
+    // block); then the JSON only: a .glb's header and JSON chunk, not its
+    // binary chunk.
+    int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) return files;
+    struct FdCloser {
+      int fd;
+      ~FdCloser() { ::close(fd); }
+    } closer{fd};
+    struct stat st;
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || uint64_t(st.st_size) > kMaxFileBytes) return files;
+    const uint64_t size = uint64_t(st.st_size);
+    auto readAt = [fd](uint64_t offset, uint64_t n) {
+      std::string out(size_t(n), '\0');
+      size_t got = 0;
+      while (got < out.size()) {
+        ssize_t k = ::pread(fd, out.data() + got, out.size() - got, off_t(offset + got));
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) break;
+        got += size_t(k);
+      }
+      out.resize(got);
+      return out;
+    };
+    const std::string head = readAt(0, std::min<uint64_t>(size, 20));
     std::string text;
-    if (got >= 4 && std::memcmp(head, "glTF", 4) == 0) {
+    if (head.size() >= 4 && std::memcmp(head.data(), "glTF", 4) == 0) {
       uint32_t len = 0;
-      if (got < 20) return files;
-      std::memcpy(&len, head + 12, 4);
-      std::error_code ec;
-      const uintmax_t size = std::filesystem::file_size(path, ec);
-      if (ec || size < 20 || len > size - 20) return files;  // a declared length past the file's end
-      text.resize(len);
-      in.read(text.data(), std::streamsize(len));
-      text.resize(size_t(in.gcount()));
+      if (head.size() < 20) return files;
+      std::memcpy(&len, head.data() + 12, 4);
+      if (len > size - 20) return files;  // a declared length past the file's end
+      text = readAt(20, len);
     } else {
-      std::error_code ec;
-      const uintmax_t size = std::filesystem::file_size(path, ec);
-      if (ec || size > kMaxFileBytes) return files;
-      text.assign(head, got);
-      text.resize(size_t(size));
-      in.read(text.data() + got, std::streamsize(size - got));
-      text.resize(got + size_t(in.gcount()));
+      text = readAt(0, size);
     }
     if (jsonDepthExceeded(text, kMaxJsonDepth) != std::string::npos) return files;
     const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
@@ -1647,7 +1656,7 @@ std::vector<std::string> sceneReferencedFiles(const std::string& path) {
       for (const nlohmann::json& e : doc[kind]) {
         if (!e.is_object() || !e.contains("uri") || !e["uri"].is_string()) continue;
         const std::string uri = e["uri"];
-        if (uri.rfind("data:", 0) == 0) continue;
+        if (tinygltf::IsDataURI(uri)) continue;  // what tinygltf decodes instead of reading a file
         if (Result<std::filesystem::path> f = resolveUri(root, decodeUri(uri)); f) files.push_back(f->string());
       }
     }

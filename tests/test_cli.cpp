@@ -2,6 +2,7 @@
 // and files that real tools (exrheader) read.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <algorithm>
 
 #include <array>
@@ -503,6 +504,37 @@ std::string editedFurnace(const fs::path& dir, const std::string& name,
 
 // Defect 3: aspectRatio is range-checked (exit 1), and a size derived from it
 // must stay within the resolution cap (exit 2, a bad argument).
+// An output folder the user cannot write to is found before the render (exit
+// 1), but the check follows what the writer does: devices are written through
+// (-o /dev/null), and a link's file is replaced beside its target (a link in a
+// read-only folder to a writable one is fine). Run as an unprivileged user:
+// root passes every permission check, so as root the binary runs as nobody.
+TEST_F(Cli, UnwritableOutputFolderIsFoundFirst) {
+  std::string as;
+  if (::geteuid() == 0) {
+    if (shell("command -v setpriv").code != 0) GTEST_SKIP() << "running as root without setpriv";
+    as = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+  }
+  const std::string vsl =
+      as + std::string(VSL_BINARY_DIR) + "/bin/vsl render " + scene("furnace") + " --spp 1 --width 8";
+  fs::create_directories(file("rw"));
+  fs::create_directories(file("ro"));
+  fs::permissions(file("rw"), fs::perms::all);
+  fs::create_symlink("../rw/out.png", file("ro/link.png"));
+  fs::permissions(file("ro"), fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                                  fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  Proc r = shell(vsl + " -o " + file("ro/new.exr"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("the folder " + file("ro") + " is not writable"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("render "), std::string::npos) << "rendered first: " << r.out;
+  r = shell(vsl + " -o /dev/null --json /dev/null");
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = shell(vsl + " -o " + file("rw/a.exr") + " --png " + file("ro/link.png"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(file("rw/out.png")));
+  fs::permissions(file("ro"), fs::perms::owner_all);
+}
+
 TEST_F(Cli, AspectRatioCannotBypassTheResolutionCap) {
   std::string tiny =
       editedFurnace(dir, "tiny.gltf", [](auto& j) { j["cameras"][0]["perspective"]["aspectRatio"] = 1e-5; });

@@ -268,49 +268,12 @@ TEST(VslIntegral, ConeSolidAngleIsPreciseForTinyCones) {
   }
   EXPECT_EQ(vslAutoSamples(omc(0.89)), 1);
   EXPECT_EQ(vslAutoSamples(omc(0.91)), 2);
-}
-
-// vslAutoSamples (with its one-sample shortcut below 0.9 degrees) gives the
-// rule's count: at a million cones spread over [0, 2] (uniformly and by
-// octave), at 64 doubles on each side of every step (found by bisecting
-// vslAutoSamples), at the ends, and 1 for NaN.
-TEST(VslIntegral, AutoSamplesFollowTheRule) {
-  auto rule = [](double omc) {
-    const double theta = 2.0 * std::asin(std::sqrt(std::clamp(0.5 * omc, 0.0, 1.0)));
-    return 1 + int(std::floor(100.0 * theta / (0.5 * M_PI) + 1e-9));
-  };
-  int mismatches = 0;
-  auto check = [&](double omc) {
-    if (vslAutoSamples(omc) != rule(omc) && ++mismatches <= 10)
-      ADD_FAILURE() << "1 - cos " << omc << ": " << vslAutoSamples(omc) << " samples, the rule " << rule(omc);
-  };
-  Rng rng(7, 7);
-  for (int i = 0; i < 500000; ++i) {
-    check(2.0 * rng.uniformDouble());
-    check(std::ldexp(1.0 + rng.uniformDouble(), -int(rng.uniformDouble() * 40)));
-  }
-  int steps = 0;
-  for (int k = 2; k <= rule(2.0); ++k) {
-    double lo = 0, hi = 2;  // fewer than k at lo, at least k at hi
-    for (int it = 0; it < 200 && std::nextafter(lo, 3.0) < hi; ++it) {
-      const double mid = 0.5 * (lo + hi);
-      (vslAutoSamples(mid) >= k ? hi : lo) = mid;
-    }
-    ASSERT_EQ(std::nextafter(lo, 3.0), hi) << k;
-    EXPECT_EQ(vslAutoSamples(hi), k);
-    ++steps;
-    double a = hi, b = hi;
-    for (int j = 0; j < 64; ++j) {
-      a = std::nextafter(a, -1.0);
-      check(a);
-      check(b);
-      b = std::nextafter(b, 3.0);
-    }
-  }
-  EXPECT_EQ(steps, 200);
-  for (double omc : {0.0, -1.0, 1e-300, 1.0, 2.0, 2.5, 1e300, std::numeric_limits<double>::infinity()}) check(omc);
+  // The ends: 1 - cos at most 2 (201 samples, a cone of the whole sphere), and
+  // 1 for a NaN cone (int(NaN) is undefined).
+  EXPECT_EQ(vslAutoSamples(2.0), 201);
+  EXPECT_EQ(vslAutoSamples(1e300), 201);
+  EXPECT_EQ(vslAutoSamples(-1.0), 1);
   EXPECT_EQ(vslAutoSamples(std::nan("")), 1);
-  EXPECT_EQ(mismatches, 0);
 }
 
 // The clipped disk's area: pi r^2 when the receiver's tangent plane misses the
