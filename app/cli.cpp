@@ -114,10 +114,10 @@ struct NamedPath {
   std::string option, path;
 };
 
-// The parsed subcommand's output and input paths (see clashingOutput); with
-// sceneFiles, a scene's buffers and images among the inputs.
+// The parsed subcommand's output and input paths (see clashingOutput), and,
+// if scenes is given, the positional inputs that are glTF scenes.
 void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std::vector<NamedPath>* outputs,
-                bool sceneFiles) {
+                std::vector<std::string>* scenes = nullptr) {
   for (const CLI::Option* o : subcommand.get_options()) {
     if (o->count() == 0) continue;
     const std::string name = o->get_name();
@@ -129,9 +129,8 @@ void namedPaths(const CLI::App& subcommand, std::vector<NamedPath>* inputs, std:
       if (path.empty()) continue;
       if (name == "--flip-png") outputs->push_back({"--flip-png's HDR map", flipHdrPngPath(path)});
       if (input) inputs->push_back({name, path});
-      // A scene's buffers and images are inputs too.
-      if (sceneFiles && input && o->get_positional() && (hasExtension(path, ".gltf") || hasExtension(path, ".glb")))
-        for (const std::string& f : sceneReferencedFiles(path)) inputs->push_back({"scene " + path, f});
+      if (scenes && o->get_positional() && (hasExtension(path, ".gltf") || hasExtension(path, ".glb")))
+        scenes->push_back(path);
     }
   }
 }
@@ -145,12 +144,13 @@ std::string flipHdrPngPath(const std::string& flipPng) {
 
 std::string clashingOutput(const CLI::App& subcommand) {
   std::vector<NamedPath> inputs, outputs;
-  // A scene's own files are looked up only where there is an output.
-  namedPaths(subcommand, &inputs, &outputs, false);
-  if (outputs.empty()) return {};
-  inputs.clear();
-  outputs.clear();
-  namedPaths(subcommand, &inputs, &outputs, true);
+  std::vector<std::string> scenes;
+  namedPaths(subcommand, &inputs, &outputs, &scenes);
+  // A scene's buffers and images are inputs too (read only where there is
+  // an output to check).
+  if (!outputs.empty())
+    for (const std::string& scene : scenes)
+      for (const std::string& f : sceneReferencedFiles(scene)) inputs.push_back({"scene " + scene, f});
   for (size_t i = 0; i < outputs.size(); ++i) {
     if (outputs[i].path.empty()) return outputs[i].option + " is an empty path";
     for (const NamedPath& in : inputs) {
@@ -170,18 +170,15 @@ std::string clashingOutput(const CLI::App& subcommand) {
 std::string unwritableOutput(const CLI::App& subcommand) {
   namespace fs = std::filesystem;
   std::vector<NamedPath> inputs, outputs;
-  namedPaths(subcommand, &inputs, &outputs, false);
+  namedPaths(subcommand, &inputs, &outputs);
   const bool outputIsFolder = subcommand.get_name() == "sweep";  // created with its parents
   for (const NamedPath& out : outputs) {
     if (outputIsFolder && out.option == "--output") continue;
     std::error_code ec;
-    const fs::path path(out.path), parent = path.parent_path().empty() ? "." : path.parent_path();
-    if (fs::is_directory(path, ec)) return out.option + " " + out.path + " is a folder, not a file";
-    if (!fs::is_directory(parent, ec))
-      return out.option + " " + out.path + ": the folder " + parent.string() + " does not exist";
+    if (fs::is_directory(out.path, ec)) return out.option + " " + out.path + " is a folder, not a file";
     // A file (or a new one) is written beside the file its links lead to and
-    // renamed into place: that folder must take it. Devices, FIFOs and
-    // sockets are written through.
+    // renamed into place: that folder must exist and take it. Devices, FIFOs
+    // and sockets are written through.
     Result<std::string> target = atomicWriteTarget(out.path);
     if (!target) return out.option + " " + target.error();
     if (target->empty()) continue;

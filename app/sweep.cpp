@@ -491,34 +491,28 @@ struct SweepReference {
   double noise = 0;  // relMSE the reference's own noise adds to every measurement
 };
 
-// The reference (reference.h): the file given, else the cached one for this
-// scene at --width. Its own noise comes from its halves (relMSE(A, B) / 4) or
-// from a second, independent reference B (relMSE(B, A) / 2); every measured
-// relMSE carries it on top of the method's error, and the "minus reference
-// noise" columns subtract it. Returns 0, or the exit code after reporting.
 // A reference's indirect layer must be light to measure against: a black or
 // negative mean makes every relMSE meaningless (exit 1). A few negative values
 // (a reconstruction filter with negative lobes) are kept, with a warning.
 Result<void> checkRadiance(const Image& ind, const std::string& name) {
-  double sum = 0;
-  size_t negative = 0;
-  for (float v : ind.rgb) {
-    sum += v;
-    negative += v < 0;
-  }
-  const double mean = ind.rgb.empty() ? 0.0 : sum / double(ind.rgb.size());
-  char meanText[32];
-  std::snprintf(meanText, sizeof meanText, "%g", mean);
+  const Vec3 m = imageMean(ind);
+  const double mean = (double(m.x) + m.y + m.z) / 3.0;
   if (!(mean > 0))
-    return Error(name + ": the indirect layer's mean is " + meanText +
+    return Error(name + ": the indirect layer's mean is " + defaultText(mean) +
                  "; a reference must hold the scene's indirect light (radiance is never negative), or every "
                  "relMSE against it means nothing");
+  const size_t negative = size_t(std::count_if(ind.rgb.begin(), ind.rgb.end(), [](float v) { return v < 0; }));
   if (negative > 0)
     std::fprintf(stderr, "warning: %s: %zu of %zu values of the indirect layer are negative (kept)\n", name.c_str(),
                  negative, ind.rgb.size());
   return {};
 }
 
+// The reference (reference.h): the file given, else the cached one for this
+// scene at --width. Its own noise comes from its halves (relMSE(A, B) / 4) or
+// from a second, independent reference B (relMSE(B, A) / 2); every measured
+// relMSE carries it on top of the method's error, and the "minus reference
+// noise" columns subtract it. Returns 0, or the exit code after reporting.
 int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& out) {
   out.name = a.reference;
   if (!a.reference.empty()) {

@@ -20,11 +20,11 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string_view>
+#include <utility>
 
 #include "core/scene.h"
 
@@ -944,32 +944,54 @@ struct Loader {
 constexpr uint64_t kMaxFileBytes = uint64_t(2) << 30;  // tinygltf takes sizes as unsigned int
 constexpr uint64_t kMaxTexturePixels = uint64_t(1) << 26;
 
-// Reads a regular file of at most kMaxFileBytes. A FIFO, device, socket or
-// directory is refused before any read (a FIFO would block, /dev/zero never
-// ends). The error is the bare reason, without the path.
-Result<std::vector<unsigned char>> readRegularFile(const std::string& path) {
-  int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-  if (fd < 0) return Error(errno == ENOENT ? "no such file" : std::strerror(errno));
-  struct FdCloser {
-    int fd;
-    ~FdCloser() { ::close(fd); }
-  } closer{fd};
-  struct stat st;
-  if (::fstat(fd, &st) != 0) return Error(std::strerror(errno));
-  if (S_ISDIR(st.st_mode)) return Error("it is a directory");
-  if (!S_ISREG(st.st_mode)) return Error("not a regular file (a FIFO, device or socket)");
-  if (uint64_t(st.st_size) > kMaxFileBytes) return Error("larger than 2 GiB");
-  std::vector<unsigned char> out(size_t(st.st_size));
-  size_t got = 0;
-  while (got < out.size()) {
-    ssize_t k = ::read(fd, out.data() + got, out.size() - got);
-    if (k < 0 && errno == EINTR) continue;
-    if (k < 0) return Error(std::strerror(errno));
-    if (k == 0) break;  // the file shrank
-    got += size_t(k);
+// A regular file of at most kMaxFileBytes, open for reading. A FIFO, device,
+// socket or directory is refused before any read (a FIFO would block,
+// /dev/zero never ends). Errors are the bare reason, without the path.
+class RegularFile {
+ public:
+  static Result<RegularFile> open(const std::string& path) {
+    RegularFile f(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
+    if (f.fd_ < 0) return Error(errno == ENOENT ? "no such file" : std::strerror(errno));
+    struct stat st;
+    if (::fstat(f.fd_, &st) != 0) return Error(std::strerror(errno));
+    if (S_ISDIR(st.st_mode)) return Error("it is a directory");
+    if (!S_ISREG(st.st_mode)) return Error("not a regular file (a FIFO, device or socket)");
+    if (uint64_t(st.st_size) > kMaxFileBytes) return Error("larger than 2 GiB");
+    f.size_ = uint64_t(st.st_size);
+    return Result<RegularFile>(std::move(f));
   }
-  out.resize(got);
-  return out;
+  RegularFile(RegularFile&& o) noexcept : fd_(std::exchange(o.fd_, -1)), size_(o.size_) {}
+  RegularFile& operator=(RegularFile&&) = delete;
+  ~RegularFile() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  uint64_t size() const { return size_; }
+  // Up to n bytes from offset (fewer where the file ends first: it shrank).
+  Result<std::vector<unsigned char>> read(uint64_t offset, uint64_t n) const {
+    std::vector<unsigned char> out(static_cast<size_t>(n));
+    size_t got = 0;
+    while (got < out.size()) {
+      ssize_t k = ::pread(fd_, out.data() + got, out.size() - got, off_t(offset + got));
+      if (k < 0 && errno == EINTR) continue;
+      if (k < 0) return Error(std::strerror(errno));
+      if (k == 0) break;
+      got += size_t(k);
+    }
+    out.resize(got);
+    return out;
+  }
+
+ private:
+  explicit RegularFile(int fd) : fd_(fd) {}
+  int fd_ = -1;
+  uint64_t size_ = 0;
+};
+
+// Reads a whole regular file (RegularFile's limits and errors).
+Result<std::vector<unsigned char>> readRegularFile(const std::string& path) {
+  Result<RegularFile> f = RegularFile::open(path);
+  if (!f) return Error(f.error());
+  return f->read(0, f->size());
 }
 
 // tinygltf's file callbacks. tinygltf tries basedir/uri and then ./uri; we
@@ -1612,40 +1634,24 @@ std::string decodeUri(const std::string& uri) {
 std::vector<std::string> sceneReferencedFiles(const std::string& path) {
   std::vector<std::string> files;
   try {
-    // As readRegularFile: a FIFO, device or socket is not read (a FIFO would
-    // block); then the JSON only: a .glb's header and JSON chunk, not its
-    // binary chunk.
-    int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-    if (fd < 0) return files;
-    struct FdCloser {
-      int fd;
-      ~FdCloser() { ::close(fd); }
-    } closer{fd};
-    struct stat st;
-    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || uint64_t(st.st_size) > kMaxFileBytes) return files;
-    const uint64_t size = uint64_t(st.st_size);
-    auto readAt = [fd](uint64_t offset, uint64_t n) {
-      std::string out(size_t(n), '\0');
-      size_t got = 0;
-      while (got < out.size()) {
-        ssize_t k = ::pread(fd, out.data() + got, out.size() - got, off_t(offset + got));
-        if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) break;
-        got += size_t(k);
-      }
-      out.resize(got);
-      return out;
+    // The JSON only: a .glb's header and JSON chunk, not its binary chunk
+    // (jsonText's layout).
+    Result<RegularFile> file = RegularFile::open(path);
+    if (!file) return files;
+    auto readAt = [&file](uint64_t offset, uint64_t n) {
+      Result<std::vector<unsigned char>> r = file->read(offset, n);
+      return r ? std::string(r->begin(), r->end()) : std::string();
     };
-    const std::string head = readAt(0, std::min<uint64_t>(size, 20));
+    const std::string head = readAt(0, std::min<uint64_t>(file->size(), 20));
     std::string text;
     if (head.size() >= 4 && std::memcmp(head.data(), "glTF", 4) == 0) {
       uint32_t len = 0;
       if (head.size() < 20) return files;
       std::memcpy(&len, head.data() + 12, 4);
-      if (len > size - 20) return files;  // a declared length past the file's end
+      if (len > file->size() - 20) return files;  // a declared length past the file's end
       text = readAt(20, len);
     } else {
-      text = readAt(0, size);
+      text = readAt(0, file->size());
     }
     if (jsonDepthExceeded(text, kMaxJsonDepth) != std::string::npos) return files;
     const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
