@@ -333,20 +333,53 @@ void addLayer(double acc[kGatherLayers][3], int layer, const Vec3& v, GatherCoun
 void Gatherer::addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, double acc[kGatherLayers][3],
                       GatherCounters& c) const {
   if (!computeVpl_) return;
+  addVpl(gp, L, g, gp.rx.f.eval(gp.rx.frame.toLocal(g.l)), L.em.f.evalParts(L.em.frame.toLocal(-g.l)), acc, c);
+}
+
+void Gatherer::addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, const Vec3& fx,
+                      const BrdfAt::Parts& fp, double acc[kGatherLayers][3], GatherCounters& c) const {
+  if (!computeVpl_) return;
   auto clamped = [&](const Vec3& T) {
     float lum = luminance(T);
     return lum > clamp_ ? T * (clamp_ / lum) : T;
   };
   // Transfer of the full BRDF and of diffuse-only emission.
   const Vec3 w = gp.beta * L.Phi * g.weight;
-  Vec3 fxG = gp.rx.f.eval(gp.rx.frame.toLocal(g.l)) * (g.cosX * g.cosP / g.d2);
-  BrdfAt::Parts fp = L.em.f.evalParts(L.em.frame.toLocal(-g.l));
+  Vec3 fxG = fx * (g.cosX * g.cosP / g.d2);
   Vec3 Tdiff = fxG * fp.diffuse;
   Vec3 Tfull = Tdiff + fxG * fp.specular;
   addLayer(acc, kVplFull, w * Tfull, c);
   addLayer(acc, kVplFullClamped, w * clamped(Tfull), c);
   addLayer(acc, kVplDiffuse, w * Tdiff, c);
   addLayer(acc, kVplDiffuseClamped, w * clamped(Tdiff), c);
+}
+
+void Gatherer::packReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) {
+  packed.assign(pts.size() * BrdfAt::kPackedFloats, 0.0f);
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (pts[i]) pts[i]->rx.f.pack(&packed[i * BrdfAt::kPackedFloats]);
+}
+
+void Gatherer::vplBrdfs(std::span<const GatherPoint* const> pts, const float* packed, const uint32_t* list, size_t n,
+                        const GatherLight& L, const PairGeometry* geo, VplBrdfs& out) const {
+  for (auto& v : out.f_) v.resize(n);
+  for (auto& v : out.dirs_) v.resize(n);
+  out.packed_.resize(n);
+  for (size_t v = 0; v < n; ++v) {
+    const uint32_t i = list[v];
+    const Vec3 wx = pts[i]->rx.frame.toLocal(geo[i].l), wp = L.em.frame.toLocal(-geo[i].l);
+    for (int k = 0; k < 3; ++k) {
+      out.dirs_[k][v] = wx[k];
+      out.dirs_[3 + k][v] = wp[k];
+    }
+    out.packed_[v] = packed + size_t(i) * BrdfAt::kPackedFloats;
+  }
+  float* const fx[3] = {out.f_[0].data(), out.f_[1].data(), out.f_[2].data()};
+  float* const diffuse[3] = {out.f_[3].data(), out.f_[4].data(), out.f_[5].data()};
+  float* const specular[3] = {out.f_[6].data(), out.f_[7].data(), out.f_[8].data()};
+  BrdfAt::evalTotalsPacked(int(n), out.packed_.data(), out.dirs_[0].data(), out.dirs_[1].data(), out.dirs_[2].data(),
+                           false, fx);
+  L.em.f.evalPartsMany(int(n), out.dirs_[3].data(), out.dirs_[4].data(), out.dirs_[5].data(), diffuse, specular);
 }
 
 bool Gatherer::vslPair(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, VslPair& out) const {

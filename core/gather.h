@@ -202,6 +202,48 @@ class Gatherer {
   }
   void addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, double acc[kGatherLayers][3],
               GatherCounters& c) const;
+  // addVpl with the two BRDF values given: fx, the receiver's at the
+  // direction to the light, and fp, the light's lobes toward the receiver.
+  void addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, const Vec3& fx,
+              const BrdfAt::Parts& fp, double acc[kGatherLayers][3], GatherCounters& c) const;
+  // The BRDF values of addVpl for the pairs list[0..n) of one light against
+  // the points pts (connectMany's visible ones), evaluated in blocks: the
+  // receivers' from their BRDFs packed once per gather point (packReceivers:
+  // pts[i]'s at packed + i x BrdfAt::kPackedFloats), the light's at every
+  // direction in one call. fx(v) and fp(v) are then bit for bit what addVpl
+  // evaluates for pair list[v].
+  class VplBrdfs {
+   public:
+    Vec3 fx(size_t v) const { return {f_[0][v], f_[1][v], f_[2][v]}; }
+    BrdfAt::Parts fp(size_t v) const { return {{f_[3][v], f_[4][v], f_[5][v]}, {f_[6][v], f_[7][v], f_[8][v]}}; }
+
+   private:
+    friend class Gatherer;
+    std::vector<float> f_[9];     // fx RGB, then fp's diffuse and specular RGB
+    std::vector<float> dirs_[6];  // the receivers' local directions, then the light's
+    std::vector<const float*> packed_;
+  };
+  static void packReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed);
+  void vplBrdfs(std::span<const GatherPoint* const> pts, const float* packed, const uint32_t* list, size_t n,
+                const GatherLight& L, const PairGeometry* geo, VplBrdfs& out) const;
+  // addConnected for the pairs list[0..n) of one light against pts, in that
+  // order, the VPL BRDFs evaluated in blocks (vplBrdfs): each pair's
+  // transfers go to a zeroed acc handed to done(i, acc). streamOf(i) is
+  // point i's quadrature stream. The same values, bit for bit, as
+  // addConnected pair by pair.
+  template <typename StreamOf, typename Done>
+  void addConnectedMany(std::span<const GatherPoint* const> pts, const float* packed, const uint32_t* list, size_t n,
+                        const GatherLight& L, const PairGeometry* geo, uint64_t lightId, StreamOf&& streamOf,
+                        Done&& done, VplBrdfs& blocks, GatherCounters& c) const {
+    if (computeVpl_) vplBrdfs(pts, packed, list, n, L, geo, blocks);
+    for (size_t v = 0; v < n; ++v) {
+      const uint32_t i = list[v];
+      double acc[kGatherLayers][3] = {};
+      if (computeVpl_) addVpl(*pts[i], L, geo[i], blocks.fx(v), blocks.fp(v), acc, c);
+      addVsl(*pts[i], L, geo[i], lightId, streamOf(i), acc, c);
+      done(i, acc);
+    }
+  }
   void addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId, uint64_t pixel,
               double acc[kGatherLayers][3], GatherCounters& c) const;
 

@@ -306,6 +306,12 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
     }
   }
   const size_t tilePoints = static_cast<size_t>(n);
+  // The receivers' BRDFs packed once for the VPL transfers in blocks.
+  std::vector<float> packedRx[kMaxGatherPoints];
+  if (settings_.computeVpl)
+    for (int k = 0; k < kMaxGatherPoints; ++k)
+      if (any[k]) Gatherer::packReceivers(pts[k], packedRx[k]);
+  Gatherer::VplBrdfs vplBrdfs;
   // The pair roulette's seeds: each point's quadrature stream.
   std::vector<uint64_t> streams[kMaxGatherPoints];
   for (int k = 0; k < kMaxGatherPoints; ++k)
@@ -342,7 +348,9 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
         if (nv == 0) continue;
         Stopwatch own;
         if (settings_.computeVpl) {
-          for (size_t v = 0; v < nv; ++v) gatherer.addVpl(*pts[k][list[v]], L, geo[list[v]], acc[list[v]].v, c);
+          gatherer.vplBrdfs(pts[k], packedRx[k].data(), list.data(), nv, L, geo.data(), vplBrdfs);
+          for (size_t v = 0; v < nv; ++v)
+            gatherer.addVpl(*pts[k][list[v]], L, geo[list[v]], vplBrdfs.fx(v), vplBrdfs.fp(v), acc[list[v]].v, c);
           vplOwn += own.lap();
         }
         if (settings_.computeVsl) {

@@ -473,25 +473,31 @@ VSL_AVX2 void specular8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m256
   }
 }
 
-// evalParts(wi, pdf).total() on eight lanes (zero where a lane's BrdfAt is
-// below its surface or wi is).
-VSL_AVX2 void evalTotals8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m256 f[3], __m256& pdf) {
+// evalParts(wi, pdf) on eight lanes, the lobes kept apart (zero where a
+// lane's BrdfAt is below its surface or wi is).
+VSL_AVX2 void evalParts8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m256 diff[3], __m256 spec[3],
+                         __m256& pdf) {
   const __m256 up = _mm256_and_ps(k.above, greater(z, _mm256_setzero_ps()));
-  __m256 diff[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+  for (int c = 0; c < 3; ++c) diff[c] = spec[c] = _mm256_setzero_ps();
   if (!none(k.diffuse)) {
     __m256 t = sub(splat(1), mul(k.s, albedoAt8(k, z)));
-    for (int c = 0; c < 3; ++c) diff[c] = where(k.diffuse, mul(k.kd[c], t));
+    for (int c = 0; c < 3; ++c) diff[c] = where(_mm256_and_ps(up, k.diffuse), mul(k.kd[c], t));
   }
   pdf = mul(sub(splat(1), k.ps), mul(z, splat(kInvPi)));
-  __m256 spec[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
   if (!none(k.specular)) {
     __m256 specPdf = _mm256_setzero_ps();
     specular8(k, x, y, z, spec, specPdf);
-    for (int c = 0; c < 3; ++c) spec[c] = where(k.specular, spec[c]);
+    for (int c = 0; c < 3; ++c) spec[c] = where(_mm256_and_ps(up, k.specular), spec[c]);
     pdf = _mm256_blendv_ps(pdf, add(pdf, specPdf), k.specular);
   }
-  for (int c = 0; c < 3; ++c) f[c] = where(up, add(diff[c], spec[c]));
   pdf = where(up, pdf);
+}
+
+// evalParts(wi, pdf).total() on eight lanes.
+VSL_AVX2 void evalTotals8(const BrdfLanes& k, __m256 x, __m256 y, __m256 z, __m256 f[3], __m256& pdf) {
+  __m256 diff[3], spec[3];
+  evalParts8(k, x, y, z, diff, spec, pdf);
+  for (int c = 0; c < 3; ++c) f[c] = add(diff[c], spec[c]);
 }
 
 // The lanes of packed BRDF terms (pack()'s layout, one vector per term);
@@ -542,6 +548,37 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
     evalTotals8(k, loadFirst(wx + i0, m), loadFirst(wy + i0, m), loadFirst(wz + i0, m), fv, pv);
     for (int c = 0; c < 3; ++c) storeFirst(f[c] + i0, fv[c], m);
     if (pdf) storeFirst(pdf + i0, pv, m);
+  }
+}
+
+void BrdfAt::evalPartsMany(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],
+                           float* const specular[3]) const {
+  constexpr int kMinSimd = 4;
+  if (n >= kMinSimd && simdAvailable()) return evalPartsManyAvx2(n, wx, wy, wz, diffuse, specular);
+  for (int i = 0; i < n; ++i) {
+    const Parts p = evalParts(Vec3(wx[i], wy[i], wz[i]));
+    for (int c = 0; c < 3; ++c) {
+      diffuse[c][i] = p.diffuse[c];
+      specular[c][i] = p.specular[c];
+    }
+  }
+}
+
+VSL_AVX2 void BrdfAt::evalPartsManyAvx2(int n, const float* wx, const float* wy, const float* wz,
+                                        float* const diffuse[3], float* const specular[3]) const {
+  float terms[kPackedFloats];
+  pack(terms);
+  __m256 v[kPackedFloats];
+  for (int i = 0; i < kPackedFloats; ++i) v[i] = splat(terms[i]);
+  const BrdfLanes k = lanesOf(v, false);
+  for (int i0 = 0; i0 < n; i0 += 8) {
+    const int m = std::min(8, n - i0);
+    __m256 dv[3], sv[3], pv;
+    evalParts8(k, loadFirst(wx + i0, m), loadFirst(wy + i0, m), loadFirst(wz + i0, m), dv, sv, pv);
+    for (int c = 0; c < 3; ++c) {
+      storeFirst(diffuse[c] + i0, dv[c], m);
+      storeFirst(specular[c] + i0, sv[c], m);
+    }
   }
 }
 

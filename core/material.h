@@ -160,6 +160,13 @@ class BrdfAt {
   void evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
+  // evalParts(w_i) for n directions (local frame), the lobes kept apart:
+  // diffuse[c][i] and specular[c][i]. The AVX2 form (n >= 4 and
+  // simdAvailable()) agrees with evalParts bit for bit.
+  void evalPartsMany(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],
+                     float* const specular[3]) const;
+  void evalPartsManyAvx2(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],
+                         float* const specular[3]) const;
   // Many BRDFs, each at its own direction (local frames), in one call:
   // f[c][i] = the packed BRDF i's evalParts(w_i).total() (diffuseOnly:
   // .diffuse), the BRDFs kept packed (pack(): kPackedFloats floats each). The

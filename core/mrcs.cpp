@@ -444,13 +444,17 @@ void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std
     for (int k = 0; k < kMaxGatherPoints; ++k)
       pts[size_t(r) * kMaxGatherPoints + size_t(k)] = job.gps[rowPix[r]].point(k);
   const size_t bytesPerLight = (pts.size() + 7) / 8;
+  std::vector<float> packed;  // the row points' BRDFs, for the VPL transfers in blocks
+  Gatherer::packReceivers(pts, packed);
   if (visibility && !reuse) visibility->assign(job.N * bytesPerLight, 0);
   parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
     GatherCounters cnt;
     std::vector<PairGeometry> geo(pts.size());
     std::vector<uint8_t> visible(pts.size()), known(reuse ? pts.size() : 0);
     std::vector<double> acc(size_t(R) * kGatherLayers * 3);
+    std::vector<uint32_t> list(pts.size());
     Gatherer::ConnectScratch scratch;
+    Gatherer::VplBrdfs blocks;
     for (size_t j = j0; j < j1; ++j) {
       if (job.stopped()) return;
       uint8_t* bits = visibility ? &(*visibility)[j * bytesPerLight] : nullptr;
@@ -461,11 +465,18 @@ void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std
         for (size_t i = 0; i < pts.size(); ++i) bits[i / 8] |= uint8_t(visible[i] << (i % 8));
       std::fill(acc.begin(), acc.end(), 0.0);
       auto accOf = [&](int r) { return reinterpret_cast<double(*)[3]>(&acc[size_t(r) * kGatherLayers * 3]); };
-      for (size_t i = 0; i < pts.size(); ++i) {
-        if (!visible[i]) continue;
-        const int r = int(i / kMaxGatherPoints), k = int(i % kMaxGatherPoints);
-        gatherer.addConnected(*pts[i], job.gl[j], geo[i], j, gatherStream(rowPix[r], k), accOf(r), cnt);
-      }
+      size_t nv = 0;
+      for (size_t i = 0; i < pts.size(); ++i)
+        if (visible[i]) list[nv++] = uint32_t(i);
+      gatherer.addConnectedMany(
+          pts, packed.data(), list.data(), nv, job.gl[j], geo.data(), j,
+          [&](uint32_t i) { return gatherStream(rowPix[i / kMaxGatherPoints], int(i % kMaxGatherPoints)); },
+          [&](uint32_t i, const double(&pair)[kGatherLayers][3]) {
+            double(*a)[3] = accOf(int(i / kMaxGatherPoints));
+            for (int l = 0; l < kGatherLayers; ++l)
+              for (int ch = 0; ch < 3; ++ch) a[l][ch] += pair[l][ch];
+          },
+          blocks, cnt);
       for (int r = 0; r < R; ++r) {
         const double* a = accOf(r)[layer];
         col[j * R + r] = float(0.2126 * a[0] + 0.7152 * a[1] + 0.0722 * a[2]);
@@ -500,23 +511,29 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
     std::vector<double> sums(3 * n, 0.0);
     std::vector<PairGeometry> geo(n);
     std::vector<uint8_t> visible(n);
+    std::vector<uint32_t> list(n);
     Gatherer::ConnectScratch scratch;
+    Gatherer::VplBrdfs blocks;
     const size_t row = y * size_t(job.W);
     for (int x = 0; x < job.W; ++x)
       for (int g = 0; g < kMaxGatherPoints; ++g)
         pts[size_t(x) * kMaxGatherPoints + size_t(g)] = job.gps[row + size_t(x)].point(g);
+    std::vector<float> packed;
+    if (!reps.empty()) Gatherer::packReceivers(pts, packed);
     for (size_t q = 0; q < reps.size(); ++q) {
       if (job.stopped()) return;
       const Representative& r = reps[q];
       gatherer.connectMany(pts, repGl[q], geo.data(), visible.data(), scratch, cnt);
-      for (size_t i = 0; i < n; ++i) {
-        if (!visible[i]) continue;
-        double acc[kGatherLayers][3] = {};
-        const size_t pix = row + i / kMaxGatherPoints;
-        gatherer.addConnected(*pts[i], repGl[q], geo[i], r.light, gatherStream(pix, int(i % kMaxGatherPoints)), acc,
-                              cnt);
-        for (int k = 0; k < 3; ++k) sums[3 * i + size_t(k)] += r.weight * acc[layer][k];
-      }
+      size_t nv = 0;
+      for (size_t i = 0; i < n; ++i)
+        if (visible[i]) list[nv++] = uint32_t(i);
+      gatherer.addConnectedMany(
+          pts, packed.data(), list.data(), nv, repGl[q], geo.data(), r.light,
+          [&](uint32_t i) { return gatherStream(row + i / kMaxGatherPoints, int(i % kMaxGatherPoints)); },
+          [&](uint32_t i, const double(&acc)[kGatherLayers][3]) {
+            for (int k = 0; k < 3; ++k) sums[3 * size_t(i) + size_t(k)] += r.weight * acc[layer][k];
+          },
+          blocks, cnt);
     }
     for (int x = 0; x < job.W; ++x) {
       const EyeSample& es = job.gps[row + size_t(x)];

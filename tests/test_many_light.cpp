@@ -1030,6 +1030,59 @@ TEST(ManyLight, NoLightThroughThinSheets) {
 // points of neighbouring pixels (coherent batches, as the gathers use) and
 // on scattered ones, with null entries for points that do not exist; and
 // with the outcomes of an earlier call given instead of tracing.
+// The VPL transfers of one light against a tile's points, with the BRDFs
+// evaluated in blocks (Gatherer::vplBrdfs: the receivers packed once, the
+// light's lobes at every direction at once), add up to the same sums, bit for
+// bit, as addVpl pair by pair (kitchen: dielectrics, metals and glossy
+// lobes, split points, lights seen from below their surfaces).
+TEST(ManyLight, VplTransfersInBlocksEqualOneByOne) {
+  Loaded l = loadAsset("kitchen", 64);
+  ASSERT_TRUE(l.context);
+  ManyLightSettings s;
+  s.lights = 2000;
+  s.seed = 7;
+  s.splitAlpha = 0.3f;
+  ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+  Gatherer g(*l.scene, *l.accel, *l.lights, s, 0.05f, false, true);
+  const std::vector<EyeSample> eyes = eyeSamples(l, g);
+  size_t pairs = 0, clampedPairs = 0;
+  Gatherer::ConnectScratch scratch;
+  Gatherer::VplBrdfs blocks;
+  for (int k = 0; k < kMaxGatherPoints; ++k) {
+    std::vector<const GatherPoint*> pts;
+    for (const EyeSample& es : eyes) pts.push_back(es.point(k));
+    std::vector<float> packed;
+    Gatherer::packReceivers(pts, packed);
+    for (size_t j = 0; j < run.set.lights.size(); j += 13) {
+      const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
+      std::vector<PairGeometry> geo(pts.size());
+      std::vector<uint8_t> visible(pts.size());
+      GatherCounters c;
+      g.connectMany(pts, L, geo.data(), visible.data(), scratch, c);
+      std::vector<uint32_t> list;
+      for (size_t i = 0; i < pts.size(); ++i)
+        if (visible[i]) list.push_back(uint32_t(i));
+      g.vplBrdfs(pts, packed.data(), list.data(), list.size(), L, geo.data(), blocks);
+      for (size_t v = 0; v < list.size(); ++v) {
+        const uint32_t i = list[v];
+        double one[kGatherLayers][3] = {}, block[kGatherLayers][3] = {};
+        g.addVpl(*pts[i], L, geo[i], one, c);
+        g.addVpl(*pts[i], L, geo[i], blocks.fx(v), blocks.fp(v), block, c);
+        for (int layer = 0; layer < kGatherLayers; ++layer)
+          for (int ch = 0; ch < 3; ++ch)
+            ASSERT_EQ(std::memcmp(&one[layer][ch], &block[layer][ch], sizeof(double)), 0)
+                << "light " << j << ", point " << i << ", layer " << layer << ": " << one[layer][ch] << " against "
+                << block[layer][ch];
+        ++pairs;
+        clampedPairs += one[kVplFullClamped][1] < one[kVplFull][1];
+      }
+    }
+  }
+  std::printf("%zu pairs (%zu clamped) agree\n", pairs, clampedPairs);
+  EXPECT_GT(pairs, 50000u);
+  EXPECT_GT(clampedPairs, 10u);  // the clamp is exercised too
+}
+
 TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
   Loaded l = loadAsset("kitchen", 64);
   ASSERT_TRUE(l.context);
