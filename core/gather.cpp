@@ -354,7 +354,9 @@ void Gatherer::addVpl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   addLayer(acc, kVplDiffuseClamped, w * clamped(Tdiff), c);
 }
 
-void Gatherer::packReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) {
+void Gatherer::packReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) const {
+  packed.clear();
+  if (!computeVpl_) return;
   packed.assign(pts.size() * BrdfAt::kPackedFloats, 0.0f);
   for (size_t i = 0; i < pts.size(); ++i)
     if (pts[i]) pts[i]->rx.f.pack(&packed[i * BrdfAt::kPackedFloats]);

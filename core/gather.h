@@ -223,7 +223,9 @@ class Gatherer {
     std::vector<float> dirs_[6];  // the receivers' local directions, then the light's
     std::vector<const float*> packed_;
   };
-  static void packReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed);
+  // Packs pts' BRDFs for vplBrdfs where this gatherer computes VPL (else
+  // leaves packed empty; null points get a record of zeros).
+  void packReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) const;
   void vplBrdfs(std::span<const GatherPoint* const> pts, const float* packed, const uint32_t* list, size_t n,
                 const GatherLight& L, const PairGeometry* geo, VplBrdfs& out) const;
   // addConnected for the pairs list[0..n) of one light against pts, in that

@@ -308,9 +308,8 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   const size_t tilePoints = static_cast<size_t>(n);
   // The receivers' BRDFs packed once for the VPL transfers in blocks.
   std::vector<float> packedRx[kMaxGatherPoints];
-  if (settings_.computeVpl)
-    for (int k = 0; k < kMaxGatherPoints; ++k)
-      if (any[k]) Gatherer::packReceivers(pts[k], packedRx[k]);
+  for (int k = 0; k < kMaxGatherPoints; ++k)
+    if (any[k]) gatherer.packReceivers(pts[k], packedRx[k]);
   Gatherer::VplBrdfs vplBrdfs;
   // The pair roulette's seeds: each point's quadrature stream.
   std::vector<uint64_t> streams[kMaxGatherPoints];

@@ -290,10 +290,13 @@ bool simdAvailable() {
   return ok;
 }
 
+namespace {
+// A few directions cost less in the scalar forms than a register's set-up.
+bool useSimd(int n) { return n >= 4 && simdAvailable(); }
+}  // namespace
+
 void BrdfAt::evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const {
-  // A few directions cost less in the scalar form than a register's set-up.
-  constexpr int kMinSimd = 4;
-  if (n >= kMinSimd && simdAvailable())
+  if (useSimd(n))
     evalTotalsAvx2(n, wx, wy, wz, f, pdf);
   else
     evalTotalsScalar(n, wx, wy, wz, f, pdf);
@@ -376,8 +379,7 @@ BrdfAt BrdfAt::unpack(const float* in) {
 
 void BrdfAt::evalTotalsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
                               bool diffuseOnly, float* const f[3]) {
-  constexpr int kMinSimd = 4;
-  if (n >= kMinSimd && simdAvailable()) return evalTotalsPackedAvx2(n, packed, wx, wy, wz, diffuseOnly, f);
+  if (useSimd(n)) return evalTotalsPackedAvx2(n, packed, wx, wy, wz, diffuseOnly, f);
   for (int i = 0; i < n; ++i) {
     const Parts p = unpack(packed[i]).evalParts(Vec3(wx[i], wy[i], wz[i]));
     const Vec3 v = diffuseOnly ? p.diffuse : p.total();
@@ -524,6 +526,15 @@ VSL_AVX2 BrdfLanes lanesOf(const __m256 v[BrdfAt::kPackedFloats], bool diffuseOn
   return k;
 }
 
+// One BRDF's packed terms on every lane.
+VSL_AVX2 BrdfLanes lanesOfOne(const BrdfAt& f) {
+  float terms[BrdfAt::kPackedFloats];
+  f.pack(terms);
+  __m256 v[BrdfAt::kPackedFloats];
+  for (int i = 0; i < BrdfAt::kPackedFloats; ++i) v[i] = splat(terms[i]);
+  return lanesOf(v, false);
+}
+
 }  // namespace
 
 VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3],
@@ -535,12 +546,7 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
     }
     return;
   }
-  // This BRDF's packed terms on every lane.
-  float terms[kPackedFloats];
-  pack(terms);
-  __m256 v[kPackedFloats];
-  for (int i = 0; i < kPackedFloats; ++i) v[i] = splat(terms[i]);
-  const BrdfLanes k = lanesOf(v, false);
+  const BrdfLanes k = lanesOfOne(*this);
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
     // Lanes past n get wi.z = 0, which evaluates to zero.
@@ -553,8 +559,7 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
 
 void BrdfAt::evalPartsMany(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],
                            float* const specular[3]) const {
-  constexpr int kMinSimd = 4;
-  if (n >= kMinSimd && simdAvailable()) return evalPartsManyAvx2(n, wx, wy, wz, diffuse, specular);
+  if (useSimd(n)) return evalPartsManyAvx2(n, wx, wy, wz, diffuse, specular);
   for (int i = 0; i < n; ++i) {
     const Parts p = evalParts(Vec3(wx[i], wy[i], wz[i]));
     for (int c = 0; c < 3; ++c) {
@@ -566,11 +571,7 @@ void BrdfAt::evalPartsMany(int n, const float* wx, const float* wy, const float*
 
 VSL_AVX2 void BrdfAt::evalPartsManyAvx2(int n, const float* wx, const float* wy, const float* wz,
                                         float* const diffuse[3], float* const specular[3]) const {
-  float terms[kPackedFloats];
-  pack(terms);
-  __m256 v[kPackedFloats];
-  for (int i = 0; i < kPackedFloats; ++i) v[i] = splat(terms[i]);
-  const BrdfLanes k = lanesOf(v, false);
+  const BrdfLanes k = lanesOfOne(*this);
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
     __m256 dv[3], sv[3], pv;

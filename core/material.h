@@ -161,8 +161,9 @@ class BrdfAt {
   void evalTotalsScalar(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   void evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const;
   // evalParts(w_i) for n directions (local frame), the lobes kept apart:
-  // diffuse[c][i] and specular[c][i]. The AVX2 form (n >= 4 and
-  // simdAvailable()) agrees with evalParts bit for bit.
+  // diffuse[c][i] and specular[c][i]. The AVX2 form (call it only where
+  // simdAvailable(); evalPartsMany picks it there for n >= 4) agrees with
+  // evalParts bit for bit.
   void evalPartsMany(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],
                      float* const specular[3]) const;
   void evalPartsManyAvx2(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],

@@ -445,7 +445,7 @@ void reducedColumns(MrcsJob& job, const Gatherer& gatherer, int layer, const std
       pts[size_t(r) * kMaxGatherPoints + size_t(k)] = job.gps[rowPix[r]].point(k);
   const size_t bytesPerLight = (pts.size() + 7) / 8;
   std::vector<float> packed;  // the row points' BRDFs, for the VPL transfers in blocks
-  Gatherer::packReceivers(pts, packed);
+  gatherer.packReceivers(pts, packed);
   if (visibility && !reuse) visibility->assign(job.N * bytesPerLight, 0);
   parallelForChunks(job.N, 256, [&](size_t j0, size_t j1) {
     GatherCounters cnt;
@@ -519,7 +519,7 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
       for (int g = 0; g < kMaxGatherPoints; ++g)
         pts[size_t(x) * kMaxGatherPoints + size_t(g)] = job.gps[row + size_t(x)].point(g);
     std::vector<float> packed;
-    if (!reps.empty()) Gatherer::packReceivers(pts, packed);
+    if (!reps.empty()) gatherer.packReceivers(pts, packed);
     for (size_t q = 0; q < reps.size(); ++q) {
       if (job.stopped()) return;
       const Representative& r = reps[q];

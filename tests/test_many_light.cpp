@@ -1024,17 +1024,12 @@ TEST(ManyLight, NoLightThroughThinSheets) {
   }
 }
 
-// The batched connection (one light against many gather points, shadow
-// rays traced as one batch) agrees with connect() pair by pair: the same
-// visibility, the same geometry and the same counters, on kitchen's gather
-// points of neighbouring pixels (coherent batches, as the gathers use) and
-// on scattered ones, with null entries for points that do not exist; and
-// with the outcomes of an earlier call given instead of tracing.
 // The VPL transfers of one light against a tile's points, with the BRDFs
 // evaluated in blocks (Gatherer::vplBrdfs: the receivers packed once, the
 // light's lobes at every direction at once), add up to the same sums, bit for
 // bit, as addVpl pair by pair (kitchen: dielectrics, metals and glossy
-// lobes, split points, lights seen from below their surfaces).
+// lobes, split points). Directions below a surface, BRDFs restricted to one
+// lobe and NaN directions are GatherSimd.BrdfBlockEqualsScalar's.
 TEST(ManyLight, VplTransfersInBlocksEqualOneByOne) {
   Loaded l = loadAsset("kitchen", 64);
   ASSERT_TRUE(l.context);
@@ -1052,7 +1047,7 @@ TEST(ManyLight, VplTransfersInBlocksEqualOneByOne) {
     std::vector<const GatherPoint*> pts;
     for (const EyeSample& es : eyes) pts.push_back(es.point(k));
     std::vector<float> packed;
-    Gatherer::packReceivers(pts, packed);
+    g.packReceivers(pts, packed);
     for (size_t j = 0; j < run.set.lights.size(); j += 13) {
       const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
       std::vector<PairGeometry> geo(pts.size());
@@ -1083,6 +1078,12 @@ TEST(ManyLight, VplTransfersInBlocksEqualOneByOne) {
   EXPECT_GT(clampedPairs, 10u);  // the clamp is exercised too
 }
 
+// The batched connection (one light against many gather points, shadow
+// rays traced as one batch) agrees with connect() pair by pair: the same
+// visibility, the same geometry and the same counters, on kitchen's gather
+// points of neighbouring pixels (coherent batches, as the gathers use) and
+// on scattered ones, with null entries for points that do not exist; and
+// with the outcomes of an earlier call given instead of tracing.
 TEST(ManyLight, BatchedConnectionEqualsOneByOne) {
   Loaded l = loadAsset("kitchen", 64);
   ASSERT_TRUE(l.context);

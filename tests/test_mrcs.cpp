@@ -237,6 +237,9 @@ TEST(MrcsLobeGather, AClusterPerLightIsTheBruteForceImage) {
     ManyLightRenderer r(c.scene(), c.accel(), c.lights(), run.set, run.radii, s);
     ASSERT_TRUE(r.renderBatch(0));
     EXPECT_EQ(a.images.vsl.rgb, r.images().vsl.rgb) << "seed " << seed;
+    // Clamped VPL too: MRCS's rows and columns take its transfers in blocks
+    // (Gatherer::addConnectedMany) as brute force's tiles do.
+    EXPECT_EQ(a.images.vpl.rgb, r.images().vpl.rgb) << "seed " << seed;
     ManyLightRenderer r0(c.scene(), c.accel(), c.lights(), run.set, run.radii, off);
     ASSERT_TRUE(r0.renderBatch(0));
     EXPECT_EQ(b.images.vsl.rgb, r0.images().vsl.rgb) << "seed " << seed;
