@@ -4,13 +4,20 @@
 //   the path tracer's paths/s and rays/s;
 //   the VPL and VSL gathers' pairs/s and shadow rays/s at a few light counts
 //   and image sizes, each against raw occlusion measured around it; and
+//   what the VSL quadrature's draws cost against the rest of a pair (a line
+//   fitted over fixed sample counts), and what the default count's draws
+//   leave of the 0.7x-raw budget per pair; and
 //   light tracing, k-NN radii and MRCS for 100,000 lights.
 // The ratios to raw occlusion rays/s are the numbers to quote: absolute
 // timings on a shared machine are noise.
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "app/cli.h"
 #include "core/image_io.h"
@@ -148,7 +155,39 @@ struct GatherBench {
   uint32_t lights;
   int width, height;
   double pairsPerSecond, raysPerSecond, seconds, raw;
+  uint64_t pairs = 0, draws = 0;  // draws: the VSL quadrature's (ManyLightStats::vslEvaluations)
+  // One core's nanoseconds per pair (the batch's wall time on every thread).
+  double coreNsPerPair() const { return seconds * threadCount() / double(std::max<uint64_t>(pairs, 1)) * 1e9; }
+  double drawsPerPair() const { return double(draws) / double(std::max<uint64_t>(pairs, 1)); }
 };
+
+// The least-squares line y = slope x + intercept through the points (at
+// least two distinct x).
+struct Line {
+  double slope = 0, intercept = 0;
+};
+Line fitLine(const std::vector<std::pair<double, double>>& xy) {
+  double mx = 0, my = 0;
+  for (auto [x, y] : xy) {
+    mx += x;
+    my += y;
+  }
+  mx /= double(xy.size());
+  my /= double(xy.size());
+  double sxy = 0, sxx = 0;
+  for (auto [x, y] : xy) {
+    sxy += (x - mx) * (y - my);
+    sxx += (x - mx) * (x - mx);
+  }
+  Line l;
+  l.slope = sxx > 0 ? sxy / sxx : 0;
+  l.intercept = my - l.slope * mx;
+  return l;
+}
+
+// The target for the VSL gather: pairs/s at least this share of raw
+// single-ray occlusion.
+constexpr double kVslTargetShareOfRaw = 0.7;
 
 // Many-light gather: VPL only, VSL only (the default automatic count) and VSL
 // with each other automatic count (vsl_integral.h), one light set, one batch
@@ -178,8 +217,8 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
     double raw = 0.5 * (rawBefore + rawAfter);
     rawBefore = rawAfter;
     const ManyLightStats& st = r.stats();
-    gathers.push_back(
-        {name, uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec, st.shadowRays / sec, sec, raw});
+    gathers.push_back({name, uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec, st.shadowRays / sec,
+                       sec, raw, st.pairs.load(), st.vslEvaluations.load()});
     std::printf(
         "%-11s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
         "%.2f s\n",
@@ -210,6 +249,73 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
     gather(v.name, vsl, v.count, v.samples, 100000, 64, 32);
   }
   return gathers;
+}
+
+// What the VSL quadrature's draws cost against the rest of a pair. The
+// 1,000-light set of the gathers at fixed counts per strategy (kCounts), a
+// line through (draws per pair, one core's ns per pair): its slope is what a
+// draw costs (its direction, both BRDFs, the balance heuristic's term), its
+// intercept what a pair costs besides (orientation, its shadow ray, the cone's
+// set-up and the quadrature's bookkeeping). The default count's draws at that
+// slope, with its shadow rays at raw speed, against the ns per pair that
+// kVslTargetShareOfRaw of raw occlusion allows one core: where they exceed
+// it, no cut of the rest reaches the target at that count.
+json benchVslDrawCost(const Scene& scene, const Accel& accel, const LightSampler& lights, OcclusionBench& occlusion,
+                      const std::vector<GatherBench>& gathers, const BenchArgs& a) {
+  const int size = a.size / 2;
+  auto isDefault = [&](const GatherBench& g) { return g.name == "VSL" && g.width == size && g.lights < 2000; };
+  auto dflt = std::find_if(gathers.begin(), gathers.end(), isDefault);
+  if (dflt == gathers.end() || dflt->pairs == 0) return json::object();
+  static constexpr int kCounts[] = {4, 16, 64};
+  std::vector<std::pair<double, double>> points;
+  json rows = json::array();
+  double raw = 0;
+  for (int n : kCounts) {
+    ManyLightSettings m;
+    m.vslSamples = n;
+    m.lights = 1000;
+    m.width = m.height = size;
+    m.batches = 1;
+    m.directSamples = 1;
+    m.computeVpl = false;
+    ManyLightRun run = prepareManyLights(scene, accel, lights, m);
+    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+    Stopwatch clock;
+    r.renderBatch(0);
+    const double sec = clock.seconds();
+    raw += occlusion.single(std::min(a.seconds, 1.0)).first / double(std::size(kCounts));
+    const ManyLightStats& st = r.stats();
+    GatherBench g{"", 0, size, size, 0, 0, sec, 0, st.pairs.load(), st.vslEvaluations.load()};
+    if (g.pairs == 0) return json::object();
+    points.push_back({g.drawsPerPair(), g.coreNsPerPair()});
+    rows.push_back(
+        {{"samplesPerStrategy", n}, {"drawsPerPair", g.drawsPerPair()}, {"coreNsPerPair", g.coreNsPerPair()}});
+  }
+  const Line line = fitLine(points);
+  const double coreNsPerRawRay = threadCount() / raw * 1e9;
+  const double budget = coreNsPerRawRay / kVslTargetShareOfRaw;
+  const double draws = dflt->drawsPerPair(), drawsNs = draws * line.slope;
+  const double rays = dflt->raysPerSecond / std::max(dflt->pairsPerSecond, 1e-9), raysNs = rays * coreNsPerRawRay;
+  std::printf(
+      "VSL draws   %.1f ns per draw and %.0f ns per pair besides (one core; fitted over %d, %d and %d samples per "
+      "strategy, %u lights %dx%d)\n",
+      line.slope, line.intercept, kCounts[0], kCounts[1], kCounts[2], dflt->lights, size, size);
+  std::printf(
+      "            the default count: %.1f draws per pair, %.0f ns at that cost, and %.2f shadow rays per pair, %.0f "
+      "ns "
+      "at raw speed: %.0f ns, where %.1fx raw allows %.0f ns per pair (raw %.3f M)\n",
+      draws, drawsNs, rays, raysNs, drawsNs + raysNs, kVslTargetShareOfRaw, budget, raw * 1e-6);
+  return {{"nsPerDraw", line.slope},
+          {"nsPerPairBesidesDraws", line.intercept},
+          {"fixedCounts", rows},
+          {"defaultDrawsPerPair", draws},
+          {"defaultDrawsNsPerPair", drawsNs},
+          {"defaultShadowRaysPerPair", rays},
+          {"defaultShadowRaysNsPerPairAtRawSpeed", raysNs},
+          {"targetShareOfRaw", kVslTargetShareOfRaw},
+          {"budgetNsPerPair", budget},
+          {"rawOccludedRaysPerSecond", raw},
+          {"threads", threadCount()}};
 }
 
 // Stages: light tracing and k-NN radii for 100,000 lights; MRCS over them.
@@ -273,6 +379,7 @@ int runBench(const BenchArgs& a) {
 
   // The many-light gathers and stages.
   std::vector<GatherBench> gathers = benchGathers(scene, accel, lights, occlusion, rawRate, a);
+  json drawCost = benchVslDrawCost(scene, accel, lights, occlusion, gathers, a);
   json stages = benchStages(scene, accel, lights, a);
   if (a.jsonPath.empty()) return 0;
   json j = {{"scene", a.scene},
@@ -284,6 +391,7 @@ int runBench(const BenchArgs& a) {
             {"ptRaysPerPath", pt.raysPerPath},
             {"ratioPtRaysToRawOccluded", pt.raysRate / rawRate}};
   j.update(stages);
+  j["vslDrawCost"] = drawCost;
   for (const GatherBench& g : gathers)
     j["gather"].push_back({{"method", g.name},
                            {"lights", g.lights},
