@@ -152,9 +152,9 @@ PtBench benchPathTracer(const Scene& scene, const Accel& accel, const LightSampl
 // One many-light gather, with raw occlusion measured around it.
 struct GatherBench {
   std::string name;
-  uint32_t lights;
-  int width, height;
-  double pairsPerSecond, raysPerSecond, seconds, raw;
+  uint32_t lights = 0;
+  int width = 0, height = 0;
+  double pairsPerSecond = 0, raysPerSecond = 0, seconds = 0, raw = 0;
   uint64_t pairs = 0, draws = 0;  // draws: the VSL quadrature's (ManyLightStats::vslEvaluations)
   // One core's nanoseconds per pair (the batch's wall time on every thread).
   double coreNsPerPair() const { return seconds * threadCount() / double(std::max<uint64_t>(pairs, 1)) * 1e9; }
@@ -189,6 +189,30 @@ Line fitLine(const std::vector<std::pair<double, double>>& xy) {
 // single-ray occlusion.
 constexpr double kVslTargetShareOfRaw = 0.7;
 
+// One light set of m.lights at m.width x m.height, gathered in one batch with
+// one direct sample per pixel (VSL alone, VPL alone or both, as m says) and
+// timed: everything of a GatherBench but its name and raw rate.
+GatherBench timeOneBatch(const Scene& scene, const Accel& accel, const LightSampler& lights, ManyLightSettings m) {
+  m.batches = 1;
+  m.directSamples = 1;
+  ManyLightRun run = prepareManyLights(scene, accel, lights, m);
+  ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
+  Stopwatch clock;
+  r.renderBatch(0);
+  const double sec = clock.seconds();
+  const ManyLightStats& st = r.stats();
+  GatherBench g;
+  g.lights = uint32_t(run.set.lights.size());
+  g.width = m.width;
+  g.height = m.height;
+  g.pairsPerSecond = st.pairs / sec;
+  g.raysPerSecond = st.shadowRays / sec;
+  g.seconds = sec;
+  g.pairs = st.pairs.load();
+  g.draws = st.vslEvaluations.load();
+  return g;
+}
+
 // Many-light gather: VPL only, VSL only (the default automatic count) and VSL
 // with each other automatic count (vsl_integral.h), one light set, one batch
 // each.
@@ -204,26 +228,19 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
     m.lights = n;
     m.width = sz;
     m.height = szY > 0 ? szY : sz;
-    m.batches = 1;
-    m.directSamples = 1;
     m.computeVsl = vsl;
     m.computeVpl = !vsl;
-    ManyLightRun run = prepareManyLights(scene, accel, lights, m);
-    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
-    Stopwatch clock;
-    r.renderBatch(0);
-    double sec = clock.seconds();
-    double rawAfter = occlusion.single(std::min(a.seconds, 1.0)).first;
-    double raw = 0.5 * (rawBefore + rawAfter);
+    GatherBench g = timeOneBatch(scene, accel, lights, m);
+    const double rawAfter = occlusion.single(std::min(a.seconds, 1.0)).first;
+    g.name = name;
+    g.raw = 0.5 * (rawBefore + rawAfter);
     rawBefore = rawAfter;
-    const ManyLightStats& st = r.stats();
-    gathers.push_back({name, uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec, st.shadowRays / sec,
-                       sec, raw, st.pairs.load(), st.vslEvaluations.load()});
+    gathers.push_back(g);
     std::printf(
         "%-11s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
         "%.2f s\n",
-        name.c_str(), uint32_t(run.set.lights.size()), m.width, m.height, st.pairs / sec * 1e-6, st.pairs / sec / raw,
-        st.shadowRays / sec * 1e-6, st.shadowRays / sec / raw, raw * 1e-6, sec);
+        name.c_str(), g.lights, g.width, g.height, g.pairsPerSecond * 1e-6, g.pairsPerSecond / g.raw,
+        g.raysPerSecond * 1e-6, g.raysPerSecond / g.raw, g.raw * 1e-6, g.seconds);
   };
   // Few lights (wide VSL cones, all in cache), more lights, a larger image,
   // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
@@ -275,17 +292,9 @@ json benchVslDrawCost(const Scene& scene, const Accel& accel, const LightSampler
     m.vslSamples = n;
     m.lights = 1000;
     m.width = m.height = size;
-    m.batches = 1;
-    m.directSamples = 1;
     m.computeVpl = false;
-    ManyLightRun run = prepareManyLights(scene, accel, lights, m);
-    ManyLightRenderer r(scene, accel, lights, run.set, run.radii, m);
-    Stopwatch clock;
-    r.renderBatch(0);
-    const double sec = clock.seconds();
+    const GatherBench g = timeOneBatch(scene, accel, lights, m);
     raw += occlusion.single(std::min(a.seconds, 1.0)).first / double(std::size(kCounts));
-    const ManyLightStats& st = r.stats();
-    GatherBench g{"", 0, size, size, 0, 0, sec, 0, st.pairs.load(), st.vslEvaluations.load()};
     if (g.pairs == 0) return json::object();
     points.push_back({g.drawsPerPair(), g.coreNsPerPair()});
     rows.push_back(
