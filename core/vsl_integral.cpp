@@ -196,10 +196,13 @@ struct VslCone {
   }
 };
 
-// Adds one sample's f / (sum of pdfs) to sum (the balance heuristic's term).
+// Adds one sample's f / (sum of pdfs) to sum (the balance heuristic's term),
+// as f times the sum's reciprocal: one division for the three channels (in
+// the block form a double division per four lanes, not three).
 void addBalanced(const Vec3& f, double pdfSum, double sum[3]) {
   if (isBlack(f) || !(pdfSum > 0)) return;
-  for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) / pdfSum;
+  const double inv = 1.0 / pdfSum;
+  for (int c = 0; c < 3; ++c) sum[c] += double(f[c]) * inv;
 }
 
 // The quadrature's sum: each strategy's terms added in the order drawn, the
@@ -359,7 +362,8 @@ struct VslPending {
         const __m256d skipWide = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_castps_si128(half(skip))));
         const __m256d keep = _mm256_andnot_pd(skipWide, _mm256_cmp_pd(sumPdf, _mm256_setzero_pd(), _CMP_GT_OQ));
         __m256d t[4];
-        for (int c = 0; c < 3; ++c) t[c] = _mm256_and_pd(keep, _mm256_div_pd(_mm256_cvtps_pd(half(f[c])), sumPdf));
+        const __m256d inv = _mm256_div_pd(_mm256_set1_pd(1.0), sumPdf);
+        for (int c = 0; c < 3; ++c) t[c] = _mm256_and_pd(keep, _mm256_mul_pd(_mm256_cvtps_pd(half(f[c])), inv));
         t[3] = _mm256_setzero_pd();
         // Four samples' (r, g, b, 0) rows: a 4x4 transpose.
         const __m256d a0 = _mm256_unpacklo_pd(t[0], t[1]), a1 = _mm256_unpackhi_pd(t[0], t[1]);
