@@ -102,7 +102,15 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
             {"columnSeconds", ms.columnSeconds},
             {"lobeGatherSeconds", ms.lobeSeconds},
             {"zeroColumnsVsl", ms.zeroColumnsVsl},
-            {"zeroColumnsVpl", ms.zeroColumnsVpl}};
+            {"zeroColumnsVpl", ms.zeroColumnsVpl},
+            {"rowsUsed", ms.rowsUsed},
+            {"clustersUsed", ms.clustersUsed}};
+  if (ms.rowsUsed < e.mrcs.rows)
+    std::fprintf(stderr, "render: warning: %d MRCS rows for %d pixels: %d used (every pixel a row)\n", e.mrcs.rows,
+                 g.w * g.h, ms.rowsUsed);
+  if (ms.clustersUsed < e.mrcs.clusters)
+    std::fprintf(stderr, "render: warning: %d MRCS clusters for %d lights: a cluster per light\n", e.mrcs.clusters,
+                 ms.clustersUsed);
   std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s", ms.rowSeconds, ms.clusterSeconds,
                ms.columnSeconds);
   if (ms.lobeSeconds > 0) std::fprintf(stderr, ", lobe gather %.2f s (in the eye paths)", ms.lobeSeconds);
@@ -164,6 +172,19 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
                        ManyLightTimes t, uint64_t rejected) {
   const ManyLightImages& im = g.im;
   auto q = [&](double f) { return double(percentile(run.radii, f)); };
+  // The means of the layers this render computed (manyLightLayers): a method
+  // not rendered, or a VPL variant MRCS never renders, is left out, not 0.
+  const bool mrcs = a.estimator.kind == EstimatorKind::Mrcs, vsl = a.method != Method::Vpl,
+             vpl = a.method != Method::Vsl;
+  json mean = {{"direct", imageMeanJson(im.direct)}};
+  if (vsl) mean["vslIndirect"] = imageMeanJson(im.vsl);
+  if (vpl) mean["vplIndirect"] = imageMeanJson(im.vpl);
+  if (vpl && !mrcs) {
+    mean["vplUnclampedIndirect"] = imageMeanJson(im.vplUnclamped);
+    mean["vplDiffuseIndirect"] = imageMeanJson(im.vplDiffuse);
+    mean["lostToClamping"] = imageMeanJson(im.lostToClamping);
+    mean["lostToDiffuse"] = imageMeanJson(im.lostToDiffuse);
+  }
   json j = {{"version", VSL_VERSION},
             {"scene", a.scene},
             {"method", a.settings.method},
@@ -188,19 +209,13 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
               {"total", t.total}}},
             {"pairs", g.pairs},
             {"pairsPerSecond", g.pairs / std::max(g.seconds, 1e-9)},
-            {"shadowRays", g.shadowRays},
-            {"vslEvaluations", g.vslEvaluations},
+            {"shadowRays", mrcs ? json(nullptr) : json(g.shadowRays)},
+            {"vslEvaluations", mrcs || !vsl ? json(nullptr) : json(g.vslEvaluations)},
             {"pairsDroppedByRoulette", g.rouletteDropped},
             {"nonFiniteRejected", rejected},
-            {"mean",
-             {{"direct", imageMeanJson(im.direct)},
-              {"vslIndirect", imageMeanJson(im.vsl)},
-              {"vplIndirect", imageMeanJson(im.vpl)},
-              {"vplUnclampedIndirect", imageMeanJson(im.vplUnclamped)},
-              {"vplDiffuseIndirect", imageMeanJson(im.vplDiffuse)},
-              {"lostToClamping", imageMeanJson(im.lostToClamping)},
-              {"lostToDiffuse", imageMeanJson(im.lostToDiffuse)}}},
+            {"mean", mean},
             {"warnings", scene.warnings}};
+  if (mrcs) j["countsNotKept"] = "MRCS counts its pairs, not its shadow rays or VSL quadrature draws";
   if (!g.mrcs.is_null()) j["mrcs"] = g.mrcs;
   if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written)
     return fail(kExitBadInput, written.error());

@@ -152,7 +152,8 @@ class MrcsEstimator final : public ManyLightEstimator {
         renderMrcs(ctx_.scene(), ctx_.accel(), ctx_.lights(), run_.set, run_.radii, many_, mrcs_, stop, progress_);
     if (r.stopped) return false;
     images_ = std::move(r.images);
-    mrcsStats_ = {r.rowSeconds, r.clusterSeconds, r.columnSeconds, r.lobeSeconds, r.zeroColumnsVsl, r.zeroColumnsVpl};
+    mrcsStats_ = {r.rowSeconds,     r.clusterSeconds, r.columnSeconds, r.lobeSeconds,
+                  r.zeroColumnsVsl, r.zeroColumnsVpl, r.rowsUsed,      r.clustersUsed};
     const double seconds = r.rowSeconds + r.clusterSeconds + r.columnSeconds;
     stats_.pairs = r.pairs;
     stats_.nonFinite = r.nonFinite;

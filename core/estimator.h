@@ -97,6 +97,7 @@ struct MrcsStats {
   double rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
   double lobeSeconds = 0;  // the lobe gather's (MrcsResult::lobeSeconds), part of the eye paths' time
   size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;
+  int rowsUsed = 0, clustersUsed = 0;  // MrcsResult's: the settings' capped at the pixels and the lights
 };
 
 class ManyLightEstimator {

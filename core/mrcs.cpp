@@ -575,11 +575,13 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   job.doVsl = settings.computeVsl;
   job.doVpl = settings.computeVpl;
+  res.rowsUsed = int(std::clamp<uint64_t>(uint64_t(mrcs.rows), 1, uint64_t(job.W) * uint64_t(job.H)));
+  res.clustersUsed = int(std::clamp<uint64_t>(uint64_t(mrcs.clusters), 1, std::max<uint64_t>(job.N, 1)));
   if (progress)
     progress->plan({.pixels = uint64_t(job.W) * uint64_t(job.H),
                     .lights = job.N,
-                    .rows = mrcs.rows,
-                    .clusters = mrcs.clusters,
+                    .rows = res.rowsUsed,
+                    .clusters = res.clustersUsed,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
   // A stopped render is discarded: no image, the progress idle.
@@ -619,7 +621,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
 
   // 1. Rows.
   Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
-  const std::vector<size_t> rowPix = pickRows(job, mrcs.rows, rng);
+  const std::vector<size_t> rowPix = pickRows(job, res.rowsUsed, rng);
   const int R = int(rowPix.size());
   // VSL's rows first, keeping their rays' outcomes for VPL's rows, which
   // wait until the VSL image is out (with VPL alone, its rows trace them).
@@ -639,7 +641,8 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.begin(MrcsProgress::kClustering, 0);
   const uint64_t cseed = hashCombine(settings.seed, mrcs.seed);
   std::vector<Representative> repVsl, repVpl;
-  if (job.doVsl) repVsl = clusterColumns(colVsl, job.N, R, mrcs.clusters, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
+  if (job.doVsl)
+    repVsl = clusterColumns(colVsl, job.N, R, res.clustersUsed, cseed, &res.zeroColumnsVsl, mrcs.uniformMix);
   colVsl = {};
   res.clusterSeconds = clock.lap();
 
@@ -669,7 +672,7 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
     res.rowSeconds += clock.lap();
   }
   if (job.doVpl && !job.stopped()) {
-    repVpl = clusterColumns(colVpl, job.N, R, mrcs.clusters, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
+    repVpl = clusterColumns(colVpl, job.N, R, res.clustersUsed, cseed + 1, &res.zeroColumnsVpl, mrcs.uniformMix);
     res.clusterSeconds += clock.lap();
   }
   colVpl = {};

@@ -73,6 +73,10 @@ struct MrcsResult {
   uint64_t pairs = 0;
   uint64_t nonFinite = 0;                         // lights and contributions rejected as NaN or Inf
   size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;  // lights dropped (dark at every row)
+  // The rows and clusters used: the settings' capped at the image's pixels
+  // (more rows would repeat pixels) and at the lights (more clusters would
+  // stay empty; a cluster per light is brute force).
+  int rowsUsed = 0, clustersUsed = 0;
   bool stopped = false;
 };
 

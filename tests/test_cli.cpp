@@ -596,7 +596,11 @@ TEST_F(Cli, TinyTimeBudgetStillRendersOnePass) {
 }
 
 // The render JSON times parsing and the BVH build apart (seconds.load,
-// seconds.bvh) and names the estimator; MRCS records its settings.
+// seconds.bvh) and names the estimator; MRCS records its settings and the
+// rows and clusters it used (capped at the pixels and the lights, with a
+// warning). The means are of the layers the render computed: MRCS renders no
+// VPL variant and counts no shadow ray or VSL draw, and those are left out or
+// null, not 0; nor does a VSL-only render have a VPL mean.
 TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   const std::string common = "render " + scene("cornell-glossy") + " --method all --lights 200 --width 16 --seed 2";
   Proc r = run(common + " -o " + file("b.exr") + " --json " + file("b.json"));
@@ -606,13 +610,41 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   EXPECT_GT(j["seconds"]["load"].get<double>(), 0);
   EXPECT_GT(j["seconds"]["bvh"].get<double>(), 0);
   EXPECT_FALSE(j.contains("mrcs"));
+  for (const char* layer : {"direct", "vslIndirect", "vplIndirect", "vplUnclampedIndirect", "vplDiffuseIndirect",
+                            "lostToClamping", "lostToDiffuse"})
+    EXPECT_TRUE(j["mean"].contains(layer)) << layer;
+  EXPECT_GT(j["shadowRays"].get<double>(), 0);
+  EXPECT_GT(j["vslEvaluations"].get<double>(), 0);
   r = run(common + " --mrcs 10,20 -o " + file("m.exr") + " --json " + file("m.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   j = nlohmann::json::parse(std::ifstream(file("m.json")));
   EXPECT_EQ(j["estimator"], "mrcs");
   EXPECT_EQ(j["mrcs"]["rows"], 10);
   EXPECT_EQ(j["mrcs"]["clusters"], 20);
+  EXPECT_EQ(j["mrcs"]["rowsUsed"], 10);
+  EXPECT_EQ(j["mrcs"]["clustersUsed"], 20);
   EXPECT_EQ(j["batches"], 1);
+  EXPECT_EQ(j["mean"].size(), 3u) << j["mean"].dump();
+  for (const char* layer : {"direct", "vslIndirect", "vplIndirect"}) EXPECT_TRUE(j["mean"].contains(layer)) << layer;
+  EXPECT_TRUE(j["shadowRays"].is_null());
+  EXPECT_TRUE(j["vslEvaluations"].is_null());
+  EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
+  // 1,000 rows for 16 x 16 pixels and more clusters than lights.
+  r = run(common + " --mrcs 1000,5000 -o " + file("m2.exr") + " --json " + file("m2.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = nlohmann::json::parse(std::ifstream(file("m2.json")));
+  EXPECT_EQ(j["mrcs"]["rows"], 1000);
+  EXPECT_EQ(j["mrcs"]["rowsUsed"], 256);
+  EXPECT_EQ(j["mrcs"]["clustersUsed"], j["lights"]);
+  EXPECT_NE(r.out.find("warning: 1000 MRCS rows for 256 pixels: 256 used"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("warning: 5000 MRCS clusters for " + j["lights"].dump() + " lights"), std::string::npos)
+      << r.out;
+  r = run("render " + scene("cornell-glossy") + " --method vsl --lights 200 --width 16 -o " + file("v.exr") +
+          " --json " + file("v.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = nlohmann::json::parse(std::ifstream(file("v.json")));
+  EXPECT_EQ(j["mean"].size(), 2u) << j["mean"].dump();
+  EXPECT_TRUE(j["mean"].contains("vslIndirect"));
   r = run("render " + scene("furnace") + " --spp 2 --width 8 -o " + file("p.exr") + " --json " + file("p.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   j = nlohmann::json::parse(std::ifstream(file("p.json")));

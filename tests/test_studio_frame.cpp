@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <thread>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -541,6 +542,85 @@ TEST_F(StudioFrame, ExportRecordsLightSetsAndBiasNoise) {
   EXPECT_DOUBLE_EQ(j["flip"]["mean"]["VSL"].get<double>(),
                    flipLdr(toSrgbImage(snap->many.vsl), toSrgbImage(snap->refIndirect)).mean);
   EXPECT_TRUE(std::filesystem::exists(folder + "/flip-vsl-indirect.png"));
+}
+
+// An export holds only what was rendered: under MRCS no PNG, error or FLIP
+// map, EXR layer, metric or bias row of the VPL variants and lost-energy
+// images (black, and scored against the reference they looked like a method),
+// and while clamped VPL's columns are pending, none of clamped VPL either;
+// metrics.json says why in notRendered.
+TEST_F(StudioFrame, ExportLeavesOutWhatWasNotRendered) {
+  auto exportOf = [&](const std::shared_ptr<Snapshot>& snap, const std::string& name, std::vector<std::string>& files,
+                      nlohmann::json& j, std::vector<std::string>& layers) {
+    studio->setSnapshotForTesting(snap);
+    studio->applySettings(snap->settings);
+    renderFrames(1);
+    const std::string dir = std::string(VSL_BINARY_DIR) + "/" + name;
+    std::filesystem::remove_all(dir);
+    std::string folder;
+    Result<void> e = studio->exportAll(dir, &files, &folder);
+    ASSERT_TRUE(e) << e.error();
+    j = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"));
+    Result<std::vector<Layer>> exr = readExr(folder + "/images.exr");
+    ASSERT_TRUE(exr) << exr.error();
+    layers.clear();
+    for (const Layer& l : *exr) layers.push_back(l.name);
+  };
+  auto anyFile = [](const std::vector<std::string>& files, const std::string& part) {
+    return std::any_of(files.begin(), files.end(), [&](const std::string& f) {
+      return std::filesystem::path(f).filename().string().find(part) != std::string::npos;
+    });
+  };
+  auto hasLayer = [](const std::vector<std::string>& layers, const std::string& name) {
+    return std::find(layers.begin(), layers.end(), name) != layers.end();
+  };
+  studio->view().component = Component::Indirect;
+  std::vector<std::string> files, layers;
+  nlohmann::json j;
+
+  // Brute force: everything.
+  auto snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->biasNoise[int(BiasNoiseRow::VplUnclamped)] = {3, 0.25, 0.5, 0.4};
+  exportOf(snap, "studio-export-all", files, j, layers);
+  for (const char* part : {"vpl-clamped-", "vpl-unclamped-", "vpl-diffuse-", "lost-to-clamping-", "error-vpl-unclamped",
+                           "flip-vpl-diffuse"})
+    EXPECT_TRUE(anyFile(files, part)) << part;
+  for (const char* name : {"vpl-indirect", "vpl-unclamped-indirect", "lost-to-diffuse", "error-vpl-relsq"})
+    EXPECT_TRUE(hasLayer(layers, name)) << name;
+  EXPECT_TRUE(j["metricsAgainstReference"]["VPL unclamped"].is_object());
+  EXPECT_TRUE(j["notRendered"].empty());
+  EXPECT_EQ(j["biasNoiseIndirect"]["methods"]["VPL unclamped"]["renders"], 3);
+
+  // MRCS: VSL and clamped VPL only.
+  snap = std::make_shared<Snapshot>(*snap);
+  snap->settings.estimator.kind = EstimatorKind::Mrcs;
+  exportOf(snap, "studio-export-mrcs", files, j, layers);
+  for (const char* part : {"vpl-unclamped", "vpl-diffuse", "lost-to-"})
+    EXPECT_FALSE(anyFile(files, part)) << part << " exported under MRCS";
+  EXPECT_TRUE(anyFile(files, "error-vpl-clamped"));
+  EXPECT_TRUE(anyFile(files, "flip-vsl"));
+  for (const char* name : {"vpl-unclamped-indirect", "vpl-diffuse-indirect", "lost-to-clamping", "lost-to-diffuse"})
+    EXPECT_FALSE(hasLayer(layers, name)) << name;
+  EXPECT_TRUE(hasLayer(layers, "vpl-indirect"));
+  EXPECT_TRUE(j["metricsAgainstReference"]["VPL unclamped"].is_null());
+  EXPECT_TRUE(j["metricsAgainstReference"]["VPL diffuse-only"].is_null());
+  EXPECT_TRUE(j["metricsAgainstReference"]["VPL (clamped)"].is_object());
+  EXPECT_EQ(j["notRendered"].size(), 2u) << j["notRendered"].dump();
+  EXPECT_TRUE(j["notRendered"].contains("VPL unclamped"));
+  EXPECT_TRUE(j["biasNoiseIndirect"]["methods"]["VPL unclamped"].is_null());
+  EXPECT_FALSE(j["flip"]["mean"].contains("VPL unclamped"));
+
+  // MRCS with clamped VPL's columns pending: VSL alone.
+  snap = std::make_shared<Snapshot>(*snap);
+  snap->vplPending = true;
+  exportOf(snap, "studio-export-pending", files, j, layers);
+  EXPECT_FALSE(anyFile(files, "vpl-clamped"));
+  EXPECT_FALSE(hasLayer(layers, "vpl-indirect"));
+  EXPECT_FALSE(hasLayer(layers, "error-vpl-signed"));
+  EXPECT_TRUE(hasLayer(layers, "vsl-indirect"));
+  EXPECT_TRUE(j["metricsAgainstReference"]["VPL (clamped)"].is_null());
+  EXPECT_EQ(j["notRendered"].size(), 3u) << j["notRendered"].dump();
+  EXPECT_TRUE(j["metricsAgainstReference"]["VSL"].is_object());
 }
 
 namespace {

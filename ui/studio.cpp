@@ -375,12 +375,13 @@ bool Studio::panelStale(int i) const {
   return sourceStale(view_.panels[std::clamp(i, 0, 2)]);
 }
 
-bool Studio::hasPicture(Source s, Component c) const {
-  if (!snap_) return false;
-  if (c == Component::Direct || s == Source::Vsl || s == Source::Reference) return true;
-  if (snap_->settings.estimator.kind == EstimatorKind::Mrcs && s != Source::Vpl) return false;
-  return !snap_->vplPending;
+bool studio_detail::snapshotHasPicture(const Snapshot& s, Source src, Component c) {
+  if (c == Component::Direct || src == Source::Vsl || src == Source::Reference) return true;
+  if (s.settings.estimator.kind == EstimatorKind::Mrcs && src != Source::Vpl) return false;
+  return !s.vplPending;
 }
+
+bool Studio::hasPicture(Source s, Component c) const { return snap_ && snapshotHasPicture(*snap_, s, c); }
 
 const char* Studio::missingPictureText(Source s) const {
   return s == Source::Vpl ? "waiting for its MRCS columns (VSL's come first)"

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <utility>
 
 #include "core/flip.h"
 #include "core/image_io.h"
@@ -146,30 +147,37 @@ Result<std::filesystem::path> makeExportFolder(const std::string& dir, const std
   return folder;
 }
 
-// Every layer, linear, in one EXR.
+// Every layer the snapshot holds, linear, in one EXR: not the layers MRCS
+// never renders, nor clamped VPL's while its columns are pending
+// (snapshotHasPicture), which would be black.
 Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
-  Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl),
-        vplFull = add(s.many.direct, s.many.vpl);
-  ErrorImages ev = errorImages(s.many.vsl, s.refIndirect), ep = errorImages(s.many.vpl, s.refIndirect);
+  Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl);
+  ErrorImages ev = errorImages(s.many.vsl, s.refIndirect);
   std::vector<Layer> layers = {{"", vslFull},
                                {"vsl-full", vslFull},
                                {"vsl-indirect", s.many.vsl},
-                               {"vpl-full", vplFull},
-                               {"vpl-indirect", s.many.vpl},
                                {"direct", s.many.direct},
                                {"pt-full", ptFull},
                                {"pt-direct", s.ptDirect},
                                {"pt-indirect", s.ptIndirect},
                                {"reference-full", add(s.refDirect, s.refIndirect)},
                                {"reference-indirect", s.refIndirect},
-                               {"vpl-unclamped-indirect", s.many.vplUnclamped},
-                               {"vpl-diffuse-indirect", s.many.vplDiffuse},
-                               {"lost-to-clamping", s.many.lostToClamping},
-                               {"lost-to-diffuse", s.many.lostToDiffuse},
                                {"error-vsl-signed", ev.signedDiff},
-                               {"error-vsl-relsq", ev.relSquared},
-                               {"error-vpl-signed", ep.signedDiff},
-                               {"error-vpl-relsq", ep.relSquared}};
+                               {"error-vsl-relsq", ev.relSquared}};
+  auto has = [&](Source src) { return snapshotHasPicture(s, src, Component::Indirect); };
+  if (has(Source::Vpl)) {
+    ErrorImages ep = errorImages(s.many.vpl, s.refIndirect);
+    layers.insert(layers.end(), {{"vpl-full", add(s.many.direct, s.many.vpl)},
+                                 {"vpl-indirect", s.many.vpl},
+                                 {"error-vpl-signed", ep.signedDiff},
+                                 {"error-vpl-relsq", ep.relSquared}});
+  }
+  const std::pair<Source, Layer> variants[] = {{Source::VplUnclamped, {"vpl-unclamped-indirect", s.many.vplUnclamped}},
+                                               {Source::VplDiffuse, {"vpl-diffuse-indirect", s.many.vplDiffuse}},
+                                               {Source::LostClamping, {"lost-to-clamping", s.many.lostToClamping}},
+                                               {Source::LostDiffuse, {"lost-to-diffuse", s.many.lostToDiffuse}}};
+  for (const auto& [src, layer] : variants)
+    if (has(src)) layers.push_back(layer);
   return writeExr(path, layers,
                   {{"vsl.version", VSL_VERSION},
                    {"vsl.scene", s.settings.scene},
@@ -223,17 +231,21 @@ nlohmann::json biasNoiseJson(const Snapshot& s) {
       {"referenceNoise", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
       {"lightSetsDone", s.lightSetsDone}};
   const char* biasRows[] = {"VSL", "VPL (clamped)", "VPL unclamped", "VPL diffuse-only", "Path tracer (live)"};
+  // The rows' sources; the live path tracer is always rendered.
+  const Source rowSources[] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse, Source::Reference};
+  static_assert(std::size(rowSources) == size_t(BiasNoiseRow::Count), "a source per row");
   for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
     const BiasNoise& b = s.biasNoise[i];
     biasNoise["methods"][biasRows[i]] =
-        b.renders < 2 ? nlohmann::json(nullptr)
-                      : nlohmann::json({{"renders", b.renders},
-                                        {"bias2", b.bias2},
-                                        {"variance", b.variance},
-                                        {"relMSE", b.relMse},
-                                        {"bias2MinusReferenceNoise", s.referenceNoise >= 0
-                                                                         ? nlohmann::json(b.bias2 - s.referenceNoise)
-                                                                         : nlohmann::json(nullptr)}});
+        b.renders < 2 || !snapshotHasPicture(s, rowSources[i], Component::Indirect)
+            ? nlohmann::json(nullptr)
+            : nlohmann::json(
+                  {{"renders", b.renders},
+                   {"bias2", b.bias2},
+                   {"variance", b.variance},
+                   {"relMSE", b.relMse},
+                   {"bias2MinusReferenceNoise",
+                    s.referenceNoise >= 0 ? nlohmann::json(b.bias2 - s.referenceNoise) : nlohmann::json(nullptr)}});
   }
   return biasNoise;
 }
@@ -319,6 +331,7 @@ Result<float> Studio::exportPictures(const std::string& folder, std::vector<std:
   auto path = [&](const std::string& name) { return (std::filesystem::path(folder) / name).string(); };
   const char* comp = componentName(view_.component);
   for (int i = 0; i < int(Source::Count); ++i) {
+    if (!hasPicture(Source(i), view_.component)) continue;  // never rendered, or pending: not a black PNG
     Image scratch;
     const Image* img = componentImage(Source(i), view_.component, scratch);
     std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
@@ -328,18 +341,20 @@ Result<float> Studio::exportPictures(const std::string& folder, std::vector<std:
   Image refScratch;
   const Image* ref = referenceImage(view_.component, refScratch);
   std::vector<Image> maps;
+  std::vector<Source> mapped;  // the methods with a picture in this component
   float vmax = view_.errorScale, autoMax = 0;
   for (Source m : kMetricSources) {
+    if (!hasPicture(m, view_.component)) continue;
     Image scratch;
     maps.push_back(errorMap(*componentImage(m, view_.component, scratch), *ref, view_.metric));
+    mapped.push_back(m);
     autoMax = std::max(autoMax, percentile99(maps.back()));
   }
   if (!(vmax > 0)) vmax = autoMax > 0 ? autoMax : 1.0f;
   for (size_t i = 0; i < maps.size(); ++i) {
     int rows = 0;
     std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
-    std::string name =
-        "error-" + sourceSlug(kMetricSources[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
+    std::string name = "error-" + sourceSlug(mapped[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
     if (Result<void> w = writePngRgb8(path(name), snap_->width, rows, px); !w) return Error(w.error());
     files->push_back(path(name));
   }
@@ -359,6 +374,7 @@ Result<nlohmann::json> Studio::exportFlipMaps(const std::string& folder, std::ve
                              {"exposure", view_.exposure},
                              {"pixelsPerDegree", kFlipPixelsPerDegree}};
   for (size_t i = 0; i < std::size(kMetricSources); ++i) {
+    if (!hasPicture(kMetricSources[i], view_.component)) continue;
     int rows = 0;
     std::vector<uint8_t> px = magmaWithBar(flip.map[i], &rows);
     std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
@@ -376,8 +392,14 @@ Result<nlohmann::json> Studio::exportFlipMaps(const std::string& folder, std::ve
 nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json& flipJson,
                                          const nlohmann::json& cropJson) const {
   const Snapshot& s = *snap_;
-  nlohmann::json metrics;
+  nlohmann::json metrics, notRendered = nlohmann::json::object();
   for (Source src : kMetricSources) {
+    if (!hasPicture(src, Component::Indirect)) {
+      // Scored against the reference, a black layer would look like a method.
+      metrics[sourceName(src)] = nullptr;
+      notRendered[sourceName(src)] = missingPictureText(src);
+      continue;
+    }
     for (Component c : {Component::Full, Component::Indirect}) {
       Image sc, rs;
       CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
@@ -416,6 +438,7 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
             {"errorMetric", kMetricNames[int(view_.metric)]},
             {"errorMapMax", errorMapMax}}},
           {"metricsAgainstReference", metrics},
+          {"notRendered", notRendered},
           {"relMseEpsilon", mapEps_},
           {"relMseEpsilonMode", "relative: 0.01 x the reference's mean luminance^2"},
           {"crop", cropJson},

@@ -12,6 +12,12 @@ inline constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::V
 inline const char* const kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)", "squared (t-r)^2",
                                            "relative squared (t-r)^2/(r^2+eps)"};
 
+// Whether snapshot s holds a picture of source src in component c (see
+// Studio::hasPicture: under MRCS the VPL variants and the lost-energy images
+// are never rendered, and clamped VPL waits for its columns while
+// s.vplPending). Exports leave out what it does not hold.
+bool snapshotHasPicture(const Snapshot& s, Source src, Component c);
+
 // One pixel's error under a metric. eps follows the reference as relMSE's
 // does (compare.h: 0.01 x the reference's mean luminance squared) for the
 // squared metrics, and its square root for the absolute ones.
