@@ -1506,7 +1506,9 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
       if (i < 4 ? metricShown(i) : s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
   for (const BiasNoise& b : s.biasNoise)
     if (b.renders >= 2) {
-      t.bestBias = std::min(t.bestBias, std::abs(b.bias2 - t.noise));
+      // A bias that cannot be told from the noise (below zero) is not ranked,
+      // as a relMSE below the reference's noise is not (errorCell).
+      if (!belowNoise(b.bias2 - t.noise)) t.bestBias = std::min(t.bestBias, b.bias2 - t.noise);
       t.bestNoise = std::min(t.bestNoise, b.variance);
     }
   return t;
@@ -1536,9 +1538,10 @@ void Studio::biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row)
       ImGui::TextDisabled("n/a");
     } else if (b.renders < 2) {
       ImGui::TextDisabled("-");
+    } else if (k == 0 && belowNoise(b.bias2 - t.noise)) {
+      ImGui::TextDisabled("< noise");
     } else {
-      const double v = k == 0 ? b.bias2 - t.noise : b.variance;
-      cell(v, k == 0 ? (std::abs(v) == t.bestBias ? v : NAN) : t.bestNoise, "%.4g");
+      cell(k == 0 ? b.bias2 - t.noise : b.variance, k == 0 ? t.bestBias : t.bestNoise, "%.4g");
     }
     if (!ImGui::IsItemHovered()) continue;
     const bool pt = row == BiasNoiseRow::Pt;
@@ -1548,6 +1551,11 @@ void Studio::biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row)
       tip("The path tracer's two halves are measured against a converged reference only");
     else if (b.renders < 2)
       tip("Needs two completed light sets (%d so far, of %d)", s.lightSetsDone, s.lightSets);
+    else if (k == 0 && belowNoise(b.bias2 - t.noise))
+      tip("bias^2%s is %.3g: this bias cannot be told from the noise of its own estimate%s yet, so it is not measured "
+          "or ranked; it can be with more light sets%s",
+          t.noise > 0 ? " less the reference's own noise" : "", b.bias2 - t.noise,
+          t.noise > 0 ? " and of the reference" : "", t.noise > 0 ? " and a more converged reference" : "");
     else if (k == 0)
       tip("bias^2 = mean(w ((m - r)^2 - s^2/K)) over K = %d %s (compare.h biasVariance), w = 1/(r^2+eps)%s", b.renders,
           pt ? "halves" : "light sets",
@@ -1758,8 +1766,12 @@ void Studio::plotErrors(const ImVec2& size) {
   ImDrawList* dl = ImGui::GetWindowDrawList();
   ImVec2 p0 = ImGui::GetCursorScreenPos(), p1(p0.x + size.x, p0.y + size.y);
   ImGui::Dummy(size);
-  // The title sits above the plot area, never over the curves.
-  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255), "relMSE (indirect) - ref. noise vs own time");
+  // The title sits above the plot area, never over the curves; the longest
+  // form that fits the plot's width (a narrow window cut the long one off).
+  const char* title = "relMSE (indirect) - ref. noise vs own time";
+  for (const char* shorter : {"relMSE - ref. noise vs own time", "relMSE - noise vs time"})
+    if (ImGui::CalcTextSize(title).x > size.x - 8) title = shorter;
+  dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255), title);
   const float titleH = ImGui::GetTextLineHeight() + 4, padL = 56, padB = 18, padR = 56;
   ImVec2 a(p0.x + padL, p0.y + titleH + 4), b(p1.x - padR, p1.y - padB);
   dl->AddRect(ImVec2(a.x, a.y), ImVec2(b.x, b.y), IM_COL32(120, 120, 120, 255));

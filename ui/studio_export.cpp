@@ -302,10 +302,11 @@ nlohmann::json settingsJson(const Snapshot& s) {
           {"estimator", estimatorJson(s.settings.estimator)}};
 }
 
-// How far the render got, and what it took.
+// How far the render got, and what it took. lightsPlanned counts every light
+// set's lights, the sets not yet traced included.
 nlohmann::json samplesJson(const Snapshot& s) {
   return {{"lightSetsDone", s.lightSetsDone},  {"lightSets", s.lightSets},
-          {"lightsTraced", s.lightsTotal},     {"lightsGathered", s.lightsProcessed},
+          {"lightsPlanned", s.lightsTotal},    {"lightsGathered", s.lightsProcessed},
           {"batchesDone", s.batchesDone},      {"batchCount", s.batchCount},
           {"referenceSpp", s.ptSpp},           {"pairs", s.pairs},
           {"vslEvaluations", s.vslEvaluations}};
