@@ -109,8 +109,8 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
     std::fprintf(stderr, "render: warning: %d MRCS rows for %d pixels: %d used (every pixel a row)\n", e.mrcs.rows,
                  g.w * g.h, ms.rowsUsed);
   if (ms.clustersUsed < e.mrcs.clusters)
-    std::fprintf(stderr, "render: warning: %d MRCS clusters for %d lights: a cluster per light\n", e.mrcs.clusters,
-                 ms.clustersUsed);
+    std::fprintf(stderr, "render: warning: %d MRCS clusters for %zu lights: a cluster per light\n", e.mrcs.clusters,
+                 est.run().set.lights.size());
   std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s", ms.rowSeconds, ms.clusterSeconds,
                ms.columnSeconds);
   if (ms.lobeSeconds > 0) std::fprintf(stderr, ", lobe gather %.2f s (in the eye paths)", ms.lobeSeconds);

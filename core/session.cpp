@@ -182,7 +182,11 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   if (available == 0) available = availableMemoryBytes();
   const std::string what =
       std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" + std::to_string(height);
-  const int mrcsRows = s.estimator.kind == EstimatorKind::Mrcs ? s.estimator.mrcs.rows : 0;
+  // MRCS's rows as it uses them: at most one per pixel (renderMrcs).
+  const int mrcsRows = s.estimator.kind == EstimatorKind::Mrcs
+                           ? int(std::min<uint64_t>(uint64_t(s.estimator.mrcs.rows),
+                                                    uint64_t(std::max(width, 1)) * uint64_t(std::max(height, 1))))
+                           : 0;
   if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available, 0.75, mrcsRows); !m)
     return Error("memory: " + what + " " + m.error());
   // What checkStudioMemory does not count, per pixel: the light sets' double
@@ -669,6 +673,11 @@ void Session::logMrcsStep(const Job& job, double stepSeconds) const {
             (m.lobeSeconds > 0 ? " with the lobe gather's " + secondsText(m.lobeSeconds) : std::string()) + ", rows " +
             secondsText(m.rowSeconds) + ", clustering " + secondsText(m.clusterSeconds) + ", columns " +
             secondsText(m.columnSeconds) + ")");
+  const MrcsSettings& asked = job.settings.estimator.mrcs;
+  if (job.set == 0 && (m.rowsUsed < asked.rows || m.clustersUsed < asked.clusters))
+    log::warning("MRCS: " + std::to_string(asked.rows) + " rows and " + std::to_string(asked.clusters) +
+                 " clusters asked, " + std::to_string(m.rowsUsed) + " and " + std::to_string(m.clustersUsed) +
+                 " used (at most a row per pixel and a cluster per light)");
 }
 
 // ---- [5b] References ------------------------------------------------------------------

@@ -609,6 +609,13 @@ TEST_F(StudioFrame, ExportLeavesOutWhatWasNotRendered) {
   EXPECT_TRUE(j["notRendered"].contains("VPL unclamped"));
   EXPECT_TRUE(j["biasNoiseIndirect"]["methods"]["VPL unclamped"].is_null());
   EXPECT_FALSE(j["flip"]["mean"].contains("VPL unclamped"));
+  // The direct component is every method's, but the lost-energy images have
+  // none: under MRCS they are still not rendered.
+  studio->view().component = Component::Direct;
+  exportOf(snap, "studio-export-mrcs-direct", files, j, layers);
+  EXPECT_FALSE(anyFile(files, "lost-to-")) << "a black lost-energy PNG under MRCS";
+  EXPECT_TRUE(anyFile(files, "vpl-unclamped-direct")) << "the direct image is every method's";
+  studio->view().component = Component::Indirect;
 
   // MRCS with clamped VPL's columns pending: VSL alone.
   snap = std::make_shared<Snapshot>(*snap);

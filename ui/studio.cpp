@@ -376,8 +376,11 @@ bool Studio::panelStale(int i) const {
 }
 
 bool studio_detail::snapshotHasPicture(const Snapshot& s, Source src, Component c) {
+  const bool mrcs = s.settings.estimator.kind == EstimatorKind::Mrcs;
+  // The lost-energy images are the same in every component (no direct part).
+  if (mrcs && (src == Source::LostClamping || src == Source::LostDiffuse)) return false;
   if (c == Component::Direct || src == Source::Vsl || src == Source::Reference) return true;
-  if (s.settings.estimator.kind == EstimatorKind::Mrcs && src != Source::Vpl) return false;
+  if (mrcs && src != Source::Vpl) return false;
   return !s.vplPending;
 }
 
@@ -1439,8 +1442,8 @@ struct Studio::TableState {
   // newer snapshot's is being computed).
   bool flipHere = false, flipFresh = false;
   double bestFlip = INFINITY;
-  // The best bias^2 is the one nearest 0 (an unbiased method's estimate
-  // scatters around 0, so it can be slightly negative).
+  // The best bias^2 (less the reference's noise) is the least one above
+  // zero; NaN (none) where any shown is below zero, within the noise.
   double bestBias = INFINITY, bestNoise = INFINITY;
   double atEqualTime(const Snapshot& s, int i) const {
     if (!indirect || i > 1) return double(NAN);
@@ -1504,13 +1507,17 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   if (t.flipHere)
     for (int i = 0; i < 5; ++i)
       if (i < 4 ? metricShown(i) : s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
-  for (const BiasNoise& b : s.biasNoise)
-    if (b.renders >= 2) {
-      // A bias that cannot be told from the noise (below zero) is not ranked,
-      // as a relMSE below the reference's noise is not (errorCell).
-      if (!belowNoise(b.bias2 - t.noise)) t.bestBias = std::min(t.bestBias, b.bias2 - t.noise);
-      t.bestNoise = std::min(t.bestNoise, b.variance);
-    }
+  // Bias and noise of the rows shown: the methods with a picture, and the
+  // live path tracer against a converged reference. A bias that cannot be told
+  // from the noise (below zero) is not ranked, and then none of its column is,
+  // as for relMSE (least).
+  for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
+    const BiasNoise& b = s.biasNoise[i];
+    const bool shown = i < 4 ? metricShown(i) : s.convergedReference;
+    if (!shown || b.renders < 2) continue;
+    least(t.bestBias, b.bias2 - t.noise);
+    t.bestNoise = std::min(t.bestNoise, b.variance);
+  }
   return t;
 }
 
