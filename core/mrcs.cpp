@@ -24,6 +24,14 @@ Result<void> MrcsSettings::validate() const {
   return {};
 }
 
+int MrcsSettings::rowsFor(uint64_t pixels) const {
+  return int(std::clamp<uint64_t>(uint64_t(std::max(rows, 1)), 1, std::max<uint64_t>(pixels, 1)));
+}
+
+int MrcsSettings::clustersFor(uint64_t lights) const {
+  return int(std::clamp<uint64_t>(uint64_t(std::max(clusters, 1)), 1, std::max<uint64_t>(lights, 1)));
+}
+
 // ---- Clustering ----------------------------------------------------------------------
 
 namespace {
@@ -575,8 +583,8 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   job.doVsl = settings.computeVsl;
   job.doVpl = settings.computeVpl;
-  res.rowsUsed = int(std::clamp<uint64_t>(uint64_t(mrcs.rows), 1, uint64_t(job.W) * uint64_t(job.H)));
-  res.clustersUsed = int(std::clamp<uint64_t>(uint64_t(mrcs.clusters), 1, std::max<uint64_t>(job.N, 1)));
+  res.rowsUsed = mrcs.rowsFor(uint64_t(job.W) * uint64_t(job.H));
+  res.clustersUsed = mrcs.clustersFor(job.N);
   if (progress)
     progress->plan({.pixels = uint64_t(job.W) * uint64_t(job.H),
                     .lights = job.N,

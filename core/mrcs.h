@@ -58,6 +58,11 @@ struct MrcsSettings {
   // paper's estimator, unbiased against brute force for a fixed clustering.
   bool spreadVslRadius = false;
   Result<void> validate() const;  // the first invalid setting
+  // The rows and clusters a render uses: these capped at the image's pixels
+  // (more rows would repeat pixels) and at the lights (more clusters would
+  // stay empty; a cluster per light is brute force), at least one each.
+  int rowsFor(uint64_t pixels) const;
+  int clustersFor(uint64_t lights) const;
 };
 
 struct MrcsResult {
@@ -73,10 +78,7 @@ struct MrcsResult {
   uint64_t pairs = 0;
   uint64_t nonFinite = 0;                         // lights and contributions rejected as NaN or Inf
   size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;  // lights dropped (dark at every row)
-  // The rows and clusters used: the settings' capped at the image's pixels
-  // (more rows would repeat pixels) and at the lights (more clusters would
-  // stay empty; a cluster per light is brute force).
-  int rowsUsed = 0, clustersUsed = 0;
+  int rowsUsed = 0, clustersUsed = 0;             // MrcsSettings::rowsFor and clustersFor
   bool stopped = false;
 };
 

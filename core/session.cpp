@@ -182,10 +182,9 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   if (available == 0) available = availableMemoryBytes();
   const std::string what =
       std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" + std::to_string(height);
-  // MRCS's rows as it uses them: at most one per pixel (renderMrcs).
+  // MRCS's rows as it uses them: at most one per pixel.
   const int mrcsRows = s.estimator.kind == EstimatorKind::Mrcs
-                           ? int(std::min<uint64_t>(uint64_t(s.estimator.mrcs.rows),
-                                                    uint64_t(std::max(width, 1)) * uint64_t(std::max(height, 1))))
+                           ? s.estimator.mrcs.rowsFor(uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)))
                            : 0;
   if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available, 0.75, mrcsRows); !m)
     return Error("memory: " + what + " " + m.error());

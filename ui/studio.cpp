@@ -1504,17 +1504,18 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   if (s.convergedReference || t.ptEqual > 0) least(t.best[2], t.ptEqual);
   t.flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
   t.flipFresh = t.flipHere && flip_->serial == s.serial;
+  // The rows shown: the methods with a picture, and the live path tracer
+  // against a converged reference.
+  auto rowShown = [&](int i) { return i < 4 ? metricShown(i) : s.convergedReference; };
   if (t.flipHere)
     for (int i = 0; i < 5; ++i)
-      if (i < 4 ? metricShown(i) : s.convergedReference) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
-  // Bias and noise of the rows shown: the methods with a picture, and the
-  // live path tracer against a converged reference. A bias that cannot be told
-  // from the noise (below zero) is not ranked, and then none of its column is,
-  // as for relMSE (least).
+      if (rowShown(i)) t.bestFlip = std::min(t.bestFlip, flip_->mean[i]);
+  // Bias and noise of the rows shown (BiasNoiseRow follows the same order). A
+  // bias that cannot be told from the noise (below zero) is not ranked, and
+  // then none of its column is, as for relMSE (least).
   for (int i = 0; i < int(BiasNoiseRow::Count); ++i) {
     const BiasNoise& b = s.biasNoise[i];
-    const bool shown = i < 4 ? metricShown(i) : s.convergedReference;
-    if (!shown || b.renders < 2) continue;
+    if (!rowShown(i) || b.renders < 2) continue;
     least(t.bestBias, b.bias2 - t.noise);
     t.bestNoise = std::min(t.bestNoise, b.variance);
   }
