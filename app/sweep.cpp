@@ -155,7 +155,7 @@ struct SweepMeta {
   std::vector<uint32_t> lights;
   std::vector<float> radiusScales;
   int shardIndex = 0, shardCount = 1;
-  double time = 0;  // --time: the budget the finals keep (0: a sweep.json from before session 28)
+  double time = 0;  // --time: the budget the finals keep (0: a sweep.json from before 2026-12-03)
 };
 
 // ---- CSV of the points: written by every run, read back by --merge --------

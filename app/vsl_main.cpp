@@ -63,8 +63,8 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
                 "VSL: spread the flux over the part of the disk on the receiver's side of its tangent plane");
   // The automatic count: the lobe-aware one by default (the same error as the
   // authors' count on the four bundled scenes in 20-30% less time where lobes
-  // are broad; docs/VSL-QUALITY.md), the authors' count unchanged, or shares
-  // (faster still, not the default: docs/VSL-QUALITY.md, "The shares count").
+  // are broad; docs/REFERENCE.md "Project heuristics"), the authors' count unchanged,
+  // or shares (faster still, not the default: docs/notebook/2026-12-02-light-sets-and-vsl-counts.md).
   cmd->add_option_function<std::string>(
          "--vsl-count",
          [&m](const std::string& v) {

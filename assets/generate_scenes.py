@@ -32,8 +32,8 @@ Only the Python standard library is used; output is deterministic.
     python3 assets/generate_scenes.py --dense TRIANGLES OUT.gltf [BASE]
 
 writes a dense version of a bundled scene (BASE, default cornell-glossy) for
-measuring how costs grow with geometry (docs/PERFORMANCE.md, "Geometry
-scale"): every quad face except emitters is tessellated into a grid and
+measuring how costs grow with geometry (docs/RESULTS.md, "Cost growth with
+geometry and lights"): every quad face except emitters is tessellated into a grid and
 dented (displaced against its normal) by smooth noise that vanishes on its edges
 (so boxes stay closed), with about TRIANGLES triangles in all. Not bundled: a
 million triangles make a ~40 MB file.

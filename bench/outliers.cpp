@@ -1,5 +1,5 @@
 // vsl_outliers: which (receiver, light) pairs make VSL's worst pixels
-// (docs/VSL-QUALITY.md, "Where tableau's outliers come from"). Not a test.
+// (docs/notebook/2026-12-02-outliers.md). Not a test.
 //
 // One light set, one eye sample per pixel, every light gathered at every
 // gather point (the `--batches 1` estimator). Against a path-traced reference
@@ -13,8 +13,8 @@
 //   vsl_outliers SCENE.gltf REFERENCE.exr [--seed 1] [--lights 10000]
 //                [--width 64] [--alpha 0.05] [--list 0] [--split-alpha 0]
 //                [--lobe-radius 0] [--lobe-floor 1] [--radius-scale 1]
-// (the defaults of vsl render; the tables in docs/VSL-QUALITY.md before
-// session 27 were made with the floor off, --lobe-floor 0)
+// (the defaults of vsl render; the notebook's tables dated before
+// 2026-12-03 were made with the floor off, --lobe-floor 0)
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>

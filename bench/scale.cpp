@@ -1,5 +1,5 @@
 // vsl_scale: how the cost of each stage grows with geometry and light count
-// (docs/PERFORMANCE.md, "Geometry scale"). For one scene and a list of light
+// (docs/RESULTS.md, "Cost growth"). For one scene and a list of light
 // counts it times, in one process:
 //   load      loadScene (parse, decode, flatten)
 //   build     Accel::build (Embree BVH)

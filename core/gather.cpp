@@ -121,8 +121,8 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
 Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rng& rng, GatherCounters& c) const {
   // The first bounce's directions are multi-jittered over the lobe's sample
   // space: each is uniform in its own cell, and together they cover the lobe
-  // evenly, which is where the lobe gather's error lies (docs/VSL-QUALITY.md,
-  // "Session 37").
+  // evenly, which is where the lobe gather's error lies
+  // (docs/notebook/2026-12-05-batch-schedule-and-multijitter.md).
   Vec2Scratch<ManyLightSettings::kMaxLobeGatherRays> scratch;
   rays = std::clamp(rays, 1, ManyLightSettings::kMaxLobeGatherRays);
   Vec2* first = scratch.data();
@@ -140,7 +140,7 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rn
     // the next-event estimate's, and the map's lights where the continued
     // path lands. A highlight seen through two narrow lobes is otherwise a
     // rare spike (tableau, five sets: 0.284 -> 0.229 -> 0.190;
-    // docs/VSL-QUALITY.md, "Session 39").
+    // docs/notebook/2026-12-05-tableau-worst-sets.md).
     BrdfAt f = spec;
     SurfaceHit at = sh;
     Vec3 t(1.0f);

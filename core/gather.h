@@ -133,7 +133,7 @@ class Gatherer {
   // light behind a specular chain is a path-traced estimate of a pixel's
   // footprint: with one eye path per batch, a curved mirror's pixel that
   // reflects a highlight in one batch of 16 showed 16x its value (tableau's
-  // pot rims; docs/VSL-QUALITY.md, "Session 38"). The gather itself keeps one
+  // pot rims; docs/notebook/2026-12-05-tableau-worst-sets.md). The gather itself keeps one
   // eye path per batch.
   static constexpr int kSharedEyePaths = 64;
   static constexpr int kMaxSharedEyePaths = 16;

@@ -5,7 +5,7 @@
 // A receiver lobe narrower than the VSL cones sees each light's sphere as a
 // disk of uniform radiance: on tableau's polished table (GGX alpha 0.0225)
 // one light set paints a few bright disks and the next none (most of VSL's
-// squared error there; docs/VSL-QUALITY.md, "The lobe gather"); a lobe
+// squared error there; docs/notebook/2026-12-04-lobe-gather.md); a lobe
 // narrow along one axis (brushed metal) sees it as a bright streak. The VSL
 // integral's receiver strategy, turned around: each of M directions drawn
 // from the specular lobe at x is traced to the surface point z it reaches,
@@ -26,7 +26,7 @@
 // Many directions and few lights per estimate (M = 128, K = 32) beat few
 // directions and many lights (8, 256) at the same cost: each direction's
 // cost is mostly its K BRDF evaluations, and the error mostly the
-// directions' sampling (docs/VSL-QUALITY.md, "Session 31").
+// directions' sampling (docs/notebook/2026-12-04-lobe-gather.md, "Brushed receivers").
 #pragma once
 
 #include <atomic>
@@ -56,7 +56,7 @@ class LobeGatherMap {
   // glossy reflections; first-hit lights share their source's direction,
   // and widening them blurs the highlights themselves: relMSE 0.26 -> 0.64
   // on one set). 0.1 measured best of 0.05, 0.1, 0.15 and 0.3
-  // (docs/VSL-QUALITY.md, "Session 38").
+  // (docs/notebook/2026-12-05-tableau-worst-sets.md).
   static constexpr float kIndirectAlphaFloor = 0.1f;
   // k: lights per density estimate (>= 1).
   LobeGatherMap(const VirtualLightSet& set, int k);
@@ -103,7 +103,7 @@ class LobeGatherMap {
   // Each light's 2k nearest lights (itself among them), so that a query
   // costs a short walk and 2k distances instead of a k-nearest search of the
   // tree (that search was 40% of a lobe-gathered tableau render;
-  // docs/PERFORMANCE.md, "Session 36" and "Session 42").
+  // docs/notebook/2026-12-02-gather-simd-and-pair-cost.md, 2026-12-05 and 2026-12-06).
   static constexpr size_t kMaxCandidates = 1024;
   // Steps of a query's walk toward z from its Morton neighbour (nearest()).
   static constexpr int kMaxWalk = 8;

@@ -9,7 +9,7 @@
 //        the cone it subtends (see vsl_integral.h). Radius r_i = s x distance to
 //        the k-th nearest other light (default s = 1, k = 10: against s = 2,
 //        lower median error and 2-7% less darkening on cornell-glossy and hall
-//        over five light sets, docs/VSL-QUALITY.md), or one global radius (a
+//        over five light sets, docs/REFERENCE.md "VSL"), or one global radius (a
 //        fraction of the scene's bounding radius). Bias: blurs illumination at
 //        low light counts; some darkening in corners.
 //   VPL  Keller 1997 (instant radiosity). Transfer per unit flux
@@ -62,7 +62,7 @@ class LobeGatherCache;
 // batches, then stay constant. The first picture comes quickly, no batch
 // holds more than a modest share of the work, and c stops where the first
 // batch would hold less than one light (c = batches / 2 when it does not:
-// the rule before session 37, under which 64 batches of 4,000 lights were
+// the rule before 2026-12-05, under which 64 batches of 4,000 lights were
 // 30 batches of one light each and 34 of the rest).
 std::vector<double> batchWeights(size_t lights, int batches);
 
@@ -96,7 +96,7 @@ struct ManyLightSettings {
   // Trades the beams' spikes for blur of glossy-to-glossy reflections. On (1)
   // by default since it spares dielectric lights: at 10,000 lights, five
   // light sets, hall's median indirect relMSE falls 2.4x and no bundled scene
-  // loses (docs/VSL-QUALITY.md, session 27).
+  // loses (docs/notebook/2026-12-03-lobe-floor.md, "The floor's lights").
   float lobeFloor = kDefaultLobeFloor;
   static constexpr float kDefaultLobeFloor = 1.0f;
   // Eye paths continue through pure metals whose GGX alpha is below this
@@ -104,7 +104,7 @@ struct ManyLightSettings {
   // 0.02 (roughness < 0.14) by measurement: on cornell-glossy with a
   // roughness-0.1 metal box, 10,000 lights, five light sets, median indirect
   // relMSE VSL 0.0111 -> 0.0103 and clamped VPL 0.0155 -> 0.0118 against
-  // gathering there (docs/VSL-QUALITY.md).
+  // gathering there (docs/notebook/2026-12-01-radius-and-first-comparisons.md).
   float continueAlpha = kDefaultContinueAlpha;
   static constexpr float kDefaultContinueAlpha = 0.02f;
   // Lobe splitting (0 = off): at a gather point whose specular lobe is
@@ -126,7 +126,7 @@ struct ManyLightSettings {
   // diffuse lobe there. At least kLobeGatherK lights. Brute force or MRCS;
   // its cost (the second set too) is VSL's own time.
   // Off by default; K and the rays were chosen by measurement
-  // (docs/VSL-QUALITY.md, "The lobe gather" and "Session 31").
+  // (docs/notebook/2026-12-04-lobe-gather.md, "Brushed receivers, 32 lights").
   uint32_t lobeGather = 0;
   int lobeGatherRays = kDefaultLobeGatherRays;
   static constexpr int kDefaultLobeGatherRays = 128;
@@ -142,13 +142,14 @@ struct ManyLightSettings {
   // least this wide. A highlight seen through two narrow lobes is otherwise
   // a rare spike: one tableau pixel held 28% of a light set's squared error,
   // 9.98 where the reference has 0.11. Chosen by measurement, 0.1 of 0.05,
-  // 0.1 and 0.2 (docs/VSL-QUALITY.md, "Session 39").
+  // 0.1 and 0.2 (docs/notebook/2026-12-05-tableau-worst-sets.md).
   static constexpr float kLobeGatherChainAlpha = 0.1f;
   // Receivers narrower than this GGX alpha (either axis) are lobe-gathered.
   // The default takes near-mirrors and brushed metals; on hall 0.15, which
   // takes its metal walls (alpha 0.12) too, is better at equal time
-  // (docs/VSL-QUALITY.md, "Session 36"). Where a direction lands, a surface
-  // counts as narrow (continued) below kLobeGatherAlpha whatever this is.
+  // (docs/notebook/2026-12-05-lobe-gather-search-and-hall-walls.md). Where a
+  // direction lands, a surface counts as narrow (continued) below kLobeGatherAlpha
+  // whatever this is.
   float lobeGatherAlpha = kLobeGatherAlpha;
   // The pair roulette (0 = off): before its shadow ray and transfers, a pair
   // whose contribution is estimated (Gatherer::pairEstimate: from above for

@@ -5,7 +5,8 @@
 // Packed, because a search reads a candidate's coordinates at every step: read
 // from the lights themselves (structs of 56 to a few hundred bytes) nearly
 // every read missed the cache (55% of a lobe-gathered tableau render was the
-// search; docs/PERFORMANCE.md, "Session 33"). Immutable after construction;
+// search; docs/notebook/2026-12-02-gather-simd-and-pair-cost.md, 2026-12-04).
+// Immutable after construction;
 // safe to query from many threads.
 #pragma once
 

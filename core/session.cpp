@@ -663,7 +663,7 @@ void Session::showVslFirst(Worker& w, Job& job, uint64_t gen, const ManyLightIma
 }
 
 // The MRCS step's stages in the log (the measured breakdown of an MRCS
-// picture's wait; docs/PERFORMANCE.md).
+// picture's wait; docs/notebook/2026-12-02-studio-interactivity.md).
 void Session::logMrcsStep(const Job& job, double stepSeconds) const {
   const MrcsStats m = job.ml->mrcsStats();
   const double eye = std::max(stepSeconds - m.rowSeconds - m.clusterSeconds - m.columnSeconds, 0.0);

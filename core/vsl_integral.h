@@ -154,18 +154,20 @@ constexpr float kVslLobeFloorMaxAlpha = 0.3f;
 // reflections; a widened light sends that chain's light where the reference
 // has none (tableau at 10,000 lights: indirect mean +12.8% and median relMSE
 // 0.49 -> 0.89 with the floor at every receiver; with this bound, 0.49
-// unchanged, while hall keeps its gain, 0.244 -> 0.118; docs/VSL-QUALITY.md).
+// unchanged, while hall keeps its gain, 0.244 -> 0.118;
+// docs/notebook/2026-12-03-lobe-floor.md, "The floor's receivers").
 constexpr float kVslLobeFloorMinReceiverAlpha = 0.05f;
 // The floor's lights: only metals. A pure metal puts all its reflected flux
 // into its GGX lobe (at metallic 0.5, half of it), so a narrow one is a beam;
 // a dielectric's specular lobe holds a few percent of its flux (Fresnel about 0.04 head-on) beside a diffuse lobe
 // that is not narrow, and its glossy bounce (cornell-glossy's polished floor
 // lighting the walls) is light the reference has where the floor would blur
-// it. Measured at 10,000 lights, 64 px, five light sets (docs/VSL-QUALITY.md,
-// session 27): the floor on every light cost cornell-glossy's mean of eight
-// sets 7% (0.0233 -> 0.0250); on metal lights only it is even (0.0232), hall
-// keeps all of its gain (0.244 -> 0.118) and kitchen 60% of it (0.0505 ->
-// 0.0436, against 0.0390 on every light).
+// it. Measured at 10,000 lights, 64 px, five light sets
+// (docs/notebook/2026-12-03-lobe-floor.md, "The floor's lights"): the floor
+// on every light cost cornell-glossy's mean of eight sets 7% (0.0233 ->
+// 0.0250); on metal lights only it is even (0.0232), hall keeps all of its
+// gain (0.244 -> 0.118) and kitchen 60% of it (0.0505 -> 0.0436, against
+// 0.0390 on every light).
 constexpr float kVslLobeFloorMinLightMetallic = 0.5f;
 // Does the floor apply to this pair: a metal light (above) and a receiver at
 // least kVslLobeFloorMinReceiverAlpha wide (or without a specular lobe)?
@@ -176,7 +178,7 @@ bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p);
 // alone, so its sphere's error is variance more than blur; the wider sphere
 // averages it over more of the surface the light stands for. Consistent like
 // the radius (r -> 0 as the light count grows). Measured at 10,000 lights,
-// five light sets (docs/VSL-QUALITY.md, session 27): hall 0.118 -> 0.0997 at
+// five light sets (docs/notebook/2026-12-03-lobe-floor.md): hall 0.118 -> 0.0997 at
 // 64 px (clamped VPL 0.1016) and 0.168 -> 0.146 at 256 px; cornell-glossy,
 // kitchen and tableau within 1.5% of the floor alone.
 constexpr float kVslLobeFloorRadiusScale = 1.5f;

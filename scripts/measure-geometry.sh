@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Reproduces the "Geometry scale" figures of docs/PERFORMANCE.md: stage times
+# Reproduces the "Cost growth" figures of docs/RESULTS.md: stage times
 # and memory against triangle count (dense cornell-glossy, 10^3..10^6
 # triangles) and virtual light count (10^3..10^6), with growth exponents.
 #   bash scripts/measure-geometry.sh [OUT_DIR]        (default out/geometry)

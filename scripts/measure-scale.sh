@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Reproduces the scale and speed-accuracy figures of docs/PERFORMANCE.md
+# Reproduces the scale and speed-accuracy figures of docs/RESULTS.md
 # (issue 5's targets) on the bundled scenes. Long: about an hour on 2 cores.
 #   bash scripts/measure-scale.sh [OUT_DIR] [SIZE]
 # SIZE (default 512) is the square image size; TIME (default 60) the

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Reproduces issue 14's VSL measurements (docs/VSL-QUALITY.md): VSL against
+# Reproduces issue 14's VSL measurements (docs/notebook/): VSL against
 # clamped VPL over independent light sets, the radius scale and k, and where
 # eye paths continue through narrow metals.
 #   bash scripts/measure-vsl.sh [OUT_DIR] [WIDTH] [STUDY...]
@@ -12,7 +12,7 @@
 # (reference samples per pixel for each of the two references, default 4096),
 # SCENES (default: cornell-glossy tableau kitchen hall), VSL (the binary),
 # EXTRA (options added to every sweep; EXTRA='--lobe-floor 0' reproduces the
-# tables made before the lobe floor became a default in session 27).
+# tables made before the lobe floor became a default on 2026-12-03).
 # Every sweep writes OUT_DIR/<scene>-<study>/summary.csv; finished steps are
 # skipped, so an interrupted run resumes.
 set -euo pipefail

@@ -88,7 +88,7 @@ TEST(ManyLightBatches, StoppedBatchesRenderedAgainMatchAnUninterruptedRender) {
 }
 
 // Sizes double, then stay equal; no batch holds less than one light's share.
-// Before session 37 the doublings ran to batches / 2 whatever the light
+// Before 2026-12-05 the doublings ran to batches / 2 whatever the light
 // count: 64 batches of 4,003 lights were 30 batches of one light each (eye
 // samples that carried almost none of the light set's weight) and 34 of the
 // rest, and the sweep's prediction from the last batch's time stopped runs

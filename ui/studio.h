@@ -97,7 +97,7 @@ struct ViewState {
 std::string lastSessionPath();
 // Written atomically (writeTextFile); creates the folder. An error on failure.
 Result<void> saveLastSession(const std::string& path, const StudioSettings& settings, const ViewState& view);
-// Written as kLastSessionVersion. Version 2 (session 27): the lobe floor's
+// Written as kLastSessionVersion. Version 2 (2026-12-03): the lobe floor's
 // default became 1, so a version-1 file's lobe floor of 0 (the old default)
 // is not restored.
 constexpr int kLastSessionVersion = 2;
