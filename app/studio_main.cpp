@@ -537,9 +537,10 @@ void addOptions(CLI::App& app, Args& a) {
                  "Crop inset X,Y,W,H in image pixels: exports include magnified crops of every image, their "
                  "metrics and a crop figure");
   app.add_option("--reference", a.reference,
-                 "A converged reference EXR of the render's size with an 'indirect' layer (vsl reference writes one); "
+                 "A converged reference EXR of the render's size: with an 'indirect' layer (vsl reference writes one) "
+                 "the indirect component is compared, with only a full image (another renderer's) the full one; "
                  "default: a matching cached reference, else the live path tracer. Headless, a file that cannot be "
-                 "used (another size or scene, no indirect layer) ends the run with exit status 1")
+                 "used (another size or scene, no image layer) ends the run with exit status 1")
       ->check(CLI::ExistingFile);
   app.add_option("--light-sets", a.lightSets,
                  "Independent light sets to render and average; from two on, each method's bias and noise are "

@@ -508,6 +508,14 @@ Result<void> checkRadiance(const Image& ind, const std::string& name) {
   return {};
 }
 
+// The sweep ranks methods on indirect light (docs/REFERENCE.md, "Metrics"); a
+// full-only image (reference.h, Reference::fullOnly) can serve the studio only.
+std::string indirectOnlyError(const std::string& path) {
+  return path +
+         ": has a full image but no 'indirect' layer; the sweep compares indirect light: render a reference "
+         "with `vsl reference`, or open this one in vsl-studio, which compares the full image";
+}
+
 // The reference (reference.h): the file given, else the cached one for this
 // scene at --width. Its own noise comes from its halves (relMSE(A, B) / 4) or
 // from a second, independent reference B (relMSE(B, A) / 2); every measured
@@ -518,6 +526,7 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
   if (!a.reference.empty()) {
     Result<Reference> read = readReference(a.reference, 0, 0);
     if (!read) return fail(kExitBadInput, read.error());
+    if (read->fullOnly()) return fail(kExitBadInput, indirectOnlyError(a.reference));
     if (Result<void> same = checkReferenceScene(*read, scene, a.reference); !same)
       return fail(kExitBadInput, same.error());
     out.ref = std::move(read).value();
@@ -544,6 +553,7 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
   if (!a.referenceB.empty()) {
     Result<Reference> b = readReference(a.referenceB, ref.width, ref.height);
     if (!b) return fail(kExitBadInput, b.error());
+    if (b->fullOnly()) return fail(kExitBadInput, indirectOnlyError(a.referenceB));
     if (Result<void> radiance = checkRadiance(b->indirect, a.referenceB); !radiance)
       return fail(kExitBadInput, radiance.error());
     if (Result<void> same = checkReferenceScene(*b, scene, a.referenceB); !same)

@@ -43,6 +43,22 @@ inline Image average(const Image& a, const Image& b) {
   return m;
 }
 
+// The per-pixel sum and difference of two images of equal size (VSL_CHECK).
+inline Image sum(const Image& a, const Image& b) {
+  VSL_CHECK_EQ(a.width, b.width);
+  VSL_CHECK_EQ(a.height, b.height);
+  Image m(a.width, a.height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = a.rgb[i] + b.rgb[i];
+  return m;
+}
+inline Image difference(const Image& a, const Image& b) {
+  VSL_CHECK_EQ(a.width, b.width);
+  VSL_CHECK_EQ(a.height, b.height);
+  Image m(a.width, a.height);
+  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = a.rgb[i] - b.rgb[i];
+  return m;
+}
+
 class Film {
  public:
   Film() = default;

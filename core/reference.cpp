@@ -20,12 +20,6 @@ double noiseOf(const Image& a, const Image& b) {
   return compareImages(a, b).average.relMse / 4;
 }
 
-Image sum(const Image& a, const Image& b) {
-  Image m(a.width, a.height);
-  for (size_t i = 0; i < m.rgb.size(); ++i) m.rgb[i] = a.rgb[i] + b.rgb[i];
-  return m;
-}
-
 // 64-bit FNV-1a.
 struct Fnv {
   uint64_t h = 0xcbf29ce484222325ull;
@@ -217,20 +211,49 @@ Result<void> writeReference(const std::string& path, const Reference& ref, const
   return writeExr(path, layers, attrs);
 }
 
+namespace {
+
+// The layer a reference is compared on: indirectLayer, else (for the default
+// "indirect" only) a full image, as other renderers write one: the layer
+// "full", else the file's unnamed one. Null when neither exists.
+const Layer* comparedLayer(const std::vector<Layer>& layers, const std::string& indirectLayer, bool* fullOnly) {
+  *fullOnly = false;
+  if (const Layer* l = layerNamed(layers, indirectLayer)) return l;
+  if (indirectLayer != "indirect") return nullptr;
+  *fullOnly = true;
+  if (const Layer* l = layerNamed(layers, "full")) return l;
+  return layerNamed(layers, "");
+}
+
+// The halves A.* and B.* of the layers, when every one has the size of I.
+void readHalves(const std::vector<Layer>& layers, const Image& I, Reference& r) {
+  const char* names[6] = {"A.full", "A.direct", "A.indirect", "B.full", "B.direct", "B.indirect"};
+  Image* into[6] = {&r.fullA, &r.directA, &r.indirectA, &r.fullB, &r.directB, &r.indirectB};
+  const Layer* halves[6];
+  for (int k = 0; k < 6; ++k) {
+    halves[k] = layerNamed(layers, names[k]);
+    if (!halves[k] || halves[k]->image.width != I.width || halves[k]->image.height != I.height) return;
+  }
+  for (int k = 0; k < 6; ++k) *into[k] = halves[k]->image;
+}
+
+}  // namespace
+
 Result<Reference> readReference(const std::string& path, int width, int height, const std::string& indirectLayer) {
   std::map<std::string, std::string> attrs;
   Result<std::vector<Layer>> read = readExr(path, &attrs);
   if (!read) return Error(read.error());
   const std::vector<Layer>& layers = *read;
-  const Layer* ind = layerNamed(layers, indirectLayer);
+  bool fullOnly = false;
+  const Layer* ind = comparedLayer(layers, indirectLayer, &fullOnly);
   if (!ind) {
     std::string have;
     for (const Layer& l : layers) have += (have.empty() ? "" : ", ") + (l.name.empty() ? "(default)" : l.name);
     return Error(path + ": no '" + indirectLayer + "' layer (it has: " + have +
-                 "); the methods are compared on indirect light: render one with `vsl reference`, or name the layer "
-                 "that holds the indirect component");
+                 "); name the layer that holds the component to compare, or render one with `vsl reference`");
   }
   const Image& I = ind->image;
+  const std::string layerName = ind->name.empty() ? "(default)" : ind->name;
   if ((width > 0 && I.width != width) || (height > 0 && I.height != height)) {
     return Error(path + ": " + std::to_string(I.width) + "x" + std::to_string(I.height) + ", but the render is " +
                  std::to_string(width) + "x" + std::to_string(height));
@@ -241,32 +264,32 @@ Result<Reference> readReference(const std::string& path, int width, int height, 
   for (float v : I.rgb) nonFinite += !std::isfinite(v);
   if (nonFinite > 0)
     return Error(path + ": " + std::to_string(nonFinite) + " of " + std::to_string(I.rgb.size()) + " values of the '" +
-                 indirectLayer + "' layer are not finite numbers; a reference must be finite everywhere");
+                 layerName + "' layer are not finite numbers; a reference must be finite everywhere");
   Reference r;
   r.width = I.width;
   r.height = I.height;
-  r.indirect = I;
   r.source = path;
   auto sameSize = [&](const Layer* l) { return l && l->image.width == I.width && l->image.height == I.height; };
-  const Layer* d = layerNamed(layers, "direct");
-  const Layer* f = layerNamed(layers, "full");
-  if (sameSize(d)) r.direct = d->image;
-  if (sameSize(f))
-    r.full = f->image;
-  else if (!r.direct.rgb.empty())
-    r.full = sum(r.direct, r.indirect);
-  const Layer* halves[6] = {layerNamed(layers, "A.full"),     layerNamed(layers, "A.direct"),
-                            layerNamed(layers, "A.indirect"), layerNamed(layers, "B.full"),
-                            layerNamed(layers, "B.direct"),   layerNamed(layers, "B.indirect")};
-  bool all = true;
-  for (const Layer* l : halves) all = all && sameSize(l);
-  if (all && indirectLayer == "indirect") {
-    r.fullA = halves[0]->image;
-    r.directA = halves[1]->image;
-    r.indirectA = halves[2]->image;
-    r.fullB = halves[3]->image;
-    r.directB = halves[4]->image;
-    r.indirectB = halves[5]->image;
+  if (fullOnly) {
+    // Another renderer's full image: the component compared is the full one
+    // (Reference::fullOnly), and only the full halves can measure its noise.
+    r.full = I;
+    const Layer* a = layerNamed(layers, "A.full");
+    const Layer* b = layerNamed(layers, "B.full");
+    if (sameSize(a) && sameSize(b)) {
+      r.fullA = a->image;
+      r.fullB = b->image;
+    }
+  } else {
+    r.indirect = I;
+    const Layer* d = layerNamed(layers, "direct");
+    const Layer* f = layerNamed(layers, "full");
+    if (sameSize(d)) r.direct = d->image;
+    if (sameSize(f))
+      r.full = f->image;
+    else if (!r.direct.rgb.empty())
+      r.full = sum(r.direct, r.indirect);
+    if (indirectLayer == "indirect") readHalves(layers, I, r);
   }
   if (auto it = attrs.find("vsl.reference.spp"); it != attrs.end()) r.spp = std::atoi(it->second.c_str());
   if (auto it = attrs.find("vsl.reference.seconds"); it != attrs.end()) r.seconds = std::atof(it->second.c_str());

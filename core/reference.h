@@ -15,8 +15,10 @@
 // Files: one multi-layer EXR with layers full, direct, indirect (the mean),
 // A.full, A.direct, A.indirect, B.full, B.direct, B.indirect and attributes
 // vsl.reference.spp, vsl.reference.seconds, vsl.reference.key. Another
-// renderer's EXR is accepted if it has an `indirect` layer (or names one)
-// and the right size; its noise is then unknown.
+// renderer's EXR is accepted at the right size: its `indirect` layer (or one
+// named) when it has one, else its full image (a layer `full`, else the
+// unnamed one), which is then the component compared (fullOnly); without
+// halves its noise is unknown.
 //
 // Cache: references are stored as CACHE/<key>.exr, the key naming the scene
 // file's content, the camera, the resolution and the path depth (see
@@ -50,10 +52,15 @@ struct Reference {
   std::string source;  // the file it came from ("" for one rendered in memory)
   std::string key;     // its cache key, when it has one
   bool hasHalves() const { return !indirectA.rgb.empty() && !indirectB.rgb.empty(); }
+  // Only a full image (another renderer's): methods are compared on the full
+  // component against it, not the indirect one.
+  bool fullOnly() const { return indirect.rgb.empty() && !full.rgb.empty(); }
   // Expected relMSE of the indirect (full) layer against the truth:
   // relMSE(A, B) / 4; negative when unknown (no halves).
   double indirectNoise() const;
-  double fullNoise() const;
+  double fullNoise() const;  // the same from the full halves; negative when unknown
+  // The noise of the component compared: fullNoise() when fullOnly().
+  double comparedNoise() const { return fullOnly() ? fullNoise() : indirectNoise(); }
 };
 
 // Renders a reference progressively: pass p (one sample per pixel, the path
@@ -83,6 +90,7 @@ class ReferenceRenderer {
   Image meanDirect() const { return average(direct_[0].image(), direct_[1].image()); }
   Image meanIndirect() const { return average(indirect_[0].image(), indirect_[1].image()); }
   Image halfIndirect(int h) const { return indirect_[h].image(); }
+  Image halfFull(int h) const { return sum(direct_[h].image(), indirect_[h].image()); }
   Reference result() const;
   // Path and ray counts, and contributions the path tracer rejected as non-finite.
   const PtCounters& counters() const { return counters_; }
@@ -112,9 +120,11 @@ std::string referenceCachePath(const std::string& key);
 // Writes a reference with its halves and attributes (atomically).
 Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath);
 // Reads any EXR as a reference of width x height (0: any size): the
-// `indirect` layer is required (or the layer named indirectLayer), full and
-// direct are optional (a missing full is direct + indirect when both exist).
-// Errors name the file and the problem (another size, no indirect layer).
+// `indirect` layer (or the layer named indirectLayer), full and direct
+// optional (a missing full is direct + indirect when both exist). Without an
+// `indirect` layer (the default name only), a full image is read as a
+// fullOnly() reference. Errors name the file and the problem (another size,
+// no usable layer, non-finite values).
 Result<Reference> readReference(const std::string& path, int width, int height,
                                 const std::string& indirectLayer = "indirect");
 // The cached reference for this key, if one exists and reads; null otherwise.

@@ -62,6 +62,14 @@ Image ManyLightImages::*const kLayer[kLayers] = {&ManyLightImages::vsl,         
                                                  &ManyLightImages::direct,       &ManyLightImages::lostToClamping,
                                                  &ManyLightImages::lostToDiffuse};
 
+// An indirect image with the direct light added: the full component, which a
+// full-only reference is compared on (Snapshot::comparesFull). Unchanged when
+// the direct image has no picture of that size yet.
+Image withDirect(const Image& direct, const Image& indirect) {
+  if (direct.width != indirect.width || direct.height != indirect.height) return indirect;
+  return sum(direct, indirect);
+}
+
 }  // namespace
 
 // A render in progress: its light sets, estimators and bookkeeping.
@@ -717,7 +725,7 @@ void Session::chooseReference(Worker& w, Job& job) {
   w.convergedFor = want;
   if (!chosen && !w.converged) return;
   w.converged = std::move(chosen);
-  w.convergedNoise = w.converged ? w.converged->indirectNoise() : -1;
+  w.convergedNoise = w.converged ? w.converged->comparedNoise() : -1;
   job.history.clear();  // earlier errors were measured against another reference
 }
 
@@ -765,7 +773,7 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
   vsl::Reference r = save();
   w.converged = std::make_shared<vsl::Reference>(std::move(r));
   w.convergedFor = "cache:" + w.cacheKey;
-  w.convergedNoise = w.converged->indirectNoise();
+  w.convergedNoise = w.converged->comparedNoise();
   w.background.reset();
   job.history.clear();
   log::info("reference: rendered " + std::to_string(target) + " spp into " + referenceCachePath(w.cacheKey));
@@ -879,12 +887,16 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
 
 // The reference in use and its own noise (session.h, ErrorSample): the
 // converged one if the worker has it, else the live path tracer (whose noise
-// is liveNoise).
+// is liveNoise). A full-only reference is compared on the full component
+// (Snapshot::comparesFull); its direct layer is the live path tracer's and
+// its indirect one the file's full image less that.
 void Session::useReference(const Worker& w, double liveNoise, Snapshot& snap) {
   if (w.converged) {
+    const Reference& c = *w.converged;
     snap.convergedReference = true;
-    snap.refIndirect = w.converged->indirect;
-    snap.refDirect = w.converged->direct.rgb.empty() ? snap.ptDirect : w.converged->direct;
+    snap.comparesFull = c.fullOnly();
+    snap.refDirect = c.direct.rgb.empty() ? snap.ptDirect : c.direct;
+    snap.refIndirect = snap.comparesFull ? difference(c.full, snap.ptDirect) : c.indirect;
     const bool cached = w.convergedFor.rfind("cache:", 0) == 0;
     const std::string& src = w.converged->source.empty() ? referenceCachePath(w.converged->key) : w.converged->source;
     snap.referenceSource = cached ? "cache: " + src : src;
@@ -909,11 +921,20 @@ void Session::recordError(const Worker& w, Job& job, double liveNoise, Snapshot&
   e.vplSeconds = snap.vplSeconds;
   e.ptSeconds = w.ref.pt->seconds();
   e.referenceNoise = noise;
-  // The comparisons in parallel (the first picture of a restart waits for them).
+  // The comparisons in parallel (the first picture of a restart waits for
+  // them), of the component compared (Snapshot::comparesFull).
   const Image* test[3] = {&snap.many.vsl, &snap.many.vpl, &snap.ptIndirect};
+  const Image* ref = &snap.refIndirect;
+  Image full[3];
+  if (snap.comparesFull) {
+    full[0] = withDirect(snap.many.direct, snap.many.vsl);
+    full[1] = withDirect(snap.many.direct, snap.many.vpl);
+    full[2] = withDirect(snap.ptDirect, snap.ptIndirect);
+    for (int k = 0; k < 3; ++k) test[k] = &full[k];
+    ref = &w.converged->full;
+  }
   double relMse[3] = {0, 0, 0};
-  parallelFor(w.converged ? 3 : 2,
-              [&](size_t k) { relMse[k] = compareImages(*test[k], snap.refIndirect).average.relMse; });
+  parallelFor(w.converged ? 3 : 2, [&](size_t k) { relMse[k] = compareImages(*test[k], *ref).average.relMse; });
   e.vsl = relMse[0] - noise;
   e.vpl = relMse[1] - noise;
   e.pt = w.converged ? relMse[2] - noise : std::max(liveNoise, 0.0);
@@ -932,16 +953,24 @@ void Session::biasNoise(const Worker& w, const Job& job, Snapshot& snap) const {
   auto summary = [](const BiasVarianceResult& r) {
     return BiasNoise{r.renders, r.average.bias2, r.average.variance, r.average.relMse};
   };
+  // Compared on the full component, each set's indirect image carries the
+  // mean direct light of the sets (its variance is the indirect light's).
+  const bool full = snap.comparesFull;
+  const Image& ref = full ? w.converged->full : snap.refIndirect;
   if (job.setsDone >= 2) {
     for (int l = 0; l < kIndirectLayers; ++l) {
+      std::vector<Image> fullSets;
+      if (full)
+        for (const Image& img : job.setImages[l]) fullSets.push_back(withDirect(snap.many.direct, img));
       std::vector<const Image*> sets;
-      for (const Image& img : job.setImages[l]) sets.push_back(&img);
-      snap.biasNoise[l] = summary(biasVariance(sets, snap.refIndirect));
+      for (const Image& img : full ? fullSets : job.setImages[l]) sets.push_back(&img);
+      snap.biasNoise[l] = summary(biasVariance(sets, ref));
     }
   }
   if (w.converged && w.ref.pt->spp() >= 2) {
-    const Image a = w.ref.pt->halfIndirect(0), b = w.ref.pt->halfIndirect(1);
-    snap.biasNoise[int(BiasNoiseRow::Pt)] = summary(biasVariance({&a, &b}, snap.refIndirect));
+    const ReferenceRenderer& pt = *w.ref.pt;
+    const Image a = full ? pt.halfFull(0) : pt.halfIndirect(0), b = full ? pt.halfFull(1) : pt.halfIndirect(1);
+    snap.biasNoise[int(BiasNoiseRow::Pt)] = summary(biasVariance({&a, &b}, ref));
   }
 }
 

@@ -133,6 +133,10 @@ struct Snapshot {
   // cache) when there is one, else the live path tracer.
   Image refDirect, refIndirect;
   bool convergedReference = false;
+  // The reference is another renderer's full image only (reference.h,
+  // Reference::fullOnly): the history, bias and noise compare the full
+  // component, and refIndirect is that image less the live direct light.
+  bool comparesFull = false;
   std::string referenceSource;            // "live path tracer", a file path, or "cache: KEY"
   int referenceSpp = 0;                   // its samples per pixel (0: unknown)
   double referenceNoise = -1;             // its estimated relMSE against the truth; < 0: unknown
@@ -180,6 +184,10 @@ struct Snapshot {
   // once it completes, and no point is added to the history.
   bool vplPending = false;
 };
+
+// The component every error, bias and equal-time number of s is measured on:
+// indirect, or full against a full-only reference (Snapshot::comparesFull).
+inline Component comparedComponent(const Snapshot& s) { return s.comparesFull ? Component::Full : Component::Indirect; }
 
 class Session {
  public:

@@ -317,6 +317,15 @@ TEST(CompareCli, SweepRefusesABlackReference) {
                   true);
   EXPECT_EQ(p.code, 0) << p.out;
   EXPECT_NE(p.out.find("1 of 192 values of the indirect layer are negative (kept)"), std::string::npos) << p.out;
+  // Another renderer's full image alone serves the studio, not the sweep,
+  // which ranks indirect light: exit 1, naming the file and the remedy.
+  ASSERT_TRUE(writeExr((d / "full-only.exr").string(), {{"", mostlyLight}}));
+  p = vslOut("sweep " + sceneFile + " --methods vpl --lights 20 --time 0.05 --sets 1 --reference " +
+                 (d / "full-only.exr").string() + " -o " + (d / "full").string(),
+             true);
+  EXPECT_EQ(p.code, 1) << p.out;
+  EXPECT_NE(p.out.find("full-only.exr: has a full image but no 'indirect' layer"), std::string::npos) << p.out;
+  EXPECT_FALSE(fs::exists(d / "full" / "sweep.csv"));
   fs::remove_all(d);
 }
 

@@ -129,28 +129,49 @@ TEST(Reference, FileRoundTripKeepsLayersHalvesAndSamples) {
   std::filesystem::remove_all(dir);
 }
 
-// Another renderer's image: an indirect layer is required; without halves
-// the noise is unknown, never zero.
-TEST(Reference, ForeignImagesNeedAnIndirectLayer) {
+// Another renderer's image: its indirect layer when it has one, else its
+// full image (a layer `full` or the unnamed one), which is then the component
+// compared; without halves the noise is unknown, never zero. A file with
+// neither is refused, naming the file and its layers.
+TEST(Reference, ForeignImagesAreComparedOnTheComponentTheyHold) {
   std::string dir = tempDir("foreign");
   Image img(8, 8);
   for (float& v : img.rgb) v = 0.5f;
   Result<void> w = writeExr(dir + "/rgb.exr", {{"", img}});
   ASSERT_TRUE(w) << w.error();
   Result<vsl::Reference> r = readReference(dir + "/rgb.exr", 8, 8);
-  EXPECT_FALSE(r);
-  EXPECT_NE(r.error().find("no 'indirect' layer"), std::string::npos) << r.error();
-  EXPECT_NE(r.error().find("rgb.exr"), std::string::npos) << r.error();
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_TRUE(r->fullOnly());
+  EXPECT_EQ(r->full.rgb, img.rgb);
+  EXPECT_TRUE(r->indirect.rgb.empty());
+  EXPECT_LT(r->comparedNoise(), 0);
+  w = writeExr(dir + "/direct.exr", {{"direct", img}});
+  ASSERT_TRUE(w) << w.error();
+  r = readReference(dir + "/direct.exr", 8, 8);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("direct.exr: no 'indirect' layer (it has: direct)"), std::string::npos) << r.error();
   w = writeExr(dir + "/ind.exr", {{"indirect", img}, {"direct", img}});
   ASSERT_TRUE(w) << w.error();
   r = readReference(dir + "/ind.exr", 8, 8);
   ASSERT_TRUE(r) << r.error();
+  EXPECT_FALSE(r->fullOnly());
   EXPECT_FALSE(r->hasHalves());
   EXPECT_LT(r->indirectNoise(), 0);
   EXPECT_FLOAT_EQ(r->full.rgb[0], 1.0f);  // full = direct + indirect
-  // A layer may be named instead.
+  // A layer may be named instead, and is then the indirect one.
   r = readReference(dir + "/rgb.exr", 8, 8, "");
   ASSERT_TRUE(r) << r.error();
+  EXPECT_FALSE(r->fullOnly());
+  // A full-only image with halves A.full and B.full measures its noise.
+  Image other = img;
+  other.rgb[0] = 1.0f;
+  w = writeExr(dir + "/halves.exr", {{"full", img}, {"A.full", img}, {"B.full", other}});
+  ASSERT_TRUE(w) << w.error();
+  r = readReference(dir + "/halves.exr", 8, 8);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_TRUE(r->fullOnly());
+  EXPECT_GT(r->comparedNoise(), 0);
+  EXPECT_DOUBLE_EQ(r->comparedNoise(), r->fullNoise());
   std::filesystem::remove_all(dir);
 }
 

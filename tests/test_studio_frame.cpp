@@ -852,6 +852,43 @@ std::vector<nlohmann::json> exportedMetrics(const std::string& outDir) {
 }
 }  // namespace
 
+// Another renderer's reference holds a full image only: the studio compares
+// the full component against it, says so in metrics.json, and measures the
+// path tracer's full image too (docs/REFERENCE.md, "References").
+TEST(StudioCli, HeadlessRunComparesTheFullImageOfAFullOnlyReference) {
+  const std::string dir = freshDir("studio-full-reference");
+  Image full(16, 16);
+  for (float& v : full.rgb) v = 0.5f;
+  const std::string fullOnly = dir + "/full-only.exr";
+  ASSERT_TRUE(writeExr(fullOnly, {{"", full}}));
+  const std::string common =
+      "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 2 --export " + dir + "/out";
+  StudioRun r = runStudio(dir + "/config", common + " --reference " + fullOnly);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::vector<nlohmann::json> all = exportedMetrics(dir + "/out");
+  ASSERT_EQ(all.size(), 1u);
+  const nlohmann::json& j = all[0];
+  EXPECT_EQ(j["comparedComponent"], "full");
+  EXPECT_EQ(j["reference"]["component"], "full");
+  EXPECT_EQ(j["reference"]["source"], fullOnly);
+  EXPECT_TRUE(j["reference"]["fullNoiseRelMSE"].is_null()) << "no halves: its noise is unknown";
+  EXPECT_EQ(j["view"]["component"], "full") << "the view shows the component measured";
+  EXPECT_TRUE(j.contains("equalTimeFull") && !j.contains("equalTimeIndirect")) << j.dump(1);
+  EXPECT_TRUE(j.contains("biasNoiseFull") && !j.contains("biasNoiseIndirect")) << j.dump(1);
+  // Only the full component is measured: there is no indirect image to
+  // measure against.
+  const nlohmann::json& vsl = j["metricsAgainstReference"]["VSL"];
+  EXPECT_TRUE(vsl.contains("full") && !vsl.contains("indirect")) << vsl.dump();
+  // The history holds the full images' errors: the methods' and the path
+  // tracer's (a constant 0.5 is no render of the scene, so every error is
+  // well above zero), and the last point is the export's VSL relMSE.
+  const nlohmann::json& h = j["errorHistory"];
+  ASSERT_FALSE(h.empty());
+  for (const char* m : {"vsl", "vpl", "pt"}) EXPECT_GT(h.back()[m].get<double>(), 0.01) << m;
+  EXPECT_NEAR(h.back()["vsl"].get<double>(), vsl["full"]["relMSE"].get<double>(),
+              1e-3 * vsl["full"]["relMSE"].get<double>());
+}
+
 // --split-alpha reaches the render (the export's replay command carries it) and
 // a value outside [0,1] is a bad argument.
 TEST(StudioCli, SplitAlphaReachesTheRender) {

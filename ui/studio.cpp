@@ -252,6 +252,9 @@ void Studio::pullSnapshot() {
       log::info("generation " + std::to_string(s->generation) + ": first picture " +
                 std::to_string(int(restartToPictureMs_)) + " ms after the settings changed");
     }
+    // Against a full-only reference only the full component is measured:
+    // show it when such a reference comes into use.
+    if (s->comparesFull && !(snap_ && snap_->comparesFull)) view_.component = Component::Full;
     snap_ = std::move(s);
     texturesDirty_ = true;
   }
@@ -802,8 +805,9 @@ bool Studio::referenceControls() {
     changed |= track("reference", true);
   }
   if (ImGui::IsItemHovered())
-    tip("An EXR of the render's size with an 'indirect' layer (vsl reference writes one); empty: a "
-        "matching cached reference, else the live path tracer");
+    tip("An EXR of the render's size: with an 'indirect' layer (vsl reference writes one) the methods' indirect "
+        "light is compared; another renderer's full image alone compares the full component. Empty: a matching "
+        "cached reference, else the live path tracer");
   if (!settings_.referencePath.empty() && ImGui::Button("Use cache / live path tracer")) {
     settings_.referencePath.clear();
     referencePathInput_.clear();
@@ -1435,7 +1439,9 @@ void Studio::metricsReferenceNotes(const Snapshot& s) {
 // session.h); the equal-time column interpolates each method's history at
 // the same amount of its own time. The best value of each column is green.
 struct Studio::TableState {
-  bool indirect = false;
+  // The view shows the component that errors are measured on (indirect, or
+  // full against a full-only reference: Snapshot::comparesFull).
+  bool compared = false;
   double noise = 0, budget = 0, ptEqual = NAN;
   double best[3] = {INFINITY, INFINITY, INFINITY};  // RMSE, relMSE, equal time
   // FLIP: the newest result for this component and exposure (greyed while a
@@ -1446,7 +1452,7 @@ struct Studio::TableState {
   // zero; NaN (none) where any shown is below zero, within the noise.
   double bestBias = INFINITY, bestNoise = INFINITY;
   double atEqualTime(const Snapshot& s, int i) const {
-    if (!indirect || i > 1) return double(NAN);
+    if (!compared || i > 1) return double(NAN);
     return errorAtOwnTime(s.history, i == 0 ? StudioMethod::Vsl : StudioMethod::Vpl, budget);
   }
 };
@@ -1477,8 +1483,8 @@ void errorCell(double v, double bestV) {
 
 Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
   TableState t;
-  t.indirect = view_.component == Component::Indirect;
-  t.noise = t.indirect && s.referenceNoise > 0 ? s.referenceNoise : 0;
+  t.compared = view_.component == comparedComponent(s);
+  t.noise = t.compared && s.referenceNoise > 0 ? s.referenceNoise : 0;
   t.budget = equalTimeBudget(s.history);
   // An error within the reference's noise cannot be ranked, and then no
   // error of its column is marked the best (hall's first seconds showed a
@@ -1500,7 +1506,7 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
     t.best[0] = std::min(t.best[0], livePtMetrics_.average.rmse);
     least(t.best[1], livePtMetrics_.average.relMse - t.noise);
   }
-  t.ptEqual = t.indirect ? errorAtOwnTime(s.history, StudioMethod::Pt, t.budget) : NAN;
+  t.ptEqual = t.compared ? errorAtOwnTime(s.history, StudioMethod::Pt, t.budget) : NAN;
   if (s.convergedReference || t.ptEqual > 0) least(t.best[2], t.ptEqual);
   t.flipHere = flip_ && flip_->component == view_.component && flip_->exposure == view_.exposure;
   t.flipFresh = t.flipHere && flip_->serial == s.serial;
@@ -1542,7 +1548,7 @@ void Studio::biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row)
   const BiasNoise& b = s.biasNoise[int(row)];
   for (int k = 0; k < 2; ++k) {
     ImGui::TableNextColumn();
-    if (!t.indirect) {
+    if (!t.compared) {
       ImGui::TextDisabled("n/a");
     } else if (b.renders < 2) {
       ImGui::TextDisabled("-");
@@ -1553,8 +1559,8 @@ void Studio::biasCells(const Snapshot& s, const TableState& t, BiasNoiseRow row)
     }
     if (!ImGui::IsItemHovered()) continue;
     const bool pt = row == BiasNoiseRow::Pt;
-    if (!t.indirect)
-      tip("Bias and noise are measured on the indirect component");
+    if (!t.compared)
+      tip("Bias and noise are measured on the %s component", kComponentNames[int(comparedComponent(s))]);
     else if (b.renders < 2 && pt)
       tip("The path tracer's two halves are measured against a converged reference only");
     else if (b.renders < 2)
@@ -1618,15 +1624,16 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   // estimated for the indirect component only.
   if (s.convergedReference) {
     errorCell(livePtMetrics_.average.relMse - t.noise, t.best[1]);
-  } else if (t.indirect && s.referenceNoise >= 0) {
+  } else if (t.compared && s.referenceNoise >= 0) {
     ImGui::Text("~%.3g", s.referenceNoise);
-  } else if (t.indirect) {
+  } else if (t.compared) {
     // Its noise is measured from two halves, which the first pass lacks.
     ImGui::TextDisabled("?");
     if (ImGui::IsItemHovered()) tip("The reference's own noise is measured once it has two halves");
   } else {
     ImGui::TextDisabled("n/a");
-    if (ImGui::IsItemHovered()) tip("The path tracer's error is tracked for the indirect component only");
+    if (ImGui::IsItemHovered())
+      tip("The path tracer's error is tracked for the %s component only", kComponentNames[int(comparedComponent(s))]);
   }
   ImGui::TableNextColumn();
   // As the reference, its error at equal time is its own noise, unknown (0
@@ -1645,14 +1652,16 @@ void Studio::metricsTable(const Snapshot& s) {
   // A fixed outer width: the table's row lines end at the table, not under the plot.
   if (!ImGui::BeginTable("metrics", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit, ImVec2(660, 0)))
     return;
-  ImGui::TableSetupColumn((std::string("vs reference (") + kComponentNames[int(view_.component)] + ")").c_str(),
-                          ImGuiTableColumnFlags_WidthStretch);
+  // A full-only reference says so: its errors are of the full image.
+  const std::string title = std::string("vs reference (") + kComponentNames[int(view_.component)] +
+                            (s.comparesFull ? "; it has no indirect layer)" : ")");
+  ImGui::TableSetupColumn(title.c_str(), ImGuiTableColumnFlags_WidthStretch);
   ImGui::TableSetupColumn("mean");
   ImGui::TableSetupColumn("RMSE");
   ImGui::TableSetupColumn(t.noise > 0 ? "relMSE-noise" : "relMSE");
   char eqTitle[32];
   std::snprintf(eqTitle, sizeof eqTitle, "@%.3gs", t.budget);
-  ImGui::TableSetupColumn(t.indirect ? eqTitle : "@equal t");
+  ImGui::TableSetupColumn(t.compared ? eqTitle : "@equal t");
   ImGui::TableSetupColumn(t.noise > 0 ? "bias^2-noise" : "bias^2");
   ImGui::TableSetupColumn("noise");
   ImGui::TableSetupColumn("FLIP");
@@ -1776,7 +1785,8 @@ void Studio::plotErrors(const ImVec2& size) {
   ImGui::Dummy(size);
   // The title sits above the plot area, never over the curves; the longest
   // form that fits the plot's width (a narrow window cut the long one off).
-  const char* title = "relMSE (indirect) - ref. noise vs own time";
+  const char* title =
+      snap_->comparesFull ? "relMSE (full) - ref. noise vs own time" : "relMSE (indirect) - ref. noise vs own time";
   for (const char* shorter : {"relMSE - ref. noise vs own time", "relMSE - noise vs time"})
     if (ImGui::CalcTextSize(title).x > size.x - 8) title = shorter;
   dl->AddText(ImVec2(p0.x + 4, p0.y), IM_COL32(200, 200, 200, 255), title);

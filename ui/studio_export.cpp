@@ -152,7 +152,11 @@ Result<std::filesystem::path> makeExportFolder(const std::string& dir, const std
 // (snapshotHasPicture), which would be black.
 Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
   Image ptFull = add(s.ptDirect, s.ptIndirect), vslFull = add(s.many.direct, s.many.vsl);
-  ErrorImages ev = errorImages(s.many.vsl, s.refIndirect);
+  // The error layers are of the component compared (Snapshot::comparesFull).
+  const Image refFull = add(s.refDirect, s.refIndirect);
+  const Image& ref = s.comparesFull ? refFull : s.refIndirect;
+  auto compared = [&](const Image& indirect) { return s.comparesFull ? add(s.many.direct, indirect) : indirect; };
+  ErrorImages ev = errorImages(compared(s.many.vsl), ref);
   std::vector<Layer> layers = {{"", vslFull},
                                {"vsl-full", vslFull},
                                {"vsl-indirect", s.many.vsl},
@@ -160,13 +164,13 @@ Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
                                {"pt-full", ptFull},
                                {"pt-direct", s.ptDirect},
                                {"pt-indirect", s.ptIndirect},
-                               {"reference-full", add(s.refDirect, s.refIndirect)},
+                               {"reference-full", refFull},
                                {"reference-indirect", s.refIndirect},
                                {"error-vsl-signed", ev.signedDiff},
                                {"error-vsl-relsq", ev.relSquared}};
   auto has = [&](Source src) { return snapshotHasPicture(s, src, Component::Indirect); };
   if (has(Source::Vpl)) {
-    ErrorImages ep = errorImages(s.many.vpl, s.refIndirect);
+    ErrorImages ep = errorImages(compared(s.many.vpl), ref);
     layers.insert(layers.end(), {{"vpl-full", add(s.many.direct, s.many.vpl)},
                                  {"vpl-indirect", s.many.vpl},
                                  {"error-vpl-signed", ep.signedDiff},
@@ -184,6 +188,8 @@ Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
                    {"vsl.settings", s.settings.many.describe()},
                    {"vsl.estimator", s.settings.estimator.describe()}});
 }
+
+const char* comparedName(const Snapshot& s) { return componentName(comparedComponent(s)); }
 
 nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
@@ -206,7 +212,9 @@ nlohmann::json referenceJson(const Snapshot& s) {
   return {{"source", s.referenceSource},
           {"converged", s.convergedReference},
           {"spp", s.referenceSpp},
-          {"indirectNoiseRelMSE", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
+          {"component", comparedName(s)},
+          {std::string(comparedName(s)) + "NoiseRelMSE",
+           s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
           {"noiseEstimate", "relMSE(A, B) / 4 from two independent halves; subtracted from errorHistory"},
           {"livePathTracerSpp", s.ptSpp}};
 }
@@ -227,7 +235,8 @@ nlohmann::json biasNoiseJson(const Snapshot& s) {
       {"definition",
        "compare.h biasVariance over K independent estimates (light sets; the path tracer's two halves) against the "
        "reference: bias2 = mean(w ((m - ref)^2 - s^2/K)), variance = mean(w s^2) of one estimate, relMSE of their "
-       "mean; w = 1/(ref^2 + eps), the indirect component"},
+       "mean; w = 1/(ref^2 + eps), the component compared"},
+      {"component", comparedName(s)},
       {"referenceNoise", s.referenceNoise >= 0 ? nlohmann::json(s.referenceNoise) : nlohmann::json(nullptr)},
       {"lightSetsDone", s.lightSetsDone}};
   const char* biasRows[] = {"VSL", "VPL (clamped)", "VPL unclamped", "VPL diffuse-only", "Path tracer (live)"};
@@ -402,6 +411,8 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
       continue;
     }
     for (Component c : {Component::Full, Component::Indirect}) {
+      // A full-only reference has no indirect image to measure against.
+      if (s.comparesFull && c == Component::Indirect) continue;
       Image sc, rs;
       CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
       metrics[sourceName(src)][componentName(c)] = {
@@ -444,9 +455,10 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
           {"relMseEpsilonMode", "relative: 0.01 x the reference's mean luminance^2"},
           {"crop", cropJson},
           {"reference", referenceJson(s)},
-          {"equalTimeIndirect", equalTimeJson(s)},
+          {"comparedComponent", comparedName(s)},
+          {s.comparesFull ? "equalTimeFull" : "equalTimeIndirect", equalTimeJson(s)},
           {"flip", flipJson},
-          {"biasNoiseIndirect", biasNoiseJson(s)},
+          {s.comparesFull ? "biasNoiseFull" : "biasNoiseIndirect", biasNoiseJson(s)},
           {"errorHistory", historyJson(s.history)}};
 }
 
