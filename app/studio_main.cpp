@@ -28,6 +28,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/stopwatch.h"
+#include "core/verdict.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
@@ -303,6 +304,11 @@ int runHeadless(const Args& a, const Launch& launch, int w, int h) {
     }
     result = script.failed ? 1 : 0;
     if (!script.failed) rememberSession(studio);
+    // The comparison's verdict (core/verdict.h) closes a headless run.
+    if (auto snap = studio.snapshot(); !script.failed && snap && snap->width > 0) {
+      std::fprintf(stderr, "verdict (%s, against %s):\n", snap->settings.scene.c_str(), snap->referenceSource.c_str());
+      for (const std::string& line : verdictReport(*snap)) std::fprintf(stderr, "  %s\n", line.c_str());
+    }
     if (!script.exportFolder.empty())
       std::fprintf(stderr, "vsl-studio: exported to %s/\n", script.exportFolder.c_str());
   }

@@ -938,6 +938,10 @@ void Session::recordError(const Worker& w, Job& job, double liveNoise, Snapshot&
   e.vsl = relMse[0] - noise;
   e.vpl = relMse[1] - noise;
   e.pt = w.converged ? relMse[2] - noise : std::max(liveNoise, 0.0);
+  auto variance = [](const BiasNoise& b) { return b.renders >= 2 ? b.variance : -1.0; };
+  e.lightSetsDone = snap.lightSetsDone;
+  e.vslSetVariance = variance(snap.biasNoise[int(BiasNoiseRow::Vsl)]);
+  e.vplSetVariance = variance(snap.biasNoise[int(BiasNoiseRow::Vpl)]);
   // The history is the job's; a resumed job republishes without a new point.
   std::vector<ErrorSample>& history = job.history;
   if (history.empty() || history.back().manySeconds != e.manySeconds || history.back().ptSeconds != e.ptSeconds)

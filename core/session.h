@@ -88,6 +88,11 @@ struct ErrorSample {
   double ptSeconds;       // compute time of the live path tracer so far
   double pt;              // its error: against a converged reference, else its own noise estimate
   double referenceNoise;  // what was subtracted (0 if unknown)
+  // What the verdict weighs a difference of errors against (verdict.h): the
+  // light sets complete, and one light set's variance of each method
+  // (BiasNoise::variance, relMSE units; negative before two sets).
+  int lightSetsDone = 0;
+  double vslSetVariance = -1, vplSetVariance = -1;
 };
 
 // Equal time: each method's error at the same amount of its own time.

@@ -23,6 +23,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "core/verdict.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio_internal.h"
@@ -1682,6 +1683,15 @@ void Studio::metricsPanel() {
   const bool stale = sourceStale(Source::Vsl);
   ImGui::BeginGroup();
   metricsSummary(s, stale);
+  // The verdict at equal time (core/verdict.h): a winner only once its lead
+  // exceeds the reference's noise and the spread between light sets.
+  const Verdict verdict = judge(s.history);
+  const ImVec4 verdictColour = verdict.outcome == VerdictOutcome::VslWins   ? ImVec4(0.5f, 0.9f, 0.5f, 1)
+                               : verdict.outcome == VerdictOutcome::VplWins ? ImVec4(0.95f, 0.75f, 0.4f, 1)
+                                                                            : ImVec4(0.7f, 0.7f, 0.7f, 1);
+  ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
+  ImGui::TextColored(verdictColour, "%s", verdictLine(verdict).c_str());
+  ImGui::PopTextWrapPos();
   metricsTable(s);
   metricsReferenceNotes(s);
   ImGui::EndGroup();

@@ -203,7 +203,10 @@ nlohmann::json historyJson(const std::vector<ErrorSample>& history) {
                     {"vpl", e.vpl},
                     {"ptSeconds", e.ptSeconds},
                     {"pt", e.pt},
-                    {"referenceNoiseSubtracted", e.referenceNoise}});
+                    {"referenceNoiseSubtracted", e.referenceNoise},
+                    {"lightSetsDone", e.lightSetsDone},
+                    {"vslSetVariance", e.vslSetVariance},
+                    {"vplSetVariance", e.vplSetVariance}});
   return hist;
 }
 
