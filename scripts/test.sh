@@ -75,12 +75,13 @@ tsan_regex="^($(IFS='|'; echo "${TSAN_SUITES[*]}"))\\.|^studio\\.headless"
 case $mode in
   quick)
     with_defaults -LE long
-    CMAKE_ARGS=(-DVSL_SANITIZE= "$FULL_DEBUG")
+    CMAKE_ARGS=(-DVSL_SANITIZE= "$FULL_DEBUG" -DVSL_BUILD_BENCH=ON)
     run_suite build
     ;;
   default)
     with_defaults
-    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY")
+    # bench/ is no test's: the release builds (--quick, --full) compile it.
+    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF)
     run_suite build-asan
     with_defaults -R "$tsan_regex"
     CMAKE_ARGS=(-DVSL_SANITIZE=thread "$LINES_ONLY")
@@ -89,7 +90,7 @@ case $mode in
   full)
     with_defaults
     for pair in build: build-asan:address build-tsan:thread; do
-      CMAKE_ARGS=("-DVSL_SANITIZE=${pair#*:}" "$FULL_DEBUG")
+      CMAKE_ARGS=("-DVSL_SANITIZE=${pair#*:}" "$FULL_DEBUG" -DVSL_BUILD_BENCH=ON)
       run_suite "${pair%%:*}"
     done
     ;;
