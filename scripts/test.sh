@@ -8,7 +8,8 @@
 #                            2. a thread sanitizer build (build-tsan/) of the
 #                               suites that drive threads (TSAN_SUITES below):
 #                               the session, the batches, parallel loops and
-#                               their exceptions, the studio's frames.
+#                               their exceptions, the studio's frames and its
+#                               command line.
 #   scripts/test.sh --quick  the edit loop: the release build (build/), then
 #                            every test not labelled `long` (about a minute
 #                            once build/ exists).
@@ -70,7 +71,7 @@ with_defaults() {  # the user's ctest arguments, or a per-test timeout
 # still name files and lines, and they build faster than with full -g.
 LINES_ONLY="-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG"
 FULL_DEBUG="-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g -DNDEBUG"
-tsan_regex="^($(IFS='|'; echo "${TSAN_SUITES[*]}"))\\.|^studio\\.headless"
+tsan_regex="^($(IFS='|'; echo "${TSAN_SUITES[*]}"))\\."
 
 case $mode in
   quick)
@@ -85,7 +86,8 @@ case $mode in
     run_suite build-asan
     with_defaults -R "$tsan_regex"
     CMAKE_ARGS=(-DVSL_SANITIZE=thread "$LINES_ONLY")
-    run_suite build-tsan "${TSAN_SUITES[@]}" vsl-studio
+    # test_studio_frame runs both programs.
+    run_suite build-tsan "${TSAN_SUITES[@]}" vsl-studio vsl
     ;;
   full)
     with_defaults
