@@ -152,6 +152,20 @@ double errorAtOwnTime(const std::vector<ErrorSample>& history, StudioMethod m, d
   return NAN;
 }
 
+// The live path tracer's samples per pixel to reach: maxSpp (the setting),
+// and past it, while the live path tracer is the reference in use, the
+// count at which its own noise, falling as 1/spp, is a fifth of the smallest
+// method error measured (docs/REFERENCE.md, "References"), at most
+// kLiveReferenceSppFactor x maxSpp.
+int liveReferenceTarget(int spp, int maxSpp, double noise, const std::vector<ErrorSample>& history) {
+  if (spp < maxSpp || history.empty() || !(noise > 0)) return maxSpp;
+  const ErrorSample& e = history.back();
+  const double smallest = std::min(e.vsl, e.vpl) + e.referenceNoise;  // before the noise was subtracted
+  if (!(smallest > 0)) return maxSpp;
+  const double wanted = std::ceil(double(spp) * noise / (smallest / 5));
+  return int(std::clamp(wanted, double(maxSpp), double(maxSpp) * kLiveReferenceSppFactor));
+}
+
 // ---- [1] Settings and the public interface ------------------------------------------
 
 Result<void> StudioSettings::validate() const {
@@ -641,8 +655,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     // refining every kCatchUpShowSeconds instead of only at its end.
     bool ptStep = false;
     Stopwatch sinceShown;
-    while (ref.spp() < job.settings.maxReferenceSpp && !stopped() &&
-           (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
+    while (ref.spp() < liveTarget(w, job) && !stopped() && (!ptStep || ref.seconds() - job.ptStart < job.mlSeconds)) {
       if (!ref.stepPass(&stop_)) break;
       ptStep = progressed = true;
       if (firstPictureDue()) break;  // it goes out below
@@ -781,6 +794,15 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
   return true;
 }
 
+// The live path tracer's target (liveReferenceTarget): the setting, or more
+// while it is the reference in use and too noisy to rank the methods.
+int Session::liveTarget(const Worker& w, const Job& job) {
+  const ReferenceRenderer& ref = *w.ref.pt;
+  const int cap = job.settings.maxReferenceSpp;
+  if (w.converged || ref.spp() < cap) return cap;
+  return liveReferenceTarget(ref.spp(), cap, ref.indirectNoise(), job.history);
+}
+
 std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint64_t gen,
                                                 const ManyLightImages* vslFirst) const {
   const ManyLightEstimator* ml = job.ml.get();  // the set in progress, if any
@@ -859,8 +881,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   }
   if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
     snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
-    snap->referenceRemainingSeconds =
-        std::max(job.settings.maxReferenceSpp - ref.spp(), 0) / snap->referenceSppPerSecond;
+    snap->referenceRemainingSeconds = std::max(liveTarget(w, job) - ref.spp(), 0) / snap->referenceSppPerSecond;
   }
   snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
   snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
@@ -874,7 +895,8 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     recordError(w, job, liveNoise, *snap);
   snap->manyLightDone = job.setsDone >= job.settings.lightSets;
   if (snap->manyLightDone) snap->manyFractionDone = 1.0;
-  snap->referenceDone = ref.spp() >= job.settings.maxReferenceSpp;
+  snap->referenceTargetSpp = liveTarget(w, job);
+  snap->referenceDone = ref.spp() >= snap->referenceTargetSpp;
   // Both times left in wall-clock time: the reference and the many-light
   // methods take turns (equal time, render()), so while neither is done each
   // advances at about half its own rate.

@@ -95,6 +95,13 @@ struct ErrorSample {
   double vslSetVariance = -1, vplSetVariance = -1;
 };
 
+// The live path tracer's samples per pixel to reach, given its samples so
+// far, the setting (maxSpp) and its own noise: maxSpp, or past it the count
+// at which its noise (falling as 1/spp) is a fifth of the smallest method
+// error of the history's last point, at most kLiveReferenceSppFactor x maxSpp.
+constexpr int kLiveReferenceSppFactor = 64;
+int liveReferenceTarget(int spp, int maxSpp, double noise, const std::vector<ErrorSample>& history);
+
 // Equal time: each method's error at the same amount of its own time.
 enum class StudioMethod { Vsl, Vpl, Pt };
 // The method's own time and error in one history entry.
@@ -182,6 +189,10 @@ struct Snapshot {
   std::vector<ErrorSample> history;
   bool manyLightDone = false;  // every light set is done
   bool referenceDone = false;
+  // The live path tracer's samples per pixel to reach: the setting, or more
+  // while it is the reference in use and its noise is above a fifth of the
+  // smallest method error (liveReferenceTarget).
+  int referenceTargetSpp = 0;
   // The first light set's VSL image is complete but its VPL image is not: an
   // MRCS light set publishes its VSL picture before VPL's columns are
   // rendered (mrcs.h, MrcsProgress::onVslImage). The VPL layers are black
@@ -275,6 +286,7 @@ class Session {
                                          const ManyLightImages* vslFirst = nullptr) const;
   static void useReference(const Worker& w, double liveNoise, Snapshot& snap);
   static void recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap);
+  static int liveTarget(const Worker& w, const Job& job);
   void chooseReference(Worker& w, Job& job);
   bool renderBackgroundReference(Worker& w, Job& job, uint64_t gen);
   bool publish(std::shared_ptr<Snapshot> s);

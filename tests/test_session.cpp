@@ -79,7 +79,10 @@ TEST(Session, RendersToCompletionWithAllLayers) {
   EXPECT_EQ(snap->width, 16);
   EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
   EXPECT_GE(snap->lightsTotal, 200u);
-  EXPECT_EQ(snap->ptSpp, 8);
+  // The live path tracer renders its 8 spp and on while it is too noisy to
+  // rank the methods (LiveReferenceRefinesPastItsSettingWhileTooNoisy).
+  EXPECT_GE(snap->ptSpp, 8);
+  EXPECT_EQ(snap->ptSpp, snap->referenceTargetSpp);
   EXPECT_EQ(snap->batchesDone, snap->batchCount);
   EXPECT_FALSE(snap->history.empty());
   EXPECT_EQ(snap->nonFinite, 0u);
@@ -850,6 +853,38 @@ TEST(Session, LiveReferenceNoiseIsEstimatedAndSubtracted) {
   // Each method has its own clock, and both include light tracing.
   EXPECT_GE(e.vslSeconds, snap->lightTracingSeconds);
   EXPECT_GE(e.vplSeconds, snap->lightTracingSeconds);
+}
+
+// Without a converged reference, the live path tracer goes on past its
+// setting while its noise is above a fifth of the smallest method error
+// (docs/REFERENCE.md, "References"): at 8 spp on 16x16 pixels it is far
+// above that, so it refines, to at most 64 x 8 spp.
+TEST(Session, LiveReferenceRefinesPastItsSettingWhileTooNoisy) {
+  TempCache cache;
+  Session session;
+  uint64_t g = session.restart(small("cornell-glossy", 200, 16)).value();
+  auto snap = waitFor(session, g, [](const Snapshot& s) { return s.manyLightDone && s.referenceDone; });
+  ASSERT_TRUE(snap);
+  EXPECT_FALSE(snap->convergedReference);
+  EXPECT_GT(snap->ptSpp, 8);
+  EXPECT_LE(snap->ptSpp, 8 * kLiveReferenceSppFactor);
+  EXPECT_EQ(snap->referenceTargetSpp, snap->ptSpp);
+}
+
+// liveReferenceTarget: the setting until it is reached; then the count at
+// which the noise, falling as 1/spp, is a fifth of the smallest error the
+// methods showed before the noise was subtracted.
+TEST(Session, LiveReferenceTargetFollowsTheSmallestError) {
+  ErrorSample e{};
+  e.vsl = 0.03;
+  e.vpl = 0.04;
+  e.referenceNoise = 0.2;                                     // smallest error before subtraction: 0.23
+  EXPECT_EQ(liveReferenceTarget(512, 1024, 0.4, {e}), 1024);  // the setting first
+  EXPECT_EQ(liveReferenceTarget(1024, 1024, 0.2, {}), 1024);  // no error measured yet
+  // 1024 x 0.2 / (0.23 / 5) = 4452.17...
+  EXPECT_EQ(liveReferenceTarget(1024, 1024, 0.2, {e}), 4453);
+  EXPECT_EQ(liveReferenceTarget(1024, 1024, 0.001, {e}), 1024);                         // quiet enough
+  EXPECT_EQ(liveReferenceTarget(1024, 1024, 50, {e}), 1024 * kLiveReferenceSppFactor);  // at most 64x
 }
 
 // A cached reference of the right key is found and used; errors are

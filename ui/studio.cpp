@@ -1425,8 +1425,8 @@ void Studio::metricsReferenceNotes(const Snapshot& s) {
                      s.settings.estimator.describe().c_str());
   char noiseText[48] = "unknown (no halves)";
   if (s.referenceNoise >= 0) std::snprintf(noiseText, sizeof noiseText, "%.3g", s.referenceNoise);
-  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (indirect relMSE, subtracted)", s.referenceSource.c_str(),
-                     s.referenceSpp, noiseText);
+  ImGui::TextWrapped("reference: %s, %d spp, own noise %s (%s relMSE, subtracted)", s.referenceSource.c_str(),
+                     s.referenceSpp, noiseText, kComponentNames[int(comparedComponent(s))]);
   if (s.backgroundSpp > 0 && !s.convergedReference)
     ImGui::TextWrapped("background reference: %d / %d spp", s.backgroundSpp, s.settings.backgroundReferenceSpp);
   ImGui::PopTextWrapPos();
@@ -1691,6 +1691,17 @@ void Studio::metricsPanel() {
                                                                             : ImVec4(0.7f, 0.7f, 0.7f, 1);
   ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 660);
   ImGui::TextColored(verdictColour, "%s", verdictLine(verdict).c_str());
+  // A live reference refining past its setting (session.h,
+  // Snapshot::referenceTargetSpp): its noise still hides the differences.
+  if (!s.convergedReference && !s.referenceDone && s.referenceTargetSpp > s.settings.maxReferenceSpp) {
+    char left[32] = "";
+    if (s.referenceRemainingSeconds > 0)
+      std::snprintf(left, sizeof left, ", about %.0f s more", s.referenceRemainingSeconds);
+    ImGui::TextColored(ImVec4(0.95f, 0.75f, 0.4f, 1),
+                       "reference too noisy to rank yet: the live path tracer's noise %.3g is above a fifth of the "
+                       "smallest method error; refining to %d spp%s",
+                       s.referenceNoise, s.referenceTargetSpp, left);
+  }
   ImGui::PopTextWrapPos();
   metricsTable(s);
   metricsReferenceNotes(s);
