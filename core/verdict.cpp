@@ -39,6 +39,9 @@ Verdict judge(const std::vector<ErrorSample>& all, size_t count) {
   const double vplNoise = noiseAtOwnTime(history, StudioMethod::Vpl, v.budget);
   if (vslNoise < 0 || vplNoise < 0) return v;
   v.margin = std::max(history.back().referenceNoise, 0.0) + std::max(vslNoise, vplNoise);
+  // An error at or below zero is within the reference's own noise: it has no
+  // size to compare (the table's "< noise").
+  if (v.vsl <= 0 || v.vpl <= 0) return v;
   if (std::abs(v.vsl - v.vpl) > v.margin) v.outcome = v.vsl < v.vpl ? VerdictOutcome::VslWins : VerdictOutcome::VplWins;
   return v;
 }
@@ -52,6 +55,13 @@ std::string verdictLine(const Verdict& v) {
       if (!std::isfinite(v.margin))
         std::snprintf(line, sizeof line,
                       "not yet separable: the noise left in each method's image is measured from two light sets");
+      else if (v.vsl <= 0 || v.vpl <= 0)
+        std::snprintf(line, sizeof line,
+                      "not yet separable: %s error is within the reference's own noise (a more converged reference "
+                      "tells)",
+                      v.vsl <= 0 && v.vpl <= 0 ? "each method's"
+                      : v.vsl <= 0             ? "VSL's"
+                                               : "clamped VPL's");
       else
         std::snprintf(line, sizeof line,
                       "not yet separable: the difference %.3g is within the noise %.3g (the reference's and the "

@@ -57,6 +57,12 @@ TEST(Verdict, AWinnerNeedsALeadAboveTheReferencesAndTheImagesNoise) {
   EXPECT_NE(verdictLine(v).find("the difference 0.04 is within the noise 0.045"), std::string::npos) << verdictLine(v);
   // Or with a wide spread between VSL's light sets (0.05).
   EXPECT_EQ(judge({point(2, 0.05, 2, 0.08, 0.05, 0.002)}).outcome, VerdictOutcome::NotYetSeparable);
+  // An error within the reference's noise (below zero once it is
+  // subtracted) has no size to rank, however large the other one.
+  v = judge({point(2, -0.2, 2, 0.5, 0.001, 0.001, 0.3)});
+  EXPECT_EQ(v.outcome, VerdictOutcome::NotYetSeparable);
+  EXPECT_NE(verdictLine(v).find("VSL's error is within the reference's own noise"), std::string::npos)
+      << verdictLine(v);
   // Clamped VPL can win too.
   EXPECT_EQ(judge({point(2, 0.08, 2, 0.05, 0.002, 0.002)}).outcome, VerdictOutcome::VplWins);
 }
