@@ -14,6 +14,7 @@
 #include "app/render.h"
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/presets.h"
 
 namespace vsl {
 
@@ -190,6 +191,7 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
             {"method", a.settings.method},
             {"estimator", estimatorName(a.estimator.kind)},
             {"settings", a.many.describe()},
+            {"preset", matchingPreset(a.many)},
             {"width", g.w},
             {"height", g.h},
             {"component", componentName(a.settings.component)},

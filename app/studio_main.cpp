@@ -27,6 +27,7 @@
 #include "app/finite_options.h"
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/presets.h"
 #include "core/stopwatch.h"
 #include "core/verdict.h"
 #include "ui/gl.h"
@@ -63,6 +64,7 @@ struct Args {
   bool splitAlphaGiven = false;
   float lobeFloor = ManyLightSettings().lobeFloor;  // VSL lobe floor (0 = off)
   bool lobeFloorGiven = false;
+  std::string preset;       // --preset (empty: none given)
   uint32_t lobeGather = 0;  // the lobe gather's lights (0 = off)
   bool lobeGatherGiven = false;
   int lobeGatherRays = ManyLightSettings().lobeGatherRays;  // its directions per gather point
@@ -179,6 +181,18 @@ struct Script {
   }
 };
 
+// The preset given (--preset), then the methods' options given one by one,
+// which override it (docs/REFERENCE.md, "Presets").
+void applyGiven(const Args& a, ManyLightSettings& m) {
+  if (std::optional<Preset> p = parsePreset(a.preset)) applyPreset(*p, m);
+  if (a.splitAlphaGiven) m.splitAlpha = a.splitAlpha;
+  if (a.lobeFloorGiven) m.lobeFloor = a.lobeFloor;
+  if (a.lobeGatherGiven) m.lobeGather = a.lobeGather;
+  if (a.lobeGatherRaysGiven) m.lobeGatherRays = a.lobeGatherRays;
+  if (a.lobeGatherAlphaGiven) m.lobeGatherAlpha = a.lobeGatherAlpha;
+  if (a.pairRouletteGiven) m.pairRoulette = a.pairRoulette;
+}
+
 ui::StudioOptions studioOptions(const Args& a) {
   ui::StudioOptions o;
   o.scene = a.scene;
@@ -189,12 +203,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.many.width = a.width;
   o.settings.many.batches = 16;
   o.settings.many.directSamples = 64;
-  o.settings.many.splitAlpha = a.splitAlpha;
-  o.settings.many.lobeFloor = a.lobeFloor;
-  o.settings.many.lobeGather = a.lobeGather;
-  o.settings.many.lobeGatherRays = a.lobeGatherRays;
-  o.settings.many.lobeGatherAlpha = a.lobeGatherAlpha;
-  o.settings.many.pairRoulette = a.pairRoulette;
+  applyGiven(a, o.settings.many);
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -240,12 +249,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
     s.many.height = 0;
   }
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
-  if (a.splitAlphaGiven) s.many.splitAlpha = a.splitAlpha;
-  if (a.lobeFloorGiven) s.many.lobeFloor = a.lobeFloor;
-  if (a.lobeGatherGiven) s.many.lobeGather = a.lobeGather;
-  if (a.lobeGatherRaysGiven) s.many.lobeGatherRays = a.lobeGatherRays;
-  if (a.lobeGatherAlphaGiven) s.many.lobeGatherAlpha = a.lobeGatherAlpha;
-  if (a.pairRouletteGiven) s.many.pairRoulette = a.pairRoulette;
+  applyGiven(a, s.many);
   if (a.estimatorGiven) s.estimator = a.estimator;
   s.referencePath = a.reference;  // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
@@ -597,6 +601,10 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--progressive-radius", a.progressive,
                  "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
                  "ALPHA in (0,1), e.g. 0.7");
+  app.add_option("--preset", a.preset,
+                 "The methods' parameters: paper (VSL and clamped VPL as Hasan et al. 2009 published them) or "
+                 "default (the measured best); the options above, given, override it")
+      ->check(CLI::IsMember(presetNames()));
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
   app.add_flag("--verbose", a.verbose,
                "Echo the log's info lines to stderr (stages, each restart's change -> picture time)");

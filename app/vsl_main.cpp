@@ -22,6 +22,7 @@
 #include "app/finite_options.h"
 #include "core/estimator.h"
 #include "core/log.h"
+#include "core/presets.h"
 
 namespace vsl {
 
@@ -49,6 +50,18 @@ bool parseVslSamples(const std::string& v, int& out) {
 }  // namespace
 
 void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
+  // Defined first: CLI11 runs options in the order they are defined, so the
+  // options below, given one by one, override the preset's values.
+  cmd->add_option_function<std::string>(
+         "--preset",
+         [&m](const std::string& v) {
+           if (std::optional<Preset> p = parsePreset(v)) applyPreset(*p, m);
+         },
+         "The methods' parameters: paper (VSL and clamped VPL as Hasan et al. 2009 published them, none of this "
+         "project's heuristics) or default (the measured best); options given one by one override it "
+         "(docs/REFERENCE.md, \"Presets\")")
+      ->check(CLI::IsMember(presetNames()))
+      ->default_str("default");
   cmd->add_option_function<std::string>(
          "--vsl-samples", [&m](const std::string& v) { parseVslSamples(v, m.vslSamples); },
          "VSL cone-integral samples per strategy: auto (see --vsl-count) or N in [1, 4096]")

@@ -665,6 +665,40 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
 // lobes, the same light set), shares with --vsl-count shares (fewer), recorded
 // in the settings; anything else exits 2.
 // The settings string can be pasted back: no size of 0 ("the scene's").
+// --preset paper is the paper's parameters given one by one (docs/REFERENCE.md,
+// "Presets"): the same bytes, and the JSON names the preset; an option given
+// with it overrides it, in either order (the settings are then "custom"); an
+// unknown name is a bad argument.
+TEST_F(Cli, PaperPresetIsItsSettingsOneByOne) {
+  const std::string common = "render " + scene("kitchen") + " --method all --width 24 --lights 400 --seed 2";
+  auto render = [&](const std::string& extra, const std::string& name) {
+    Proc r = run(common + extra + " -o " + file(name + ".exr") + " --json " + file(name + ".json"));
+    EXPECT_EQ(r.code, 0) << r.out;
+    return nlohmann::json::parse(std::ifstream(file(name + ".json")));
+  };
+  const nlohmann::json preset = render(" --preset paper", "preset");
+  const nlohmann::json byHand = render(" --vsl-count authors --lobe-floor 0 --continue-alpha 0", "by-hand");
+  const nlohmann::json plain = render("", "plain");
+  EXPECT_EQ(preset["preset"], "paper");
+  EXPECT_EQ(byHand["preset"], "paper");
+  EXPECT_EQ(plain["preset"], "default");
+  EXPECT_EQ(preset["settings"], byHand["settings"]);
+  std::ifstream a(file("preset.exr"), std::ios::binary), b(file("by-hand.exr"), std::ios::binary);
+  const std::string bytesA((std::istreambuf_iterator<char>(a)), {}), bytesB((std::istreambuf_iterator<char>(b)), {});
+  ASSERT_FALSE(bytesA.empty());
+  EXPECT_TRUE(bytesA == bytesB) << "--preset paper and its settings one by one render different files";
+  for (const char* extra : {" --preset paper --lobe-floor 0.5", " --lobe-floor 0.5 --preset paper"}) {
+    const nlohmann::json j = render(extra, "override");
+    EXPECT_EQ(j["preset"], "custom") << extra;
+    EXPECT_NE(j["settings"].get<std::string>().find("--vsl-count authors --lobe-floor 0.5 --continue-alpha 0"),
+              std::string::npos)
+        << extra << ": " << j["settings"];
+  }
+  Proc bad = run(common + " --preset nonsense -o " + file("bad.exr"));
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--preset: nonsense not in {default,paper}"), std::string::npos) << bad.out;
+}
+
 TEST_F(Cli, VslCountIsChosenAndRecorded) {
   const std::string common =
       "render " + scene("cornell-glossy") + " --method vsl --width 16 --batches 1 --direct-samples 1 --seed 4";

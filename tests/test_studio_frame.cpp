@@ -889,6 +889,29 @@ TEST(StudioCli, HeadlessRunComparesTheFullImageOfAFullOnlyReference) {
               1e-3 * vsl["full"]["relMSE"].get<double>());
 }
 
+// --preset paper reaches the studio's render: metrics.json names the preset,
+// and its replay command carries the paper's settings; an option given with
+// it overrides it.
+TEST(StudioCli, PresetReachesTheRender) {
+  const std::string dir = freshDir("studio-preset-cli");
+  const std::string common =
+      "--headless --fresh --window 320x240 --lights 50 --width 16 --light-sets 1 --export " + dir + "/out";
+  StudioRun r = runStudio(dir + "/config", common + " --preset paper");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = runStudio(dir + "/config", common + " --preset paper --lobe-floor 0.5");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::vector<std::string> presets, replays;
+  for (const nlohmann::json& j : exportedMetrics(dir + "/out")) {
+    presets.push_back(j["settings"]["preset"]);
+    replays.push_back(j["replay"]);
+  }
+  std::sort(presets.begin(), presets.end());
+  EXPECT_EQ(presets, (std::vector<std::string>{"custom", "paper"}));
+  for (const std::string& replay : replays) EXPECT_NE(replay.find("--vsl-count authors"), std::string::npos) << replay;
+  r = runStudio(dir + "/config", common + " --preset nonsense");
+  EXPECT_EQ(r.code, 2) << r.out;
+}
+
 // --split-alpha reaches the render (the export's replay command carries it) and
 // a value outside [0,1] is a bad argument.
 TEST(StudioCli, SplitAlphaReachesTheRender) {

@@ -23,6 +23,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "core/presets.h"
 #include "core/verdict.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
@@ -640,8 +641,26 @@ void Studio::sceneControls() {
 // The controls below return whether a setting changed.
 bool Studio::virtualLightControls() {
   bool changed = false;
-  sectionTitle("Virtual lights");
   ManyLightSettings& m = settings_.many;
+  // The preset (core/presets.h): "custom" once a method parameter differs
+  // from both; choosing one sets every method parameter.
+  const std::string current = matchingPreset(m);
+  if (ImGui::BeginCombo("preset", current.c_str())) {
+    for (Preset p : {Preset::Default, Preset::Paper}) {
+      if (!ImGui::Selectable(presetName(p), current == presetName(p))) continue;
+      applyPreset(p, m);
+      vslAuto_ = m.vslSamples == 0;
+      globalRadius_ = m.globalRadius > 0;
+      takeLobeGather(m);
+      changed |= track("preset", true);
+    }
+    ImGui::EndCombo();
+  }
+  if (ImGui::IsItemHovered())
+    tip("paper: VSL and clamped VPL as Hasan et al. 2009 published them (the authors' sample count, k-NN radii, no "
+        "heuristic of this project); default: the measured best (lobe-aware count, lobe floor 1, eye paths continued "
+        "through near-mirror metals). docs/REFERENCE.md, \"Presets\"");
+  sectionTitle("Virtual lights");
   int lights = int(m.lights);
   if (ImGui::SliderInt("lights", &lights, 100, 1000000, "%d", ImGuiSliderFlags_Logarithmic)) {
     m.lights = uint32_t(std::max(lights, 1));
@@ -1615,7 +1634,10 @@ void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
   const CompareResult& c = metrics_[i];
   ImGui::TableNextRow();
   ImGui::TableNextColumn();
-  ImGui::TextUnformatted(sourceName(kMetricSources[i]));
+  // The variant by its preset: "VSL [paper]" against "VSL" (core/presets.h).
+  const std::string preset = matchingPreset(s.settings.many);
+  const std::string name = sourceName(kMetricSources[i]) + (preset == "default" ? "" : " [" + preset + "]");
+  ImGui::TextUnformatted(name.c_str());
   ImGui::TableNextColumn();
   ImGui::Text("%.5g", c.average.meanTest);
   ImGui::TableNextColumn();

@@ -16,6 +16,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "core/presets.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
 #include "ui/studio_internal.h"
@@ -281,7 +282,8 @@ nlohmann::json settingsJson(const Snapshot& s) {
   // The clamp as resolved: its mode and the bound actually used.
   nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
   clamp["bound"] = std::isinf(m.clamp) ? nlohmann::json(nullptr) : nlohmann::json(s.clampBound);
-  return {{"lights", m.lights},
+  return {{"preset", matchingPreset(m)},
+          {"lights", m.lights},
           {"radius",
            {{"mode", m.globalRadius > 0 ? "global" : "knn"},
             {"scale", m.radiusScale},
