@@ -526,7 +526,12 @@ void Studio::frame() {
       ImGui::EndTabItem();
     }
     cropMade_ = false;
-    if (ImGui::BeginTabItem("Log")) {
+    // The tab counts the warnings and errors (a loader's warnings were easy
+    // to miss); "###Log" keeps the tab the same one as the count changes.
+    size_t warnings = 0;
+    for (const LogEntry& e : log::entries()) warnings += e.level >= LogLevel::Warning;
+    const std::string logTab = warnings > 0 ? "Log (" + std::to_string(warnings) + " warnings)###Log" : "Log###Log";
+    if (ImGui::BeginTabItem(logTab.c_str())) {
       logPanel();
       ImGui::EndTabItem();
     }
@@ -959,6 +964,9 @@ void Studio::exportControls() {
 }
 
 void Studio::controlsPanel() {
+  // Room for the longest label ("reference spp", "pair roulette") beside
+  // every control.
+  ImGui::PushItemWidth(-128);
   sceneControls();
   bool changed = virtualLightControls();
   changed |= gatherControls();
@@ -986,6 +994,7 @@ void Studio::controlsPanel() {
 
   viewControls();
   exportControls();
+  ImGui::PopItemWidth();
 }
 
 // ---- [4] Views -----------------------------------------------------------------------
