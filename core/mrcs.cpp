@@ -565,13 +565,11 @@ void representativeColumns(MrcsJob& job, const Gatherer& gatherer, int layer, co
   });
 }
 
-}  // namespace
-
-MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
-                      const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
-                      const std::atomic<bool>* stop, MrcsProgress* progress) {
-  MrcsResult res;
-  MrcsJob job;
+// The job's image size, light count, methods and layer, and the rows and
+// clusters the render uses (in res, and planned in the progress).
+void setUpJob(const Scene& scene, const VirtualLightSet& set, const std::vector<float>& radii,
+              const ManyLightSettings& settings, const MrcsSettings& mrcs, const std::atomic<bool>* stop,
+              MrcsProgress* progress, MrcsJob& job, MrcsResult& res) {
   job.progress = progress;
   job.W = settings.width;
   job.H = settings.height;
@@ -579,7 +577,6 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   job.N = set.lights.size();
   VSL_CHECK_EQ(radii.size(), job.N);
   job.stop = stop;
-  const float clampBound = manyLightClampBound(scene, settings);
   job.vplLayer = settings.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
   job.doVsl = settings.computeVsl;
   job.doVpl = settings.computeVpl;
@@ -592,27 +589,27 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
                     .clusters = res.clustersUsed,
                     .methods = int(job.doVsl) + int(job.doVpl),
                     .directSamples = settings.directSamples});
-  // A stopped render is discarded: no image, the progress idle.
-  auto stoppedResult = [&] {
-    res.stopped = true;
-    job.begin(MrcsProgress::kIdle, 0);
-    return std::move(res);
-  };
-  Stopwatch clock;
-  // The lobe gather's light set (VSL's own cost), before the eye paths that
-  // use it: its tracing shows as the eye paths' stage at 0%.
+}
+
+// The eye paths' stage: the lobe gather's light set (VSL's own cost), before
+// the eye paths that use it (its tracing shows as the stage at 0%); the
+// gatherers; the gather points and direct light; then the lights decoded for
+// the rows and columns. Its times go into res; false if stopped.
+bool eyePathStage(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
+                  const std::vector<float>& radii, const ManyLightSettings& settings, float clampBound, MrcsJob& job,
+                  MrcsResult& res, Stopwatch& clock) {
   job.begin(MrcsProgress::kEyePaths, uint64_t(job.H));
-  job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, stop, job.nonFinite);
+  job.lobeMap = buildLobeGatherMap(scene, accel, lights, settings, job.stop, job.nonFinite);
   job.lobe = job.lobeMap != nullptr;
   const double lobeMapSeconds = job.lobe ? clock.lap() : 0.0;
-  if (job.stopped()) return stoppedResult();
+  if (job.stopped()) return false;
   job.both =
       std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, job.doVsl, job.doVpl, job.lobeMap.get());
   job.vslOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, true, false);
   job.vplOnly = std::make_unique<Gatherer>(scene, accel, lights, settings, clampBound, false, true);
 
   eyePathsAndDirect(scene, accel, lights, settings, job, res.images.direct);
-  if (job.stopped()) return stoppedResult();
+  if (job.stopped()) return false;
   // The rows and columns use no lobe gather (a lobe point's estimate is in its
   // gather point): the set's memory goes back now.
   job.both.reset();
@@ -626,6 +623,50 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
       lobeMapSeconds +
       (job.eyeThreadSeconds > 0 ? res.eyeSeconds * std::min(1.0, job.eyeLobeSeconds / job.eyeThreadSeconds) : 0.0);
   res.eyeSeconds += lobeMapSeconds;
+  return true;
+}
+
+// The representatives' lights; with `spread`, a representative of weight w
+// gets radius r sqrt(w) (MrcsSettings::spreadVslRadius).
+std::vector<GatherLight> representativeLights(const MrcsJob& job, const std::vector<Representative>& reps,
+                                              bool spread) {
+  std::vector<GatherLight> repGl;
+  for (const Representative& r : reps) {
+    repGl.push_back(job.gl[r.light]);
+    if (spread) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
+  }
+  return repGl;
+}
+
+// The complete VSL image (and direct light) to progress.onVslImage, with the
+// other layers black.
+void handOutVslImage(const MrcsJob& job, const ManyLightImages& images, MrcsProgress& progress) {
+  ManyLightImages vslImages;
+  vslImages.direct = images.direct;
+  vslImages.vsl = images.vsl;
+  for (Image* img : {&vslImages.vpl, &vslImages.vplUnclamped, &vslImages.vplDiffuse, &vslImages.lostToClamping,
+                     &vslImages.lostToDiffuse})
+    *img = Image(job.W, job.H);
+  progress.onVslImage(vslImages);
+}
+
+}  // namespace
+
+MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler& lights, const VirtualLightSet& set,
+                      const std::vector<float>& radii, const ManyLightSettings& settings, const MrcsSettings& mrcs,
+                      const std::atomic<bool>* stop, MrcsProgress* progress) {
+  MrcsResult res;
+  MrcsJob job;
+  setUpJob(scene, set, radii, settings, mrcs, stop, progress, job, res);
+  const float clampBound = manyLightClampBound(scene, settings);
+  // A stopped render is discarded: no image, the progress idle.
+  auto stoppedResult = [&] {
+    res.stopped = true;
+    job.begin(MrcsProgress::kIdle, 0);
+    return std::move(res);
+  };
+  Stopwatch clock;
+  if (!eyePathStage(scene, accel, lights, set, radii, settings, clampBound, job, res, clock)) return stoppedResult();
 
   // 1. Rows.
   Rng rng(hashCombine(settings.seed, mrcs.seed), 0x7077);
@@ -657,21 +698,11 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
   // 4. Full columns for the representatives: VSL's, then (the VSL image
   // handed out) VPL's clustering and columns.
   job.begin(MrcsProgress::kColumns, uint64_t(job.H) * uint64_t(int(job.doVsl) + int(job.doVpl)));
-  std::vector<GatherLight> repGl;
-  for (const Representative& r : repVsl) {
-    repGl.push_back(job.gl[r.light]);
-    if (mrcs.spreadVslRadius) repGl.back().radius *= float(std::sqrt(std::max(r.weight, 1.0)));
-  }
-  representativeColumns(job, *job.vslOnly, kVslLayer, repVsl, repGl, res.images.vsl);
+  representativeColumns(job, *job.vslOnly, kVslLayer, repVsl, representativeLights(job, repVsl, mrcs.spreadVslRadius),
+                        res.images.vsl);
   res.vslColumnSeconds = res.columnSeconds = clock.lap();
   if (job.doVsl && job.doVpl && !job.stopped() && progress && progress->onVslImage) {
-    ManyLightImages vslImages;
-    vslImages.direct = res.images.direct;
-    vslImages.vsl = res.images.vsl;
-    for (Image* img : {&vslImages.vpl, &vslImages.vplUnclamped, &vslImages.vplDiffuse, &vslImages.lostToClamping,
-                       &vslImages.lostToDiffuse})
-      *img = Image(job.W, job.H);
-    progress->onVslImage(vslImages);
+    handOutVslImage(job, res.images, *progress);
     clock.lap();  // the caller's time, not MRCS's
   }
   if (job.doVsl && job.doVpl && !job.stopped()) {
@@ -684,9 +715,9 @@ MrcsResult renderMrcs(const Scene& scene, const Accel& accel, const LightSampler
     res.clusterSeconds += clock.lap();
   }
   colVpl = {};
-  repGl.clear();
-  for (const Representative& r : repVpl) repGl.push_back(job.gl[r.light]);
-  if (!job.stopped()) representativeColumns(job, *job.vplOnly, job.vplLayer, repVpl, repGl, res.images.vpl);
+  if (!job.stopped())
+    representativeColumns(job, *job.vplOnly, job.vplLayer, repVpl, representativeLights(job, repVpl, false),
+                          res.images.vpl);
   res.columnSeconds += clock.lap();
   res.stopped = job.stopped();
   job.begin(MrcsProgress::kDone, 0);
