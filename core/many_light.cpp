@@ -260,67 +260,102 @@ ManyLightRenderer::~ManyLightRenderer() = default;
 
 // ---- [4] Gather ---------------------------------------------------------------------
 
+// One tile's pixels in gatherTile: their eye samples and gather points, what
+// they gather (per pixel, kGatherLayers sums) and the tile's counts.
+struct ManyLightRenderer::Tile {
+  struct Sums {
+    double v[kGatherLayers][3] = {};
+  };
+  Tile(int left, int top, int right, int bottom, int imageWidth)
+      : x0(left),
+        y0(top),
+        tw(right - left),
+        n(tw * (bottom - top)),
+        width(imageWidth),
+        gps(size_t(n)),
+        acc(size_t(n)) {}
+  size_t pixelOf(int i) const { return size_t(y0 + i / tw) * width + (x0 + i % tw); }
+
+  // The gather points by index (first, split-off: ManyLightSettings::
+  // splitAlpha), whether any pixel has one, their BRDFs packed once for the
+  // VPL transfers in blocks, and with the pair roulette, its seeds: each
+  // point's quadrature stream.
+  void prepareReceivers(const Gatherer& gatherer, bool roulette) {
+    for (int k = 0; k < kMaxGatherPoints; ++k) {
+      pts[k].assign(size_t(n), nullptr);
+      for (int i = 0; i < n; ++i) {
+        pts[k][size_t(i)] = gps[size_t(i)].point(k);
+        any[k] = any[k] || pts[k][size_t(i)];
+      }
+    }
+    for (int k = 0; k < kMaxGatherPoints; ++k)
+      if (any[k]) gatherer.packReceivers(pts[k], packedRx[k]);
+    for (int k = 0; k < kMaxGatherPoints; ++k)
+      if (any[k] && roulette)
+        for (int i = 0; i < n; ++i) streams[k].push_back(gatherStream(pixelOf(i), k));
+  }
+
+  const int x0, y0, tw, n, width;
+  std::vector<EyeSample> gps;
+  std::vector<Sums> acc;
+  GatherCounters c;
+  std::vector<const GatherPoint*> pts[kMaxGatherPoints];
+  bool any[kMaxGatherPoints] = {};
+  std::vector<float> packedRx[kMaxGatherPoints];
+  std::vector<uint64_t> streams[kMaxGatherPoints];
+  // VPL's and VSL's own transfer times, and the loop over the lights' time.
+  double vplOwn = 0, vslOwn = 0, lightSeconds = 0;
+};
+
 // The pixels of a tile against one light at a time: the tile's gather
 // points stay in cache, each light is read once per tile, and the tile's
 // shadow rays toward one light go to Embree as one coherent batch.
 void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, int x0,
                                    int y0, int x1, int y1) {
   Stopwatch tileClock;
-  GatherCounters c;
-  const int tw = x1 - x0, n = tw * (y1 - y0);
-  const size_t nb = batch.lights.size();
-  std::vector<EyeSample> gps(static_cast<size_t>(n));
-  struct Sums {
-    double v[kGatherLayers][3] = {};
-  };
-  std::vector<Sums> acc(static_cast<size_t>(n));
-  auto pixelOf = [&](int i) { return size_t(y0 + i / tw) * width_ + (x0 + i % tw); };
-  // The light behind specular chains: the batch's share of the eye paths.
+  Tile tile(x0, y0, x1, y1, width_);
+  traceTileEyePaths(batch, gatherer, tile);
+  tile.prepareReceivers(gatherer, settings_.pairRoulette > 0);
+  if (!gatherTileLights(batch, gatherer, stop, tile)) return;
+  writeTile(batch, tile);
+  countTile(batch, tile, tileClock.seconds());
+}
+
+// Per pixel: direct light (the reference's estimator, this batch's share of
+// samples), the eye path to its gather points, and the light behind specular
+// chains (the batch's share of the eye paths).
+void ManyLightRenderer::traceTileEyePaths(Batch& batch, const Gatherer& gatherer, Tile& tile) const {
   const int eyes = sharedEyes(batch.b);
   Gatherer::EyePathOptions options = Gatherer::eyePathOptions(eyes);
   options.lobeRays = lobeRays(batch.b);
-  for (int i = 0; i < n; ++i) {
-    const int x = x0 + i % tw, y = y0 + i / tw;
-    const size_t pix = pixelOf(i);
-    // Direct light: the reference's estimator, this batch's share of samples.
-    batch.direct[pix] = directLight(direct_, x, y, batch.dBegin, batch.dEnd, c);
+  for (int i = 0; i < tile.n; ++i) {
+    const int x = tile.x0 + i % tile.tw, y = tile.y0 + i / tile.tw;
+    const size_t pix = tile.pixelOf(i);
+    batch.direct[pix] = directLight(direct_, x, y, batch.dBegin, batch.dEnd, tile.c);
     Rng rng = Rng::forItem(pix, uint64_t(batch.b), 2, settings_.seed);
-    gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, c, options);
-    batch.shared[pix] = gatherer.sharedLight(gps[size_t(i)], eyes, x, y, width_, height_, uint64_t(batch.b), c);
+    tile.gps[size_t(i)] = gatherer.eyePath(x, y, width_, height_, rng, tile.c, options);
+    batch.shared[pix] =
+        gatherer.sharedLight(tile.gps[size_t(i)], eyes, x, y, width_, height_, uint64_t(batch.b), tile.c);
   }
-  // Each light against the tile's gather points in three timed parts: the
-  // shared connection (orientation, the batch of shadow rays), then VPL's
-  // and VSL's own transfers, so that each method is charged its own time
-  // (three clock reads per light and tile). A pixel adds what it gathers in
-  // the order it always has, block of kOrderBlock lights by block: its first
-  // gather point's lights, then its split-off point's (ManyLightSettings::
-  // splitAlpha), so the sums are those of a pixel-by-pixel loop.
+}
+
+// Each light against the tile's gather points in three timed parts: the
+// shared connection (orientation, the batch of shadow rays), then VPL's
+// and VSL's own transfers, so that each method is charged its own time
+// (three clock reads per light and tile). A pixel adds what it gathers in
+// the order it always has, block of kOrderBlock lights by block: its first
+// gather point's lights, then its split-off point's (ManyLightSettings::
+// splitAlpha), so the sums are those of a pixel-by-pixel loop.
+bool ManyLightRenderer::gatherTileLights(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop,
+                                         Tile& tile) const {
   constexpr size_t kOrderBlock = 256;
-  std::vector<const GatherPoint*> pts[kMaxGatherPoints];
-  bool any[kMaxGatherPoints] = {};
-  for (int k = 0; k < kMaxGatherPoints; ++k) {
-    pts[k].assign(size_t(n), nullptr);
-    for (int i = 0; i < n; ++i) {
-      pts[k][size_t(i)] = gps[size_t(i)].point(k);
-      any[k] = any[k] || pts[k][size_t(i)];
-    }
-  }
-  const size_t tilePoints = static_cast<size_t>(n);
-  // The receivers' BRDFs packed once for the VPL transfers in blocks.
-  std::vector<float> packedRx[kMaxGatherPoints];
-  for (int k = 0; k < kMaxGatherPoints; ++k)
-    if (any[k]) gatherer.packReceivers(pts[k], packedRx[k]);
+  const size_t nb = batch.lights.size(), tilePoints = size_t(tile.n);
   Gatherer::VplBrdfs vplBrdfs;
-  // The pair roulette's seeds: each point's quadrature stream.
-  std::vector<uint64_t> streams[kMaxGatherPoints];
-  for (int k = 0; k < kMaxGatherPoints; ++k)
-    if (any[k] && settings_.pairRoulette > 0)
-      for (int i = 0; i < n; ++i) streams[k].push_back(gatherStream(pixelOf(i), k));
   std::vector<PairGeometry> geo(tilePoints);
   std::vector<uint8_t> visible(tilePoints);
   std::vector<uint32_t> list(tilePoints);
   Gatherer::ConnectScratch scratch;
-  double vplOwn = 0, vslOwn = 0;
+  GatherCounters& c = tile.c;
   size_t checked = 0;
   // The loop over the lights is the part of the tile's time that grows with
   // them (BatchCostModel); the rest (eye paths, direct light, set-up and
@@ -328,16 +363,16 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
   Stopwatch lightClock;
   for (size_t l0 = 0; l0 < nb; l0 += kOrderBlock)
     for (int k = 0; k < kMaxGatherPoints; ++k) {
-      if (!any[k]) continue;
+      if (!tile.any[k]) continue;
       for (size_t l = l0; l < std::min(nb, l0 + kOrderBlock); ++l) {
         // A restart waits for at most 16 lights against the tile.
         if (checked++ % 16 == 0 && stop && stop->load(std::memory_order_relaxed)) {
           batch.abandoned = true;
-          return;
+          return false;
         }
         const GatherLight& L = batch.lights[l];
-        const PairRoulette roulette{batch.rouletteThreshold, order_[batch.begin + l], streams[k].data()};
-        gatherer.connectMany(pts[k], L, geo.data(), visible.data(), scratch, c, {},
+        const PairRoulette roulette{batch.rouletteThreshold, order_[batch.begin + l], tile.streams[k].data()};
+        gatherer.connectMany(tile.pts[k], L, geo.data(), visible.data(), scratch, c, {},
                              settings_.pairRoulette > 0 ? &roulette : nullptr);
         size_t nv = 0;
         for (size_t i = 0; i < tilePoints; ++i)
@@ -347,44 +382,55 @@ void ManyLightRenderer::gatherTile(Batch& batch, const Gatherer& gatherer, const
         if (nv == 0) continue;
         Stopwatch own;
         if (settings_.computeVpl) {
-          gatherer.vplBrdfs(pts[k], packedRx[k].data(), list.data(), nv, L, geo.data(), vplBrdfs);
+          gatherer.vplBrdfs(tile.pts[k], tile.packedRx[k].data(), list.data(), nv, L, geo.data(), vplBrdfs);
           for (size_t v = 0; v < nv; ++v)
-            gatherer.addVpl(*pts[k][list[v]], L, geo[list[v]], vplBrdfs.fx(v), vplBrdfs.fp(v), acc[list[v]].v, c);
-          vplOwn += own.lap();
+            gatherer.addVpl(*tile.pts[k][list[v]], L, geo[list[v]], vplBrdfs.fx(v), vplBrdfs.fp(v), tile.acc[list[v]].v,
+                            c);
+          tile.vplOwn += own.lap();
         }
         if (settings_.computeVsl) {
           for (size_t v = 0; v < nv; ++v) {
             const size_t i = list[v];
-            gatherer.addVsl(*pts[k][i], L, geo[i], order_[batch.begin + l], gatherStream(pixelOf(int(i)), k), acc[i].v,
-                            c);
+            gatherer.addVsl(*tile.pts[k][i], L, geo[i], order_[batch.begin + l], gatherStream(tile.pixelOf(int(i)), k),
+                            tile.acc[i].v, c);
           }
-          vslOwn += own.seconds();
+          tile.vslOwn += own.seconds();
         }
       }
     }
-  const double lightSeconds = lightClock.seconds(), lobeSeconds = c.vslOwnSeconds;
-  // The lobe gather's estimates (per eye sample, not per light) go to their
-  // own film, each batch's weighted by its directions (lobeRays).
+  tile.lightSeconds = lightClock.seconds();
+  return true;
+}
+
+// The lobe gather's estimates (per eye sample, not per light) go to their
+// own film, each batch's weighted by its directions (lobeRays); the gathered
+// layers to theirs.
+void ManyLightRenderer::writeTile(Batch& batch, const Tile& tile) const {
   if (batch.lobe)
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < tile.n; ++i) {
       Vec3 sum(0.0f);
       for (int k = 0; k < kMaxGatherPoints; ++k)
-        if (const GatherPoint* gp = gps[size_t(i)].point(k); gp && gp->lobe) sum += gp->vslLobe;
-      batch.lobe[pixelOf(i)] = sum;
+        if (const GatherPoint* gp = tile.gps[size_t(i)].point(k); gp && gp->lobe) sum += gp->vslLobe;
+      batch.lobe[tile.pixelOf(i)] = sum;
     }
-  for (int i = 0; i < n; ++i) {
-    const auto& a = acc[size_t(i)].v;
+  for (int i = 0; i < tile.n; ++i) {
+    const auto& a = tile.acc[size_t(i)].v;
     for (int k = 0; k < kGatherLayers; ++k)
-      batch.layers[k][pixelOf(i)] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
+      batch.layers[k][tile.pixelOf(i)] = Vec3(float(a[k][0]), float(a[k][1]), float(a[k][2]));
   }
-  vslOwn += c.vslOwnSeconds;  // the lobe gather's, in the eye paths
+}
+
+// The tile's times (VSL's own including the lobe gather's, in the eye paths)
+// into the batch's sums, and its counts into the stats.
+void ManyLightRenderer::countTile(Batch& batch, const Tile& tile, double tileSeconds) {
+  const GatherCounters& c = tile.c;
   {
     std::lock_guard<std::mutex> lock(batch.timeMutex);
-    batch.threadTime += tileClock.seconds();
-    batch.vplTime += vplOwn;
-    batch.vslTime += vslOwn;
-    batch.lightTime += lightSeconds;
-    batch.lobeTime += lobeSeconds;
+    batch.threadTime += tileSeconds;
+    batch.vplTime += tile.vplOwn;
+    batch.vslTime += tile.vslOwn + c.vslOwnSeconds;
+    batch.lightTime += tile.lightSeconds;
+    batch.lobeTime += c.vslOwnSeconds;
     batch.roulettePairs += c.rouletteOffered;
   }
   stats_.rouletteDropped.fetch_add(c.rouletteDropped, std::memory_order_relaxed);

@@ -275,8 +275,16 @@ class ManyLightRenderer {
 
  private:
   struct Batch;
+  struct Tile;
   void gatherTile(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, int x0, int y0, int x1,
                   int y1);
+  // gatherTile's parts: the tile's eye paths, its gather points against the
+  // batch's lights (false if stopped), its results into the batch's buffers,
+  // and its times and counts.
+  void traceTileEyePaths(Batch& batch, const Gatherer& gatherer, Tile& tile) const;
+  bool gatherTileLights(Batch& batch, const Gatherer& gatherer, const std::atomic<bool>* stop, Tile& tile) const;
+  void writeTile(Batch& batch, const Tile& tile) const;
+  void countTile(Batch& batch, const Tile& tile, double tileSeconds);
   void mergeBatch(const Batch& batch, double wallSeconds);
   // The eye paths batch b traces per pixel for its shared light.
   int sharedEyes(int b) const;
