@@ -70,6 +70,17 @@ Image withDirect(const Image& direct, const Image& indirect) {
   return sum(direct, indirect);
 }
 
+// Both times left in wall-clock time (manyLeft: the many-light methods'
+// compute seconds): the reference and the many-light methods take turns
+// (equal time, Session::render()), so while neither is done each advances at
+// about half its own rate.
+void wallClockTimesLeft(double manyLeft, Snapshot& snap) {
+  const double many = snap.manyLightDone ? 0.0 : manyLeft;
+  const double reference = snap.referenceDone ? 0.0 : snap.referenceRemainingSeconds;
+  snap.manyRemainingSeconds = many + std::min(many, reference);
+  snap.referenceRemainingSeconds = reference + std::min(many, reference);
+}
+
 }  // namespace
 
 // A render in progress: its light sets, estimators and bookkeeping.
@@ -815,20 +826,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->settings = job.settings;
   snap->width = job.width;
   snap->height = job.height;
-  // The images in parallel (a restart's first picture waits for them): the
-  // mean of the completed sets (the first set's progressive estimate until
-  // it completes), the live path tracer's, and its noise.
-  double liveNoise = -1;
-  parallelFor(4, [&](size_t k) {
-    if (k == 0)
-      snap->many = vslFirst ? *vslFirst : job.setsDone > 0 ? job.mean : ml->images();
-    else if (k == 1)
-      snap->ptDirect = ref.meanDirect();
-    else if (k == 2)
-      snap->ptIndirect = ref.meanIndirect();
-    else
-      liveNoise = ref.indirectNoise();
-  });
+  const double liveNoise = snapshotImages(job, ref, vslFirst, *snap);
   snap->lightSets = job.settings.lightSets;
   snap->lightSetsDone = job.setsDone;
   snap->directSamplesPerSet =
@@ -858,31 +856,9 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->rouletteDropped = d.rouletteDropped + st.rouletteDropped.load();
   snap->pairsPerSecond = double(snap->pairs) / std::max(snap->gatherSeconds, 1e-9);
   snap->nonFinite = d.nonFinite + st.nonFinite + prep.set.nonFiniteRejected + ref.rejected();
-  // Progress: rates over compute time, remaining time from what the work
-  // done cost: the set in progress from its estimator's own prediction (a
-  // brute-force batch's per-pixel work does not scale with its lights), each
-  // set not yet begun at the mean gather time of the sets done (or the one
-  // in progress, done plus left) and the mean preparation time of those
-  // prepared. Without a prediction, lights at the mean rate.
-  double manyLeft = 0;  // compute seconds; made wall-clock below
-  if (snap->gatherSeconds > 0) {
-    snap->lightsPerSecond = double(snap->lightsProcessed) / snap->gatherSeconds;
-    const double perLight = 1.0 / std::max(snap->lightsPerSecond, 1e-9);
-    const int prepared = job.setsDone + (ml ? 1 : 0);
-    const double prepSeconds = prepared > 0 ? (snap->lightTracingSeconds + snap->knnSeconds) / prepared : 0;
-    const std::optional<double> left = ml ? ml->remainingSeconds() : std::optional<double>(0.0);
-    const double current = left ? *left : double(setSize - ml->lightsProcessed()) * perLight;
-    const double perSet = job.setsDone > 0 ? d.gatherSeconds / job.setsDone
-                          : left           ? st.gatherSeconds + *left
-                                           : double(setSize) * perLight;
-    manyLeft = current + untraced * (perSet + prepSeconds);
-    const double spent = snap->lightTracingSeconds + snap->knnSeconds + snap->gatherSeconds;
-    snap->manyFractionDone = spent / std::max(spent + manyLeft, 1e-9);
-  }
-  if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
-    snap->referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
-    snap->referenceRemainingSeconds = std::max(liveTarget(w, job) - ref.spp(), 0) / snap->referenceSppPerSecond;
-  }
+  const double manyLeft = manyLightSecondsLeft(job, st, setSize, untraced, *snap);  // made wall-clock below
+  const int target = liveTarget(w, job);
+  referenceRate(job, ref, target, *snap);
   snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
   snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
   snap->backgroundSpp = job.backgroundSpp;
@@ -895,16 +871,69 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
     recordError(w, job, liveNoise, *snap);
   snap->manyLightDone = job.setsDone >= job.settings.lightSets;
   if (snap->manyLightDone) snap->manyFractionDone = 1.0;
-  snap->referenceTargetSpp = liveTarget(w, job);
-  snap->referenceDone = ref.spp() >= snap->referenceTargetSpp;
-  // Both times left in wall-clock time: the reference and the many-light
-  // methods take turns (equal time, render()), so while neither is done each
-  // advances at about half its own rate.
-  const double many = snap->manyLightDone ? 0.0 : manyLeft;
-  const double reference = snap->referenceDone ? 0.0 : snap->referenceRemainingSeconds;
-  snap->manyRemainingSeconds = many + std::min(many, reference);
-  snap->referenceRemainingSeconds = reference + std::min(many, reference);
+  snap->referenceTargetSpp = target;
+  snap->referenceDone = ref.spp() >= target;
+  wallClockTimesLeft(manyLeft, *snap);
   return snap;
+}
+
+// The images in parallel (a restart's first picture waits for them): the
+// mean of the completed sets (the first set's progressive estimate until
+// it completes), the live path tracer's, and its noise (returned).
+double Session::snapshotImages(const Job& job, const ReferenceRenderer& ref, const ManyLightImages* vslFirst,
+                               Snapshot& snap) {
+  const ManyLightEstimator* ml = job.ml.get();
+  double liveNoise = -1;
+  parallelFor(4, [&](size_t k) {
+    if (k == 0)
+      snap.many = vslFirst ? *vslFirst : job.setsDone > 0 ? job.mean : ml->images();
+    else if (k == 1)
+      snap.ptDirect = ref.meanDirect();
+    else if (k == 2)
+      snap.ptIndirect = ref.meanIndirect();
+    else
+      liveNoise = ref.indirectNoise();
+  });
+  return liveNoise;
+}
+
+// Progress: rates over compute time, remaining time from what the work
+// done cost: the set in progress from its estimator's own prediction (a
+// brute-force batch's per-pixel work does not scale with its lights), each
+// set not yet begun at the mean gather time of the sets done (or the one
+// in progress, done plus left) and the mean preparation time of those
+// prepared. Without a prediction, lights at the mean rate. Returns the
+// many-light methods' compute seconds left (st: the set in progress's
+// stats; setSize: a set's lights; untraced: the sets not yet begun).
+double Session::manyLightSecondsLeft(const Job& job, const ManyLightStats& st, size_t setSize, int untraced,
+                                     Snapshot& snap) {
+  const ManyLightEstimator* ml = job.ml.get();
+  const SetTotals& d = job.done;
+  double manyLeft = 0;
+  if (snap.gatherSeconds > 0) {
+    snap.lightsPerSecond = double(snap.lightsProcessed) / snap.gatherSeconds;
+    const double perLight = 1.0 / std::max(snap.lightsPerSecond, 1e-9);
+    const int prepared = job.setsDone + (ml ? 1 : 0);
+    const double prepSeconds = prepared > 0 ? (snap.lightTracingSeconds + snap.knnSeconds) / prepared : 0;
+    const std::optional<double> left = ml ? ml->remainingSeconds() : std::optional<double>(0.0);
+    const double current = left ? *left : double(setSize - ml->lightsProcessed()) * perLight;
+    const double perSet = job.setsDone > 0 ? d.gatherSeconds / job.setsDone
+                          : left           ? st.gatherSeconds + *left
+                                           : double(setSize) * perLight;
+    manyLeft = current + untraced * (perSet + prepSeconds);
+    const double spent = snap.lightTracingSeconds + snap.knnSeconds + snap.gatherSeconds;
+    snap.manyFractionDone = spent / std::max(spent + manyLeft, 1e-9);
+  }
+  return manyLeft;
+}
+
+// The live path tracer's rate since the job began and its time left to
+// target (compute seconds; liveTarget).
+void Session::referenceRate(const Job& job, const ReferenceRenderer& ref, int target, Snapshot& snap) {
+  if (double t = ref.seconds() - job.ptStart; t > 0 && ref.spp() > job.sppStart) {
+    snap.referenceSppPerSecond = (ref.spp() - job.sppStart) / t;
+    snap.referenceRemainingSeconds = std::max(target - ref.spp(), 0) / snap.referenceSppPerSecond;
+  }
 }
 
 // The reference in use and its own noise (session.h, ErrorSample): the

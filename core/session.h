@@ -284,6 +284,13 @@ class Session {
   void logMrcsStep(const Job& job, double stepSeconds) const;
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen,
                                          const ManyLightImages* vslFirst = nullptr) const;
+  // makeSnapshot's parts: the images (returns the live path tracer's noise),
+  // the many-light methods' compute time left, and the reference's rate.
+  static double snapshotImages(const Job& job, const ReferenceRenderer& ref, const ManyLightImages* vslFirst,
+                               Snapshot& snap);
+  static double manyLightSecondsLeft(const Job& job, const ManyLightStats& st, size_t setSize, int untraced,
+                                     Snapshot& snap);
+  static void referenceRate(const Job& job, const ReferenceRenderer& ref, int target, Snapshot& snap);
   static void useReference(const Worker& w, double liveNoise, Snapshot& snap);
   static void recordError(const Worker& w, Job& job, double liveNoise, Snapshot& snap);
   static int liveTarget(const Worker& w, const Job& job);
