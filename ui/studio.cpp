@@ -1032,15 +1032,11 @@ std::string humanCount(double v) {
     std::snprintf(buf, sizeof buf, "%.3g", v);
   return buf;
 }
-}  // namespace
 
-// Two fixed lines above the images: what the worker is doing (with a busy
-// mark), and progress of each method in work done, rate and time left.
-void Studio::statusBar() {
-  Session::Status st = session_ ? session_->status() : Session::Status();
+// What the worker is doing, for the status line: its stage, and while busy
+// the stage's time and the step's progress.
+std::string activityText(const Session::Status& st) {
   const bool busyNow = st.busy();
-  const char* spin = "|/-\\";
-  const char mark = busyNow ? spin[int(ImGui::GetTime() * 6) % 4] : ' ';
   std::string what;
   if (st.stage == "loading")
     what = "loading " + std::filesystem::path(st.loading).filename().string();
@@ -1054,27 +1050,12 @@ void Studio::statusBar() {
     what = st.stage.empty() ? "idle" : st.stage;
   if (busyNow && st.stage != "rendering") what += "  " + humanSeconds(st.stageSeconds);
   if (busyNow && !st.stepProgress.empty()) what += "  " + st.stepProgress;
-  bool anyStale = false;
-  for (int i = 0; i < 3; ++i) anyStale |= snap_ && panelStale(i);
-  if (busyNow)
-    ImGui::TextColored(ImVec4(0.5f, 0.85f, 1, 1), "[%c] %s", mark, what.c_str());
-  else
-    ImGui::Text("[%c] %s", mark, what.c_str());
-  if (anyStale) {
-    ImGui::SameLine();
-    ImGui::TextColored(ImVec4(1, 0.75f, 0.2f, 1), "  dimmed panels show the previous settings until their new picture");
-  }
-  const bool current = snap_ && !sourceStale(Source::Vsl);
-  if (!current) {
-    ImGui::TextDisabled(snap_ ? "waiting for the first picture of the current settings" : "no picture yet");
-    return;
-  }
-  const Snapshot& s = *snap_;
-  // Seconds since the session published it (a snapshot made for a test has
-  // no time: its predictions are shown as made).
-  const double age = s.publishedAt == std::chrono::steady_clock::time_point()
-                         ? 0.0
-                         : std::chrono::duration<double>(std::chrono::steady_clock::now() - s.publishedAt).count();
+  return what;
+}
+
+// The many-light methods' progress bar and line (age: seconds since the
+// snapshot was published).
+void manyLightProgress(const Snapshot& s, double age) {
   char overlay[64], detail[160];
   const float fm = float(std::clamp(s.manyFractionDone, 0.0, 1.0));
   if (s.vplPending) {
@@ -1101,6 +1082,46 @@ void Studio::statusBar() {
     tip("Lights gathered over every light set. The bar is the many-light work's share done in its own compute "
         "time, predicted from what each part of the batches done cost (eye paths and direct light, the lobe "
         "gather's directions, the lights); the time left is wall-clock, with the reference's turns");
+}
+}  // namespace
+
+// Two fixed lines above the images: what the worker is doing (with a busy
+// mark), and progress of each method in work done, rate and time left.
+void Studio::statusBar() {
+  Session::Status st = session_ ? session_->status() : Session::Status();
+  const bool busyNow = st.busy();
+  const char* spin = "|/-\\";
+  const char mark = busyNow ? spin[int(ImGui::GetTime() * 6) % 4] : ' ';
+  const std::string what = activityText(st);
+  bool anyStale = false;
+  for (int i = 0; i < 3; ++i) anyStale |= snap_ && panelStale(i);
+  if (busyNow)
+    ImGui::TextColored(ImVec4(0.5f, 0.85f, 1, 1), "[%c] %s", mark, what.c_str());
+  else
+    ImGui::Text("[%c] %s", mark, what.c_str());
+  if (anyStale) {
+    ImGui::SameLine();
+    ImGui::TextColored(ImVec4(1, 0.75f, 0.2f, 1), "  dimmed panels show the previous settings until their new picture");
+  }
+  const bool current = snap_ && !sourceStale(Source::Vsl);
+  if (!current) {
+    ImGui::TextDisabled(snap_ ? "waiting for the first picture of the current settings" : "no picture yet");
+    return;
+  }
+  const Snapshot& s = *snap_;
+  // Seconds since the session published it (a snapshot made for a test has
+  // no time: its predictions are shown as made).
+  const double age = s.publishedAt == std::chrono::steady_clock::time_point()
+                         ? 0.0
+                         : std::chrono::duration<double>(std::chrono::steady_clock::now() - s.publishedAt).count();
+  manyLightProgress(s, age);
+  referenceProgress(s, age);
+}
+
+// The reference's progress bar and line (age: seconds since the snapshot
+// was published), after the many-light methods' where it fits.
+void Studio::referenceProgress(const Snapshot& s, double age) {
+  char overlay[64], detail[160];
   float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
   std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
                 humanCount(s.referenceSppPerSecond).c_str(),

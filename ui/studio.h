@@ -267,6 +267,7 @@ class Studio {
   void pullSnapshot();
   bool sourceStale(Source s) const;
   void statusBar();
+  void referenceProgress(const Snapshot& s, double age);  // statusBar's reference half
   void probe(const ImVec2& mouse);
   void handleViewInput(const ImVec2& origin, const ImVec2& avail, float panelW, float w, float h, int n);
   void handleViewKeys();
