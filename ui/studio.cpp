@@ -1158,6 +1158,16 @@ void staleMark(ImDrawList* dl, ImVec2 p0, ImVec2 p1) {
   dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(120, 80, 0, 230));
   dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
 }
+
+// A box in place of a picture, saying why. The text wraps inside the box (a
+// panel can be narrower than one line) and is clipped to it.
+void waitBox(ImDrawList* dl, ImVec2 p0, ImVec2 p1, const char* text) {
+  dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
+  const float wrap = std::max(p1.x - p0.x - 16, 40.0f);
+  const ImVec4 clip(p0.x, p0.y, p1.x, p1.y);
+  dl->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), text,
+              nullptr, wrap, &clip);
+}
 }  // namespace
 
 // How a panel draws a source: tone-mapped at the exposure, or (a method under
@@ -1200,24 +1210,10 @@ void Studio::viewsPanel() {
   float half = 0.5f / view_.zoom;
   ImVec2 uv0(view_.center.x - half, view_.center.y - half), uv1(view_.center.x + half, view_.center.y + half);
 
-  // One colour scale for every map on screen, so panels compare fairly.
-  float sharedMax = 0;
-  for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
-    if (isMethod(view_.panels[i]) && hasPicture(view_.panels[i], view_.component))
-      sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
-  const float mapMax = view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
+  const float mapMax = mapScale(n);
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
   auto missing = [&](Source s) { return !hasPicture(s, view_.component); };
-  // The text wraps inside the box (a panel can be narrower than one line)
-  // and is clipped to it.
-  auto waitBox = [&](ImVec2 p0, ImVec2 p1, const char* text) {
-    dl->AddRect(p0, p1, IM_COL32(90, 90, 90, 255));
-    const float wrap = std::max(p1.x - p0.x - 16, 40.0f);
-    const ImVec4 clip(p0.x, p0.y, p1.x, p1.y);
-    dl->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(p0.x + 8, p0.y + 8), IM_COL32(200, 200, 200, 255), text,
-                nullptr, wrap, &clip);
-  };
   auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
   for (int i = 0; i < n; ++i) {
@@ -1227,11 +1223,11 @@ void Studio::viewsPanel() {
       Source a = view_.panels[0], b = view_.panels[1];
       float sx = p0.x + view_.wipe * w, su = uv0.x + view_.wipe * (uv1.x - uv0.x);
       if (missing(a))
-        waitBox(p0, ImVec2(sx, p1.y), missingPictureText(a));
+        waitBox(dl, p0, ImVec2(sx, p1.y), missingPictureText(a));
       else if (!flipPending(a))
         drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
       if (missing(b))
-        waitBox(ImVec2(sx, p0.y), p1, missingPictureText(b));
+        waitBox(dl, ImVec2(sx, p0.y), p1, missingPictureText(b));
       else if (!flipPending(b))
         drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
@@ -1244,9 +1240,9 @@ void Studio::viewsPanel() {
     } else {
       Source s = view_.panels[i];
       if (missing(s)) {
-        waitBox(p0, p1, missingPictureText(s));
+        waitBox(dl, p0, p1, missingPictureText(s));
       } else if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
-        waitBox(p0, p1, "computing FLIP ...");
+        waitBox(dl, p0, p1, "computing FLIP ...");
       } else {
         drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
       }
@@ -1263,6 +1259,16 @@ void Studio::viewsPanel() {
     ImGui::SetCursorScreenPos(ImVec2(origin.x, origin.y + labelH + h + 6));
     legend(mapMax);
   }
+}
+
+// One colour scale for every map on screen (n panels), so panels compare
+// fairly: the map maximum set by hand, else the largest automatic one.
+float Studio::mapScale(int n) const {
+  float sharedMax = 0;
+  for (int i = 0; i < (view_.mode == ViewMode::Wipe ? 2 : n); ++i)
+    if (isMethod(view_.panels[i]) && hasPicture(view_.panels[i], view_.component))
+      sharedMax = std::max(sharedMax, autoScale_[int(view_.panels[i])]);
+  return view_.errorScale > 0 ? view_.errorScale : std::max(sharedMax, 1e-12f);
 }
 
 // Wheel zooms about the cursor, a drag pans, and in wipe mode a drag that

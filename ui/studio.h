@@ -237,6 +237,7 @@ class Studio {
   void exportControls();
   bool track(const char* key, bool c);
   void viewsPanel();
+  float mapScale(int n) const;  // the maps' colour scale for n panels
   DisplayParams displayParams(Source s, float mapMax) const;
   void metricsPanel();
   // metricsPanel's parts, top to bottom.
