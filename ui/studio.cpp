@@ -2200,6 +2200,73 @@ void readEnum(const nlohmann::json& j, const char* key, E* out, int count) {
   if (v < 0 || v >= count) throw std::out_of_range(std::string(key) + " out of range");
   *out = E(v);
 }
+
+// The scene and the "settings" object of a last-session file j into s. A
+// value of the wrong type throws.
+void readSettings(const nlohmann::json& j, StudioSettings& s) {
+  readField(j, "scene", &s.scene);
+  const nlohmann::json& js = j.contains("settings") ? j.at("settings") : nlohmann::json::object();
+  ManyLightSettings& m = s.many;
+  readField(js, "lights", &m.lights);
+  readField(js, "seed", &m.seed);
+  readField(js, "width", &m.width);
+  readField(js, "height", &m.height);
+  readField(js, "batches", &m.batches);
+  readField(js, "directSamples", &m.directSamples);
+  readField(js, "lightMaxDepth", &m.lightMaxDepth);
+  readField(js, "radiusScale", &m.radiusScale);
+  readField(js, "knn", &m.knn);
+  readField(js, "globalRadius", &m.globalRadius);
+  readField(js, "vslSamples", &m.vslSamples);
+  readField(js, "clippedDisk", &m.clippedDisk);
+  readField(js, "lobeRadius", &m.lobeRadius);
+  // Version 1 files were written while the floor was off by default: their
+  // 0 is that default, not a choice, and gives way to today's.
+  int version = 1;
+  readField(j, "version", &version);
+  float lobeFloor = m.lobeFloor;
+  readField(js, "lobeFloor", &lobeFloor);
+  if (version >= 2 || lobeFloor != 0) m.lobeFloor = lobeFloor;
+  readField(js, "continueAlpha", &m.continueAlpha);
+  readField(js, "splitAlpha", &m.splitAlpha);
+  readField(js, "lobeGather", &m.lobeGather);
+  readField(js, "lobeGatherRays", &m.lobeGatherRays);
+  readField(js, "lobeGatherAlpha", &m.lobeGatherAlpha);
+  readField(js, "pairRoulette", &m.pairRoulette);
+  if (js.contains("clamp"))
+    m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
+  readField(js, "diffuseOnly", &m.diffuseOnly);
+  readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
+  readField(js, "lightSets", &s.lightSets);
+  if (js.contains("estimator"))
+    s.estimator.kind = parseEstimatorKind(js.at("estimator").get<std::string>()).value_or(EstimatorKind::BruteForce);
+  readField(js, "mrcsRows", &s.estimator.mrcs.rows);
+  readField(js, "mrcsClusters", &s.estimator.mrcs.clusters);
+  readField(js, "progressiveRadius", &s.estimator.progressiveRadius);
+  readField(js, "progressiveAlpha", &s.estimator.alpha);
+}
+
+// The "view" object of a last-session file into v. A value of the wrong type
+// or out of range throws.
+void readView(const nlohmann::json& jv, ViewState& v) {
+  readEnum(jv, "mode", &v.mode, 4);
+  readEnum(jv, "component", &v.component, 3);
+  readEnum(jv, "display", &v.display, 4);
+  readEnum(jv, "metric", &v.metric, 4);
+  readField(jv, "exposure", &v.exposure);
+  readField(jv, "errorScale", &v.errorScale);
+  if (jv.contains("panels")) {
+    const nlohmann::json& p = jv.at("panels");
+    if (!p.is_array() || p.size() != 3) throw std::out_of_range("panels must be three images");
+    for (int i = 0; i < 3; ++i) {
+      int k = p.at(size_t(i)).get<int>();
+      if (k < 0 || k >= int(Source::Count)) throw std::out_of_range("panels out of range");
+      v.panels[i] = Source(k);
+    }
+  }
+  if (!std::isfinite(v.exposure) || !std::isfinite(v.errorScale))
+    throw std::out_of_range("exposure and map maximum must be finite");
+}
 }  // namespace
 
 bool loadLastSession(const std::string& path, StudioSettings* settings, ViewState* view, std::string* warning) {
@@ -2220,66 +2287,8 @@ bool loadLastSession(const std::string& path, StudioSettings* settings, ViewStat
   StudioSettings s = *settings;
   ViewState v = *view;
   try {
-    readField(j, "scene", &s.scene);
-    const nlohmann::json& js = j.contains("settings") ? j.at("settings") : nlohmann::json::object();
-    ManyLightSettings& m = s.many;
-    readField(js, "lights", &m.lights);
-    readField(js, "seed", &m.seed);
-    readField(js, "width", &m.width);
-    readField(js, "height", &m.height);
-    readField(js, "batches", &m.batches);
-    readField(js, "directSamples", &m.directSamples);
-    readField(js, "lightMaxDepth", &m.lightMaxDepth);
-    readField(js, "radiusScale", &m.radiusScale);
-    readField(js, "knn", &m.knn);
-    readField(js, "globalRadius", &m.globalRadius);
-    readField(js, "vslSamples", &m.vslSamples);
-    readField(js, "clippedDisk", &m.clippedDisk);
-    readField(js, "lobeRadius", &m.lobeRadius);
-    // Version 1 files were written while the floor was off by default: their
-    // 0 is that default, not a choice, and gives way to today's.
-    int version = 1;
-    readField(j, "version", &version);
-    float lobeFloor = m.lobeFloor;
-    readField(js, "lobeFloor", &lobeFloor);
-    if (version >= 2 || lobeFloor != 0) m.lobeFloor = lobeFloor;
-    readField(js, "continueAlpha", &m.continueAlpha);
-    readField(js, "splitAlpha", &m.splitAlpha);
-    readField(js, "lobeGather", &m.lobeGather);
-    readField(js, "lobeGatherRays", &m.lobeGatherRays);
-    readField(js, "lobeGatherAlpha", &m.lobeGatherAlpha);
-    readField(js, "pairRoulette", &m.pairRoulette);
-    if (js.contains("clamp"))
-      m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
-    readField(js, "diffuseOnly", &m.diffuseOnly);
-    readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
-    readField(js, "lightSets", &s.lightSets);
-    if (js.contains("estimator"))
-      s.estimator.kind = parseEstimatorKind(js.at("estimator").get<std::string>()).value_or(EstimatorKind::BruteForce);
-    readField(js, "mrcsRows", &s.estimator.mrcs.rows);
-    readField(js, "mrcsClusters", &s.estimator.mrcs.clusters);
-    readField(js, "progressiveRadius", &s.estimator.progressiveRadius);
-    readField(js, "progressiveAlpha", &s.estimator.alpha);
-    if (j.contains("view")) {
-      const nlohmann::json& jv = j.at("view");
-      readEnum(jv, "mode", &v.mode, 4);
-      readEnum(jv, "component", &v.component, 3);
-      readEnum(jv, "display", &v.display, 4);
-      readEnum(jv, "metric", &v.metric, 4);
-      readField(jv, "exposure", &v.exposure);
-      readField(jv, "errorScale", &v.errorScale);
-      if (jv.contains("panels")) {
-        const nlohmann::json& p = jv.at("panels");
-        if (!p.is_array() || p.size() != 3) throw std::out_of_range("panels must be three images");
-        for (int i = 0; i < 3; ++i) {
-          int k = p.at(size_t(i)).get<int>();
-          if (k < 0 || k >= int(Source::Count)) throw std::out_of_range("panels out of range");
-          v.panels[i] = Source(k);
-        }
-      }
-      if (!std::isfinite(v.exposure) || !std::isfinite(v.errorScale))
-        throw std::out_of_range("exposure and map maximum must be finite");
-    }
+    readSettings(j, s);
+    if (j.contains("view")) readView(j.at("view"), v);
   } catch (const std::exception& e) {
     return refuse(std::string("a value of the wrong type or out of range (") + e.what() + ")");
   }
