@@ -423,6 +423,22 @@ GLFWwindow* openWindow(int w, int h, bool fitScreen) {
   return win;
 }
 
+// One frame of the studio's UI rendered into the window's back buffer (not
+// yet swapped); the framebuffer's size in *fbw and *fbh.
+void renderFrame(GLFWwindow* win, ui::Studio& studio, int* fbw, int* fbh) {
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui_ImplGlfw_NewFrame();
+  ImGui::NewFrame();
+  studio.frame();
+  ImGui::Render();
+  glfwGetFramebufferSize(win, fbw, fbh);
+  glViewport(0, 0, *fbw, *fbh);
+  glClearColor(0.08f, 0.08f, 0.09f, 1);
+  glClear(GL_COLOR_BUFFER_BIT);
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+  studio.afterRender(*fbw, *fbh);
+}
+
 // The studio's frame loop until the window closes or the script ends it.
 // Returns the exit code.
 int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
@@ -480,18 +496,8 @@ int windowedLoop(GLFWwindow* win, const Args& a, const Launch& launch) {
     if (!studio.errorDialog().empty()) settle = std::max(settle, 1);  // a dialog needs a frame to size itself
     sinceDraw.reset();
     const Clock::time_point frameEnd = Clock::now() + std::chrono::milliseconds(16);
-    ImGui_ImplOpenGL3_NewFrame();
-    ImGui_ImplGlfw_NewFrame();
-    ImGui::NewFrame();
-    studio.frame();
-    ImGui::Render();
     int fbw, fbh;
-    glfwGetFramebufferSize(win, &fbw, &fbh);
-    glViewport(0, 0, fbw, fbh);
-    glClearColor(0.08f, 0.08f, 0.09f, 1);
-    glClear(GL_COLOR_BUFFER_BIT);
-    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-    studio.afterRender(fbw, fbh);
+    renderFrame(win, studio, &fbw, &fbh);
     if (script.afterFrame(studio, frame, fbw, fbh, false)) break;
     glfwSwapBuffers(win);
     busyMs += 1000 * sinceDraw.seconds();
