@@ -47,11 +47,11 @@ bool parseVslSamples(const std::string& v, int& out) {
   out = int(n);
   return true;
 }
-}  // namespace
 
-void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
-  // Defined first: CLI11 runs options in the order they are defined, so the
-  // options below, given one by one, override the preset's values.
+// --preset (core/presets.h). Defined before the other methods' options:
+// CLI11 runs options in the order they are defined, so those, given one by
+// one, override the preset's values.
+void addPresetOption(CLI::App* cmd, ManyLightSettings& m) {
   cmd->add_option_function<std::string>(
          "--preset",
          [&m](const std::string& v) {
@@ -62,6 +62,12 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
          "(docs/REFERENCE.md, \"Presets\")")
       ->check(CLI::IsMember(presetNames()))
       ->default_str("default");
+}
+
+}  // namespace
+
+void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
+  addPresetOption(cmd, m);
   cmd->add_option_function<std::string>(
          "--vsl-samples", [&m](const std::string& v) { parseVslSamples(v, m.vslSamples); },
          "VSL cone-integral samples per strategy: auto (see --vsl-count) or N in [1, 4096]")
