@@ -8,8 +8,7 @@
 #                            2. a thread sanitizer build (build-tsan/) of the
 #                               suites that drive threads (TSAN_SUITES below):
 #                               the session, the batches, parallel loops and
-#                               their exceptions, the studio's frames and its
-#                               command line.
+#                               their exceptions, the studio's frames.
 #   scripts/test.sh --quick  the edit loop: the release build (build/), then
 #                            every test not labelled `long` (about a minute
 #                            once build/ exists).
@@ -84,10 +83,11 @@ case $mode in
     # bench/ is no test's: the release builds (--quick, --full) compile it.
     CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF)
     run_suite build-asan
-    with_defaults -R "$tsan_regex"
+    # The studio's command-line and last-session tests check options and
+    # files in processes of their own; they run under ASan+UBSan.
+    with_defaults -R "$tsan_regex" -E '\.(StudioCli|LastSession)\.'
     CMAKE_ARGS=(-DVSL_SANITIZE=thread "$LINES_ONLY")
-    # test_studio_frame runs both programs.
-    run_suite build-tsan "${TSAN_SUITES[@]}" vsl-studio vsl
+    run_suite build-tsan "${TSAN_SUITES[@]}" vsl-studio
     ;;
   full)
     with_defaults
