@@ -806,11 +806,13 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
 }
 
 // The live path tracer's target (liveReferenceTarget): the setting, or more
-// while it is the reference in use and too noisy to rank the methods.
+// while it is the reference in use and too noisy to rank the methods, once
+// the many-light methods are done (before, the two take turns for equal
+// time, and refining past the setting would halve the methods' pace).
 int Session::liveTarget(const Worker& w, const Job& job) {
   const ReferenceRenderer& ref = *w.ref.pt;
   const int cap = job.settings.maxReferenceSpp;
-  if (w.converged || ref.spp() < cap) return cap;
+  if (w.converged || ref.spp() < cap || job.setsDone < job.settings.lightSets) return cap;
   return liveReferenceTarget(ref.spp(), cap, ref.indirectNoise(), job.history);
 }
 

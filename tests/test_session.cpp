@@ -82,7 +82,7 @@ TEST(Session, RendersToCompletionWithAllLayers) {
   // The live path tracer renders its 8 spp and on while it is too noisy to
   // rank the methods (LiveReferenceNoiseIsEstimatedAndSubtracted).
   EXPECT_GE(snap->ptSpp, 8);
-  EXPECT_EQ(snap->ptSpp, snap->referenceTargetSpp);
+  EXPECT_GE(snap->ptSpp, snap->referenceTargetSpp);  // done: the target (as last estimated) reached
   EXPECT_EQ(snap->batchesDone, snap->batchCount);
   EXPECT_FALSE(snap->history.empty());
   EXPECT_EQ(snap->nonFinite, 0u);
@@ -858,7 +858,7 @@ TEST(Session, LiveReferenceNoiseIsEstimatedAndSubtracted) {
   EXPECT_GE(e.vplSeconds, snap->lightTracingSeconds);
   EXPECT_GT(snap->ptSpp, 8);
   EXPECT_LE(snap->ptSpp, 8 * kLiveReferenceSppFactor);
-  EXPECT_EQ(snap->referenceTargetSpp, snap->ptSpp);
+  EXPECT_GE(snap->ptSpp, snap->referenceTargetSpp);  // done: the target (as last estimated) reached
 }
 
 // liveReferenceTarget: the setting until it is reached; then the count at
