@@ -177,6 +177,10 @@ int liveReferenceTarget(int spp, int maxSpp, double noise, const std::vector<Err
   return int(std::clamp(wanted, double(maxSpp), double(maxSpp) * kLiveReferenceSppFactor));
 }
 
+Image comparedImage(const Snapshot& s, const Image& direct, const Image& indirect) {
+  return s.comparesFull ? withDirect(direct, indirect) : indirect;
+}
+
 // ---- [1] Settings and the public interface ------------------------------------------
 
 Result<void> StudioSettings::validate() const {

@@ -204,6 +204,10 @@ struct Snapshot {
 // The component every error, bias and equal-time number of s is measured on:
 // indirect, or full against a full-only reference (Snapshot::comparesFull).
 inline Component comparedComponent(const Snapshot& s) { return s.comparesFull ? Component::Full : Component::Indirect; }
+// An image (direct and indirect parts) in the component compared: the
+// indirect part, or both summed (the indirect part alone where the direct
+// one has no picture of its size yet).
+Image comparedImage(const Snapshot& s, const Image& direct, const Image& indirect);
 
 class Session {
  public:

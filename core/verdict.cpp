@@ -85,9 +85,7 @@ std::string verdictLine(const Verdict& v) {
 
 std::vector<std::string> verdictReport(const Snapshot& s) {
   const Verdict v = judge(s.history);
-  const bool full = s.comparesFull;
-  auto compared = [&](const Image& indirect) { return full ? sum(s.many.direct, indirect) : indirect; };
-  const Image ref = full ? sum(s.refDirect, s.refIndirect) : s.refIndirect;
+  const Image ref = comparedImage(s, s.refDirect, s.refIndirect);
   std::vector<std::string> lines;
   const std::pair<const char*, const Image*> rows[] = {{"VSL", &s.many.vsl}, {"clamped VPL", &s.many.vpl}};
   for (const auto& [name, img] : rows) {
@@ -96,7 +94,7 @@ std::vector<std::string> verdictReport(const Snapshot& s) {
     if (img->rgb.size() != ref.rgb.size() || ref.rgb.empty()) {
       std::snprintf(line, sizeof line, "%-12s no picture yet", name);
     } else {
-      const CompareResult c = compareImages(compared(*img), ref);
+      const CompareResult c = compareImages(comparedImage(s, s.many.direct, *img), ref);
       const double rel = c.average.meanRef != 0 ? c.average.meanTest / c.average.meanRef - 1 : NAN;
       std::snprintf(line, sizeof line,
                     "%-12s %s relMSE at equal time %.4g, mean %.4g against the reference's %.4g (%+.1f%%)", name,

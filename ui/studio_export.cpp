@@ -156,8 +156,7 @@ Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
   // The error layers are of the component compared (Snapshot::comparesFull).
   const Image refFull = add(s.refDirect, s.refIndirect);
   const Image& ref = s.comparesFull ? refFull : s.refIndirect;
-  auto compared = [&](const Image& indirect) { return s.comparesFull ? add(s.many.direct, indirect) : indirect; };
-  ErrorImages ev = errorImages(compared(s.many.vsl), ref);
+  ErrorImages ev = errorImages(comparedImage(s, s.many.direct, s.many.vsl), ref);
   std::vector<Layer> layers = {{"", vslFull},
                                {"vsl-full", vslFull},
                                {"vsl-indirect", s.many.vsl},
@@ -171,7 +170,7 @@ Result<void> writeLayersExr(const Snapshot& s, const std::string& path) {
                                {"error-vsl-relsq", ev.relSquared}};
   auto has = [&](Source src) { return snapshotHasPicture(s, src, Component::Indirect); };
   if (has(Source::Vpl)) {
-    ErrorImages ep = errorImages(compared(s.many.vpl), ref);
+    ErrorImages ep = errorImages(comparedImage(s, s.many.direct, s.many.vpl), ref);
     layers.insert(layers.end(), {{"vpl-full", add(s.many.direct, s.many.vpl)},
                                  {"vpl-indirect", s.many.vpl},
                                  {"error-vpl-signed", ep.signedDiff},
