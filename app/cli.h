@@ -71,8 +71,9 @@ std::string unwritableOutput(const CLI::App& subcommand);
 
 // ---- Shared options (defined in vsl_main.cpp) ---------------------------------
 
-// Options of the VSL gather shared by render and sweep.
-void addVslOptions(CLI::App* cmd, ManyLightSettings& m);
+// --preset, then an option per parameter of the many-light methods
+// (core/params.h) but those in skip; shared by render and sweep.
+void addVslOptions(CLI::App* cmd, ManyLightSettings& m, const std::vector<std::string>& skip = {});
 // Parses --mrcs ROWS,CLUSTERS[,MIX]; reports and returns false when malformed.
 bool parseMrcsSpec(const std::string& spec, MrcsSettings& out);
 

@@ -33,20 +33,6 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
                    "from one light set)")
       ->check(CLI::IsMember({"pt", "vsl", "vpl", "all"}))
       ->default_str("pt");
-  render->add_option("--lights", ra.many.lights, "Virtual lights (many-light methods)")->default_str("10000");
-  render->add_option("--radius-scale", ra.many.radiusScale, "VSL radius = scale x distance to the k-th nearest light")
-      ->default_str("1");
-  render->add_option("--knn", ra.many.knn, "k for the VSL radius")->default_str("10");
-  render->add_option(
-      "--radius", ra.many.globalRadius,
-      "One global VSL radius, as a fraction of the scene's bounding radius (replaces k-NN radii; 0: k-NN "
-      "radii, the default)");
-  render
-      ->add_option("--clamp", ra.clamp,
-                   "VPL clamp: bound on the luminance of f_x cos f_p cos / d^2 per light; auto (scene-relative) or "
-                   "off")
-      ->default_str("auto");
-  render->add_flag("--diffuse-vpl", ra.many.diffuseOnly, "VPLs emit with their diffuse lobe only");
   addVslOptions(render, ra.many);
   render->add_option("--mrcs", ra.mrcsSpec,
                      "Matrix row-column sampling: ROWS,CLUSTERS[,MIX] (e.g. 300,900; MIX: uniform share of the "
@@ -54,9 +40,6 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render->add_flag(
       "--mrcs-spread", ra.mrcsSpread,
       "MRCS: a VSL representative of weight w gets radius r sqrt(w) (fewer blobs; about 10% darker, slower)");
-  render->add_option("--batches", ra.many.batches, "Progressive light batches (growing sizes)")->default_str("8");
-  render->add_option("--direct-samples", ra.many.directSamples, "Direct-light samples per pixel (many-light methods)")
-      ->default_str("64");
   auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel (pt)")->default_str("64");
   render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
       ->check(positiveSeconds())
@@ -77,25 +60,6 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render->add_option("--json", ra.jsonPath, "Write statistics as JSON");
 }
 
-// --clamp: a positive number, auto (-1: scene-relative) or off (infinity).
-// Returns 0, or the exit code after reporting.
-int parseClamp(const std::string& text, float& clamp) {
-  if (text == "off") {
-    clamp = INFINITY;
-    return 0;
-  }
-  if (text == "auto") {
-    clamp = -1;
-    return 0;
-  }
-  char* end = nullptr;
-  double c = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != 0 || !(c > 0))
-    return failf(kExitBadArguments, "--clamp must be a positive number, 'auto' or 'off' (got '%s')", text.c_str());
-  clamp = float(c);
-  return 0;
-}
-
 // Fills a.many and a.mrcs for the many-light methods from the command line.
 // Returns 0, or the exit code after reporting.
 int resolveManyLightArgs(RenderArgs& a) {
@@ -105,7 +69,6 @@ int resolveManyLightArgs(RenderArgs& a) {
   m.computeVpl = a.method != Method::Vsl;
   m.width = a.settings.width;
   m.height = a.settings.height;
-  if (int rc = parseClamp(a.clamp, m.clamp); rc != 0) return rc;
   if (Result<void> v = m.validate(); !v) return fail(kExitBadArguments, v.error());
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;

@@ -17,7 +17,7 @@ struct RenderArgs {
   std::string scene, out, png, jsonPath, camera, component = "full";
   RenderSettings settings;
   ManyLightSettings many;
-  std::string clamp = "auto", mrcsSpec;
+  std::string mrcsSpec;
   bool mrcsSpread = false;
   Method method = Method::Pt;   // settings.method, parsed once
   EstimatorSettings estimator;  // brute force, or MRCS with --mrcs (its seed stays 0)

@@ -1078,8 +1078,8 @@ Subcommand addSweepCommand(CLI::App& app) {
   sweep->add_option("--sets", sw.sets, "Independent light sets (or path-tracer seeds) per configuration")
       ->default_str("5")
       ->check(CLI::Range(1, 1000));
-  sweep->add_option("--knn", sw.many.knn, "k for the VSL radius")->default_str("10")->check(CLI::Range(1, 1000));
-  addVslOptions(sweep, sw.many);
+  // The grid's axes and the batches are the sweep's own options above.
+  addVslOptions(sweep, sw.many, {"lights", "radius-scale", "batches"});
   return {sweep, [args] {
             if (!args->mrcs.empty() && !parseMrcsSpec(args->mrcs, args->sweep.mrcs)) return kExitBadArguments;
             args->sweep.mrcs.spreadVslRadius = args->spread;

@@ -20,6 +20,7 @@
 
 #include "app/cli.h"
 #include "app/finite_options.h"
+#include "app/param_options.h"
 #include "core/estimator.h"
 #include "core/log.h"
 #include "core/presets.h"
@@ -29,24 +30,6 @@ namespace vsl {
 // ---- Options shared by render and sweep ---------------------------------------
 
 namespace {
-std::vector<std::string> vslCountNames() {
-  std::vector<std::string> names;
-  for (VslCount c : kVslCounts) names.push_back(vslCountName(c));
-  return names;
-}
-
-// --vsl-samples: "auto" (0) or a count in [1, 4096]; false for anything else.
-bool parseVslSamples(const std::string& v, int& out) {
-  if (v == "auto") {
-    out = 0;
-    return true;
-  }
-  char* end = nullptr;
-  const long n = std::strtol(v.c_str(), &end, 10);
-  if (end == v.c_str() || *end != 0 || n < 1 || n > 4096) return false;
-  out = int(n);
-  return true;
-}
 
 // --preset (core/presets.h). Defined before the other methods' options:
 // CLI11 runs options in the order they are defined, so those, given one by
@@ -66,79 +49,9 @@ void addPresetOption(CLI::App* cmd, ManyLightSettings& m) {
 
 }  // namespace
 
-void addVslOptions(CLI::App* cmd, ManyLightSettings& m) {
+void addVslOptions(CLI::App* cmd, ManyLightSettings& m, const std::vector<std::string>& skip) {
   addPresetOption(cmd, m);
-  cmd->add_option_function<std::string>(
-         "--vsl-samples", [&m](const std::string& v) { parseVslSamples(v, m.vslSamples); },
-         "VSL cone-integral samples per strategy: auto (see --vsl-count) or N in [1, 4096]")
-      ->check(CLI::Validator(
-          [](std::string& v) -> std::string {
-            int n = 0;
-            return parseVslSamples(v, n) ? std::string() : "must be 'auto' or in [1,4096] (got '" + v + "')";
-          },
-          "auto|N"))
-      ->default_str("auto");
-  cmd->add_flag("--clipped-disk", m.clippedDisk,
-                "VSL: spread the flux over the part of the disk on the receiver's side of its tangent plane");
-  // The automatic count: the lobe-aware one by default (the same error as the
-  // authors' count on the four bundled scenes in 20-30% less time where lobes
-  // are broad; docs/REFERENCE.md "Project heuristics"), the authors' count unchanged,
-  // or shares (faster still, not the default: docs/notebook/2026-12-02-light-sets-and-vsl-counts.md).
-  cmd->add_option_function<std::string>(
-         "--vsl-count",
-         [&m](const std::string& v) {
-           if (std::optional<VslCount> c = parseVslCount(v)) m.vslCount = *c;
-         },
-         "VSL's automatic sample count: lobe (the authors' count, scaled down where both BRDF lobes are broad "
-         "compared with the cone), authors (1 + floor(100 theta / (pi/2)) per strategy), or shares (the lobe "
-         "count, with fewer samples for a strategy that fits the cone badly: a BRDF lobe broader than the cone, the "
-         "cone where a lobe is narrower); all unbiased")
-      ->check(CLI::IsMember(vslCountNames()))
-      ->default_str(vslCountName(ManyLightSettings().vslCount));
-  cmd->add_option("--continue-alpha", m.continueAlpha,
-                  "Eye paths continue through pure metals with GGX alpha below this instead of gathering there")
-      ->default_str(defaultText(ManyLightSettings().continueAlpha))
-      ->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--split-alpha", m.splitAlpha,
-                  "Gather points whose specular lobe is narrower than this (GGX alpha, on both axes) gather "
-                  "their diffuse lobe and continue the eye path with the specular lobe; 0 = off")
-      ->default_str(defaultText(ManyLightSettings().splitAlpha))
-      ->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--lobe-gather", m.lobeGather,
-                  "VSL: at receivers narrower than GGX alpha 0.05 along either axis (near-mirrors, brushed metals), "
-                  "the specular lobe is gathered by sampling it, the radiance where each direction lands estimated "
-                  "from the " +
-                      std::to_string(ManyLightSettings::kLobeGatherK) +
-                      " nearest lights of a second light set of this many lights (brute force or MRCS); 0 = off")
-      ->default_str("0")
-      ->check(CLI::Range(0u, 50000000u));
-  cmd->add_option("--lobe-gather-rays", m.lobeGatherRays,
-                  "VSL lobe gather: directions per gather point (brute force: the first of several batches takes an "
-                  "eighth, at least one, and the others share the rest)")
-      ->default_str(defaultText(ManyLightSettings::kDefaultLobeGatherRays))
-      ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
-  cmd->add_option("--lobe-gather-alpha", m.lobeGatherAlpha,
-                  "VSL lobe gather: receivers whose specular lobe is narrower than this GGX alpha along either axis "
-                  "are lobe-gathered (0.15 also takes glossy metals such as hall's walls)")
-      ->default_str(defaultText(ManyLightSettings::kLobeGatherAlpha))
-      ->check(CLI::Range(ManyLightSettings::kMinLobeGatherAlpha, 1.0f));
-  cmd->add_option("--pair-roulette", m.pairRoulette,
-                  "Pair roulette (VSL and VPL): a pair whose contribution, estimated before its shadow ray, is "
-                  "below K x the mean pair's (earlier batches) is gathered with probability estimate / (K x mean) "
-                  "and weighted by its inverse (unbiased; fewer rays and samples); 0 = off")
-      ->default_str("0")
-      ->check(CLI::Range(0.0, 100.0));
-  cmd->add_option("--lobe-radius", m.lobeRadius,
-                  "VSL: radius at least F x distance x the light's GGX alpha (cone as wide as its lobe); 0 = off")
-      ->default_str("0")
-      ->check(CLI::Range(0.0, 100.0));
-  cmd->add_option("--lobe-floor", m.lobeFloor,
-                  "VSL: each metal light's GGX alpha at least F x the cone's half-angle (radians), so a narrow "
-                  "light seen through a wider cone lights the receiver as a sphere, not a beam (not for dielectric "
-                  "lights, not at receivers whose lobe is narrower than alpha 0.05); where it applies, the light's "
-                  "sphere is 1.5x wider too; 0 = off")
-      ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
-      ->check(CLI::Range(0.0, 100.0));
+  addParamOptions(cmd, manyLightParams(), m, nullptr, skip);
 }
 
 bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {

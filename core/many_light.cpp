@@ -12,6 +12,7 @@
 #include "core/gather.h"
 #include "core/lobe_gather.h"
 #include "core/parallel.h"
+#include "core/params.h"
 #include "core/rng.h"
 #include "core/stopwatch.h"
 
@@ -19,48 +20,15 @@ namespace vsl {
 
 // ---- [1] Settings -----------------------------------------------------------------
 
+// The parameters' ranges are their declarations' (core/params.cpp).
 Result<void> ManyLightSettings::validate() const {
   std::ostringstream e;
-  if (lights < 1 || lights > 50'000'000)
-    e << "lights: must be in [1,50000000] (got " << lights << ")";
-  else if (width < 0 || width > RenderSettings::kMaxResolution)
+  if (width < 0 || width > RenderSettings::kMaxResolution)
     e << "width: out of range (got " << width << ")";
   else if (height < 0 || height > RenderSettings::kMaxResolution)
     e << "height: out of range (got " << height << ")";
-  else if (batches < 1 || batches > 64)
-    e << "batches: must be in [1,64] (got " << batches << ")";
-  else if (directSamples < 1 || directSamples > 65536)
-    e << "direct-samples: must be in [1,65536] (got " << directSamples << ")";
-  else if (!(radiusScale > 0 && radiusScale <= 1e9f))
-    e << "radius-scale: must be in (0,1e9] (got " << radiusScale << ")";
-  else if (knn < 1 || knn > 1000)
-    e << "knn: must be in [1,1000] (got " << knn << ")";
-  else if (!(globalRadius >= 0 && globalRadius <= 1e9f))
-    e << "radius: must be in [0,1e9] (got " << globalRadius << ")";
-  else if (vslSamples < 0 || vslSamples > 4096)
-    e << "vsl-samples: must be auto or in [1,4096] (got " << vslSamples << ")";
-  else if (std::isnan(clamp))
-    e << "clamp: must be a number, 'auto' or 'off'";
-  else if (!(lobeRadius >= 0 && lobeRadius <= 100))
-    e << "lobe-radius: must be in [0,100] (got " << lobeRadius << ")";
-  else if (!(lobeFloor >= 0 && lobeFloor <= 100))
-    e << "lobe-floor: must be in [0,100] (got " << lobeFloor << ")";
-  else if (!(continueAlpha >= 0 && continueAlpha <= 1))
-    e << "continue-alpha: must be in [0,1] (got " << continueAlpha << ")";
-  else if (!(splitAlpha >= 0 && splitAlpha <= 1))
-    e << "split-alpha: must be in [0,1] (got " << splitAlpha << ")";
-  else if (lobeGather > 50'000'000 || (lobeGather > 0 && lobeGather < uint32_t(kLobeGatherK)))
-    e << "lobe-gather: must be 0 (off) or in [" << kLobeGatherK << ",50000000] (got " << lobeGather << ")";
-  else if (lobeGatherRays < 1 || lobeGatherRays > kMaxLobeGatherRays)
-    e << "lobe-gather-rays: must be in [1," << kMaxLobeGatherRays << "] (got " << lobeGatherRays << ")";
-  else if (!(lobeGatherAlpha >= kMinLobeGatherAlpha && lobeGatherAlpha <= 1))
-    e << "lobe-gather-alpha: must be in [" << kMinLobeGatherAlpha << ",1] (got " << lobeGatherAlpha << ")";
-  else if (!(pairRoulette >= 0 && pairRoulette <= 100))
-    e << "pair-roulette: must be in [0,100] (got " << pairRoulette << ")";
-  else if (lightMaxDepth < 1 || lightMaxDepth > 1024)
-    e << "light-depth: must be in [1,1024] (got " << lightMaxDepth << ")";
   if (std::string m = e.str(); !m.empty()) return Error(m);
-  return {};
+  return manyLightParams().check(*this);
 }
 
 std::string ManyLightSettings::describe(bool withGrid) const {
@@ -70,32 +38,10 @@ std::string ManyLightSettings::describe(bool withGrid) const {
   // A size of 0 means "the scene's"; the CLI refuses --width 0, so it is left out.
   if (width > 0) s << " --width " << width;
   if (height > 0) s << " --height " << height;
-  s << " --batches " << batches << " --direct-samples " << directSamples;
-  if (globalRadius > 0) {
-    s << " --radius " << globalRadius;
-  } else {
-    if (withGrid) s << " --radius-scale " << radiusScale;
-    s << " --knn " << knn;
-  }
-  s << " --vsl-samples " << (vslSamples > 0 ? std::to_string(vslSamples) : std::string("auto")) << " --clamp ";
-  if (clamp < 0)
-    s << "auto";
-  else if (std::isinf(clamp))
-    s << "off";
-  else
-    s << clamp;
-  if (clippedDisk) s << " --clipped-disk";
-  s << " --vsl-count " << vslCountName(vslCount);
-  if (lobeRadius > 0) s << " --lobe-radius " << lobeRadius;
-  s << " --lobe-floor " << lobeFloor;
-  s << " --continue-alpha " << continueAlpha;
-  if (splitAlpha > 0) s << " --split-alpha " << splitAlpha;
-  if (lobeGather > 0) {
-    s << " --lobe-gather " << lobeGather << " --lobe-gather-rays " << lobeGatherRays;
-    if (lobeGatherAlpha != kLobeGatherAlpha) s << " --lobe-gather-alpha " << lobeGatherAlpha;
-  }
-  if (pairRoulette > 0) s << " --pair-roulette " << pairRoulette;
-  if (diffuseOnly) s << " --diffuse-vpl";
+  // A sweep's grid sets the light count and the radius scale per configuration.
+  std::vector<std::string> skip = {"lights"};
+  if (!withGrid) skip.push_back("radius-scale");
+  s << manyLightParams().describe(*this, skip);
   return s.str();
 }
 

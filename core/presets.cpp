@@ -1,25 +1,17 @@
 #include "core/presets.h"
 
+#include "core/params.h"
+
 namespace vsl {
 
 namespace {
 
-// The method fields a preset sets, copied from one settings to another.
+// The method fields a preset sets: every parameter of the registry but the
+// light set's (core/params.cpp, lightSetParams) and the VPL's clamp and
+// emission, which are the user's.
 void copyMethodFields(const ManyLightSettings& from, ManyLightSettings& to) {
-  to.radiusScale = from.radiusScale;
-  to.knn = from.knn;
-  to.globalRadius = from.globalRadius;
-  to.vslSamples = from.vslSamples;
-  to.clippedDisk = from.clippedDisk;
-  to.vslCount = from.vslCount;
-  to.lobeRadius = from.lobeRadius;
-  to.lobeFloor = from.lobeFloor;
-  to.continueAlpha = from.continueAlpha;
-  to.splitAlpha = from.splitAlpha;
-  to.lobeGather = from.lobeGather;
-  to.lobeGatherRays = from.lobeGatherRays;
-  to.lobeGatherAlpha = from.lobeGatherAlpha;
-  to.pairRoulette = from.pairRoulette;
+  for (const Param<ManyLightSettings>& p : manyLightParams().all())
+    if (p.spec.appliesTo == std::string_view("VSL") || p.spec.tier == ParamTier::Experimental) p.set(to, p.get(from));
 }
 
 // The preset's method fields, on otherwise default settings.

@@ -775,10 +775,10 @@ TEST_F(Cli, OutOfRangeNumbersAreBadArguments) {
            {"sweep " + cg + " --shard 4294967297/2 -o " + file("oor-sweep"), "--shard must be I/N"},
            {"sweep " + cg + " --shard 1/2x -o " + file("oor-sweep"), "--shard must be I/N"},
            {"sweep " + cg + " --merge " + file("oor-a") + " -o " + file("oor-sweep"), "takes no scene"},
-           {"render " + cg + " --method vsl --vsl-samples 0 -o " + file("oor.exr"), "must be 'auto' or in [1,4096]"},
-           {"render " + cg + " --method vsl --vsl-samples 4097 -o " + file("oor.exr"), "must be 'auto' or in [1,4096]"},
-           {"render " + cg + " --method vsl --vsl-samples 3x -o " + file("oor.exr"), "must be 'auto' or in [1,4096]"},
-           {"sweep " + cg + " --vsl-samples -1 -o " + file("oor-sweep"), "must be 'auto' or in [1,4096]"}}) {
+           {"render " + cg + " --method vsl --vsl-samples 0 -o " + file("oor.exr"), "--vsl-samples: must be in [1,4096] or auto"},
+           {"render " + cg + " --method vsl --vsl-samples 4097 -o " + file("oor.exr"), "--vsl-samples: must be in [1,4096] or auto"},
+           {"render " + cg + " --method vsl --vsl-samples 3x -o " + file("oor.exr"), "--vsl-samples: must be in [1,4096] or auto"},
+           {"sweep " + cg + " --vsl-samples -1 -o " + file("oor-sweep"), "--vsl-samples: must be in [1,4096] or auto"}}) {
     Proc r = run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
@@ -850,7 +850,7 @@ TEST_F(Cli, ManyLightOptionsWithThePathTracerAreBadArguments) {
   for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
            {base + " --lights 100", "--lights: for the many-light methods, but --method is pt"},
            {base + " --method pt --lobe-gather 1000 --batches 4",
-            "--lobe-gather, --batches: for the many-light methods, but --method is pt"},
+            "--batches, --lobe-gather: for the many-light methods, but --method is pt"},
            {base + " --mrcs 10,20 --clamp off", "--clamp, --mrcs: for the many-light methods"}}) {
     Proc r = run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;

@@ -1,0 +1,74 @@
+// Command-line options generated from the parameter registry
+// (core/params.h): one option per registered parameter, with its help, its
+// range check and its default, grouped in --help by tier ("Method
+// parameters", "Experimental heuristics"). Nothing algorithmic is declared
+// by hand in app/ (docs/ARCHITECTURE.md, "Adding a parameter").
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/params.h"
+
+namespace vsl {
+
+inline const char* paramGroup(const ParamSpec& p) {
+  return p.tier == ParamTier::Method ? "Method parameters" : "Experimental heuristics (docs/REFERENCE.md)";
+}
+
+// The option's help: the parameter's line, its range and unit, and what it
+// applies to.
+inline std::string paramOptionHelp(const ParamSpec& p) {
+  std::string h = std::string(p.help) + " [" + p.appliesTo + "]";
+  if (p.kind != ParamKind::Flag) h += "; " + paramRangeText(p) + (*p.unit ? std::string(" ") + p.unit : "");
+  return h;
+}
+
+// Adds --NAME for every parameter of table but those in skip; a value given
+// is checked and written into target (which must outlive the parse), and its
+// name added to *given. The default shown is target's value when called.
+template <class S>
+void addParamOptions(CLI::App* cmd, const ParamTable<S>& table, S& target, std::set<std::string>* given = nullptr,
+                     const std::vector<std::string>& skip = {}) {
+  for (const Param<S>& param : table.all()) {
+    const ParamSpec& p = param.spec;
+    bool skipped = false;
+    for (const std::string& s : skip) skipped |= s == p.name;
+    if (skipped) continue;
+    const std::string option = std::string("--") + p.name;
+    const Param<S>* bound = &param;
+    if (p.kind == ParamKind::Flag) {
+      cmd->add_flag_function(
+             option,
+             [bound, &target, given](int64_t n) {
+               bound->set(target, n > 0 ? 1.0 : 0.0);
+               if (given) given->insert(bound->spec.name);
+             },
+             paramOptionHelp(p))
+          ->group(paramGroup(p));
+      continue;
+    }
+    cmd->add_option_function<std::string>(
+           option,
+           [bound, &target, given](const std::string& text) {
+             if (Result<double> v = parseParamValue(bound->spec, text)) bound->set(target, *v);
+             if (given) given->insert(bound->spec.name);
+           },
+           paramOptionHelp(p))
+        ->check(CLI::Validator(
+            [bound](std::string& text) -> std::string {
+              // CLI11 names the option: the message drops the parameter's name.
+              Result<double> v = parseParamValue(bound->spec, text);
+              if (v) return {};
+              const std::string prefix = std::string(bound->spec.name) + ": ";
+              return v.error().rfind(prefix, 0) == 0 ? v.error().substr(prefix.size()) : v.error();
+            },
+            p.kind == ParamKind::Choice ? "WORD" : (p.kind == ParamKind::Int ? "INT" : "NUMBER")))
+        ->default_str(formatParamValue(p, param.get(target)))
+        ->group(paramGroup(p));
+  }
+}
+
+}  // namespace vsl
