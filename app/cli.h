@@ -41,6 +41,7 @@ Subcommand addTonemapCommand(CLI::App& app);    // app/tonemap.cpp
 Subcommand addInfoCommand(CLI::App& app);       // app/info.cpp
 Subcommand addSweepCommand(CLI::App& app);      // app/sweep.cpp
 Subcommand addBenchCommand(CLI::App& app);      // app/bench.cpp
+Subcommand addParamsCommand(CLI::App& app);     // app/params.cpp
 
 // ---- Errors -------------------------------------------------------------------
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <set>
 #include <string>
 #include <vector>
@@ -69,6 +70,23 @@ void addParamOptions(CLI::App* cmd, const ParamTable<S>& table, S& target, std::
         ->default_str(formatParamValue(p, param.get(target)))
         ->group(paramGroup(p));
   }
+}
+
+// For a parse error that names options the command does not have ("The
+// following argument was not expected: --lobe-flor"), the nearest option of
+// cmd to each (" (did you mean --lobe-floor?)"); empty otherwise.
+inline std::string nearestOptionHint(const CLI::App& cmd, const std::string& message) {
+  std::vector<std::string> names;
+  for (const CLI::Option* o : cmd.get_options())
+    for (const std::string& l : o->get_lnames()) names.push_back("--" + l);
+  std::string hint;
+  for (size_t at = message.find("--"); at != std::string::npos; at = message.find("--", at + 2)) {
+    const size_t end = message.find_first_of(" ,=", at);
+    const std::string given = message.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    if (std::find(names.begin(), names.end(), given) != names.end()) continue;
+    if (std::string near = nearestName(given, names); !near.empty()) hint += " (did you mean " + near + "?)";
+  }
+  return hint;
 }
 
 }  // namespace vsl

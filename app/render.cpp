@@ -15,6 +15,7 @@
 #include "app/render.h"
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/params.h"
 #include "core/pathtracer.h"
 
 namespace vsl {
@@ -70,6 +71,10 @@ int resolveManyLightArgs(RenderArgs& a) {
   m.width = a.settings.width;
   m.height = a.settings.height;
   if (Result<void> v = m.validate(); !v) return fail(kExitBadArguments, v.error());
+  std::vector<std::string> given;
+  for (const std::string& option : a.manyLightOptionsGiven) given.push_back(option.substr(2));
+  if (Result<void> used = manyLightParams().checkUsed(m, given, m.computeVsl, m.computeVpl); !used)
+    return fail(kExitBadArguments, "--" + used.error());
   if (!a.mrcsSpec.empty()) {
     if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
     a.estimator.kind = EstimatorKind::Mrcs;

@@ -22,9 +22,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
 #include <thread>
 
 #include "app/finite_options.h"
+#include "app/param_options.h"
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/presets.h"
@@ -39,6 +41,16 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
+// The studio's own defaults: fewer lights and more batches than `vsl
+// render`, so that the first picture comes fast (docs/REFERENCE.md).
+ManyLightSettings studioDefaults() {
+  ManyLightSettings m;
+  m.lights = 5000;
+  m.batches = 16;
+  m.directSamples = 64;
+  return m;
+}
+
 struct Args {
   std::string scene;
   bool headless = false;
@@ -50,29 +62,21 @@ struct Args {
   // A run that ends by itself (frames or an export): no waiting for input, and
   // its window keeps the size it is given.
   bool scripted() const { return frames > 0 || !exportDir.empty(); }
-  uint32_t lights = 5000;
+  // The methods' parameters (core/params.h) at the studio's defaults, and
+  // the names of those given on the command line: they win over the last
+  // session.
+  ManyLightSettings many = studioDefaults();
+  std::set<std::string> given;
   int width = 256;
-  bool lightsGiven = false, widthGiven = false;  // on the command line: they win over the last session
-  bool fresh = false;                            // ignore the last session
-  bool verbose = false;                          // echo the log's info lines to stderr
-  std::string crop;                              // X,Y,W,H in image pixels
-  std::string reference;                         // a converged reference EXR
-  int backgroundReference = 0;                   // spp of a reference rendered into the cache
-  int lightSets = StudioSettings().lightSets;    // independent light sets
+  bool widthGiven = false;                     // on the command line: it wins over the last session
+  bool fresh = false;                          // ignore the last session
+  bool verbose = false;                        // echo the log's info lines to stderr
+  std::string crop;                            // X,Y,W,H in image pixels
+  std::string reference;                       // a converged reference EXR
+  int backgroundReference = 0;                 // spp of a reference rendered into the cache
+  int lightSets = StudioSettings().lightSets;  // independent light sets
   bool lightSetsGiven = false;
-  float splitAlpha = ManyLightSettings().splitAlpha;  // lobe splitting (0 = off)
-  bool splitAlphaGiven = false;
-  float lobeFloor = ManyLightSettings().lobeFloor;  // VSL lobe floor (0 = off)
-  bool lobeFloorGiven = false;
-  std::string preset;       // --preset (empty: none given)
-  uint32_t lobeGather = 0;  // the lobe gather's lights (0 = off)
-  bool lobeGatherGiven = false;
-  int lobeGatherRays = ManyLightSettings().lobeGatherRays;  // its directions per gather point
-  bool lobeGatherRaysGiven = false;
-  float lobeGatherAlpha = ManyLightSettings::kLobeGatherAlpha;  // the receivers it takes
-  bool lobeGatherAlphaGiven = false;
-  float pairRoulette = 0;  // the pair roulette's K (0 = off)
-  bool pairRouletteGiven = false;
+  std::string preset;           // --preset (empty: none given)
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -185,12 +189,8 @@ struct Script {
 // which override it (docs/REFERENCE.md, "Presets").
 void applyGiven(const Args& a, ManyLightSettings& m) {
   if (std::optional<Preset> p = parsePreset(a.preset)) applyPreset(*p, m);
-  if (a.splitAlphaGiven) m.splitAlpha = a.splitAlpha;
-  if (a.lobeFloorGiven) m.lobeFloor = a.lobeFloor;
-  if (a.lobeGatherGiven) m.lobeGather = a.lobeGather;
-  if (a.lobeGatherRaysGiven) m.lobeGatherRays = a.lobeGatherRays;
-  if (a.lobeGatherAlphaGiven) m.lobeGatherAlpha = a.lobeGatherAlpha;
-  if (a.pairRouletteGiven) m.pairRoulette = a.pairRoulette;
+  for (const std::string& name : a.given)
+    if (const Param<ManyLightSettings>* p = manyLightParams().find(name)) p->set(m, p->get(a.many));
 }
 
 ui::StudioOptions studioOptions(const Args& a) {
@@ -199,11 +199,8 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.scene = a.scene;
   o.bundled = bundledScenes();
   if (!a.exportDir.empty()) o.exportDir = a.exportDir;
-  o.settings.many.lights = a.lights;
+  o.settings.many = a.many;  // the preset and the parameters given are in it
   o.settings.many.width = a.width;
-  o.settings.many.batches = 16;
-  o.settings.many.directSamples = 64;
-  applyGiven(a, o.settings.many);
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
@@ -243,7 +240,6 @@ void restoreLastSession(const Args& a, Launch* launch) {
     log::warning("the last session's scene " + s.scene + " no longer exists; opening the default scene " + a.scene);
     s.scene = a.scene;
   }
-  if (a.lightsGiven) s.many.lights = a.lights;
   if (a.widthGiven) {
     s.many.width = a.width;
     s.many.height = 0;
@@ -540,6 +536,19 @@ int runWindowed(const Args& a, const Launch& launch, int w, int h, bool* fellBac
 // The command line, into a.
 void addOptions(CLI::App& app, Args& a) {
   app.add_option("scene", a.scene, "Scene to open (default: the bundled cornell-glossy)");
+  // Before the parameters: CLI11 runs options in the order they are
+  // defined, so those given one by one override the preset.
+  app.add_option_function<std::string>(
+         "--preset",
+         [&a](const std::string& v) {
+           a.preset = v;
+           if (std::optional<Preset> p = parsePreset(v)) applyPreset(*p, a.many);
+         },
+         "The methods' parameters: paper (VSL and clamped VPL as Hasan et al. 2009 published them) or default "
+         "(the measured best); parameters given one by one override it")
+      ->check(CLI::IsMember(presetNames()))
+      ->default_str("default");
+  addParamOptions(&app, manyLightParams(), a.many, &a.given);
   app.add_flag("--headless", a.headless, "Render the UI off-screen through EGL (no window)");
   app.add_option("--frames", a.frames, "Exit after this many frames")->check(CLI::Range(1, 10000000));
   app.add_option("--screenshot", a.screenshot, "Save the last frame as PNG");
@@ -547,7 +556,6 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--after", a.after, "Export after this many seconds (default: when the many-light render is done)")
       ->check(CLI::Range(0.0, 1e6));
   app.add_option("--window", a.window, "Window or off-screen size, WxH")->default_str("1280x800");
-  app.add_option("--lights", a.lights, "Initial light count")->default_str("5000")->check(CLI::Range(1, 50000000));
   app.add_option("--width", a.width, "Initial render width")->default_str("256")->check(CLI::Range(8, 16384));
   app.add_option("--crop", a.crop,
                  "Crop inset X,Y,W,H in image pixels: exports include magnified crops of every image, their "
@@ -563,41 +571,6 @@ void addOptions(CLI::App& app, Args& a) {
                  "measured (1: one set)")
       ->default_str(std::to_string(StudioSettings().lightSets))
       ->check(CLI::Range(1, StudioSettings::kMaxLightSets));
-  app.add_option("--split-alpha", a.splitAlpha,
-                 "Gather points whose specular lobe is narrower than this (GGX alpha, on both axes) gather their "
-                 "diffuse lobe and continue the eye path with the specular lobe; 0 = off (the \"split alpha\" control)")
-      ->default_str(defaultText(ManyLightSettings().splitAlpha))
-      ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--lobe-floor", a.lobeFloor,
-                 "VSL: each metal light's GGX alpha at least F x the cone's half-angle (radians): narrow lights "
-                 "seen through wider cones light receivers as spheres, not beams (not for dielectric lights, not "
-                 "at receivers whose lobe is narrower than alpha 0.05; where it applies, the light's sphere is 1.5x "
-                 "wider too); 0 = off (the \"lobe floor\" control)")
-      ->default_str(defaultText(ManyLightSettings::kDefaultLobeFloor))
-      ->check(CLI::Range(0.0, 100.0));
-  app.add_option("--lobe-gather", a.lobeGather,
-                 "VSL lobe gather: receivers narrower than GGX alpha 0.05 along either axis gather their specular "
-                 "lobe by sampling it, the light where each direction lands estimated from a second light set of N "
-                 "lights (e.g. 100000); brute force or MRCS; 0 = off (the \"lobe gather\" control)")
-      ->default_str("0")
-      ->check(CLI::Range(0u, 50'000'000u));
-  app.add_option("--lobe-gather-rays", a.lobeGatherRays,
-                 "VSL lobe gather: directions sampled per gather point (the \"lobe rays\" control; more "
-                 "cost proportionally more and lower the noise on polished and brushed surfaces; brute force: the "
-                 "first of several batches takes an eighth, the others share the rest)")
-      ->default_str(std::to_string(ManyLightSettings::kDefaultLobeGatherRays))
-      ->check(CLI::Range(1, ManyLightSettings::kMaxLobeGatherRays));
-  app.add_option("--lobe-gather-alpha", a.lobeGatherAlpha,
-                 "VSL lobe gather: receivers whose specular lobe is narrower than this GGX alpha along either axis "
-                 "are lobe-gathered (0.15 also takes glossy metals such as hall's walls; the \"lobe alpha\" control)")
-      ->default_str("0.05")
-      ->check(CLI::Range(ManyLightSettings::kMinLobeGatherAlpha, 1.0f));
-  app.add_option("--pair-roulette", a.pairRoulette,
-                 "Pair roulette (brute force): a pair whose contribution, estimated before its shadow ray, is "
-                 "below K x the mean pair's is gathered with probability estimate / (K x mean) and weighted by its "
-                 "inverse (unbiased; fewer rays); 0 = off (the \"pair roulette\" control)")
-      ->default_str("0")
-      ->check(CLI::Range(0.0, 100.0));
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
@@ -607,10 +580,6 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--progressive-radius", a.progressive,
                  "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
                  "ALPHA in (0,1), e.g. 0.7");
-  app.add_option("--preset", a.preset,
-                 "The methods' parameters: paper (VSL and clamped VPL as Hasan et al. 2009 published them) or "
-                 "default (the measured best); the options above, given, override it")
-      ->check(CLI::IsMember(presetNames()));
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
   app.add_flag("--verbose", a.verbose,
                "Echo the log's info lines to stderr (stages, each restart's change -> picture time)");
@@ -650,7 +619,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "error: %s\n\n%s", e.what(), app.help().c_str());
+    std::fprintf(stderr, "error: %s%s\n\n%s", e.what(), nearestOptionHint(app, e.what()).c_str(), app.help().c_str());
     return 2;
   }
   int w = 1280, h = 800;
@@ -661,15 +630,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   a.windowGiven = app.count("--window") > 0;
-  a.lightsGiven = app.count("--lights") > 0;
   a.widthGiven = app.count("--width") > 0;
   a.lightSetsGiven = app.count("--light-sets") > 0;
-  a.splitAlphaGiven = app.count("--split-alpha") > 0;
-  a.lobeFloorGiven = app.count("--lobe-floor") > 0;
-  a.lobeGatherGiven = app.count("--lobe-gather") > 0;
-  a.lobeGatherRaysGiven = app.count("--lobe-gather-rays") > 0;
-  a.lobeGatherAlphaGiven = app.count("--lobe-gather-alpha") > 0;
-  a.pairRouletteGiven = app.count("--pair-roulette") > 0;
   if (std::string bad = nonFiniteOption(app); !bad.empty()) {
     std::fprintf(stderr, "error: %s\n", bad.c_str());
     return 2;
@@ -681,20 +643,9 @@ int main(int argc, char** argv) {
     }
   }
   if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
-  {
-    ManyLightSettings many;
-    many.pairRoulette = a.pairRoulette;
-    if (Result<void> e = a.estimator.validateWith(many); !e) {
-      std::fprintf(stderr, "error: --%s\n", e.error().c_str());
-      return 2;
-    }
-    many.lobeGather = a.lobeGather;
-    many.lobeGatherRays = a.lobeGatherRays;
-    many.lobeGatherAlpha = a.lobeGatherAlpha;
-    if (Result<void> v = many.validate(); !v) {
-      std::fprintf(stderr, "error: --%s\n", v.error().c_str());
-      return 2;
-    }
+  if (Result<void> e = a.estimator.validateWith(a.many); !e) {
+    std::fprintf(stderr, "error: --%s\n", e.error().c_str());
+    return 2;
   }
   Launch launch;
   if (!a.crop.empty()) {

@@ -9,6 +9,7 @@
 //   info       what the loader made of a scene (app/info.cpp)
 //   sweep      error against time over a grid of methods (app/sweep.cpp)
 //   bench      throughput against raw Embree occlusion (app/bench.cpp)
+//   params     the methods' parameters, from the registry (app/params.cpp)
 // This file holds main, the table of subcommands and the options that render
 // and sweep share; app/cli.h has what the subcommands share otherwise.
 // Exit codes: 0 success, 1 bad input (scene, image, I/O), 2 bad arguments.
@@ -65,13 +66,14 @@ bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
 
 int main(int argc, char** argv) {
   using namespace vsl;
-  CLI::App app{"vsl: many-light rendering of glossy scenes (render, reference, compare, tonemap, info, sweep, bench)"};
+  CLI::App app{
+      "vsl: many-light rendering of glossy scenes (render, reference, compare, tonemap, info, sweep, bench, params)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(VSL_VERSION));
   // The table of subcommands, in the order --help lists them.
   const Subcommand subcommands[] = {addRenderCommand(app),  addReferenceCommand(app), addCompareCommand(app),
                                     addTonemapCommand(app), addInfoCommand(app),      addSweepCommand(app),
-                                    addBenchCommand(app)};
+                                    addBenchCommand(app),   addParamsCommand(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -81,9 +83,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "error: %s\n\n", e.what());
     CLI::App* sub = nullptr;
     for (CLI::App* s : app.get_subcommands()) sub = s;
+    std::fprintf(stderr, "error: %s%s\n\n", e.what(), nearestOptionHint(sub ? *sub : app, e.what()).c_str());
     std::cerr << (sub ? sub->help() : app.help());
     return kExitBadArguments;
   }

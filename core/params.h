@@ -29,7 +29,7 @@ namespace vsl {
 
 // Method: a parameter of the published methods (Hasan et al. 2009, Keller
 // 1997) or of how long they run. Experimental: a heuristic of this project,
-// measured in docs/REFERENCE.md "Project heuristics"; `--preset paper` turns
+// measured in docs/REFERENCE.md "Parameters"; `--preset paper` turns
 // every one off.
 enum class ParamTier { Method, Experimental };
 enum class ParamKind { Int, Real, Flag, Choice };
@@ -58,9 +58,12 @@ struct ParamSpec {
   // whenever the parameter `needs` names is at its own quiet value.
   double quiet = std::numeric_limits<double>::quiet_NaN();
   const char* needs = nullptr;
-  // The studio's slider: its range (0, 0: min to max) and scale.
+  // The studio's slider: its range (0, 0: min to max) and scale, and the
+  // value it starts at when switched on from a word outside that range
+  // ("radius" from off; NaN: the middle of the range).
   double uiMin = 0, uiMax = 0;
   bool uiLog = false;
+  double uiStart = std::numeric_limits<double>::quiet_NaN();
 };
 
 // The text of a value: its word if it has one, else the number in its
@@ -145,6 +148,23 @@ class ParamTable {
   std::string describe(const S& s, const std::vector<std::string>& skip = {}) const;
   // Whether describe() would leave p out for s (quiet, or its requirement is).
   bool quiet(const Param<S>& p, const S& s) const;
+  // pbrt's ReportUnused: of the parameters given (by name), the first that
+  // s does not use, as "name: for VSL, but only VPL is rendered" or
+  // "name: has no effect while lobe-gather is off". vsl and vpl say which
+  // methods are rendered.
+  Result<void> checkUsed(const S& s, const std::vector<std::string>& given, bool vsl, bool vpl) const {
+    for (const std::string& name : given) {
+      const Param<S>* p = find(name);
+      if (!p) continue;
+      const std::string_view applies = p->spec.appliesTo;
+      const bool forVsl = applies.find("VSL") != applies.npos, forVpl = applies.find("VPL") != applies.npos;
+      if (!(forVsl && vsl) && !(forVpl && vpl))
+        return Error(name + ": for " + std::string(applies) + ", but only " + (vsl ? "VSL" : "VPL") + " is rendered");
+      if (const Param<S>* need = p->spec.needs ? find(p->spec.needs) : nullptr; need && quiet(*need, s))
+        return Error(name + ": has no effect while " + need->spec.name + " is off");
+    }
+    return {};
+  }
   // Copies every parameter of the given tier from `from` to `to`.
   void copyTier(const S& from, S& to, ParamTier tier) const {
     for (const Param<S>& p : params_)

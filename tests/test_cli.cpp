@@ -16,6 +16,8 @@
 #include <tuple>
 
 #include "core/image_io.h"
+#include "core/many_light.h"
+#include "core/params.h"
 #include "tests/run_vsl.h"
 
 namespace fs = std::filesystem;
@@ -775,10 +777,14 @@ TEST_F(Cli, OutOfRangeNumbersAreBadArguments) {
            {"sweep " + cg + " --shard 4294967297/2 -o " + file("oor-sweep"), "--shard must be I/N"},
            {"sweep " + cg + " --shard 1/2x -o " + file("oor-sweep"), "--shard must be I/N"},
            {"sweep " + cg + " --merge " + file("oor-a") + " -o " + file("oor-sweep"), "takes no scene"},
-           {"render " + cg + " --method vsl --vsl-samples 0 -o " + file("oor.exr"), "--vsl-samples: must be in [1,4096] or auto"},
-           {"render " + cg + " --method vsl --vsl-samples 4097 -o " + file("oor.exr"), "--vsl-samples: must be in [1,4096] or auto"},
-           {"render " + cg + " --method vsl --vsl-samples 3x -o " + file("oor.exr"), "--vsl-samples: must be in [1,4096] or auto"},
-           {"sweep " + cg + " --vsl-samples -1 -o " + file("oor-sweep"), "--vsl-samples: must be in [1,4096] or auto"}}) {
+           {"render " + cg + " --method vsl --vsl-samples 0 -o " + file("oor.exr"),
+            "--vsl-samples: must be in [1,4096] or auto"},
+           {"render " + cg + " --method vsl --vsl-samples 4097 -o " + file("oor.exr"),
+            "--vsl-samples: must be in [1,4096] or auto"},
+           {"render " + cg + " --method vsl --vsl-samples 3x -o " + file("oor.exr"),
+            "--vsl-samples: must be in [1,4096] or auto"},
+           {"sweep " + cg + " --vsl-samples -1 -o " + file("oor-sweep"),
+            "--vsl-samples: must be in [1,4096] or auto"}}) {
     Proc r = run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
@@ -968,4 +974,54 @@ TEST_F(Cli, OutputsNeverOverwriteInputs) {
   EXPECT_EQ(fs::file_size(file("ext/tri.bin")), 36u);
   EXPECT_EQ(fs::file_size(file("ext/tex.png")), 13u);
   EXPECT_FALSE(fs::exists(file("x.exr")));
+}
+
+// docs/REFERENCE.md's parameter table is the registry's (`vsl params
+// --markdown`, between the markers): a parameter added or changed without
+// regenerating it fails here.
+TEST_F(Cli, ReferenceParameterTableIsTheRegistrys) {
+  Proc r = run("params --markdown");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream in(std::string(VSL_SOURCE_DIR) + "/docs/REFERENCE.md");
+  const std::string doc((std::istreambuf_iterator<char>(in)), {});
+  const std::string begin = "<!-- params:begin (vsl params --markdown) -->\n", end = "<!-- params:end -->";
+  const size_t b = doc.find(begin), e = doc.find(end);
+  ASSERT_NE(b, std::string::npos) << "docs/REFERENCE.md has no generated parameter table";
+  ASSERT_NE(e, std::string::npos);
+  EXPECT_EQ(doc.substr(b + begin.size(), e - b - begin.size()), r.out)
+      << "regenerate it: build/bin/vsl params --markdown";
+  for (const vsl::Param<vsl::ManyLightSettings>& p : vsl::manyLightParams().all())
+    EXPECT_NE(r.out.find(std::string("`--") + p.spec.name + "`"), std::string::npos) << p.spec.name;
+}
+
+// A misspelt option is refused with the nearest one named (exit 2).
+TEST_F(Cli, UnknownOptionNamesTheNearest) {
+  for (auto [args, want] :
+       std::vector<std::pair<std::string, std::string>>{{"--lobe-flor 1", "did you mean --lobe-floor?"},
+                                                        {"--pair-rolette 1", "did you mean --pair-roulette?"},
+                                                        {"--vsl-sampels 3", "did you mean --vsl-samples?"}}) {
+    Proc r = run("render " + scene("furnace") + " --method vsl " + args + " -o " + file("typo.exr"));
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+  }
+  EXPECT_FALSE(fs::exists(file("typo.exr")));
+}
+
+// A parameter the render would not use is an error (pbrt's ReportUnused):
+// VSL's with only VPL rendered, VPL's with only VSL, and one whose switch is
+// off (exit 2, nothing written).
+TEST_F(Cli, UnusedParametersAreBadArguments) {
+  const std::string base = "render " + scene("furnace") + " --width 8 --lights 20 -o " + file("unused.exr");
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {" --method vpl --lobe-floor 0.5", "--lobe-floor: for VSL, but only VPL is rendered"},
+           {" --method vpl --knn 4", "--knn: for VSL, but only VPL is rendered"},
+           {" --method vsl --clamp off", "--clamp: for VPL, but only VSL is rendered"},
+           {" --method vsl --lobe-gather-rays 8", "--lobe-gather-rays: has no effect while lobe-gather is off"}}) {
+    Proc r = run(base + args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
+    EXPECT_FALSE(fs::exists(file("unused.exr"))) << args;
+  }
+  Proc ok = run(base + " --method all --lobe-floor 0.5 --clamp off --batches 1 --direct-samples 1");
+  EXPECT_EQ(ok.code, 0) << ok.out;
 }

@@ -23,10 +23,13 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "core/params.h"
+#include "core/params_json.h"
 #include "core/presets.h"
 #include "core/verdict.h"
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
+#include "ui/param_widgets.h"
 #include "ui/studio_internal.h"
 
 namespace vsl::ui {
@@ -156,7 +159,6 @@ float percentile99(const Image& img) {
 
 Studio::Studio(const StudioOptions& options) : options_(options), settings_(options.settings) {
   settings_.scene = options.scene;
-  takeLobeGather(settings_.many);
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
   if (options.startSession) session_ = std::make_unique<Session>();
@@ -166,14 +168,6 @@ Studio::Studio(const StudioOptions& options) : options_(options), settings_(opti
 Studio::~Studio() = default;
 
 void Studio::restart(bool fromScratch) {
-  settings_.many.clamp = clampOff_ ? INFINITY : (clampAuto_ ? -1.0f : clampValue_);
-  if (!vslAuto_ && settings_.many.vslSamples == 0) settings_.many.vslSamples = 4;
-  if (vslAuto_) settings_.many.vslSamples = 0;
-  settings_.many.lobeGather = lobeGather_ ? uint32_t(lobeGatherLights_) : 0u;
-  if (!globalRadius_)
-    settings_.many.globalRadius = 0;
-  else if (settings_.many.globalRadius <= 0)
-    settings_.many.globalRadius = 0.02f;
   if (!session_) {
     accepted_ = settings_;
     return;
@@ -216,12 +210,6 @@ bool Studio::restartIfDue() {
 void Studio::applySettings(const StudioSettings& settings) {
   settings_ = settings;
   scenePath_ = settings.scene;
-  clampOff_ = std::isinf(settings.many.clamp);
-  clampAuto_ = settings.many.clamp < 0;
-  if (!clampOff_ && !clampAuto_) clampValue_ = settings.many.clamp;
-  vslAuto_ = settings.many.vslSamples == 0;
-  globalRadius_ = settings.many.globalRadius > 0;
-  takeLobeGather(settings.many);
   restart();
 }
 
@@ -644,19 +632,17 @@ void Studio::sceneControls() {
 }
 
 // The controls below return whether a setting changed.
-bool Studio::virtualLightControls() {
+
+// The preset (core/presets.h): "custom" once a method parameter differs
+// from both; choosing one sets every method parameter.
+bool Studio::presetControl() {
   bool changed = false;
   ManyLightSettings& m = settings_.many;
-  // The preset (core/presets.h): "custom" once a method parameter differs
-  // from both; choosing one sets every method parameter.
   const std::string current = matchingPreset(m);
   if (ImGui::BeginCombo("preset", current.c_str())) {
     for (Preset p : {Preset::Default, Preset::Paper}) {
       if (!ImGui::Selectable(presetName(p), current == presetName(p))) continue;
       applyPreset(p, m);
-      vslAuto_ = m.vslSamples == 0;
-      globalRadius_ = m.globalRadius > 0;
-      takeLobeGather(m);
       changed |= track("preset", true);
     }
     ImGui::EndCombo();
@@ -665,25 +651,39 @@ bool Studio::virtualLightControls() {
     tip("paper: VSL and clamped VPL as Hasan et al. 2009 published them (the authors' sample count, k-NN radii, no "
         "heuristic of this project); default: the measured best (lobe-aware count, lobe floor 1, eye paths continued "
         "through near-mirror metals). docs/REFERENCE.md, \"Presets\"");
-  sectionTitle("Virtual lights");
-  int lights = int(m.lights);
-  if (ImGui::SliderInt("lights", &lights, 100, 1000000, "%d", ImGuiSliderFlags_Logarithmic)) {
-    m.lights = uint32_t(std::max(lights, 1));
-    changed |= track("lights", true);
+  return changed;
+}
+
+// One control per registered parameter of the tier (core/params.h), each
+// with its refusal beside it; a parameter that needs another (the lobe
+// gather's rays) is hidden while that one is off.
+bool Studio::paramControls(ParamTier tier) {
+  bool changed = false;
+  const ParamTable<ManyLightSettings>& table = manyLightParams();
+  for (const Param<ManyLightSettings>& p : table.all()) {
+    if (p.spec.tier != tier) continue;
+    if (const Param<ManyLightSettings>* need = p.spec.needs ? table.find(p.spec.needs) : nullptr)
+      if (table.quiet(*need, settings_.many)) continue;
+    changed |= track(p.spec.name, paramWidget(p, settings_.many, paramMemory_));
+    errorField(p.spec.name);
   }
-  errorField("lights");
-  changed |= track("global radius", ImGui::Checkbox("global radius", &globalRadius_));
-  if (globalRadius_) {
-    changed |= track("radius", ImGui::SliderFloat("radius", &m.globalRadius, 1e-4f, 0.5f, "%.4f x scene",
-                                                  ImGuiSliderFlags_Logarithmic));
-    errorField("radius");
-  } else {
-    changed |= track("radius-scale", ImGui::SliderFloat("radius scale", &m.radiusScale, 1e-3f, 100.0f, "%.3f",
-                                                        ImGuiSliderFlags_Logarithmic));
-    errorField("radius-scale");
-    changed |= track("knn", ImGui::SliderInt("k (nearest)", &m.knn, 1, 64));
-    errorField("knn");
-  }
+  return changed;
+}
+
+// The experimental heuristics whose value is not the paper's.
+int Studio::heuristicsOn() const {
+  ManyLightSettings paper = settings_.many;
+  applyPreset(Preset::Paper, paper);
+  int on = 0;
+  for (const Param<ManyLightSettings>& p : manyLightParams().all())
+    on += p.spec.tier == ParamTier::Experimental && p.get(settings_.many) != p.get(paper);
+  return on;
+}
+
+// What the numbers do: VSL radii that blur everything, the automatic clamp's
+// bound, the pairs the roulette dropped.
+void Studio::methodNotes() const {
+  const ManyLightSettings& m = settings_.many;
   // Values that make VSL meaningless: spheres as large as the scene blur
   // everything into a dim wash, or go black when they swallow the receivers.
   if (snap_ && !sourceStale(Source::Vsl) && snap_->sceneRadius > 0 && snap_->radiusMedian > 0.5f * snap_->sceneRadius) {
@@ -693,100 +693,29 @@ bool Studio::virtualLightControls() {
                   "Lower the radius.",
                   snap_->radiusMedian, snap_->sceneRadius);
     warningText(buf);
-  } else if (!globalRadius_ && m.radiusScale > 20) {
+  } else if (m.globalRadius <= 0 && m.radiusScale > 20) {
     warningText("A radius scale this large makes VSL spheres larger than most scenes: VSL goes dark or black.");
   }
-  changed |= track("vsl-samples", ImGui::Checkbox("auto VSL samples", &vslAuto_));
-  if (!vslAuto_)
-    changed |= track("vsl-samples",
-                     ImGui::SliderInt("VSL samples", &m.vslSamples, 1, 128, "%d", ImGuiSliderFlags_Logarithmic));
-  errorField("vsl-samples");
-  changed |= track("clipped-disk", ImGui::Checkbox("clipped disk", &m.clippedDisk));
-  if (ImGui::IsItemHovered())
-    tip("Spread each light's flux over the part of its disk on the receiver's side of the receiver's "
-        "tangent plane (less darkening near corners).");
-  changed |= track("lobe-radius",
-                   ImGui::SliderFloat("lobe radius", &m.lobeRadius, 0.0f, 4.0f, m.lobeRadius > 0 ? "%.2f" : "off"));
-  if (ImGui::IsItemHovered())
-    tip("Radius at least F x distance x the light's GGX alpha: cones as wide as glossy lobes.");
-  errorField("lobe-radius");
-  changed |=
-      track("lobe-floor", ImGui::SliderFloat("lobe floor", &m.lobeFloor, 0.0f, 2.0f, m.lobeFloor > 0 ? "%.2f" : "off"));
-  if (ImGui::IsItemHovered())
-    tip("Each metal light's GGX alpha at least F x the cone's half-angle: narrow metal lights seen through "
-        "wide cones glow as spheres instead of beams (fewer speckles, blurrier glossy reflections); not for "
-        "dielectric lights, not at near-mirror receivers (alpha below 0.05); there the light's sphere is 1.5x "
-        "wider too. Default 1; 0 = off.");
-  errorField("lobe-floor");
-  return changed;
+  if (snap_ && m.clamp < 0) ImGui::TextDisabled("automatic clamp bound = %.4g", snap_->clampBound);
 }
 
-// Gather (VSL and VPL), then VPL clamping.
-bool Studio::gatherControls() {
-  bool changed = false;
-  sectionTitle("Gather (VSL and VPL)");
-  ManyLightSettings& m = settings_.many;
-  changed |= track("continue-alpha", ImGui::SliderFloat("mirror alpha", &m.continueAlpha, 0.0f, 0.2f, "%.3f"));
-  if (ImGui::IsItemHovered())
-    tip("Eye paths continue through pure metals with GGX alpha below this instead of gathering "
-        "there (near-mirrors reflect the gather at the next surface).");
-  errorField("continue-alpha");
-  changed |= track("split-alpha",
-                   ImGui::SliderFloat("split alpha", &m.splitAlpha, 0.0f, 0.2f, m.splitAlpha > 0 ? "%.3f" : "off"));
-  if (ImGui::IsItemHovered())
-    tip("Gather points whose specular lobe is narrower than this gather their diffuse lobe and "
-        "continue the eye path with the specular lobe (glossy floors reflect the gather at the next surface).");
-  errorField("split-alpha");
-  changed |= track("lobe-gather", ImGui::Checkbox("lobe gather", &lobeGather_));
-  if (ImGui::IsItemHovered())
-    tip("VSL only (brute force or MRCS): receivers narrower than GGX alpha %.2f along either axis (near-mirrors, "
-        "brushed metals) gather their specular lobe by sampling it (%d directions); the light where each "
-        "direction lands comes from the %d nearest lights of a second, denser light set. Fewer bright disks "
-        "and streaks on polished and brushed surfaces; the second set costs its tracing at every restart.",
-        m.lobeGatherAlpha, m.lobeGatherRays, ManyLightSettings::kLobeGatherK);
-  if (lobeGather_) {
-    changed |= track("lobe-gather",
-                     ImGui::SliderInt("lobe lights", &lobeGatherLights_, ManyLightSettings::kLobeGatherK, 10000000,
-                                      "%d", ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
-    changed |= track("lobe-gather", ImGui::SliderInt("lobe rays", &settings_.many.lobeGatherRays, 1, 1024, "%d",
-                                                     ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
-    if (ImGui::IsItemHovered())
-      tip("Directions sampled per gather point and light batch: the lobe gather's cost grows with them and its "
-          "noise falls (tableau at 256 px wide wants 256).");
-    changed |= track("lobe-gather",
-                     ImGui::SliderFloat("lobe alpha", &m.lobeGatherAlpha, ManyLightSettings::kMinLobeGatherAlpha, 1.0f,
-                                        "%.3f", ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
-    if (ImGui::IsItemHovered())
-      tip("Receivers whose specular lobe is narrower than this GGX alpha are lobe-gathered: 0.05 takes "
-          "near-mirrors and brushed metals; 0.15 also glossy metals such as hall's walls.");
-  }
-  errorField("lobe-gather");
-  changed |= track("pair-roulette", ImGui::SliderFloat("pair roulette", &m.pairRoulette, 0.0f, 100.0f,
-                                                       m.pairRoulette > 0 ? "%.2f" : "off",
-                                                       ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp));
-  if (ImGui::IsItemHovered())
-    tip("Brute force: a pair whose contribution (VSL's estimated from above, VPL's exactly) is below K x the mean "
-        "pair's of the batches before is gathered with probability estimate / (K x mean), weighted by its "
-        "inverse; dropped pairs trace no ray. Unbiased. Pays where most pairs are dark (narrow metal lobes: "
-        "hall's VPL gather 1.55x as fast at 1), costs variance where they are not (kitchen); 0 = off.");
-  if (snap_ && m.pairRoulette > 0)
-    ImGui::TextDisabled("pairs dropped: %llu", (unsigned long long)snap_->rouletteDropped);
-  errorField("pair-roulette");
-  sectionTitle("VPL");
-  changed |= track("clamp", ImGui::Checkbox("clamp off", &clampOff_));
-  if (!clampOff_) {
-    ImGui::SameLine();
-    changed |= track("clamp", ImGui::Checkbox("auto bound", &clampAuto_));
-    if (!clampAuto_)
-      changed |=
-          track("clamp", ImGui::SliderFloat("clamp", &clampValue_, 1e-3f, 1e4f, "%.3g", ImGuiSliderFlags_Logarithmic));
+// The preset, the method parameters, then the experimental heuristics in a
+// section that starts collapsed (docs/REFERENCE.md, "Parameters").
+bool Studio::methodControls() {
+  bool changed = presetControl();
+  sectionTitle("Method parameters");
+  changed |= paramControls(ParamTier::Method);
+  methodNotes();
+  ImGui::Spacing();
+  const std::string header = "Experimental heuristics (" + std::to_string(heuristicsOn()) + " on)###Experimental";
+  if (ImGui::CollapsingHeader(header.c_str())) {
+    changed |= paramControls(ParamTier::Experimental);
+    if (snap_ && settings_.many.pairRoulette > 0)
+      ImGui::TextDisabled("pairs dropped: %llu", (unsigned long long)snap_->rouletteDropped);
   }
   if (ImGui::IsItemHovered())
-    tip("Bound on the luminance of f_x cos_x f_p cos_p / d^2 per virtual light.\nAuto: 1/(pi^2 (0.1 R)^2), R the "
-        "scene's bounding radius.");
-  if (snap_ && !clampOff_ && clampAuto_) ImGui::TextDisabled("auto bound = %.4g", snap_->clampBound);
-  errorField("clamp");
-  changed |= track("diffuse", ImGui::Checkbox("diffuse-only emission", &m.diffuseOnly));
+    tip("This project's heuristics, measured in docs/REFERENCE.md \"Parameters\"; the paper preset turns "
+        "every one off.");
   return changed;
 }
 
@@ -835,8 +764,6 @@ bool Studio::renderControls() {
     changed |= track("width", true);
   }
   errorField("width");
-  changed |= track("batches", ImGui::SliderInt("batches", &m.batches, 1, 64));
-  errorField("batches");
   changed |=
       track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
   if (ImGui::IsItemHovered())
@@ -968,8 +895,7 @@ void Studio::controlsPanel() {
   // every control.
   ImGui::PushItemWidth(-128);
   sceneControls();
-  bool changed = virtualLightControls();
-  changed |= gatherControls();
+  bool changed = methodControls();
   changed |= estimatorControls();
   changed |= renderControls();
   changed |= referenceControls();
@@ -2137,40 +2063,22 @@ std::string lastSessionPath() {
 }
 
 Result<void> saveLastSession(const std::string& path, const StudioSettings& s, const ViewState& v) {
-  const ManyLightSettings& m = s.many;
+  // The methods' parameters under their registry keys (core/params_json.h),
+  // then what is not a parameter.
+  nlohmann::json settings = paramsToJson(manyLightParams(), s.many);
+  settings.update({{"seed", s.many.seed},
+                   {"width", s.many.width},
+                   {"height", s.many.height},
+                   {"maxReferenceSpp", s.maxReferenceSpp},
+                   {"lightSets", s.lightSets},
+                   {"estimator", estimatorName(s.estimator.kind)},
+                   {"mrcsRows", s.estimator.mrcs.rows},
+                   {"mrcsClusters", s.estimator.mrcs.clusters},
+                   {"progressiveRadius", s.estimator.progressiveRadius},
+                   {"progressiveAlpha", s.estimator.alpha}});
   nlohmann::json j = {{"version", kLastSessionVersion},
                       {"scene", std::filesystem::absolute(s.scene).lexically_normal().string()},
-                      {"settings",
-                       {{"lights", m.lights},
-                        {"seed", m.seed},
-                        {"width", m.width},
-                        {"height", m.height},
-                        {"batches", m.batches},
-                        {"directSamples", m.directSamples},
-                        {"lightMaxDepth", m.lightMaxDepth},
-                        {"radiusScale", m.radiusScale},
-                        {"knn", m.knn},
-                        {"globalRadius", m.globalRadius},
-                        {"vslSamples", m.vslSamples},
-                        {"clippedDisk", m.clippedDisk},
-                        {"lobeRadius", m.lobeRadius},
-                        {"lobeFloor", m.lobeFloor},
-                        {"continueAlpha", m.continueAlpha},
-                        {"splitAlpha", m.splitAlpha},
-                        {"lobeGather", m.lobeGather},
-                        {"lobeGatherRays", m.lobeGatherRays},
-                        {"lobeGatherAlpha", m.lobeGatherAlpha},
-                        {"pairRoulette", m.pairRoulette},
-                        // JSON has no infinity: "off" for no clamp, < 0 for the automatic bound.
-                        {"clamp", std::isinf(m.clamp) ? nlohmann::json("off") : nlohmann::json(m.clamp)},
-                        {"diffuseOnly", m.diffuseOnly},
-                        {"maxReferenceSpp", s.maxReferenceSpp},
-                        {"lightSets", s.lightSets},
-                        {"estimator", estimatorName(s.estimator.kind)},
-                        {"mrcsRows", s.estimator.mrcs.rows},
-                        {"mrcsClusters", s.estimator.mrcs.clusters},
-                        {"progressiveRadius", s.estimator.progressiveRadius},
-                        {"progressiveAlpha", s.estimator.alpha}}},
+                      {"settings", settings},
                       {"view",
                        {{"mode", int(v.mode)},
                         {"panels", {int(v.panels[0]), int(v.panels[1]), int(v.panels[2])}},
@@ -2207,35 +2115,16 @@ void readSettings(const nlohmann::json& j, StudioSettings& s) {
   readField(j, "scene", &s.scene);
   const nlohmann::json& js = j.contains("settings") ? j.at("settings") : nlohmann::json::object();
   ManyLightSettings& m = s.many;
-  readField(js, "lights", &m.lights);
   readField(js, "seed", &m.seed);
   readField(js, "width", &m.width);
   readField(js, "height", &m.height);
-  readField(js, "batches", &m.batches);
-  readField(js, "directSamples", &m.directSamples);
-  readField(js, "lightMaxDepth", &m.lightMaxDepth);
-  readField(js, "radiusScale", &m.radiusScale);
-  readField(js, "knn", &m.knn);
-  readField(js, "globalRadius", &m.globalRadius);
-  readField(js, "vslSamples", &m.vslSamples);
-  readField(js, "clippedDisk", &m.clippedDisk);
-  readField(js, "lobeRadius", &m.lobeRadius);
   // Version 1 files were written while the floor was off by default: their
   // 0 is that default, not a choice, and gives way to today's.
   int version = 1;
   readField(j, "version", &version);
-  float lobeFloor = m.lobeFloor;
-  readField(js, "lobeFloor", &lobeFloor);
-  if (version >= 2 || lobeFloor != 0) m.lobeFloor = lobeFloor;
-  readField(js, "continueAlpha", &m.continueAlpha);
-  readField(js, "splitAlpha", &m.splitAlpha);
-  readField(js, "lobeGather", &m.lobeGather);
-  readField(js, "lobeGatherRays", &m.lobeGatherRays);
-  readField(js, "lobeGatherAlpha", &m.lobeGatherAlpha);
-  readField(js, "pairRoulette", &m.pairRoulette);
-  if (js.contains("clamp"))
-    m.clamp = js.at("clamp").is_string() && js.at("clamp") == "off" ? INFINITY : js.at("clamp").get<float>();
-  readField(js, "diffuseOnly", &m.diffuseOnly);
+  const float lobeFloor = m.lobeFloor;
+  if (Result<void> r = paramsFromJson(manyLightParams(), js, m); !r) throw std::out_of_range(r.error());
+  if (version < 2 && m.lobeFloor == 0) m.lobeFloor = lobeFloor;
   readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
   readField(js, "lightSets", &s.lightSets);
   if (js.contains("estimator"))

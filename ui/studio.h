@@ -17,9 +17,11 @@
 
 #include "core/compare.h"
 #include "core/math.h"
+#include "core/params.h"
 #include "core/session.h"
 #include "core/stopwatch.h"
 #include "ui/gl_image.h"
+#include "ui/param_widgets.h"
 
 namespace vsl::ui {
 
@@ -228,8 +230,11 @@ class Studio {
   // controlsPanel's sections, top to bottom; those returning bool return
   // whether a setting changed (a restart follows once the controls rest).
   void sceneControls();
-  bool virtualLightControls();
-  bool gatherControls();
+  bool presetControl();
+  bool paramControls(ParamTier tier);
+  int heuristicsOn() const;
+  void methodNotes() const;
+  bool methodControls();
   bool estimatorControls();
   bool renderControls();
   bool referenceControls();
@@ -316,16 +321,7 @@ class Studio {
   float mapEps_ = 1e-2f;            // the error maps' eps, from the reference (metricError)
   std::string referencePathInput_;  // the reference control's text
   int backgroundSpp_ = 4096;        // samples for "render reference in background"
-  bool clampOff_ = false, clampAuto_ = true, vslAuto_ = true, globalRadius_ = false;
-  // The lobe gather's switch and its light count (kept while it is off).
-  bool lobeGather_ = false;
-  int lobeGatherLights_ = kDefaultLobeGatherLights;
-  static constexpr int kDefaultLobeGatherLights = 100000;
-  void takeLobeGather(const ManyLightSettings& m) {
-    lobeGather_ = m.lobeGather > 0;
-    if (lobeGather_) lobeGatherLights_ = int(m.lobeGather);
-  }
-  float clampValue_ = 1;
+  ParamMemory paramMemory_;         // the numbers parameters return to from "auto" or "off" (param_widgets.h)
   std::string message_, errorDialog_;
   uint64_t seenLoadErrors_ = 0;
   bool savePngPending_ = false;

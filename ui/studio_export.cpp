@@ -16,6 +16,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "core/params_json.h"
 #include "core/presets.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
@@ -275,44 +276,31 @@ nlohmann::json estimatorJson(const EstimatorSettings& e) {
   return j;
 }
 
-// The render's settings, with the radii and the clamp as resolved.
+// The render's settings: the preset, every registered parameter under its
+// key (core/params_json.h), what the render resolved them to (the radii,
+// the clamp's bound, VSL's samples per pair, the pairs the roulette
+// dropped), and the settings that are not parameters.
 nlohmann::json settingsJson(const Snapshot& s) {
   const ManyLightSettings& m = s.settings.many;
-  // The clamp as resolved: its mode and the bound actually used.
-  nlohmann::json clamp = {{"mode", std::isinf(m.clamp) ? "off" : m.clamp < 0 ? "auto" : "manual"}};
-  clamp["bound"] = std::isinf(m.clamp) ? nlohmann::json(nullptr) : nlohmann::json(s.clampBound);
-  return {{"preset", matchingPreset(m)},
-          {"lights", m.lights},
-          {"radius",
-           {{"mode", m.globalRadius > 0 ? "global" : "knn"},
-            {"scale", m.radiusScale},
-            {"knn", m.knn},
-            {"globalFraction", m.globalRadius},
-            {"sceneRadius", s.sceneRadius},
-            {"min", s.radiusMin},
-            {"median", s.radiusMedian},
-            {"max", s.radiusMax}}},
-          {"vslSamples",
-           {{"setting", m.vslSamples > 0 ? nlohmann::json(m.vslSamples) : nlohmann::json("auto")},
-            {"autoCount", vslCountName(m.vslCount)},
-            {"meanPerPair", s.pairs ? double(s.vslEvaluations) / double(s.pairs) : 0.0}}},
-          {"clippedDisk", m.clippedDisk},
-          {"lobeRadius", m.lobeRadius},
-          {"lobeFloor", m.lobeFloor},
-          {"continueAlpha", m.continueAlpha},
-          {"splitAlpha", m.splitAlpha},
-          {"lobeGather", {{"lights", m.lobeGather}, {"rays", m.lobeGatherRays}, {"alpha", m.lobeGatherAlpha}}},
-          {"pairRoulette", {{"k", m.pairRoulette}, {"pairsDropped", s.rouletteDropped}}},
-          {"clamp", clamp},
-          {"diffuseOnly", m.diffuseOnly},
-          {"seed", m.seed},
-          {"batches", m.batches},
-          {"directSamples", m.directSamples},
-          {"directSamplesPerLightSet", s.directSamplesPerSet},
-          {"lightMaxDepth", m.lightMaxDepth},
-          {"maxReferenceSpp", s.settings.maxReferenceSpp},
-          {"lightSets", s.settings.lightSets},
-          {"estimator", estimatorJson(s.settings.estimator)}};
+  nlohmann::json j = paramsToJson(manyLightParams(), m);
+  nlohmann::json resolved = {
+      {"radius",
+       {{"mode", m.globalRadius > 0 ? "global" : "knn"},
+        {"sceneRadius", s.sceneRadius},
+        {"min", s.radiusMin},
+        {"median", s.radiusMedian},
+        {"max", s.radiusMax}}},
+      {"clampBound", std::isinf(m.clamp) ? nlohmann::json(nullptr) : nlohmann::json(s.clampBound)},
+      {"vslSamplesPerPair", s.pairs ? double(s.vslEvaluations) / double(s.pairs) : 0.0},
+      {"pairsDropped", s.rouletteDropped},
+      {"directSamplesPerLightSet", s.directSamplesPerSet}};
+  j.update({{"preset", matchingPreset(m)},
+            {"resolved", resolved},
+            {"seed", m.seed},
+            {"maxReferenceSpp", s.settings.maxReferenceSpp},
+            {"lightSets", s.settings.lightSets},
+            {"estimator", estimatorJson(s.settings.estimator)}});
+  return j;
 }
 
 // How far the render got, and what it took. lightsPlanned counts every light
