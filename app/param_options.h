@@ -72,6 +72,26 @@ void addParamOptions(CLI::App* cmd, const ParamTable<S>& table, S& target, std::
   }
 }
 
+// A grid axis of `vsl sweep`: --NAME V1,V2,... for a registered parameter,
+// its help and each value checked as the parameter's.
+template <class T>
+void addParamAxisOption(CLI::App* cmd, const ParamSpec& p, std::vector<T>& values) {
+  std::string defaults;
+  for (const T& v : values) defaults += (defaults.empty() ? "" : ",") + formatParamValue(p, double(v));
+  cmd->add_option(std::string("--") + p.name, values, paramOptionHelp(p) + "; a grid axis: comma-separated values")
+      ->delimiter(',')
+      ->check(CLI::Validator(
+          [&p](std::string& text) -> std::string {
+            Result<double> v = parseParamValue(p, text);
+            if (v) return {};
+            const std::string prefix = std::string(p.name) + ": ";
+            return v.error().rfind(prefix, 0) == 0 ? v.error().substr(prefix.size()) : v.error();
+          },
+          p.kind == ParamKind::Int ? "INT,..." : "NUMBER,..."))
+      ->default_str(defaults)
+      ->group("Grid axes");
+}
+
 // For a parse error that names options the command does not have ("The
 // following argument was not expected: --lobe-flor"), the nearest option of
 // cmd to each (" (did you mean --lobe-floor?)"); empty otherwise.

@@ -24,6 +24,7 @@
 
 #include "app/cli.h"
 #include "app/finite_options.h"
+#include "app/param_options.h"
 
 #include <algorithm>
 #include <cmath>
@@ -1036,14 +1037,9 @@ Subcommand addSweepCommand(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::IsMember(sweepMethodNames()))
       ->default_str("pt,vpl,vsl");
-  sweep->add_option("--lights", sw.lights, "Light counts, comma separated")
-      ->delimiter(',')
-      ->check(CLI::Range(1u, 50000000u))
-      ->default_str("1000,10000");
-  sweep->add_option("--radius-scale", sw.radiusScales, "VSL radius scales, comma separated")
-      ->delimiter(',')
-      ->check(CLI::Range(1e-6, 1e6))
-      ->default_str("1");
+  // The grid's axes: parameters of the registry (core/params.h).
+  addParamAxisOption(sweep, manyLightParams().find("lights")->spec, sw.lights);
+  addParamAxisOption(sweep, manyLightParams().find("radius-scale")->spec, sw.radiusScales);
   sweep
       ->add_option("--time", sw.time,
                    "Budget per run, seconds: each run's final result is its last point within it (2% slack; not the "
