@@ -21,6 +21,7 @@
 #include "core/image_io.h"
 #include "core/params.h"
 #include "core/params_json.h"
+#include "core/presets.h"
 #include "core/reference.h"
 #include "support.h"
 #include "ui/gl.h"
@@ -1238,4 +1239,53 @@ TEST(StudioCli, EveryParameterRoundTrips) {
   EXPECT_TRUE(bytesA == bytesB) << "the replay and the parameters given as text render different files:\n"
                                 << replay << "\n"
                                 << direct;
+}
+
+// "Compare with the paper preset": the VSL picture is pinned and shown
+// beside the new one and the reference, the paper preset is set, and the
+// table and metrics.json measure the pinned picture against the reference
+// the new one is measured against.
+TEST_F(StudioFrame, ComparePresetsPinsTheVslPictureBesideTheOtherPreset) {
+  auto first = makeSnapshot();
+  first->settings = studio->acceptedSettings();
+  studio->setSnapshotForTesting(first);
+  renderFrames(1);
+  ASSERT_EQ(matchingPreset(studio->acceptedSettings().many), "default");
+  ASSERT_TRUE(studio->comparePresets());
+  EXPECT_EQ(matchingPreset(studio->acceptedSettings().many), "paper");
+  const ui::ViewState& v = studio->view();
+  EXPECT_EQ(v.mode, ui::ViewMode::SideBySide3);
+  EXPECT_EQ(v.panels[1], ui::Source::Pinned);
+  // The paper preset's picture: VSL equal to the reference.
+  auto second = makeSnapshot();
+  second->settings = studio->acceptedSettings();
+  second->many.vsl = second->refIndirect;
+  studio->setSnapshotForTesting(second);
+  studio->view().component = Component::Indirect;
+  studio->view().exposure = 0;
+  auto px = renderFrames();
+  ASSERT_EQ(studio->drawnImages().size(), 3u);
+  const Image& pinned = first->many.vsl;
+  EXPECT_EQ(compareGrid(
+                px, studio->drawnImages()[1], [&](int x, int y) { return srgb8(pinned.at(x, y)); }, 2),
+            0)
+      << "the pinned panel shows the first picture";
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-compare-presets";
+  std::filesystem::remove_all(dir);
+  std::string folder;
+  std::vector<std::string> written;
+  ASSERT_TRUE(studio->exportAll(dir, &written, &folder));
+  const nlohmann::json m = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
+  EXPECT_EQ(m["Pinned VSL"]["name"], "VSL");
+  EXPECT_EQ(m["Pinned VSL"]["preset"], "default");
+  const double want = compareImages(pinned, second->refIndirect).average.relMse;
+  EXPECT_NEAR(m["Pinned VSL"]["indirect"]["relMSE"].get<double>(), want, 1e-9 * want);
+  EXPECT_GT(want, 0.01);
+  EXPECT_EQ(m["VSL"]["indirect"]["relMSE"].get<double>(), 0.0);
+  // The same scene and size only: another scene's picture is not shown.
+  auto other = makeSnapshot();
+  other->settings = studio->acceptedSettings();
+  other->settings.scene = "another.gltf";
+  studio->setSnapshotForTesting(other);
+  EXPECT_FALSE(studio->hasPicture(ui::Source::Pinned, Component::Indirect));
 }

@@ -52,6 +52,8 @@ const char* sourceName(Source s) {
       return "Lost to clamping";
     case Source::LostDiffuse:
       return "Lost to diffuse-only";
+    case Source::Pinned:
+      return "Pinned VSL";
     case Source::Count:
       break;
   }
@@ -74,6 +76,8 @@ std::string sourceSlug(Source s) {
       return "lost-to-clamping";
     case Source::LostDiffuse:
       return "lost-to-diffuse";
+    case Source::Pinned:
+      return "vsl-pinned";
     case Source::Count:
       break;
   }
@@ -358,7 +362,8 @@ std::string Studio::referenceError() const {
 bool Studio::sourceStale(Source s) const {
   if (!snap_) return false;
   const StudioSettings& a = snap_->settings;
-  if (s == Source::Reference)  // the reference belongs to the scene and the resolution only
+  if (s == Source::Pinned) return false;  // kept as it was
+  if (s == Source::Reference)             // the reference belongs to the scene and the resolution only
     return a.scene != accepted_.scene || a.many.width != accepted_.many.width || a.many.height != accepted_.many.height;
   return !sameImageSettings(a, accepted_);
 }
@@ -377,7 +382,15 @@ bool studio_detail::snapshotHasPicture(const Snapshot& s, Source src, Component 
   return !s.vplPending;
 }
 
-bool Studio::hasPicture(Source s, Component c) const { return snap_ && snapshotHasPicture(*snap_, s, c); }
+bool Studio::hasPicture(Source s, Component c) const {
+  if (s == Source::Pinned) return snap_ && pinnedFits();
+  return snap_ && snapshotHasPicture(*snap_, s, c);
+}
+
+bool Studio::pinnedFits() const {
+  return pinned_ && snap_ && pinned_->indirect.width == snap_->refIndirect.width &&
+         pinned_->indirect.height == snap_->refIndirect.height && pinned_->settings.scene == snap_->settings.scene;
+}
 
 const char* Studio::missingPictureText(Source s) const {
   return s == Source::Vpl ? "waiting for its MRCS columns (VSL's come first)"
@@ -417,6 +430,9 @@ Studio::SourceParts Studio::sourceParts(Source src) const {
       return {nullptr, &s.many.direct, &s.many.vplUnclamped};
     case Source::VplDiffuse:
       return {nullptr, &s.many.direct, &s.many.vplDiffuse};
+    case Source::Pinned:
+      if (pinnedFits()) return {nullptr, &pinned_->direct, &pinned_->indirect};
+      break;
     case Source::Count:
       break;
   }
@@ -654,6 +670,47 @@ bool Studio::presetControl() {
   return changed;
 }
 
+// "Compare presets": keeps the VSL picture shown (Source::Pinned, its own
+// row in the table) and renders VSL with the other preset, the two side by
+// side with the reference (docs/REFERENCE.md, "Presets").
+bool Studio::compareButton() {
+  const std::string current = matchingPreset(settings_.many);
+  const Preset other = current == presetName(Preset::Paper) ? Preset::Default : Preset::Paper;
+  const std::string label = std::string("Compare with the ") + presetName(other) + " preset";
+  const bool can = snap_ && !sourceStale(Source::Vsl) && snap_->many.vsl.width > 0;
+  if (!can) ImGui::BeginDisabled();
+  const bool clicked = ImGui::Button(label.c_str());
+  if (!can) ImGui::EndDisabled();
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
+    tip("Pins the VSL picture shown (as \"Pinned VSL\", with its own row in the table) and renders VSL with the %s "
+        "preset beside it: VSL as published against this project's measured best, on the same scene and "
+        "reference.",
+        presetName(other));
+  if (pinned_) {
+    ImGui::SameLine();
+    if (ImGui::SmallButton("unpin")) pinned_.reset();
+  }
+  if (clicked) comparePresets();  // it restarts: no settings change to report
+  return false;
+}
+
+bool Studio::comparePresets() {
+  if (!snap_ || sourceStale(Source::Vsl) || snap_->many.vsl.width == 0) return false;
+  const std::string current = matchingPreset(settings_.many);
+  const std::string name = current == "default" ? "VSL" : "VSL [" + current + "]";
+  pinned_ = PinnedVsl{name, snap_->many.direct, snap_->many.vsl, snap_->settings};
+  applyPreset(current == presetName(Preset::Paper) ? Preset::Default : Preset::Paper, settings_.many);
+  view_.mode = ViewMode::SideBySide3;
+  view_.panels[0] = Source::Vsl;
+  view_.panels[1] = Source::Pinned;
+  view_.panels[2] = Source::Reference;
+  texturesDirty_ = true;
+  metricsFor_ = nullptr;
+  lastControl_ = "preset";
+  restart();
+  return true;
+}
+
 // One control per registered parameter of the tier (core/params.h), each
 // with its refusal beside it; a parameter that needs another (the lobe
 // gather's rays) is hidden while that one is off.
@@ -703,6 +760,7 @@ void Studio::methodNotes() const {
 // section that starts collapsed (docs/REFERENCE.md, "Parameters").
 bool Studio::methodControls() {
   bool changed = presetControl();
+  changed |= compareButton();
   sectionTitle("Method parameters");
   changed |= paramControls(ParamTier::Method);
   methodNotes();
@@ -1404,6 +1462,10 @@ void Studio::updateMetrics() {
                : view_.component == Component::Indirect ? s.ptIndirect
                                                         : add(s.ptDirect, s.ptIndirect);
   livePtMetrics_ = compareImages(live, *ref);
+  if (pinnedFits()) {
+    Image scratch;
+    pinnedMetrics_ = compareImages(*componentImage(Source::Pinned, view_.component, scratch), *ref);
+  }
 }
 
 // The metrics panel's first lines: scene, size and component, throughput,
@@ -1514,6 +1576,10 @@ Studio::TableState Studio::metricsTableState(const Snapshot& s) const {
     least(t.best[1], metrics_[i].average.relMse - t.noise);
     least(t.best[2], t.atEqualTime(s, i));
   }
+  if (pinnedFits()) {
+    t.best[0] = std::min(t.best[0], pinnedMetrics_.average.rmse);
+    least(t.best[1], pinnedMetrics_.average.relMse - t.noise);
+  }
   if (s.convergedReference) {
     t.best[0] = std::min(t.best[0], livePtMetrics_.average.rmse);
     least(t.best[1], livePtMetrics_.average.relMse - t.noise);
@@ -1618,6 +1684,27 @@ void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
   flipCell(s, t, i);
 }
 
+// The pinned VSL picture against today's reference: its mean, RMSE and
+// relMSE; its time, bias and noise belonged to its own render.
+void Studio::pinnedRow(const TableState& t) {
+  ImGui::TableNextRow();
+  ImGui::TableNextColumn();
+  ImGui::Text("%s (pinned)", pinned_->name.c_str());
+  if (ImGui::IsItemHovered())
+    tip("Kept from an earlier render of this scene and size (%s), measured against the reference the rows above use",
+        pinned_->settings.many.describe().c_str());
+  ImGui::TableNextColumn();
+  ImGui::Text("%.5g", pinnedMetrics_.average.meanTest);
+  ImGui::TableNextColumn();
+  cell(pinnedMetrics_.average.rmse, t.best[0], "%.4g");
+  ImGui::TableNextColumn();
+  errorCell(pinnedMetrics_.average.relMse - t.noise, t.best[1]);
+  for (int k = 0; k < 4; ++k) {
+    ImGui::TableNextColumn();
+    ImGui::TextDisabled("-");
+  }
+}
+
 void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   ImGui::TableNextRow();
   ImGui::TableNextColumn();
@@ -1683,6 +1770,7 @@ void Studio::metricsTable(const Snapshot& s) {
   ImGui::TableHeadersRow();
   for (int i = 0; i < 4; ++i)
     if (metricShown(i)) methodRow(s, t, i);
+  if (pinnedFits()) pinnedRow(t);
   livePtRow(s, t);
   ImGui::EndTable();
 }

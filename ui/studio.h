@@ -26,7 +26,9 @@
 namespace vsl::ui {
 
 // What a view panel shows.
-enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostClamping, LostDiffuse, Count };
+// Pinned: a VSL picture kept from an earlier render of the same scene and
+// size (Studio's "Compare presets"), measured against today's reference.
+enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostClamping, LostDiffuse, Pinned, Count };
 // Flip: each method's LDR-FLIP map against the reference (core/flip.h) for
 // the shown component and exposure, computed off the UI thread with the
 // table's FLIP column, through magma on [0, map max] (auto: [0, 1]).
@@ -180,6 +182,11 @@ class Studio {
   void applySettings(const StudioSettings& settings);
   // The settings the session renders now (the last accepted ones).
   const StudioSettings& acceptedSettings() const { return accepted_; }
+  // "Compare with the other preset" (docs/REFERENCE.md, "Presets"): pins the
+  // VSL picture shown as Source::Pinned, sets the other preset's method
+  // parameters, shows VSL, the pinned VSL and the reference side by side and
+  // restarts. False, changing nothing, without an up-to-date VSL picture.
+  bool comparePresets();
 
   // One crop inset of one image, as shown in the Crops tab and exported:
   // the image itself, or (error) the per-pixel error map of the method
@@ -333,6 +340,19 @@ class Studio {
   Component metricsComponent_ = Component::Full;
   CompareResult metrics_[4];
   CompareResult livePtMetrics_;  // the live path tracer against a converged reference
+  // A VSL picture kept for comparison (Source::Pinned): what it was called
+  // ("VSL [default]"), its layers, and the settings that made it.
+  struct PinnedVsl {
+    std::string name;
+    Image direct, indirect;
+    StudioSettings settings;
+  };
+  std::optional<PinnedVsl> pinned_;
+  CompareResult pinnedMetrics_;  // against the reference the other rows use
+  bool pinnedFits() const;       // of the scene and size shown
+  nlohmann::json sourceMetricsJson(Source src) const;
+  bool compareButton();  // comparePresets() as a button
+  void pinnedRow(const TableState& t);
   // LDR-FLIP of each method (and the live path tracer) against the reference
   // for the shown component and exposure, computed off the UI thread.
   struct FlipNumbers {

@@ -391,6 +391,20 @@ Result<nlohmann::json> Studio::exportFlipMaps(const std::string& folder, std::ve
 
 // metrics.json: the settings, the samples and timings, and every number
 // measured against the reference.
+
+// A source's mean, RMSE and relMSE against the reference, full and indirect
+// (not indirect against a full-only reference, which has no indirect image).
+nlohmann::json Studio::sourceMetricsJson(Source src) const {
+  nlohmann::json j;
+  for (Component c : {Component::Full, Component::Indirect}) {
+    if (snap_->comparesFull && c == Component::Indirect) continue;
+    Image sc, rs;
+    CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
+    j[componentName(c)] = {{"mean", r.average.meanTest}, {"rmse", r.average.rmse}, {"relMSE", r.average.relMse}};
+  }
+  return j;
+}
+
 nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json& flipJson,
                                          const nlohmann::json& cropJson) const {
   const Snapshot& s = *snap_;
@@ -402,14 +416,16 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
       notRendered[sourceName(src)] = missingPictureText(src);
       continue;
     }
-    for (Component c : {Component::Full, Component::Indirect}) {
-      // A full-only reference has no indirect image to measure against.
-      if (s.comparesFull && c == Component::Indirect) continue;
-      Image sc, rs;
-      CompareResult r = compareImages(*componentImage(src, c, sc), *referenceImage(c, rs));
-      metrics[sourceName(src)][componentName(c)] = {
-          {"mean", r.average.meanTest}, {"rmse", r.average.rmse}, {"relMSE", r.average.relMse}};
-    }
+    metrics[sourceName(src)] = sourceMetricsJson(src);
+  }
+  // A pinned VSL picture ("Compare presets"): measured the same way, with
+  // the settings that made it.
+  if (hasPicture(Source::Pinned, Component::Indirect)) {
+    nlohmann::json pinned = sourceMetricsJson(Source::Pinned);
+    pinned["name"] = pinned_->name;
+    pinned["preset"] = matchingPreset(pinned_->settings.many);
+    pinned["settings"] = pinned_->settings.many.describe();
+    metrics[sourceName(Source::Pinned)] = pinned;
   }
   // The first light set as the CLI renders it (an MRCS set's share of the
   // direct samples).
