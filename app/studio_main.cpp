@@ -77,6 +77,7 @@ struct Args {
   int lightSets = StudioSettings().lightSets;  // independent light sets
   bool lightSetsGiven = false;
   std::string preset;           // --preset (empty: none given)
+  bool comparePresets = false;  // --compare-presets: the render, then the other preset beside it
   std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
   float progressive = 0;        // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;  // resolved from mrcs and progressive
@@ -103,6 +104,7 @@ struct Script {
   const Args& args;
   Stopwatch elapsed = {};
   bool exported = false, failed = false;
+  bool compared = false;  // --compare-presets has pinned the first render
   std::string exportFolder = {};
   Stopwatch sinceProgress = {};
 
@@ -119,9 +121,19 @@ struct Script {
                    snap->lightsProcessed, snap->lightsTotal, 100.0 * snap->manyFractionDone, left, snap->ptSpp,
                    snap->settings.maxReferenceSpp, el);
     }
+    // --compare-presets: once the render is done, it is pinned and the other
+    // preset renders beside it; the run goes on until that one is done.
+    const bool current = snap && sameImageSettings(snap->settings, studio.acceptedSettings());
+    if (args.comparePresets && !compared && current && snap->manyLightDone) {
+      compared = studio.comparePresets();
+      return false;
+    }
+    const bool waiting = args.comparePresets && !compared;
     // The render is done (or --after has passed): time for the export, or for
     // the end of a headless run without one.
-    const bool ready = args.after >= 0 ? el >= args.after : (snap && snap->manyLightDone) || el > 900;
+    const bool ready = args.after >= 0
+                           ? el >= args.after
+                           : (!waiting && snap && (current || !args.comparePresets) && snap->manyLightDone) || el > 900;
     if (!args.exportDir.empty() && !exported) {
       if (ready) {
         std::string folder;
@@ -580,6 +592,9 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--progressive-radius", a.progressive,
                  "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
                  "ALPHA in (0,1), e.g. 0.7");
+  app.add_flag("--compare-presets", a.comparePresets,
+               "Once the render is done, pin its VSL picture and render VSL with the other preset beside it (the "
+               "\"Compare with the ... preset\" button); an export or screenshot waits for the second render");
   app.add_flag("--fresh", a.fresh, "Start with the defaults, not the last session's scene and settings");
   app.add_flag("--verbose", a.verbose,
                "Echo the log's info lines to stderr (stages, each restart's change -> picture time)");
