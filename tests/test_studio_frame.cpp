@@ -1289,3 +1289,60 @@ TEST_F(StudioFrame, ComparePresetsPinsTheVslPictureBesideTheOtherPreset) {
   studio->setSnapshotForTesting(other);
   EXPECT_FALSE(studio->hasPicture(ui::Source::Pinned, Component::Indirect));
 }
+
+// The pixel probe stays inside the window, even over the right edge of the
+// right-most image.
+TEST_F(StudioInput, ProbeStaysInsideTheWindow) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide3;
+  renderFrames(2);
+  const auto& d = studio->drawnImages().back();
+  Input in;
+  for (ImVec2 m : {ImVec2(d.p1.x - 2, d.p0.y + 2), ImVec2(d.p1.x - 2, d.p1.y - 2), ImVec2(d.p0.x + 2, d.p0.y + 2)}) {
+    in.mouse = m;
+    for (int i = 0; i < 3; ++i) frameWith(in);  // the first frame measures the probe, the next place it
+    ASSERT_GT(studio->probeSize().x, 100) << "the probe is shown";
+    EXPECT_GE(studio->probeMin().x, 0);
+    EXPECT_LE(studio->probeMin().x + studio->probeSize().x, float(kW) + 0.5f) << "at " << m.x << "," << m.y;
+    EXPECT_LE(studio->probeMin().y + studio->probeSize().y, float(kH) + 0.5f) << "at " << m.x << "," << m.y;
+  }
+}
+
+// A picture of another scene starts clean: no crop, no old export message.
+TEST_F(StudioFrame, NewSceneClearsTheCropAndTheExportMessage) {
+  studio->view().crop = ui::CropRect{4, 4, 8, 8};
+  renderFrames(1);
+  auto same = makeSnapshot();
+  studio->setSnapshotForTesting(same);
+  EXPECT_FALSE(studio->view().crop.empty()) << "the same scene keeps its crop";
+  auto other = makeSnapshot();
+  other->settings.scene = "another.gltf";
+  studio->setSnapshotForTesting(other);
+  EXPECT_TRUE(studio->view().crop.empty());
+}
+
+// A scene that fails to load leaves the open one rendering and the typed
+// path in the field, to be corrected in place.
+TEST_F(StudioFrame, FailedLoadKeepsTheTypedPath) {
+  ui::StudioOptions o;
+  o.scene = std::string(VSL_SOURCE_DIR) + "/assets/scenes/furnace.gltf";
+  o.settings.scene = o.scene;
+  o.settings.many.lights = 20;
+  o.settings.many.width = 8;
+  o.settings.lightSets = 1;
+  studio = std::make_unique<ui::Studio>(o);
+  const std::string typo = std::string(VSL_BINARY_DIR) + "/no-such-dir/furnce.gltf";
+  for (int i = 0; i < 600 && !studio->snapshot(); ++i) {
+    renderFrames(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(studio->snapshot());
+  studio->openScene(typo);
+  for (int i = 0; i < 600 && studio->errorDialog().empty(); ++i) {
+    renderFrames(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_NE(studio->errorDialog().find("furnce.gltf"), std::string::npos) << studio->errorDialog();
+  EXPECT_EQ(studio->sceneField(), typo) << "the typed path stays for correction";
+  EXPECT_EQ(studio->acceptedSettings().scene, o.scene) << "the open scene goes on";
+}

@@ -223,7 +223,15 @@ void Studio::openScene(const std::string& path) {
   restart();
 }
 
-void Studio::setSnapshotForTesting(std::shared_ptr<const Snapshot> s) {
+void Studio::setSnapshotForTesting(std::shared_ptr<const Snapshot> s) { takeSnapshot(std::move(s)); }
+
+// A picture of another scene starts clean: the crop and the last export's
+// message belonged to the scene before.
+void Studio::takeSnapshot(std::shared_ptr<const Snapshot> s) {
+  if (snap_ && s && s->settings.scene != snap_->settings.scene) {
+    view_.crop = {};
+    message_.clear();
+  }
   snap_ = std::move(s);
   texturesDirty_ = true;
 }
@@ -249,8 +257,7 @@ void Studio::pullSnapshot() {
     // Against a full-only reference only the full component is measured:
     // show it when such a reference comes into use.
     if (s->comparesFull && !(snap_ && snap_->comparesFull)) view_.component = Component::Full;
-    snap_ = std::move(s);
-    texturesDirty_ = true;
+    takeSnapshot(std::move(s));
   }
   Session::Status st = session_->status();
   if (st.loadErrorSerial > seenLoadErrors_) {
@@ -266,10 +273,9 @@ void Studio::pullSnapshot() {
     else
       errorDialog_ = "Could not load the scene; " + std::filesystem::path(st.scene).filename().string() +
                      " stays open and keeps rendering.\n\n" + st.loadError;
-    if (!st.scene.empty()) {
-      scenePath_ = st.scene;
-      settings_.scene = accepted_.scene = st.scene;
-    }
+    // The scene still open goes on; the field keeps the path typed, so that
+    // a typo can be corrected in place.
+    if (!st.scene.empty()) settings_.scene = accepted_.scene = st.scene;
   }
   if (st.runErrorSerial > seenRunErrors_) {
     seenRunErrors_ = st.runErrorSerial;
@@ -1377,6 +1383,13 @@ void Studio::probe(const ImVec2& mouse) {
     int y = std::clamp(int(v * snap_->height), 0, snap_->height - 1);
     Vec3 ref;
     pixelValue(Source::Reference, view_.component, x, y, &ref);
+    // Inside the window: left of the cursor where the last probe's width does
+    // not fit on its right, above it where its height does not fit below.
+    const ImVec2 display = ImGui::GetIO().DisplaySize;
+    ImVec2 at(mouse.x + 16, mouse.y + 16);
+    if (at.x + probeSize_.x > display.x) at.x = std::max(0.0f, mouse.x - 16 - probeSize_.x);
+    if (at.y + probeSize_.y > display.y) at.y = std::max(0.0f, mouse.y - 16 - probeSize_.y);
+    ImGui::SetNextWindowPos(at);
     ImGui::BeginTooltip();
     ImGui::Text("pixel (%d, %d), %s component", x, y, componentName(view_.component));
     std::vector<Source> listed;
@@ -1398,6 +1411,8 @@ void Studio::probe(const ImVec2& mouse) {
         ImGui::TextDisabled("  FLIP %.3f", f->at(x, y).x);
       }
     }
+    probeMin_ = ImGui::GetWindowPos();
+    probeSize_ = ImGui::GetWindowSize();
     ImGui::EndTooltip();
     return;
   }

@@ -166,6 +166,11 @@ class Studio {
   // The message next to a rejected control ("" if none).
   const std::string& settingsError() const { return settingsError_; }
   const std::string& errorDialog() const { return errorDialog_; }
+  // The scene field's text (a failed load leaves the typed path there).
+  const std::string& sceneField() const { return scenePath_; }
+  // The pixel probe's tooltip: where it was last drawn and its size.
+  ImVec2 probeMin() const { return probeMin_; }
+  ImVec2 probeSize() const { return probeSize_; }
   // Panel i's image does not belong to the current settings.
   bool panelStale(int i) const;
   // False for a source the snapshot has no picture of in component c: under
@@ -328,7 +333,9 @@ class Studio {
   float mapEps_ = 1e-2f;            // the error maps' eps, from the reference (metricError)
   std::string referencePathInput_;  // the reference control's text
   int backgroundSpp_ = 4096;        // samples for "render reference in background"
-  ParamMemory paramMemory_;         // the numbers parameters return to from "auto" or "off" (param_widgets.h)
+  void takeSnapshot(std::shared_ptr<const Snapshot> s);
+  ImVec2 probeMin_ = {}, probeSize_ = {};  // the pixel probe's last place and size (kept inside the window)
+  ParamMemory paramMemory_;                // the numbers parameters return to from "auto" or "off" (param_widgets.h)
   std::string message_, errorDialog_;
   uint64_t seenLoadErrors_ = 0;
   bool savePngPending_ = false;
