@@ -1346,3 +1346,35 @@ TEST_F(StudioFrame, FailedLoadKeepsTheTypedPath) {
   EXPECT_EQ(studio->sceneField(), typo) << "the typed path stays for correction";
   EXPECT_EQ(studio->acceptedSettings().scene, o.scene) << "the open scene goes on";
 }
+
+// A scene loaded with warnings says so under the scene field (the count and
+// the first) and its export carries them.
+TEST_F(StudioFrame, SceneWarningsAreShownAndExported) {
+  nlohmann::json doc =
+      nlohmann::json::parse(std::ifstream(std::string(VSL_SOURCE_DIR) + "/assets/scenes/furnace.gltf"));
+  doc["extensionsUsed"] = {"EXT_made_up"};
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-scene-warnings";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/warned.gltf";
+  std::ofstream(path) << doc.dump();
+  ui::StudioOptions o;
+  o.scene = o.settings.scene = path;
+  o.settings.many.lights = 20;
+  o.settings.many.width = 8;
+  o.settings.lightSets = 1;
+  studio = std::make_unique<ui::Studio>(o);
+  for (int i = 0; i < 600 && !(studio->snapshot() && studio->snapshot()->manyLightDone); ++i) {
+    renderFrames(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(studio->snapshot());
+  ASSERT_EQ(studio->sceneWarnings().size(), 1u);
+  EXPECT_NE(studio->sceneWarnings()[0].find("EXT_made_up"), std::string::npos) << studio->sceneWarnings()[0];
+  std::string folder;
+  std::vector<std::string> written;
+  ASSERT_TRUE(studio->exportAll(dir + "/out", &written, &folder));
+  const nlohmann::json m = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"));
+  ASSERT_EQ(m["sceneWarnings"].size(), 1u);
+  EXPECT_NE(m["sceneWarnings"][0].get<std::string>().find("EXT_made_up"), std::string::npos);
+}

@@ -260,6 +260,7 @@ void Studio::pullSnapshot() {
     takeSnapshot(std::move(s));
   }
   Session::Status st = session_->status();
+  noteSceneWarnings(st.scene, st.sceneWarnings);
   if (st.loadErrorSerial > seenLoadErrors_) {
     seenLoadErrors_ = st.loadErrorSerial;
     // The loader's message is shown as it is (it names the file, the element
@@ -281,6 +282,15 @@ void Studio::pullSnapshot() {
     seenRunErrors_ = st.runErrorSerial;
     errorDialog_ = st.runError;
   }
+}
+
+// A scene loaded with warnings says so under the scene field, naming the
+// count and the first, until another scene is loaded (issue: the loader's
+// warnings were only in the Log tab).
+void Studio::noteSceneWarnings(const std::string& scene, const std::vector<std::string>& warnings) {
+  if (scene == warningsScene_ && warnings.size() == sceneWarnings_.size()) return;
+  warningsScene_ = scene;
+  sceneWarnings_ = warnings;
 }
 
 bool Studio::busy() const { return session_ && session_->status().busy(); }
@@ -541,10 +551,11 @@ void Studio::frame() {
     size_t warnings = 0;
     for (const LogEntry& e : log::entries()) warnings += e.level >= LogLevel::Warning;
     const std::string logTab = warnings > 0 ? "Log (" + std::to_string(warnings) + " warnings)###Log" : "Log###Log";
-    if (ImGui::BeginTabItem(logTab.c_str())) {
+    if (ImGui::BeginTabItem(logTab.c_str(), nullptr, showLog_ ? ImGuiTabItemFlags_SetSelected : 0)) {
       logPanel();
       ImGui::EndTabItem();
     }
+    showLog_ = false;
     ImGui::EndTabBar();
   }
   ImGui::EndChild();
@@ -651,6 +662,13 @@ void Studio::sceneControls() {
     }
   }
   errorField("scene");
+  if (!sceneWarnings_.empty()) {
+    char head[96];
+    std::snprintf(head, sizeof head, "Loaded with %zu warning%s: ", sceneWarnings_.size(),
+                  sceneWarnings_.size() == 1 ? "" : "s");
+    warningText((head + sceneWarnings_.front()).c_str());
+    if (ImGui::SmallButton("show the log")) showLog_ = true;
+  }
 }
 
 // The controls below return whether a setting changed.

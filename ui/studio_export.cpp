@@ -452,6 +452,7 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
           {"machine", machineJson()},
           {"complete", {{"manyLight", s.manyLightDone}, {"reference", s.referenceDone}}},
           {"nonFiniteRejected", s.nonFinite},
+          {"sceneWarnings", sceneWarnings_},
           {"view",
            {{"component", componentName(view_.component)},
             {"exposure", view_.exposure},
