@@ -14,6 +14,10 @@
 #                            once build/ exists).
 #   scripts/test.sh --full   every test in all three builds (release, ASan+UBSan,
 #                            TSan), about 45 minutes.
+#   scripts/test.sh --monkey the studio under random input (tests/test_monkey.cpp)
+#                            for VSL_MONKEY_SECONDS (default 600) in the
+#                            ASan+UBSan build; VSL_MONKEY_SEED picks the run.
+# The monkey test (label `monkey`) runs in --monkey only.
 #
 # Remaining arguments go to every ctest run, e.g. scripts/test.sh --quick -L unit.
 # Each run writes ctest's JUnit file (<build dir>/junit.xml) and prints its ten
@@ -24,7 +28,8 @@ mode=default
 case "${1:-}" in
   --quick) mode=quick; shift ;;
   --full) mode=full; shift ;;
-  -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+  --monkey) mode=monkey; shift ;;
+  -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
 esac
 scripts/setup.sh
 
@@ -79,7 +84,7 @@ case $mode in
     run_suite build
     ;;
   default)
-    with_defaults
+    with_defaults -LE monkey
     # bench/ is no test's: the release builds (--quick, --full) compile it.
     CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF)
     run_suite build-asan
@@ -90,11 +95,17 @@ case $mode in
     run_suite build-tsan "${TSAN_SUITES[@]}" vsl-studio
     ;;
   full)
-    with_defaults
+    with_defaults -LE monkey
     for pair in build: build-asan:address build-tsan:thread; do
       CMAKE_ARGS=("-DVSL_SANITIZE=${pair#*:}" "$FULL_DEBUG" -DVSL_BUILD_BENCH=ON)
       run_suite "${pair%%:*}"
     done
+    ;;
+  monkey)
+    export VSL_MONKEY_SECONDS=${VSL_MONKEY_SECONDS:-600}
+    with_defaults -L monkey --verbose
+    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF)
+    run_suite build-asan test_monkey vsl-studio
     ;;
 esac
 echo "== all test suites passed ($mode)"
