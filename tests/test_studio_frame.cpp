@@ -1378,3 +1378,37 @@ TEST_F(StudioFrame, SceneWarningsAreShownAndExported) {
   ASSERT_EQ(m["sceneWarnings"].size(), 1u);
   EXPECT_NE(m["sceneWarnings"][0].get<std::string>().find("EXT_made_up"), std::string::npos);
 }
+
+// tev's viewing keys: E and Shift+E step the exposure by half a stop, R
+// resets the view, F1 shows and hides the list of keys.
+TEST_F(StudioInput, ExposureResetAndShortcutKeys) {
+  ui::ViewState& v = studio->view();
+  v.exposure = 0;
+  v.zoom = 3;
+  v.center = ImVec2(0.3f, 0.6f);
+  renderFrames(2);
+  Input e;
+  e.key = 'E';
+  frameWith(e);
+  EXPECT_FLOAT_EQ(v.exposure, 0.5f);
+  frameWith(Input());
+  e.shift = true;
+  frameWith(e);
+  frameWith(Input());
+  frameWith(e);
+  EXPECT_FLOAT_EQ(v.exposure, -0.5f);
+  Input r;
+  r.key = 'R';
+  frameWith(r);
+  EXPECT_EQ(v.zoom, 1.0f);
+  EXPECT_EQ(v.center.x, 0.5f);
+  EXPECT_EQ(v.center.y, 0.5f);
+  EXPECT_FALSE(studio->shortcutsShown());
+  Input f1;
+  f1.key = 290;  // GLFW_KEY_F1
+  frameWith(f1);
+  EXPECT_TRUE(studio->shortcutsShown());
+  frameWith(Input());
+  frameWith(f1);
+  EXPECT_FALSE(studio->shortcutsShown());
+}

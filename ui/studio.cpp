@@ -561,6 +561,7 @@ void Studio::frame() {
   ImGui::EndChild();
   ImGui::EndChild();
 
+  shortcutsOverlay();
   // One dialog gathers failures (tev); Esc and Enter close it like OK.
   if (!errorDialog_.empty() && !ImGui::IsPopupOpen("Error")) ImGui::OpenPopup("Error");
   if (ImGui::BeginPopupModal("Error", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
@@ -898,7 +899,7 @@ void Studio::viewControls() {
   sectionTitle("View");
   int mode = int(view_.mode);
   if (ImGui::Combo("layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
-  if (ImGui::IsItemHovered()) tip("Keys: T swaps VSL and VPL; 1-7 put that image in panel 1");
+  if (ImGui::IsItemHovered()) tip("Keys: T swaps VSL and VPL; 1-8 put that image in panel 1; F1 lists every key");
   int panels = view_.mode == ViewMode::Single ? 1 : view_.mode == ViewMode::SideBySide3 ? 3 : 2;
   for (int i = 0; i < panels; ++i) {
     int src = int(view_.panels[i]);
@@ -1355,11 +1356,30 @@ void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float pa
   handleViewKeys();
 }
 
-// Keys over the views: T swaps VSL and VPL (or the first two panels), 1-7 put
-// that image in panel 1. Not while text is typed or a popup is open.
+// The keys the studio knows (kShortcuts lists them for the F1 overlay). ImGui
+// 1.86 indexes keys by GLFW's codes: letters and digits are their ASCII
+// codes, F1 is 290 and '/' 47.
+constexpr int kKeyF1 = 290, kKeySlash = 47;
+const char* const kShortcuts[][2] = {{"T", "swap VSL and VPL (or the first two panels)"},
+                                     {"1 - 8", "put that image in panel 1 (VSL, VPL, reference, ..., pinned VSL)"},
+                                     {"E / Shift+E", "exposure up / down half a stop"},
+                                     {"R", "reset the view: zoom 1, centred"},
+                                     {"wheel, drag", "zoom about the cursor, pan"},
+                                     {"Shift+drag, Shift+click", "draw a crop inset, clear it"},
+                                     {"F1 or ?", "show or hide this list"}};
+
+// Keys over the views (kShortcuts). Not while text is typed or a popup is open.
 void Studio::handleViewKeys() {
   ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput || ImGui::IsPopupOpen("", ImGuiPopupFlags_AnyPopupId)) return;
+  if (ImGui::IsKeyPressed('E', false))
+    view_.exposure = std::clamp(view_.exposure + (io.KeyShift ? -0.5f : 0.5f), -10.0f, 10.0f);
+  if (ImGui::IsKeyPressed('R', false)) {
+    view_.zoom = 1;
+    view_.center = ImVec2(0.5f, 0.5f);
+  }
+  if (ImGui::IsKeyPressed(kKeyF1, false) || (io.KeyShift && ImGui::IsKeyPressed(kKeySlash, false)))
+    showShortcuts_ = !showShortcuts_;
   Source* p = view_.panels;
   const int shown = view_.mode == ViewMode::SideBySide3 ? 3 : view_.mode == ViewMode::Single ? 1 : 2;
   if (ImGui::IsKeyPressed('T')) {
@@ -1374,6 +1394,29 @@ void Studio::handleViewKeys() {
       if (p[i] == Source(k)) p[i] = p[0];
     p[0] = Source(k);
   }
+}
+
+// The keys, in a window over the views (F1 or ? shows and hides it).
+void Studio::shortcutsOverlay() {
+  if (!showShortcuts_) return;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.4f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
+  ImGui::SetNextWindowBgAlpha(0.92f);
+  if (ImGui::Begin(
+          "Shortcuts (F1 or ? to close)", &showShortcuts_,
+          ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoSavedSettings)) {
+    if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingFixedFit)) {
+      for (const auto& [key, what] : kShortcuts) {
+        ImGui::TableNextRow();
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(key);
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(what);
+      }
+      ImGui::EndTable();
+    }
+  }
+  ImGui::End();
 }
 
 bool Studio::pixelValue(Source src, Component c, int x, int y, Vec3* out) const {

@@ -168,6 +168,7 @@ class Studio {
   const std::string& errorDialog() const { return errorDialog_; }
   // The open scene's loader warnings (shown under the scene field, exported).
   const std::vector<std::string>& sceneWarnings() const { return sceneWarnings_; }
+  bool shortcutsShown() const { return showShortcuts_; }
   // The scene field's text (a failed load leaves the typed path there).
   const std::string& sceneField() const { return scenePath_; }
   // The pixel probe's tooltip: where it was last drawn and its size.
@@ -340,8 +341,10 @@ class Studio {
   std::string warningsScene_;               // the scene sceneWarnings_ belong to
   std::vector<std::string> sceneWarnings_;  // the loader's warnings for the open scene
   bool showLog_ = false;                    // bring up the Log tab in the next frame
-  ImVec2 probeMin_ = {}, probeSize_ = {};   // the pixel probe's last place and size (kept inside the window)
-  ParamMemory paramMemory_;                 // the numbers parameters return to from "auto" or "off" (param_widgets.h)
+  bool showShortcuts_ = false;              // the keys' overlay (F1 or ?)
+  void shortcutsOverlay();
+  ImVec2 probeMin_ = {}, probeSize_ = {};  // the pixel probe's last place and size (kept inside the window)
+  ParamMemory paramMemory_;                // the numbers parameters return to from "auto" or "off" (param_widgets.h)
   std::string message_, errorDialog_;
   uint64_t seenLoadErrors_ = 0;
   bool savePngPending_ = false;
