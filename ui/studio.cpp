@@ -1825,6 +1825,32 @@ void Studio::livePtRow(const Snapshot& s, const TableState& t) {
   flipCell(s, t, 4);
 }
 
+// The table's header, each column's title explained in its tooltip.
+void Studio::headerRow(const TableState& t) const {
+  char budget[400];
+  std::snprintf(budget, sizeof budget,
+                "Each method's relMSE after %.3g s of its own time (the gather time charged to it alone; the path "
+                "tracer's own passes), interpolated in its history. The budget is the largest every method has "
+                "reached: the smallest of their latest own times.",
+                t.budget);
+  const char* tips[] = {
+      "Each method's image against the reference, on this component",
+      "The image's mean (per channel, then averaged): a method darker than the reference lost light",
+      "Root mean squared error",
+      t.noise > 0 ? "relMSE = mean((t-r)^2/(r^2+eps)), less the reference's own noise (relMSE(A, B)/4 of its halves)"
+                  : "relMSE = mean((t-r)^2/(r^2+eps)); the reference's own noise is not known, so not subtracted",
+      t.compared ? budget : "Equal time is measured on the compared component only",
+      "bias^2 over the completed light sets (less the reference's own noise where known)",
+      "The variance of one light set (relMSE units); the mean of K sets has 1/K of it",
+      "LDR-FLIP (HPG 2020) of the tone-mapped images at this exposure"};
+  ImGui::TableNextRow(ImGuiTableRowFlags_Headers);
+  for (int c = 0; c < int(std::size(tips)); ++c) {
+    ImGui::TableSetColumnIndex(c);
+    ImGui::TableHeader(ImGui::TableGetColumnName(c));
+    if (ImGui::IsItemHovered()) tip("%s", tips[c]);
+  }
+}
+
 void Studio::metricsTable(const Snapshot& s) {
   const TableState t = metricsTableState(s);
   // A fixed outer width: the table's row lines end at the table, not under the plot.
@@ -1843,7 +1869,7 @@ void Studio::metricsTable(const Snapshot& s) {
   ImGui::TableSetupColumn(t.noise > 0 ? "bias^2-noise" : "bias^2");
   ImGui::TableSetupColumn("noise");
   ImGui::TableSetupColumn("FLIP");
-  ImGui::TableHeadersRow();
+  headerRow(t);
   for (int i = 0; i < 4; ++i)
     if (metricShown(i)) methodRow(s, t, i);
   if (pinnedFits()) pinnedRow(t);

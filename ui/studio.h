@@ -369,6 +369,7 @@ class Studio {
   nlohmann::json sourceMetricsJson(Source src) const;
   bool compareButton();  // comparePresets() as a button
   void pinnedRow(const TableState& t);
+  void headerRow(const TableState& t) const;
   // LDR-FLIP of each method (and the live path tracer) against the reference
   // for the shown component and exposure, computed off the UI thread.
   struct FlipNumbers {
