@@ -1412,3 +1412,38 @@ TEST_F(StudioInput, ExposureResetAndShortcutKeys) {
   frameWith(f1);
   EXPECT_FALSE(studio->shortcutsShown());
 }
+
+// A picture from under 5% of the first light set's lights carries a ROUGH
+// badge on the methods' panels, not on the reference's; it goes once the
+// set has more.
+TEST_F(StudioFrame, EarlyPicturesAreMarkedRough) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide3;
+  v.panels[0] = ui::Source::Vsl;
+  v.panels[1] = ui::Source::Vpl;
+  v.panels[2] = ui::Source::Reference;
+  auto snap = std::make_shared<Snapshot>(*studio->snapshot());
+  snap->lightSets = 2;
+  snap->lightsTotal = 20000;
+  snap->lightsProcessed = 30;
+  snap->lightSetsDone = 0;
+  snap->manyLightDone = false;
+  studio->setSnapshotForTesting(snap);
+  auto px = renderFrames();
+  EXPECT_TRUE(studio->roughPicture());
+  // The badge's blue box at each method panel's top-left corner, none on the reference.
+  auto badge = [&](int i) {
+    const auto& d = studio->drawnImages()[size_t(i)];
+    const Vec3 c = pixel(px, int(d.p0.x + 6), int(d.p0.y + 6));
+    return c.z > c.x + 40;
+  };
+  EXPECT_TRUE(badge(0));
+  EXPECT_TRUE(badge(1));
+  EXPECT_FALSE(badge(2)) << "the reference is not the methods' picture";
+  snap = std::make_shared<Snapshot>(*snap);
+  snap->lightsProcessed = 600;  // 6% of the first set's 10,000
+  studio->setSnapshotForTesting(snap);
+  px = renderFrames();
+  EXPECT_FALSE(studio->roughPicture());
+  EXPECT_FALSE(badge(0));
+}

@@ -384,6 +384,19 @@ bool Studio::sourceStale(Source s) const {
   return !sameImageSettings(a, accepted_);
 }
 
+bool Studio::roughPicture() const {
+  if (!snap_ || snap_->lightSetsDone > 0 || snap_->manyLightDone) return false;
+  const double perSet = double(snap_->lightsTotal) / std::max(snap_->lightSets, 1);
+  return double(snap_->lightsProcessed) < kRoughShare * perSet;
+}
+
+std::string Studio::roughText() const {
+  const double perSet = double(snap_->lightsTotal) / std::max(snap_->lightSets, 1);
+  char text[96];
+  std::snprintf(text, sizeof text, "ROUGH - %zu of %.0f lights", snap_->lightsProcessed, perSet);
+  return text;
+}
+
 bool Studio::panelStale(int i) const {
   if (view_.mode == ViewMode::Wipe && i < 2) return sourceStale(view_.panels[0]) || sourceStale(view_.panels[1]);
   return sourceStale(view_.panels[std::clamp(i, 0, 2)]);
@@ -1168,6 +1181,15 @@ void staleMark(ImDrawList* dl, ImVec2 p0, ImVec2 p1) {
   dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(255, 220, 120, 255), badge);
 }
 
+// A picture from a small share of its light set is marked as such: with a
+// few lights it is a blotch, not yet the method's picture (issue: "a green
+// single-light blotch, without a badge").
+void roughMark(ImDrawList* dl, ImVec2 p0, const char* text) {
+  ImVec2 ts = ImGui::CalcTextSize(text);
+  dl->AddRectFilled(ImVec2(p0.x + 4, p0.y + 4), ImVec2(p0.x + ts.x + 12, p0.y + ts.y + 8), IM_COL32(40, 70, 120, 230));
+  dl->AddText(ImVec2(p0.x + 8, p0.y + 6), IM_COL32(200, 225, 255, 255), text);
+}
+
 // A box in place of a picture, saying why. The text wraps inside the box (a
 // panel can be narrower than one line) and is clipped to it.
 void waitBox(ImDrawList* dl, ImVec2 p0, ImVec2 p1, const char* text) {
@@ -1257,7 +1279,10 @@ void Studio::viewsPanel() {
       }
       drawn_.push_back({p0, p1, uv0, uv1, s});
       bool stale = sourceStale(s);
-      if (stale) staleMark(dl, p0, p1);
+      if (stale)
+        staleMark(dl, p0, p1);
+      else if (isMethod(s) && s != Source::Pinned && roughPicture())
+        roughMark(dl, p0, roughText().c_str());
       dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
                   (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
     }

@@ -169,6 +169,10 @@ class Studio {
   // The open scene's loader warnings (shown under the scene field, exported).
   const std::vector<std::string>& sceneWarnings() const { return sceneWarnings_; }
   bool shortcutsShown() const { return showShortcuts_; }
+  // The methods' picture comes from under kRoughShare of the first light
+  // set's lights: its panels carry a "ROUGH" badge.
+  bool roughPicture() const;
+  static constexpr double kRoughShare = 0.05;
   // The scene field's text (a failed load leaves the typed path there).
   const std::string& sceneField() const { return scenePath_; }
   // The pixel probe's tooltip: where it was last drawn and its size.
@@ -370,6 +374,7 @@ class Studio {
   bool compareButton();  // comparePresets() as a button
   void pinnedRow(const TableState& t);
   void headerRow(const TableState& t) const;
+  std::string roughText() const;
   // LDR-FLIP of each method (and the live path tracer) against the reference
   // for the shown component and exposure, computed off the UI thread.
   struct FlipNumbers {
