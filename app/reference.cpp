@@ -20,6 +20,7 @@ struct ReferenceArgs {
   RenderSettings settings;  // width, height, spp, timeLimit, seed, maxDepth
   double target = 0;        // stop once the indirect noise estimate is at most this
   bool sppGiven = false, noCache = false;
+  bool half = false;  // 16-bit channels (the shipped references)
 };
 
 std::string formatSeconds(double s) {
@@ -74,12 +75,12 @@ void renderUntilDone(ReferenceRenderer& rr, const ReferenceArgs& a, int maxSpp) 
 // Writes the reference to -o and to the cache (unless --no-cache).
 int writeOutputs(const ReferenceArgs& a, const Reference& ref) {
   if (!a.out.empty()) {
-    if (Result<void> written = writeReference(a.out, ref, a.scene); !written)
+    if (Result<void> written = writeReference(a.out, ref, a.scene, a.half); !written)
       return fail(kExitBadInput, written.error());
     std::fprintf(stderr, "wrote %s (layers: full, direct, indirect and halves A.*, B.*)\n", a.out.c_str());
   }
   if (!a.noCache) {
-    Result<std::string> stored = storeCachedReference(ref, a.scene);
+    Result<std::string> stored = storeCachedReference(ref, a.scene, a.half);
     if (!stored) return fail(kExitBadInput, stored.error());
     const std::string& written = *stored;
     if (written.empty())
@@ -154,6 +155,8 @@ Subcommand addReferenceCommand(CLI::App& app) {
   reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
   reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");
   reference->add_flag("--no-cache", rfa.noCache, "Do not store the result in the reference cache");
+  reference->add_flag("--half", rfa.half,
+                      "Write 16-bit channels (half the size; relative precision 2^-11, far below a reference's noise)");
   return {reference, [args, spp] {
             args->sppGiven = spp->count() > 0;
             return cmdReference(*args);

@@ -541,8 +541,8 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
                    "%s: no --reference given and no cached reference at %dx%d (%s); render one with\n"
                    "  vsl reference %s --width %d --spp 4096",
                    a.scene.c_str(), w, h, referenceCachePath(key).c_str(), a.scene.c_str(), w);
+    out.name = "cache: " + cached->source;
     out.ref = std::move(*cached);
-    out.name = "cache: " + referenceCachePath(key);
   }
   const Image& ref = out.ref.indirect;
   if (Result<void> radiance = checkRadiance(ref, out.name); !radiance) return fail(kExitBadInput, radiance.error());

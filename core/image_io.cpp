@@ -153,7 +153,7 @@ std::string channelName(const std::string& layer, char c) {
 }  // namespace
 
 Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
-                      const std::map<std::string, std::string>& attributes) {
+                      const std::map<std::string, std::string>& attributes, bool half) {
   if (layers.empty()) {
     return Error(path + ": no layers to write");
   }
@@ -171,7 +171,7 @@ Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
     for (const Layer& l : layers)
       for (int c = 0; c < 3; ++c) {
         std::string name = channelName(l.name, "RGB"[c]);
-        header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+        header.channels().insert(name, Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
         fb.insert(name, Imf::Slice(Imf::FLOAT, (char*)(l.image.rgb.data() + c), sizeof(float) * 3,
                                    sizeof(float) * 3 * size_t(w)));
       }

@@ -34,8 +34,10 @@ Result<void> writeFileAtomically(const std::string& path, const void* data, size
 // directory or a link that does not resolve.
 Result<std::string> atomicWriteTarget(const std::string& path);
 
+// half: 16-bit channels (relative precision 2^-11; the shipped references,
+// whose size matters more than the last digits).
 Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
-                      const std::map<std::string, std::string>& attributes = {});
+                      const std::map<std::string, std::string>& attributes = {}, bool half = false);
 // Reads every RGB layer (channels NAME.R/G/B, or R/G/B for the default layer).
 // The data window is checked before any allocation: at most 65536 pixels a
 // side, and no more decoded bytes than the file could plausibly hold (4096

@@ -189,7 +189,7 @@ std::string referenceCachePath(const std::string& key) { return referenceCacheDi
 
 // ---- Files ----------------------------------------------------------------------------
 
-Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath) {
+Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath, bool half) {
   std::vector<Layer> layers = {{"", ref.full}, {"full", ref.full}, {"direct", ref.direct}, {"indirect", ref.indirect}};
   if (ref.hasHalves()) {
     layers.insert(layers.end(), {{"A.full", ref.fullA},
@@ -208,7 +208,7 @@ Result<void> writeReference(const std::string& path, const Reference& ref, const
                                               {"vsl.reference.seconds", std::to_string(ref.seconds)},
                                               {"vsl.reference.key", ref.key},
                                               {"vsl.reference.indirectNoise", noise}};
-  return writeExr(path, layers, attrs);
+  return writeExr(path, layers, attrs, half);
 }
 
 namespace {
@@ -297,18 +297,34 @@ Result<Reference> readReference(const std::string& path, int width, int height, 
   return r;
 }
 
-std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height) {
-  std::string path = referenceCachePath(key);
+std::string shippedReferenceDir() {
+  if (const char* d = std::getenv("VSL_SHIPPED_REFERENCES")) return d;
+  return VSL_SHIPPED_REFERENCES_DIR;
+}
+
+namespace {
+std::unique_ptr<Reference> readCandidate(const std::string& path, const std::string& key, int width, int height) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return nullptr;
   Result<Reference> read = readReference(path, width, height);
   if (!read) return nullptr;
   auto r = std::make_unique<Reference>(std::move(read).value());
   r->key = key;
+  r->source = path;
   return r;
 }
+}  // namespace
 
-Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath) {
+std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height) {
+  std::unique_ptr<Reference> cached = readCandidate(referenceCachePath(key), key, width, height);
+  const std::string shippedDir = shippedReferenceDir();
+  std::unique_ptr<Reference> shipped =
+      shippedDir.empty() ? nullptr : readCandidate(shippedDir + "/" + key + ".exr", key, width, height);
+  if (shipped && (!cached || shipped->spp > cached->spp)) return shipped;
+  return cached;
+}
+
+Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath, bool half) {
   if (ref.key.empty()) return Error("reference cache: the reference has no key");
   if (auto existing = findCachedReference(ref.key, ref.width, ref.height); existing && existing->spp >= ref.spp)
     return std::string();
@@ -317,7 +333,7 @@ Result<std::string> storeCachedReference(const Reference& ref, const std::string
   std::filesystem::create_directories(dir, ec);
   if (ec) return Error(dir + ": cannot create the reference cache (" + ec.message() + ")");
   std::string path = referenceCachePath(ref.key);
-  if (Result<void> w = writeReference(path, ref, scenePath); !w) return Error(w.error());
+  if (Result<void> w = writeReference(path, ref, scenePath, half); !w) return Error(w.error());
   return path;
 }
 

@@ -117,8 +117,10 @@ Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const
 std::string referenceCacheDir();
 std::string referenceCachePath(const std::string& key);
 
-// Writes a reference with its halves and attributes (atomically).
-Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath);
+// Writes a reference with its halves and attributes (atomically); half:
+// 16-bit channels (writeExr).
+Result<void> writeReference(const std::string& path, const Reference& ref, const std::string& scenePath,
+                            bool half = false);
 // Reads any EXR as a reference of width x height (0: any size): the
 // `indirect` layer (or the layer named indirectLayer), full and direct
 // optional (a missing full is direct + indirect when both exist). Without an
@@ -127,11 +129,17 @@ Result<void> writeReference(const std::string& path, const Reference& ref, const
 // no usable layer, non-finite values).
 Result<Reference> readReference(const std::string& path, int width, int height,
                                 const std::string& indirectLayer = "indirect");
-// The cached reference for this key, if one exists and reads; null otherwise.
+// The references shipped with the source (assets/references/<key>.exr, made
+// by scripts/make_references.sh; docs/REFERENCE.md, "References"), or
+// $VSL_SHIPPED_REFERENCES when set ("": none; the tests set it so).
+std::string shippedReferenceDir();
+// The reference for this key with the more samples of the cache's and the
+// shipped one (source says which file), if either exists and reads; null
+// otherwise.
 std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height);
 // Stores ref in the cache unless an entry with at least as many samples is
 // already there. Returns the path written ("" if kept the existing one); an
 // error on I/O failure.
-Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath);
+Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath, bool half = false);
 
 }  // namespace vsl

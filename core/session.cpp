@@ -749,7 +749,7 @@ void Session::chooseReference(Worker& w, Job& job) {
   }
   if (!refused.empty()) reportRunError(refused + "; errors are measured against the live path tracer");
   if (chosen && !file.empty()) log::info("reference: " + file);
-  if (chosen && file.empty()) log::info("reference: the cached " + referenceCachePath(w.cacheKey));
+  if (chosen && file.empty()) log::info("reference: " + chosen->source);
   w.convergedFor = want;
   if (!chosen && !w.converged) return;
   w.converged = std::move(chosen);
@@ -956,7 +956,9 @@ void Session::useReference(const Worker& w, double liveNoise, Snapshot& snap) {
     snap.refIndirect = snap.comparesFull ? difference(c.full, snap.ptDirect) : c.indirect;
     const bool cached = w.convergedFor.rfind("cache:", 0) == 0;
     const std::string& src = w.converged->source.empty() ? referenceCachePath(w.converged->key) : w.converged->source;
-    snap.referenceSource = cached ? "cache: " + src : src;
+    const std::string shippedDir = shippedReferenceDir();
+    const bool shipped = cached && !shippedDir.empty() && src.rfind(shippedDir, 0) == 0;
+    snap.referenceSource = shipped ? "shipped: " + src : cached ? "cache: " + src : src;
     snap.referenceSpp = w.converged->spp;
     snap.referenceNoise = w.convergedNoise;
   } else {
