@@ -1,5 +1,6 @@
 #include "core/image_io.h"
 
+#include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -11,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -168,13 +170,25 @@ Result<void> writeExr(const std::string& path, const std::vector<Layer>& layers,
     header.compression() = Imf::ZIP_COMPRESSION;
     for (const auto& [k, v] : attributes) header.insert(k, Imf::StringAttribute(v));
     Imf::FrameBuffer fb;
-    for (const Layer& l : layers)
+    // 16-bit channels take 16-bit slices (OpenEXR writes no conversion).
+    std::vector<std::vector<Imath::half>> halves(half ? layers.size() : 0);
+    for (size_t i = 0; i < layers.size(); ++i) {
+      const Layer& l = layers[i];
+      // Beyond half's largest finite value (65504) a value would become
+      // infinite, which no reader takes: it is clamped there.
+      if (half)
+        for (float v : l.image.rgb) halves[i].push_back(Imath::half(std::clamp(v, -65504.0f, 65504.0f)));
       for (int c = 0; c < 3; ++c) {
         std::string name = channelName(l.name, "RGB"[c]);
         header.channels().insert(name, Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
-        fb.insert(name, Imf::Slice(Imf::FLOAT, (char*)(l.image.rgb.data() + c), sizeof(float) * 3,
-                                   sizeof(float) * 3 * size_t(w)));
+        if (half)
+          fb.insert(name, Imf::Slice(Imf::HALF, (char*)(halves[i].data() + c), sizeof(Imath::half) * 3,
+                                     sizeof(Imath::half) * 3 * size_t(w)));
+        else
+          fb.insert(name, Imf::Slice(Imf::FLOAT, (char*)(l.image.rgb.data() + c), sizeof(float) * 3,
+                                     sizeof(float) * 3 * size_t(w)));
       }
+    }
     Imf::OutputFile file(stream, header);
     file.setFrameBuffer(fb);
     file.writePixels(h);
