@@ -16,7 +16,6 @@
 #include "core/film.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
-#include "core/mrcs.h"
 #include "core/scene.h"
 #include "core/stopwatch.h"
 
@@ -75,8 +74,6 @@ std::string unwritableOutput(const CLI::App& subcommand);
 // --preset, then an option per parameter of the many-light methods
 // (core/params.h) but those in skip; shared by render and sweep.
 void addVslOptions(CLI::App* cmd, ManyLightSettings& m, const std::vector<std::string>& skip = {});
-// Parses --mrcs ROWS,CLUSTERS[,MIX]; reports and returns false when malformed.
-bool parseMrcsSpec(const std::string& spec, MrcsSettings& out);
 
 // ---- Progress, scenes, images ------------------------------------------------
 

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "app/cli.h"
+#include "app/estimator_options.h"
 #include "app/finite_options.h"
 #include "app/render.h"
 #include "core/image_io.h"
@@ -35,12 +36,7 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
       ->check(CLI::IsMember({"pt", "vsl", "vpl", "all"}))
       ->default_str("pt");
   addVslOptions(render, ra.many);
-  render->add_option("--mrcs", ra.mrcsSpec,
-                     "Matrix row-column sampling: ROWS,CLUSTERS[,MIX] (e.g. 300,900; MIX: uniform share of the "
-                     "representative choice)");
-  render->add_flag(
-      "--mrcs-spread", ra.mrcsSpread,
-      "MRCS: a VSL representative of weight w gets radius r sqrt(w) (fewer blobs; about 10% darker, slower)");
+  addEstimatorOptions(render, ra.estimatorOptions);
   auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel (pt)")->default_str("64");
   render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
       ->check(positiveSeconds())
@@ -61,7 +57,7 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render->add_option("--json", ra.jsonPath, "Write statistics as JSON");
 }
 
-// Fills a.many and a.mrcs for the many-light methods from the command line.
+// Fills a.many and a.estimator for the many-light methods from the command line.
 // Returns 0, or the exit code after reporting.
 int resolveManyLightArgs(RenderArgs& a) {
   ManyLightSettings& m = a.many;
@@ -75,12 +71,10 @@ int resolveManyLightArgs(RenderArgs& a) {
   for (const std::string& option : a.manyLightOptionsGiven) given.push_back(option.substr(2));
   if (Result<void> used = manyLightParams().checkUsed(m, given, m.computeVsl, m.computeVpl); !used)
     return fail(kExitBadArguments, "--" + used.error());
-  if (!a.mrcsSpec.empty()) {
-    if (!parseMrcsSpec(a.mrcsSpec, a.estimator.mrcs)) return kExitBadArguments;
-    a.estimator.kind = EstimatorKind::Mrcs;
-    if (Result<void> e = a.estimator.validateWith(m); !e) return fail(kExitBadArguments, "--" + e.error());
-  }
-  a.estimator.mrcs.spreadVslRadius = a.mrcsSpread;
+  Result<EstimatorSettings> e = resolveEstimatorOptions(a.estimatorOptions);
+  if (!e) return fail(kExitBadArguments, e.error());
+  a.estimator = *e;
+  if (Result<void> with = a.estimator.validateWith(m); !with) return fail(kExitBadArguments, "--" + with.error());
   return 0;
 }
 

@@ -1,12 +1,13 @@
 // `vsl render`, shared between its two halves: app/render.cpp (options,
 // validation, loading, the path tracer) and app/render_many_lights.cpp (VSL,
-// VPL and MRCS from one virtual light set).
+// VPL from one virtual light set, by any registered estimator).
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "app/estimator_options.h"
 #include "core/estimator.h"
 #include "core/render_context.h"
 #include "core/settings.h"
@@ -17,10 +18,9 @@ struct RenderArgs {
   std::string scene, out, png, jsonPath, camera, component = "full";
   RenderSettings settings;
   ManyLightSettings many;
-  std::string mrcsSpec;
-  bool mrcsSpread = false;
-  Method method = Method::Pt;   // settings.method, parsed once
-  EstimatorSettings estimator;  // brute force, or MRCS with --mrcs (its seed stays 0)
+  EstimatorOptions estimatorOptions;  // --estimator, its parameters, --mrcs
+  Method method = Method::Pt;         // settings.method, parsed once
+  EstimatorSettings estimator;        // resolved from estimatorOptions (its seed stays 0)
   float exposure = 0;
   // The many-light options given on the command line (their long names):
   // with --method pt they would do nothing, so they are refused.

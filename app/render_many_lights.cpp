@@ -1,6 +1,6 @@
 // `vsl render --method vsl|vpl|all`: traces one virtual light set, gathers it
-// either in progressive light batches (brute force) or with matrix row-column
-// sampling (--mrcs), and writes the EXR layers of the chosen method(s), the
+// with the chosen estimator (--estimator: brute-force batches, MRCS, any
+// registered one), and writes the EXR layers of the chosen method(s), the
 // optional PNG and --json statistics.
 #include <algorithm>
 #include <atomic>
@@ -12,6 +12,7 @@
 
 #include "app/cli.h"
 #include "app/render.h"
+#include "core/estimator_json.h"
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/presets.h"
@@ -29,13 +30,13 @@ struct Gathered {
   size_t lightsProcessed = 0;
   uint64_t pairs = 0, shadowRays = 0, vslEvaluations = 0, nonFinite = 0, rouletteDropped = 0;
   double seconds = 0;
-  json mrcs;  // MRCS statistics; null for the brute-force gather
+  std::vector<std::pair<std::string, double>> statistics;  // the estimator's own
 };
 
-// One MRCS step on a thread of its own while this one shows its stages
-// (`mp`, which the estimator reports to) as a share of the whole render
-// (MrcsProgress::overall: each stage weighted by its pairs).
-void mrcsStepWithProgress(ManyLightEstimator& est, const MrcsProgress& mp, Progress& progress) {
+// One long step (EstimatorInfo::wholeSetPerStep) on a thread of its own
+// while this one shows its stages (`sp`, which the estimator reports to) as
+// a share of the step.
+void longStepWithProgress(ManyLightEstimator& est, const StepProgress& sp, Progress& progress) {
   std::atomic<bool> finished{false};
   std::thread worker([&] {
     est.step();
@@ -43,42 +44,47 @@ void mrcsStepWithProgress(ManyLightEstimator& est, const MrcsProgress& mp, Progr
   });
   while (!finished) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    const int st = mp.stage.load();
-    if (st != MrcsProgress::kIdle && st != MrcsProgress::kDone) progress.update(mp.overall(), mp.text());
+    if (const std::string text = sp.text(); !text.empty()) progress.update(sp.share(), text);
   }
   worker.join();
 }
 
-// Steps the estimator until it is done or the time limit is reached: brute
-// force in progressive light batches, MRCS (rows, clustering,
-// representative columns) in one step.
-void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp, Gathered& g) {
-  const EstimatorSettings& e = a.estimator;
+// The progress line after a brute-force batch: done in time where the
+// batches' costs predict the rest (a batch's per-pixel work does not scale
+// with its lights), else in lights.
+void showBatch(const ManyLightEstimator& est, double el, Progress& progress) {
+  const std::optional<double> left = est.remainingSeconds();
+  char detail[200], eta[48] = "";
+  if (left && *left > 0) std::snprintf(eta, sizeof eta, ", ~%.1f s left", *left);
+  std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s%s", est.stepsDone(),
+                est.stepCount(), est.lightsProcessed(), est.stats().pairs / std::max(el, 1e-9) * 1e-6, el, eta);
   const size_t n = est.run().set.lights.size();
-  if (e.kind == EstimatorKind::Mrcs)
-    std::fprintf(stderr, "render: MRCS with %d rows and %d clusters (uniform mix %g) over %zu lights\n", e.mrcs.rows,
-                 e.mrcs.clusters, e.mrcs.uniformMix, n);
+  progress.update(left ? el / std::max(el + *left, 1e-9) : double(est.lightsProcessed()) / std::max<size_t>(n, 1),
+                  detail);
+}
+
+// Steps the estimator until it is done or the time limit is reached, then
+// prints what its last step has to say (ManyLightEstimator::stepReport).
+void gather(const RenderArgs& a, ManyLightEstimator& est, const StepProgress& sp, Gathered& g) {
+  const EstimatorInfo& info = *findEstimator(a.estimator.name);
+  if (info.wholeSetPerStep)
+    std::fprintf(stderr, "render: %s over %zu lights\n", a.estimator.describe().c_str(), est.run().set.lights.size());
   Progress progress("render");
   Stopwatch clock;
-  if (e.kind == EstimatorKind::Mrcs) {
-    mrcsStepWithProgress(est, mp, progress);
-    char done[64];
-    std::snprintf(done, sizeof done, "MRCS done, %.1f s", clock.seconds());
-    progress.update(1.0, done);
-  }
+  double stepSeconds = 0;
   while (!est.done()) {
-    est.step();
-    double el = clock.seconds();
-    // Done in time where the batches' costs predict the rest (a batch's
-    // per-pixel work does not scale with its lights), else in lights.
-    const std::optional<double> left = est.remainingSeconds();
-    char detail[200], eta[48] = "";
-    if (left && *left > 0) std::snprintf(eta, sizeof eta, ", ~%.1f s left", *left);
-    std::snprintf(detail, sizeof detail, "batch %d/%d, %zu lights, %.2f Mpairs/s, %.1f s%s", est.stepsDone(),
-                  est.stepCount(), est.lightsProcessed(), est.stats().pairs / std::max(el, 1e-9) * 1e-6, el, eta);
-    progress.update(left ? el / std::max(el + *left, 1e-9) : double(est.lightsProcessed()) / std::max<size_t>(n, 1),
-                    detail);
-    if (a.settings.timeLimit > 0 && el >= a.settings.timeLimit) break;
+    Stopwatch stepClock;
+    if (info.wholeSetPerStep) {
+      longStepWithProgress(est, sp, progress);
+      char done[64];
+      std::snprintf(done, sizeof done, "step %d/%d done, %.1f s", est.stepsDone(), est.stepCount(), clock.seconds());
+      progress.update(double(est.stepsDone()) / std::max(est.stepCount(), 1), done);
+    } else {
+      est.step();
+      showBatch(est, clock.seconds(), progress);
+    }
+    stepSeconds = stepClock.seconds();
+    if (a.settings.timeLimit > 0 && clock.seconds() >= a.settings.timeLimit) break;
   }
   progress.finish();
   g.im = est.images();
@@ -92,30 +98,10 @@ void gather(const RenderArgs& a, ManyLightEstimator& est, const MrcsProgress& mp
   g.vslEvaluations = st.vslEvaluations;
   g.rouletteDropped = st.rouletteDropped;
   g.nonFinite = st.nonFinite;
-  if (e.kind != EstimatorKind::Mrcs) return;
-  const MrcsStats ms = est.mrcsStats();
-  g.mrcs = {{"rows", e.mrcs.rows},
-            {"clusters", e.mrcs.clusters},
-            {"uniformMix", e.mrcs.uniformMix},
-            {"spreadVslRadius", e.mrcs.spreadVslRadius},
-            {"rowSeconds", ms.rowSeconds},
-            {"clusterSeconds", ms.clusterSeconds},
-            {"columnSeconds", ms.columnSeconds},
-            {"lobeGatherSeconds", ms.lobeSeconds},
-            {"zeroColumnsVsl", ms.zeroColumnsVsl},
-            {"zeroColumnsVpl", ms.zeroColumnsVpl},
-            {"rowsUsed", ms.rowsUsed},
-            {"clustersUsed", ms.clustersUsed}};
-  if (ms.rowsUsed < e.mrcs.rows)
-    std::fprintf(stderr, "render: warning: %d MRCS rows for %d pixels: %d used (every pixel a row)\n", e.mrcs.rows,
-                 g.w * g.h, ms.rowsUsed);
-  if (ms.clustersUsed < e.mrcs.clusters)
-    std::fprintf(stderr, "render: warning: %d MRCS clusters for %zu lights: a cluster per light\n", e.mrcs.clusters,
-                 est.run().set.lights.size());
-  std::fprintf(stderr, "render: rows %.2f s, clustering %.2f s, columns %.2f s", ms.rowSeconds, ms.clusterSeconds,
-               ms.columnSeconds);
-  if (ms.lobeSeconds > 0) std::fprintf(stderr, ", lobe gather %.2f s (in the eye paths)", ms.lobeSeconds);
-  std::fprintf(stderr, "\n");
+  g.statistics = est.statistics();
+  const StepReport report = est.stepReport(stepSeconds);
+  for (const std::string& w : report.warnings) std::fprintf(stderr, "render: warning: %s\n", w.c_str());
+  for (const std::string& line : report.info) std::fprintf(stderr, "render: %s\n", line.c_str());
 }
 
 // The EXR layers of the method(s), the default layer (index 0) being the
@@ -129,7 +115,7 @@ std::vector<Layer> manyLightLayers(const RenderArgs& a, const ManyLightImages& i
   if (a.method == Method::All) {
     std::vector<Layer> layers = {{"", pick(im.vsl, vslFull)}, {"vsl-full", vslFull},    {"vsl-indirect", im.vsl},
                                  {"vpl-full", vplFull},       {"vpl-indirect", im.vpl}, {"direct", im.direct}};
-    if (a.estimator.kind == EstimatorKind::BruteForce)  // MRCS renders the two methods only
+    if (findEstimator(a.estimator.name)->vplVariants)  // else it renders the two methods only
       layers.insert(layers.end(), {{"vpl-unclamped-indirect", im.vplUnclamped},
                                    {"vpl-diffuse-indirect", im.vplDiffuse},
                                    {"lost-to-clamping", im.lostToClamping},
@@ -174,13 +160,14 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
   const ManyLightImages& im = g.im;
   auto q = [&](double f) { return double(percentile(run.radii, f)); };
   // The means of the layers this render computed (manyLightLayers): a method
-  // not rendered, or a VPL variant MRCS never renders, is left out, not 0.
-  const bool mrcs = a.estimator.kind == EstimatorKind::Mrcs, vsl = a.method != Method::Vpl,
-             vpl = a.method != Method::Vsl;
+  // not rendered, or a VPL variant the estimator never renders, is left out,
+  // not 0; so are the counts it does not keep.
+  const EstimatorInfo& info = *findEstimator(a.estimator.name);
+  const bool counted = info.countsNotKept.empty(), vsl = a.method != Method::Vpl, vpl = a.method != Method::Vsl;
   json mean = {{"direct", imageMeanJson(im.direct)}};
   if (vsl) mean["vslIndirect"] = imageMeanJson(im.vsl);
   if (vpl) mean["vplIndirect"] = imageMeanJson(im.vpl);
-  if (vpl && !mrcs) {
+  if (vpl && info.vplVariants) {
     mean["vplUnclampedIndirect"] = imageMeanJson(im.vplUnclamped);
     mean["vplDiffuseIndirect"] = imageMeanJson(im.vplDiffuse);
     mean["lostToClamping"] = imageMeanJson(im.lostToClamping);
@@ -189,7 +176,9 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
   json j = {{"version", VSL_VERSION},
             {"scene", a.scene},
             {"method", a.settings.method},
-            {"estimator", estimatorName(a.estimator.kind)},
+            {"estimator", a.estimator.name},
+            {"estimatorParameters", estimatorValuesJson(a.estimator)},
+            {"estimatorStats", estimatorStatsJson(g.statistics)},
             {"settings", a.many.describe()},
             {"preset", matchingPreset(a.many)},
             {"width", g.w},
@@ -211,14 +200,13 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
               {"total", t.total}}},
             {"pairs", g.pairs},
             {"pairsPerSecond", g.pairs / std::max(g.seconds, 1e-9)},
-            {"shadowRays", mrcs ? json(nullptr) : json(g.shadowRays)},
-            {"vslEvaluations", mrcs || !vsl ? json(nullptr) : json(g.vslEvaluations)},
+            {"shadowRays", !counted ? json(nullptr) : json(g.shadowRays)},
+            {"vslEvaluations", !counted || !vsl ? json(nullptr) : json(g.vslEvaluations)},
             {"pairsDroppedByRoulette", g.rouletteDropped},
             {"nonFiniteRejected", rejected},
             {"mean", mean},
             {"warnings", scene.warnings}};
-  if (mrcs) j["countsNotKept"] = "MRCS counts its pairs, not its shadow rays or VSL quadrature draws";
-  if (!g.mrcs.is_null()) j["mrcs"] = g.mrcs;
+  if (!counted) j["countsNotKept"] = info.countsNotKept;
   if (Result<void> written = writeTextFile(a.jsonPath, j.dump(2) + "\n"); !written)
     return fail(kExitBadInput, written.error());
   std::fprintf(stderr, "wrote %s\n", a.jsonPath.c_str());
@@ -244,11 +232,11 @@ int renderManyLights(RenderArgs& a, const RenderContext& ctx) {
                  "every many-light image is the direct light alone\n",
                  a.scene.c_str());
   // Gather them, and write what came out.
-  MrcsProgress mp;
-  std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, std::move(run), a.many, a.estimator, &mp);
+  StepProgress sp;
+  std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, std::move(run), a.many, a.estimator, &sp);
   Gathered g;
   Stopwatch gatherClock;
-  gather(a, *est, mp, g);
+  gather(a, *est, sp, g);
   g.seconds = gatherClock.seconds();
   if (int rc = writeManyLightImages(a, g); rc != 0) return rc;
   const ManyLightRun& lights = est->run();

@@ -6,7 +6,8 @@
 //   vsl-studio [SCENE] [--headless] [--frames N] [--screenshot PATH]
 //              [--export DIR] [--after SECONDS] [--window WxH] [--lights N] [--width W]
 //              [--crop X,Y,W,H] [--fresh] [--reference REF.exr] [--background-reference SPP]
-//              [--light-sets N] [--mrcs ROWS,CLUSTERS[,MIX]] [--progressive-radius ALPHA]
+//              [--light-sets N] [--estimator NAME] [--mrcs ROWS,CLUSTERS[,MIX]] [--mrcs-...]
+//              [--progressive-radius ALPHA]
 //
 // Without a SCENE, the last session's scene, settings and view come back
 // (ui::lastSessionPath(); --fresh ignores it); every run that did not fail
@@ -25,6 +26,7 @@
 #include <set>
 #include <thread>
 
+#include "app/estimator_options.h"
 #include "app/finite_options.h"
 #include "app/param_options.h"
 #include "core/image_io.h"
@@ -76,11 +78,11 @@ struct Args {
   int backgroundReference = 0;                 // spp of a reference rendered into the cache
   int lightSets = StudioSettings().lightSets;  // independent light sets
   bool lightSetsGiven = false;
-  std::string preset;           // --preset (empty: none given)
-  bool comparePresets = false;  // --compare-presets: the render, then the other preset beside it
-  std::string mrcs;             // ROWS,CLUSTERS[,MIX]: the MRCS estimator ("" = brute force)
-  float progressive = 0;        // > 0: the progressive radius with this alpha
-  EstimatorSettings estimator;  // resolved from mrcs and progressive
+  std::string preset;                 // --preset (empty: none given)
+  bool comparePresets = false;        // --compare-presets: the render, then the other preset beside it
+  EstimatorOptions estimatorOptions;  // --estimator, its parameters, --mrcs ROWS,CLUSTERS[,MIX]
+  float progressive = 0;              // > 0: the progressive radius with this alpha
+  EstimatorSettings estimator;        // resolved from estimatorOptions and progressive
   bool estimatorGiven = false;
 };
 
@@ -586,9 +588,9 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--background-reference", a.backgroundReference,
                  "Once the methods are done, render a reference of this many spp into the cache and use it")
       ->check(CLI::Range(0, 1 << 20));
-  app.add_option("--mrcs", a.mrcs,
-                 "Start with the MRCS estimator: ROWS,CLUSTERS[,MIX] (e.g. 300,900); each light set is one MRCS "
-                 "render and the sets are averaged (default: brute-force batches)");
+  // Start with this estimator (default: brute-force batches); with MRCS,
+  // each light set is one MRCS render and the sets are averaged.
+  addEstimatorOptions(&app, a.estimatorOptions);
   app.add_option("--progressive-radius", a.progressive,
                  "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
                  "ALPHA in (0,1), e.g. 0.7");
@@ -600,17 +602,17 @@ void addOptions(CLI::App& app, Args& a) {
                "Echo the log's info lines to stderr (stages, each restart's change -> picture time)");
 }
 
-// --mrcs and --progressive-radius into a.estimator. Returns 0, or 2 after
-// saying what is wrong.
+// The estimator options and --progressive-radius into a.estimator. Returns
+// 0, or 2 after saying what is wrong.
 int resolveEstimator(Args& a, bool progressiveGiven) {
-  EstimatorSettings& e = a.estimator;
-  if (!a.mrcs.empty()) {
-    if (!parseMrcsText(a.mrcs, e.mrcs)) {
-      std::fprintf(stderr, "error: --mrcs must be ROWS,CLUSTERS or ROWS,CLUSTERS,MIX (got '%s')\n", a.mrcs.c_str());
-      return 2;
-    }
-    e.kind = EstimatorKind::Mrcs;
+  const EstimatorOptions& o = a.estimatorOptions;
+  Result<EstimatorSettings> chosen = resolveEstimatorOptions(o);
+  if (!chosen) {
+    std::fprintf(stderr, "error: %s\n", chosen.error().c_str());
+    return 2;
   }
+  EstimatorSettings& e = a.estimator;
+  e = *chosen;
   if (progressiveGiven) {
     e.progressiveRadius = true;
     e.alpha = a.progressive;
@@ -619,7 +621,7 @@ int resolveEstimator(Args& a, bool progressiveGiven) {
     std::fprintf(stderr, "error: %s\n", v.error().c_str());  // names the setting and its range
     return 2;
   }
-  a.estimatorGiven = !a.mrcs.empty() || progressiveGiven;
+  a.estimatorGiven = !o.name.empty() || !o.given.empty() || !o.texts.empty() || progressiveGiven;
   return 0;
 }
 

@@ -23,6 +23,7 @@
 #include "app/sweep.h"
 
 #include "app/cli.h"
+#include "app/estimator_options.h"
 #include "app/finite_options.h"
 #include "app/param_options.h"
 
@@ -40,7 +41,6 @@
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
-#include "core/mrcs.h"
 #include "core/reference.h"
 #include "core/settings.h"
 #include "core/stopwatch.h"
@@ -50,25 +50,25 @@ namespace vsl {
 namespace {
 
 // A sweep method, parsed once from its name: what it renders, with which
-// estimator, and whether it runs in passes of independent light sets (the
-// progressive ones shrinking the VSL radius per pass; the "-sets" ones
-// stopping after --batches passes of one batch each: the mean of that many light sets).
+// estimator (its registered name, core/estimator_registry.h), and whether it runs in passes of independent light sets
+// (the progressive ones shrinking the VSL radius per pass; the "-sets" ones stopping after --batches passes of one
+// batch each: the mean of that many light sets).
 struct SweepMethod {
   const char* name;
   Method gather;  // Pt, Vsl or Vpl
-  EstimatorKind estimator;
+  const char* estimator;
   bool progressiveRadius, passes, passesCappedByBatches;
 };
 constexpr SweepMethod kSweepMethods[] = {
-    {"pt", Method::Pt, EstimatorKind::BruteForce, false, false, false},
-    {"vpl", Method::Vpl, EstimatorKind::BruteForce, false, false, false},
-    {"vsl", Method::Vsl, EstimatorKind::BruteForce, false, false, false},
-    {"vsl-progressive", Method::Vsl, EstimatorKind::BruteForce, true, true, false},
-    {"vsl-mrcs", Method::Vsl, EstimatorKind::Mrcs, false, true, false},
-    {"vpl-mrcs", Method::Vpl, EstimatorKind::Mrcs, false, true, false},
-    {"vsl-mrcs-progressive", Method::Vsl, EstimatorKind::Mrcs, true, true, false},
-    {"vsl-sets", Method::Vsl, EstimatorKind::BruteForce, false, true, true},
-    {"vpl-sets", Method::Vpl, EstimatorKind::BruteForce, false, true, true},
+    {"pt", Method::Pt, "brute-force", false, false, false},
+    {"vpl", Method::Vpl, "brute-force", false, false, false},
+    {"vsl", Method::Vsl, "brute-force", false, false, false},
+    {"vsl-progressive", Method::Vsl, "brute-force", true, true, false},
+    {"vsl-mrcs", Method::Vsl, "mrcs", false, true, false},
+    {"vpl-mrcs", Method::Vpl, "mrcs", false, true, false},
+    {"vsl-mrcs-progressive", Method::Vsl, "mrcs", true, true, false},
+    {"vsl-sets", Method::Vsl, "brute-force", false, true, true},
+    {"vpl-sets", Method::Vpl, "brute-force", false, true, true},
 };
 // The method of a name the command line accepted (CLI::IsMember); names
 // read back from a shard's CSV that are not methods of this version are
@@ -409,10 +409,9 @@ struct SweepContext {
       ManyLightSettings m = manySettings(method, n, sc, seedOf(set, pass));
       m.batches = 1;
       if (sm.progressiveRadius) m.radiusScale *= progressiveRadiusFactor(pass, a.alpha);
-      EstimatorSettings e;
-      e.kind = sm.estimator;
-      e.mrcs = a.mrcs;
-      e.mrcs.seed = m.seed;
+      EstimatorSettings e = a.estimator;
+      e.name = sm.estimator;
+      e.seed = m.seed;
       std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, e);
       while (est->step()) {
       }
@@ -601,9 +600,13 @@ std::string sweepSettings(const SweepArgs& a, int W, int H) {
   m.width = W;
   m.height = H;
   std::ostringstream s;
-  s << m.describe(false) << " --alpha " << a.alpha << " --mrcs " << a.mrcs.rows << "," << a.mrcs.clusters << ","
-    << a.mrcs.uniformMix;
-  if (a.mrcs.spreadVslRadius) s << " --mrcs-spread";
+  s << m.describe(false) << " --alpha " << a.alpha;
+  // Every estimator's parameters (those of estimators no method uses too).
+  for (const EstimatorInfo& info : estimators()) {
+    EstimatorSettings e = a.estimator;
+    e.name = info.name;
+    s << e.describeParams();
+  }
   return s.str();
 }
 
@@ -1001,8 +1004,8 @@ int runSweep(const SweepArgs& a) {
                    p.series().c_str());
   }
   for (const std::string& m : a.methods) {
-    EstimatorSettings e;
-    e.kind = sweepMethod(m).estimator;
+    EstimatorSettings e = a.estimator;
+    e.name = sweepMethod(m).estimator;
     if (Result<void> v = e.validateWith(a.many); !v)
       return failf(kExitBadArguments, "--%s (method %s)", v.error().c_str(), m.c_str());
   }
@@ -1019,8 +1022,7 @@ int runSweep(const SweepArgs& a) {
 // parsed once the command line is.
 struct SweepCommandArgs {
   SweepArgs sweep;
-  std::string mrcs;
-  bool spread = false;
+  EstimatorOptions estimator;  // the estimators' parameters (the methods choose the estimator)
 };
 
 Subcommand addSweepCommand(CLI::App& app) {
@@ -1054,8 +1056,7 @@ Subcommand addSweepCommand(CLI::App& app) {
                    "Progressive batches per many-light run (for vsl-sets and vpl-sets: light sets averaged)")
       ->default_str("8")
       ->check(CLI::Range(1, 64));
-  sweep->add_option("--mrcs", args->mrcs, "ROWS,CLUSTERS[,MIX] for the -mrcs methods")->default_str("300,900");
-  sweep->add_flag("--mrcs-spread", args->spread, "-mrcs methods: VSL representatives get radius r sqrt(weight)");
+  addEstimatorOptions(sweep, args->estimator, false);
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")
       ->default_str("1")
       ->check(seedValue());
@@ -1077,8 +1078,9 @@ Subcommand addSweepCommand(CLI::App& app) {
   // The grid's axes and the batches are the sweep's own options above.
   addVslOptions(sweep, sw.many, {"lights", "radius-scale", "batches"});
   return {sweep, [args] {
-            if (!args->mrcs.empty() && !parseMrcsSpec(args->mrcs, args->sweep.mrcs)) return kExitBadArguments;
-            args->sweep.mrcs.spreadVslRadius = args->spread;
+            Result<EstimatorSettings> e = resolveEstimatorOptions(args->estimator);
+            if (!e) return fail(kExitBadArguments, e.error());
+            args->sweep.estimator = *e;
             return runSweep(args->sweep);
           }};
 }

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "core/mrcs.h"
+#include "core/estimator.h"
 
 namespace vsl {
 
@@ -23,7 +23,9 @@ struct SweepArgs {
   std::vector<float> radiusScales = {1.0f};
   double time = 30;  // seconds per run: the budget its final point keeps (sweep.cpp)
   int batches = 8;
-  MrcsSettings mrcs;  // for the -mrcs methods (seed: per pass)
+  // The estimators' parameters for the methods that use them (-mrcs: the
+  // "mrcs-..." values); name and seed are set per method and pass.
+  EstimatorSettings estimator;
   uint64_t seed = 1;  // differ from the reference's seed, or the path tracer replays it
   // Independent runs per configuration (light sets, or path-tracer seeds): a
   // many-light method's error is heavy-tailed and one light set decides

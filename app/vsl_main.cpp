@@ -55,13 +55,6 @@ void addVslOptions(CLI::App* cmd, ManyLightSettings& m, const std::vector<std::s
   addParamOptions(cmd, manyLightParams(), m, nullptr, skip);
 }
 
-bool parseMrcsSpec(const std::string& spec, MrcsSettings& out) {
-  if (parseMrcsText(spec, out) && out.validate()) return true;
-  failf(kExitBadArguments, "--mrcs must be ROWS,CLUSTERS with positive integers, optionally ,MIX in [0,1] (got '%s')",
-        spec.c_str());
-  return false;
-}
-
 }  // namespace vsl
 
 int main(int argc, char** argv) {

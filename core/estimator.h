@@ -1,36 +1,36 @@
 // The many-light estimator seam: one interface over the ways of gathering a
-// virtual light set into images, chosen by an enum class, never by name.
-// Nori's Integrator is the model: a preprocess (here prepareManyLights:
-// light tracing and VSL radii, on a RenderContext) and then an estimator
-// that advances in steps.
+// virtual light set into images. Nori's Integrator is the model: a
+// preprocess (here prepareManyLights: light tracing and VSL radii, on a
+// RenderContext) and then an estimator that advances in steps.
 //
-// Estimators (EstimatorKind)
-//   BruteForce  every (pixel, light) pair, in progressive light batches of
-//               growing size (ManyLightRenderer, many_light.h); one step is
-//               one batch, and after each step the images are an unbiased
-//               estimate of the all-lights image.
-//   Mrcs        matrix row-column sampling (renderMrcs, mrcs.h); one step
-//               renders rows, clusters and representative columns. Bias:
-//               lights dark at every sampled row are dropped.
+// Estimators are plug-ins (core/estimator_registry.h), chosen by their
+// registered name; nothing outside a plug-in's folder (core/estimators/NAME/)
+// knows which estimator it drives. Today's: "brute-force" (every (pixel,
+// light) pair in progressive light batches, ManyLightRenderer) and "mrcs"
+// (matrix row-column sampling in one step per light set, renderMrcs).
 // Progressive variants (independent light sets averaged pass by pass, the
 // VSL radius optionally shrinking per pass, progressiveRadiusFactor) are a
 // sequence of estimators, one per light set; lightSetSettings() gives pass
 // k's settings so that the studio and the sweep agree on them.
 //
 // Thread-safety: an estimator is driven from one thread; step() itself runs
-// in parallel (parallel.h). Its stop flag is checked every 16 lights within
-// a tile (brute force), and per light (rows) and per representative and
-// image row (columns) in MRCS.
+// in parallel (parallel.h) and checks its stop flag often (every 16 lights
+// within a tile for brute force; per light, representative and image row
+// for MRCS).
 #pragma once
 
 #include <atomic>
+#include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "core/many_light.h"
-#include "core/mrcs.h"
 #include "core/render_context.h"
 
 namespace vsl {
@@ -41,47 +41,55 @@ enum class Method { Pt, Vsl, Vpl, All };
 std::optional<Method> parseMethod(std::string_view name);  // "pt", "vsl", "vpl", "all"
 const char* methodName(Method m);
 
-// How the gather is estimated.
-enum class EstimatorKind { BruteForce, Mrcs };
-std::optional<EstimatorKind> parseEstimatorKind(std::string_view name);  // "brute-force", "mrcs"
-const char* estimatorName(EstimatorKind k);
-
-// The text of `--mrcs`: ROWS,CLUSTERS then optionally ,MIX, and nothing after
-// ("10,20x" is refused). Fills out's rows, clusters and mix; true when the
-// text has that form (the values are checked by MrcsSettings::validate()).
-bool parseMrcsText(const std::string& text, MrcsSettings& out);
-
-// The estimator and its settings; a plain value with named defaults.
+// The estimator and its settings; a plain value with named defaults. The
+// parameters are held generically, by name, and declared by the plug-ins
+// (estimatorParams(), estimator_registry.h).
 struct EstimatorSettings {
-  EstimatorKind kind = EstimatorKind::BruteForce;
-  // Kind Mrcs: rows, clusters, representative choice. mrcs.seed is used as
-  // given (the CLI keeps 0; the sweep and the studio derive it per light set).
-  MrcsSettings mrcs;
+  static constexpr const char* kDefaultName = "brute-force";
+  std::string name = kDefaultName;  // a registered estimator
+  // Parameter values by parameter name ("mrcs-rows"); one not here has its
+  // registered default. Another estimator's values may stay here (the studio
+  // keeps them while that one is not chosen); they are ignored.
+  std::map<std::string, double> values;
+  // The estimator's own random choices (MRCS's rows and representatives):
+  // used as given (the CLI keeps 0; the sweep and the studio derive it per
+  // light set, lightSetSettings).
+  uint64_t seed = 0;
   // Progressive passes (studio light sets, sweep passes): pass k's VSL radii
   // are scaled by progressiveRadiusFactor(k, alpha), the consistent
   // progressive VSL. Off: every pass has the same radii.
   bool progressiveRadius = false;
   float alpha = kDefaultAlpha;
   static constexpr float kDefaultAlpha = 0.7f;
-  Result<void> validate() const;  // the first invalid setting
-  // What this estimator refuses of the many-light settings: MRCS samples its
-  // rows and columns already, so the pair roulette is brute force's only
-  // ("pair-roulette: brute force only, not with MRCS"). One rule for the
-  // CLI, the sweep, the studio's command line and its session.
+  // A parameter's value: values' entry or its registered default. The
+  // parameter must be registered (VSL_CHECK).
+  double value(std::string_view param) const;
+  // The first invalid setting: an unknown name, a parameter of the chosen
+  // estimator out of range (or refused by its own check), the alpha.
+  Result<void> validate() const;
+  // What the chosen estimator refuses of the many-light settings (MRCS: the
+  // pair roulette, "pair-roulette: brute force only, not with MRCS"). One
+  // rule for the CLI, the sweep, the studio's command line and its session.
   Result<void> validateWith(const ManyLightSettings& many) const;
-  std::string describe() const;  // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7"
+  // e.g. "mrcs --mrcs 300,900,0 --progressive-radius 0.7".
+  std::string describe() const;
+  // The chosen estimator's parameters alone, as options (" --mrcs 300,900,0").
+  std::string describeParams() const;
+  // The same estimator with the same parameter values and progressive
+  // radius (values of estimators not chosen do not count).
+  bool sameEstimate(const EstimatorSettings& other) const;
 };
 
 // Light set k of a progressive run of `sets` light sets (0-based): seed
 // base.seed + k, radii shrunk per EstimatorSettings::progressiveRadius, and
-// MRCS seeded with the set's seed. An MRCS set also gets its share of the
-// direct-light samples, ceil(base.directSamples / sets): MRCS renders a set's
-// direct light in one step before its picture (at 512x512, 64 samples per
-// pixel took 4.6 s of a 27 s first picture), where brute force spreads them
-// over its batches; the mean of `sets` sets then has base.directSamples or
-// more. The studio fixes `sets` when a render begins (a later change of the
-// set count keeps each set's share).
-// Both the studio's Session and tests use it.
+// the estimator seeded with the set's seed. An estimator that renders a
+// whole set in one step (EstimatorInfo::wholeSetPerStep: MRCS) also gives
+// each set its share of the direct-light samples,
+// ceil(base.directSamples / sets): it renders a set's direct light in one
+// step before its picture (MRCS at 512x512: 64 samples per pixel took 4.6 s
+// of a 27 s first picture), where brute force spreads them over its
+// batches; the mean of `sets` sets then has base.directSamples or more. The studio fixes `sets` when a render begins (a
+// later change of the set count keeps each set's share). Both the studio's Session and tests use it.
 struct LightSetSettings {
   ManyLightSettings many;
   EstimatorSettings estimator;
@@ -92,18 +100,46 @@ LightSetSettings lightSetSettings(const ManyLightSettings& base, const Estimator
 ManyLightRun prepareManyLights(const RenderContext& ctx, const ManyLightSettings& settings,
                                const std::atomic<bool>* stop = nullptr);
 
-// Statistics particular to MRCS (zero for brute force).
-struct MrcsStats {
-  double rowSeconds = 0, clusterSeconds = 0, columnSeconds = 0;
-  double lobeSeconds = 0;  // the lobe gather's (MrcsResult::lobeSeconds), part of the eye paths' time
-  size_t zeroColumnsVsl = 0, zeroColumnsVpl = 0;
-  int rowsUsed = 0, clustersUsed = 0;  // MrcsResult's: the settings' capped at the pixels and the lights
+// A long step's progress (an MRCS light set: seconds to minutes), for a
+// caller that shows it while step() runs on another thread. The caller owns
+// it and hands it to makeEstimator; an estimator with such steps attaches
+// its own report (a StepProgressSource) while it lives. Read from any thread.
+class StepProgressSource {
+ public:
+  virtual std::string progressText() const = 0;  // "MRCS columns 43%"; "" when idle or done
+  virtual double progressShare() const = 0;      // the step's share done, in [0, 1]
+ protected:
+  ~StepProgressSource() = default;
+};
+
+class StepProgress {
+ public:
+  std::string text() const;  // the attached source's, or ""
+  double share() const;      // the attached source's, or 0
+  // Optional: called on the stepping thread by a step whose VSL image is
+  // complete before its VPL image (MRCS, mrcs.h MrcsProgress::onVslImage),
+  // with the direct and vsl layers set and the others black. Set and cleared
+  // by the caller between steps.
+  std::function<void(const ManyLightImages&)> onVslImage;
+  // The estimator's: from its making to its end (nullptr).
+  void attach(const StepProgressSource* source);
+
+ private:
+  mutable std::mutex mutex_;
+  const StepProgressSource* source_ = nullptr;
+};
+
+// What a step has to say, for the CLI's stderr and the studio's log: its
+// stages' times, and what it did otherwise than asked (MRCS: rows capped at
+// the pixels).
+struct StepReport {
+  std::vector<std::string> info, warnings;
 };
 
 class ManyLightEstimator {
  public:
   virtual ~ManyLightEstimator() = default;
-  virtual EstimatorKind kind() const = 0;
+  virtual const std::string& name() const = 0;  // the registered name
   // Advances by one step. False, with the estimator as it was before the
   // step, if *stop was set or every step is done.
   virtual bool step(const std::atomic<bool>* stop = nullptr) = 0;
@@ -125,7 +161,12 @@ class ManyLightEstimator {
   // Work so far. MRCS charges its whole time to both methods' own seconds
   // (rows, clustering and columns are done for VSL and VPL together).
   virtual const ManyLightStats& stats() const = 0;
-  virtual MrcsStats mrcsStats() const { return {}; }
+  // The estimator's own statistics as key/value pairs ("rowsUsed", 300), for
+  // metrics.json and render's JSON; empty for none.
+  virtual std::vector<std::pair<std::string, double>> statistics() const { return {}; }
+  // What the last step has to say, given its wall time (which may include a
+  // caller's work in StepProgress::onVslImage).
+  virtual StepReport stepReport(double stepSeconds) const { return {}; }
   virtual int width() const = 0;
   virtual int height() const = 0;
   virtual float clampBound() const = 0;
@@ -138,14 +179,14 @@ class ManyLightEstimator {
 };
 
 // An estimator of the light set `run` (moved in) on ctx, which must outlive
-// it. many and est must be valid, together too (VSL_CHECK). An MRCS
-// estimator reports its stages to `progress` (which must outlive it) while a
-// step runs. `stop` ends the preparation some estimators do (the lobe
-// gather's second light set); an estimator made while it was set is not to
-// be used.
+// it, by est.name (estimator_registry.h). many and est must be valid,
+// together too (VSL_CHECK). An estimator with long steps reports them to
+// `progress` (which must outlive it). `stop` ends the preparation some
+// estimators do (the lobe gather's second light set); an estimator made
+// while it was set is not to be used.
 std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,
                                                   const ManyLightSettings& many, const EstimatorSettings& est,
-                                                  MrcsProgress* progress = nullptr,
+                                                  StepProgress* progress = nullptr,
                                                   const std::atomic<bool>* stop = nullptr);
 
 }  // namespace vsl

@@ -14,7 +14,7 @@
 
 namespace vsl {
 
-MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int mrcsRows) {
+MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, ExtraMemory extra) {
   MemoryEstimate e;
   // Per light: the set's vector may hold twice its size while it grows
   // (capacity doubling), radii and the batch order (4 B each), the k-d
@@ -34,16 +34,9 @@ MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int 
   px += 2 * 7 * rgb;   // GL textures (llvmpipe keeps them in RAM) and their upload copies
   px += 4 * rgb;       // UI scratch: error map, component sums, metrics
   px += 28 * rgb;      // an export: 17 EXR layers and the 11 images they are made of
-  if (mrcsRows > 0) {
-    // MRCS (mrcs.cpp) at its peak, the clustering: every light decoded (not
-    // a quarter), the reduced columns of both estimators (rows floats each),
-    // and the clustering's column space (norm, index, 32-float projection)
-    // with its seeding and assignment arrays (~20 B). Per pixel, one eye
-    // sample (the gather points of the column stage) and its shared light.
-    e.bytesPerLight += sizeof(GatherLight) - sizeof(GatherLight) / 4 + 2 * uint64_t(mrcsRows) * sizeof(float) +
-                       sizeof(double) + sizeof(uint32_t) + 32 * sizeof(float) + 20;
-    px += sizeof(EyeSample) + sizeof(Vec3);
-  }
+  // The estimator's own (EstimatorInfo::memory).
+  e.bytesPerLight += extra.bytesPerLight;
+  px += extra.bytesPerPixel;
   e.bytesPerPixel = px;
   e.fixedBytes = uint64_t(150) << 20;  // measured: the GL driver, ImGui, threads, a small scene and its BVH
   e.lightBytes = lights * e.bytesPerLight;
@@ -99,8 +92,8 @@ std::string formatBytes(uint64_t bytes) {
 }
 
 Result<void> checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction,
-                               int mrcsRows) {
-  MemoryEstimate e = estimateStudioMemory(lights, width, height, mrcsRows);
+                               ExtraMemory extra) {
+  MemoryEstimate e = estimateStudioMemory(lights, width, height, extra);
   if (available == 0) return {};
   const uint64_t budget = uint64_t(double(available) * fraction);
   if (e.total() <= budget) return {};

@@ -23,11 +23,17 @@ struct MemoryEstimate {
   uint64_t total() const { return fixedBytes + lightBytes + pixelBytes; }
 };
 
-// The studio's peak for `lights` virtual lights at width x height pixels;
-// mrcsRows > 0 when the light sets are gathered by MRCS with that many rows
-// (every light decoded at once, its reduced columns for both estimators and
-// the clustering's projection, and a gather point per pixel).
-MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, int mrcsRows = 0);
+// What an estimator holds beyond brute force's buffers, per light and per
+// pixel (EstimatorInfo::memory, estimator_registry.h; MRCS: every light
+// decoded at once, its reduced columns and the clustering's projection, and
+// a gather point per pixel).
+struct ExtraMemory {
+  uint64_t bytesPerLight = 0, bytesPerPixel = 0;
+};
+
+// The studio's peak for `lights` virtual lights at width x height pixels,
+// with the estimator's extra.
+MemoryEstimate estimateStudioMemory(uint64_t lights, int width, int height, ExtraMemory extra = {});
 
 // The lobe gather's second light set of `lobeLights` lights
 // (ManyLightSettings::lobeGather): the set while it grows (twice its size),
@@ -50,6 +56,6 @@ std::string formatBytes(uint64_t bytes);
 // 19 GB may be used (75% of 25 GB available); with these lights a width of
 // at most 4177 px fits".
 Result<void> checkStudioMemory(uint64_t lights, int width, int height, uint64_t available, double fraction = 0.75,
-                               int mrcsRows = 0);
+                               ExtraMemory extra = {});
 
 }  // namespace vsl

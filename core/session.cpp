@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/compare.h"
+#include "core/estimator_registry.h"
 #include "core/log.h"
 #include "core/memory_budget.h"
 #include "core/parallel.h"
@@ -32,13 +33,7 @@ std::string secondsText(double s) {
 
 // describe() covers the user-facing settings; the rest are compared by hand.
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b) {
-  const EstimatorSettings &ea = a.estimator, &eb = b.estimator;
-  const bool sameEstimator =
-      ea.kind == eb.kind && ea.progressiveRadius == eb.progressiveRadius &&
-      (!ea.progressiveRadius || ea.alpha == eb.alpha) &&
-      (ea.kind != EstimatorKind::Mrcs ||
-       (ea.mrcs.rows == eb.mrcs.rows && ea.mrcs.clusters == eb.mrcs.clusters &&
-        ea.mrcs.uniformMix == eb.mrcs.uniformMix && ea.mrcs.spreadVslRadius == eb.mrcs.spreadVslRadius));
+  const bool sameEstimator = a.estimator.sameEstimate(b.estimator);
   return a.scene == b.scene && a.maxReferenceSpp == b.maxReferenceSpp && a.many.describe() == b.many.describe() &&
          a.many.lightMaxDepth == b.many.lightMaxDepth && a.many.computeVsl == b.many.computeVsl &&
          a.many.computeVpl == b.many.computeVpl && sameEstimator;
@@ -93,7 +88,7 @@ struct Session::Job {
   int set = 0;
   std::unique_ptr<ManyLightEstimator> ml;  // the set in progress (it owns its lights), if any
   int batch = 0;
-  // The set count the render began with: each MRCS set's share of the direct
+  // The set count the render began with: each set's share of the direct
   // samples follows it (lightSetSettings) and stays fixed if the count
   // changes later, so that every set's direct light has as many samples.
   int directShareSets = 1;
@@ -111,6 +106,8 @@ struct Session::Job {
   Stopwatch clock;                                       // wall clock since the job's start
   std::vector<ErrorSample> history;
   int backgroundSpp = 0;
+  // The newest completed set's estimator statistics (ManyLightEstimator::statistics).
+  std::vector<std::pair<std::string, double>> lastStats;
 };
 
 // Worker-owned state: the current scene survives failed loads, and the
@@ -219,11 +216,9 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   if (available == 0) available = availableMemoryBytes();
   const std::string what =
       std::to_string(s.many.lights) + " lights at " + std::to_string(width) + "x" + std::to_string(height);
-  // MRCS's rows as it uses them: at most one per pixel.
-  const int mrcsRows = s.estimator.kind == EstimatorKind::Mrcs
-                           ? s.estimator.mrcs.rowsFor(uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)))
-                           : 0;
-  if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available, 0.75, mrcsRows); !m)
+  // What the estimator holds beyond brute force's buffers (EstimatorInfo::memory).
+  const ExtraMemory extra = estimatorMemory(s.estimator, uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)));
+  if (Result<void> m = checkStudioMemory(s.many.lights, width, height, available, 0.75, extra); !m)
     return Error("memory: " + what + " " + m.error());
   // What checkStudioMemory does not count, per pixel: the light sets' double
   // sums (7 layers), their mean, biasVariance's 3 temporary images, the live
@@ -234,7 +229,7 @@ Result<void> Session::checkMemory(const StudioSettings& s, int width, int height
   const uint64_t perSet = kIndirectLayers * 3 * sizeof(float);
   const bool lobe = s.many.lobeGather > 0 && s.many.computeVsl;
   const uint64_t lobeBytes = lobe ? lobeGatherBytes(s.many.lobeGather) : 0;
-  const uint64_t base = estimateStudioMemory(s.many.lights, width, height, mrcsRows).total() + lobeBytes;
+  const uint64_t base = estimateStudioMemory(s.many.lights, width, height, extra).total() + lobeBytes;
   const uint64_t budget = uint64_t(0.75 * double(available));
   const uint64_t need = base + pixels * (fixed + perSet * uint64_t(s.lightSets));
   if (available == 0 || need <= budget) return {};
@@ -289,7 +284,7 @@ Session::Status Session::status() const {
   std::lock_guard<std::mutex> lock(mutex_);
   Status s = status_;
   s.stageSeconds = stageClock_.seconds();
-  if (s.stage == "rendering") s.stepProgress = mrcsProgress_.text();
+  if (s.stage == "rendering") s.stepProgress = stepProgress_.text();
   return s;
 }
 
@@ -539,12 +534,15 @@ bool Session::prepareSet(Worker& w, Job& job) {
     job.radiusMax = *hi;
   }
   const double prepSeconds = prep.set.seconds + prep.knnSeconds;
-  if (set.estimator.kind == EstimatorKind::Mrcs)  // a long render: its stages go to the log (logMrcsStep)
+  // A light set in one step is a long render: its stages go to the log (logStep).
+  const EstimatorInfo& info = *findEstimator(set.estimator.name);
+  if (info.wholeSetPerStep)
     log::info("light set " + std::to_string(job.set + 1) + ": " + std::to_string(prep.set.lights.size()) +
               " lights traced in " + secondsText(tracingSeconds) + ", k-NN radii in " + secondsText(prep.knnSeconds));
-  if (many.lobeGather > 0 && many.computeVsl && set.estimator.kind == EstimatorKind::BruteForce)
+  // An estimator that steps in batches traces the lobe gather's lights when made.
+  if (many.lobeGather > 0 && many.computeVsl && !info.wholeSetPerStep)
     setStage("tracing lobe-gather lights", many.lobeGather);
-  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &mrcsProgress_, &stop_);
+  job.ml = makeEstimator(*w.ctx, std::move(prep), many, set.estimator, &stepProgress_, &stop_);
   if (stopped()) {  // its second light set may be incomplete: a resumed job prepares the set again
     job.ml.reset();
     return false;
@@ -579,6 +577,7 @@ void Session::retireSet(Job& job, bool completed) {
       if (l < kIndirectLayers) job.setImages[l].push_back(img);
     }
     job.done.lights += prep.set.lights.size();
+    job.lastStats = job.ml->statistics();
     ++job.set;
   }
   SetTotals& d = job.done;
@@ -608,11 +607,12 @@ void Session::retireSet(Job& job, bool completed) {
 // catches up after it (a change that keeps the scene and the resolution
 // keeps the reference's samples); when the reference had no samples, it goes
 // out after one reference pass, not after the reference has caught up with
-// a long step (an MRCS light set: tens of seconds).
-// An MRCS light set's VSL image is complete well before its VPL image: the
-// first set's goes out from inside the step (showVslFirst), after that one
-// reference pass if the reference has none, and the whole picture at once
-// when the step ends. The live path tracer never runs beside the MRCS work.
+// a long step (a light set in one step: tens of seconds).
+// Such a light set's VSL image may be complete well before its VPL image
+// (StepProgress::onVslImage): the first set's goes out from inside the step
+// (showVslFirst), after that one reference pass if the reference has none,
+// and the whole picture at once when the step ends. The live path tracer
+// never runs beside that step's work.
 void Session::render(Worker& w, Job& job, uint64_t gen) {
   setStage("rendering");
   ReferenceRenderer& ref = *w.ref.pt;
@@ -623,19 +623,19 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     publish(makeSnapshot(w, job, gen));
     if (hasManyLight()) firstPicture = false;
   };
-  // Called by an MRCS step (mrcs.h) on this thread; cleared however render() ends.
+  // Called by a step (StepProgress::onVslImage) on this thread; cleared however render() ends.
   Stopwatch stepClock;
   double vslFirstSeconds = 0;  // spent in it (the reference pass and the snapshot)
-  mrcsProgress_.onVslImage = [&](const ManyLightImages& vslImages) {
+  stepProgress_.onVslImage = [&](const ManyLightImages& vslImages) {
     if (!firstPicture || job.setsDone > 0) return;  // a later set: the completed sets' mean is shown
     Stopwatch hookClock;
     showVslFirst(w, job, gen, vslImages, stepClock.seconds());
     vslFirstSeconds += hookClock.seconds();
   };
   struct ClearHook {
-    MrcsProgress& progress;
+    StepProgress& progress;
     ~ClearHook() { progress.onVslImage = nullptr; }
-  } clearHook{mrcsProgress_};
+  } clearHook{stepProgress_};
   // A resumed job shows its picture under the new generation at once.
   if (!firstPicture) show();
   while (!stopped()) {
@@ -651,7 +651,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
         // The reference pass the VSL picture waited for is the reference's time.
         const double stepSeconds = stepClock.seconds() - vslFirstSeconds;
         job.mlSeconds += stepSeconds;
-        if (job.ml->kind() == EstimatorKind::Mrcs) logMrcsStep(job, stepSeconds);
+        logStep(job, stepSeconds);
         ++job.batch;
         if (job.ml->done()) retireSet(job, true);
       }
@@ -666,7 +666,7 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
     }
     // The reference catches up to the many-light methods' compute time (at
     // least one pass per step), so the error-vs-time plot compares equal time.
-    // A long catch-up (after an MRCS light set: seconds) shows the reference
+    // A long catch-up (after a light set in one step: seconds) shows the reference
     // refining every kCatchUpShowSeconds instead of only at its end.
     bool ptStep = false;
     Stopwatch sinceShown;
@@ -684,11 +684,11 @@ void Session::render(Worker& w, Job& job, uint64_t gen) {
   }
 }
 
-// The first light set's VSL picture, while its MRCS step goes on to VPL:
+// The first light set's VSL picture, while its step goes on to VPL:
 // after one reference pass if the reference has none (as render() does for
 // any first picture), with the VPL layers black (Snapshot::vplPending).
 void Session::showVslFirst(Worker& w, Job& job, uint64_t gen, const ManyLightImages& vslImages, double stepSeconds) {
-  log::info("light set " + std::to_string(job.set + 1) + ": MRCS VSL image after " + secondsText(stepSeconds));
+  log::info("light set " + std::to_string(job.set + 1) + ": VSL image after " + secondsText(stepSeconds));
   ReferenceRenderer& ref = *w.ref.pt;
   if (!w.converged && ref.spp() == 0) {
     Stopwatch passClock;
@@ -698,21 +698,14 @@ void Session::showVslFirst(Worker& w, Job& job, uint64_t gen, const ManyLightIma
   if (!stopped()) publish(makeSnapshot(w, job, gen, &vslImages));
 }
 
-// The MRCS step's stages in the log (the measured breakdown of an MRCS
-// picture's wait; docs/notebook/2026-12-02-studio-interactivity.md).
-void Session::logMrcsStep(const Job& job, double stepSeconds) const {
-  const MrcsStats m = job.ml->mrcsStats();
-  const double eye = std::max(stepSeconds - m.rowSeconds - m.clusterSeconds - m.columnSeconds, 0.0);
-  log::info("light set " + std::to_string(job.set + 1) + ": MRCS " + secondsText(stepSeconds) +
-            " (eye paths and direct light " + secondsText(eye) +
-            (m.lobeSeconds > 0 ? " with the lobe gather's " + secondsText(m.lobeSeconds) : std::string()) + ", rows " +
-            secondsText(m.rowSeconds) + ", clustering " + secondsText(m.clusterSeconds) + ", columns " +
-            secondsText(m.columnSeconds) + ")");
-  const MrcsSettings& asked = job.settings.estimator.mrcs;
-  if (job.set == 0 && (m.rowsUsed < asked.rows || m.clustersUsed < asked.clusters))
-    log::warning("MRCS: " + std::to_string(asked.rows) + " rows and " + std::to_string(asked.clusters) +
-                 " clusters asked, " + std::to_string(m.rowsUsed) + " and " + std::to_string(m.clustersUsed) +
-                 " used (at most a row per pixel and a cluster per light)");
+// What the step has to say (ManyLightEstimator::stepReport), in the log: its
+// information for every set, its warnings for the first only (every set
+// would repeat them).
+void Session::logStep(const Job& job, double stepSeconds) const {
+  const StepReport report = job.ml->stepReport(stepSeconds);
+  for (const std::string& line : report.info) log::info("light set " + std::to_string(job.set + 1) + ": " + line);
+  if (job.set == 0)
+    for (const std::string& line : report.warnings) log::warning(line);
 }
 
 // ---- [5b] References ------------------------------------------------------------------
@@ -837,6 +830,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   snap->lightSetsDone = job.setsDone;
   snap->directSamplesPerSet =
       lightSetSettings(job.settings.many, job.settings.estimator, 0, job.directShareSets).many.directSamples;
+  snap->estimatorStats = ml && ml->stepsDone() > 0 ? ml->statistics() : job.lastStats;
   snap->ptSpp = ref.spp();
   // Work over every set: the completed ones and the one in progress.
   ManyLightStats none;

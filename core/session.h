@@ -1,6 +1,6 @@
 // Session: the studio's background renderer. One worker thread loads scenes
 // (a RenderContext), traces virtual lights, and interleaves the steps of a
-// many-light estimator (estimator.h: brute-force batches, or one MRCS render
+// many-light estimator (estimator_registry.h: brute-force batches, or one MRCS render
 // per light set; VSL and VPL from shared passes) with path-traced reference
 // passes, publishing an immutable Snapshot after each step. The UI calls restart() with a settings value and
 // pulls the newest snapshot once per frame with latest(); neither call waits
@@ -135,9 +135,12 @@ struct Snapshot {
   // The mean over the completed light sets (the first set's progressive
   // estimate until it completes; a set in progress after that is not in it).
   ManyLightImages many;
-  int lightSets = 1;                              // asked for (settings.lightSets)
-  int lightSetsDone = 0;                          // completed: `many` is their mean
-  int directSamplesPerSet = 0;                    // each set's direct-light samples (lightSetSettings)
+  int lightSets = 1;            // asked for (settings.lightSets)
+  int lightSetsDone = 0;        // completed: `many` is their mean
+  int directSamplesPerSet = 0;  // each set's direct-light samples (lightSetSettings)
+  // The estimator's statistics (ManyLightEstimator::statistics): the set in
+  // progress once it has a step, else the newest completed set's.
+  std::vector<std::pair<std::string, double>> estimatorStats;
   BiasNoise biasNoise[int(BiasNoiseRow::Count)];  // the path tracer's against a converged reference only
   Image ptDirect, ptIndirect;                     // the live path tracer (mean of its two halves)
   int ptSpp = 0;
@@ -195,7 +198,7 @@ struct Snapshot {
   int referenceTargetSpp = 0;
   // The first light set's VSL image is complete but its VPL image is not: an
   // MRCS light set publishes its VSL picture before VPL's columns are
-  // rendered (mrcs.h, MrcsProgress::onVslImage). The VPL layers are black
+  // rendered (StepProgress::onVslImage). The VPL layers are black
   // until then, the set's work (pairs, seconds, lights gathered) is counted
   // once it completes, and no point is added to the history.
   bool vplPending = false;
@@ -250,8 +253,8 @@ class Session {
     std::string loading;        // the path being loaded while stage is "loading"
     double stageSeconds = 0;    // wall time since the stage began
     uint32_t lightsTarget = 0;  // the light count being traced
-    // Within a long step while rendering: an MRCS render's stage and its
-    // share done ("MRCS columns 43%"); "" otherwise.
+    // Within a long step while rendering: its stage and share done
+    // (StepProgress::text; MRCS: "MRCS columns 43%"); "" otherwise.
     std::string stepProgress;
     std::vector<std::string> sceneWarnings;
     bool busy() const { return stage != "idle" && stage != "done"; }
@@ -285,7 +288,7 @@ class Session {
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;
   void render(Worker& w, Job& job, uint64_t gen);
   void showVslFirst(Worker& w, Job& job, uint64_t gen, const ManyLightImages& vslImages, double stepSeconds);
-  void logMrcsStep(const Job& job, double stepSeconds) const;
+  void logStep(const Job& job, double stepSeconds) const;
   std::shared_ptr<Snapshot> makeSnapshot(const Worker& w, Job& job, uint64_t gen,
                                          const ManyLightImages* vslFirst = nullptr) const;
   // makeSnapshot's parts: the images (returns the live path tracer's noise),
@@ -313,7 +316,7 @@ class Session {
   bool pending_ = false, pendingFromScratch_ = false;
   StudioSettings next_;
   std::atomic<uint64_t> version_{0}, memoryForTesting_{0};
-  MrcsProgress mrcsProgress_;  // the MRCS render in progress, if any
+  StepProgress stepProgress_;  // the long step in progress, if any
   Stopwatch stageClock_;       // since the stage began
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};

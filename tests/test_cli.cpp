@@ -597,9 +597,49 @@ TEST_F(Cli, TinyTimeBudgetStillRendersOnePass) {
   EXPECT_GT(j["mean"]["full"][0].get<double>(), 0.5);
 }
 
+// --estimator chooses a registered estimator (issue 47): a misspelt name is
+// refused with the nearest one, an estimator's option given for another
+// estimator names both, and an estimator's parameters given one by one
+// choose it and render what its shorthand renders, byte for byte.
+TEST_F(Cli, EstimatorOptionChoosesARegisteredEstimator) {
+  const std::string common = "render " + scene("cornell-glossy") + " --method all --lights 200 --width 16 --seed 2";
+  Proc r = run(common + " --estimator mrc -o " + file("e0.exr"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("unknown estimator 'mrc' (did you mean 'mrcs'?"), std::string::npos) << r.out;
+  for (const char* other : {"--mrcs-rows 10", "--mrcs 10,20", "--mrcs-spread"}) {
+    r = run(common + " --estimator brute-force " + other + " -o " + file("e1.exr"));
+    EXPECT_EQ(r.code, 2) << other << ": " << r.out;
+    EXPECT_NE(r.out.find("an option of estimator mrcs, but --estimator is brute-force"), std::string::npos)
+        << other << ": " << r.out;
+  }
+  r = run(common + " --mrcs-rows 0 -o " + file("e2.exr"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--mrcs-rows"), std::string::npos) << r.out;
+  r = run(common + " --mrcs-rows 10 --mrcs-clusters 20 -o " + file("e3.exr") + " --json " + file("e3.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto j = nlohmann::json::parse(std::ifstream(file("e3.json")));
+  EXPECT_EQ(j["estimator"], "mrcs") << "chosen by its parameters";
+  EXPECT_EQ(j["estimatorParameters"]["mrcsRows"], 10);
+  EXPECT_EQ(j["estimatorParameters"]["mrcsClusters"], 20);
+  EXPECT_EQ(j["estimatorParameters"]["mrcsSpread"], false);
+  r = run(common + " --estimator mrcs --mrcs 10,20 -o " + file("e4.exr"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(slurp(file("e3.exr")), slurp(file("e4.exr"))) << "the same render, the same describe()";
+  // A parameter given one by one overrides the shorthand's.
+  r = run(common + " --mrcs 99,20 --mrcs-rows 10 -o " + file("e5.exr"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(slurp(file("e3.exr")), slurp(file("e5.exr")));
+  r = run(common + " --estimator brute-force -o " + file("e6.exr") + " --json " + file("e6.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(file("e6.json")))["estimator"], "brute-force");
+  r = run("render --help");
+  for (const char* option : {"--estimator", "--mrcs-rows", "--mrcs-clusters", "--mrcs-mix", "--mrcs-spread"})
+    EXPECT_NE(r.out.find(option), std::string::npos) << option;
+}
+
 // The render JSON times parsing and the BVH build apart (seconds.load,
-// seconds.bvh) and names the estimator; MRCS records its settings and the
-// rows and clusters it used (capped at the pixels and the lights, with a
+// seconds.bvh) and names the estimator, its parameters and its statistics;
+// MRCS's are its settings and the rows and clusters it used (capped at the pixels and the lights, with a
 // warning). The means are of the layers the render computed: MRCS renders no
 // VPL variant and counts no shadow ray or VSL draw, and those are left out or
 // null, not 0; nor does a VSL-only render have a VPL mean.
@@ -612,6 +652,8 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   EXPECT_GT(j["seconds"]["load"].get<double>(), 0);
   EXPECT_GT(j["seconds"]["bvh"].get<double>(), 0);
   EXPECT_FALSE(j.contains("mrcs"));
+  EXPECT_TRUE(j["estimatorParameters"].empty()) << "brute force has no parameters of its own";
+  EXPECT_TRUE(j["estimatorStats"].empty());
   for (const char* layer : {"direct", "vslIndirect", "vplIndirect", "vplUnclampedIndirect", "vplDiffuseIndirect",
                             "lostToClamping", "lostToDiffuse"})
     EXPECT_TRUE(j["mean"].contains(layer)) << layer;
@@ -621,10 +663,10 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   ASSERT_EQ(r.code, 0) << r.out;
   j = nlohmann::json::parse(std::ifstream(file("m.json")));
   EXPECT_EQ(j["estimator"], "mrcs");
-  EXPECT_EQ(j["mrcs"]["rows"], 10);
-  EXPECT_EQ(j["mrcs"]["clusters"], 20);
-  EXPECT_EQ(j["mrcs"]["rowsUsed"], 10);
-  EXPECT_EQ(j["mrcs"]["clustersUsed"], 20);
+  EXPECT_EQ(j["estimatorParameters"]["mrcsRows"], 10);
+  EXPECT_EQ(j["estimatorParameters"]["mrcsClusters"], 20);
+  EXPECT_EQ(j["estimatorStats"]["rowsUsed"], 10);
+  EXPECT_EQ(j["estimatorStats"]["clustersUsed"], 20);
   EXPECT_EQ(j["batches"], 1);
   EXPECT_EQ(j["mean"].size(), 3u) << j["mean"].dump();
   for (const char* layer : {"direct", "vslIndirect", "vplIndirect"}) EXPECT_TRUE(j["mean"].contains(layer)) << layer;
@@ -635,9 +677,9 @@ TEST_F(Cli, RenderJsonSeparatesLoadAndBvhAndNamesTheEstimator) {
   r = run(common + " --mrcs 1000,5000 -o " + file("m2.exr") + " --json " + file("m2.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   j = nlohmann::json::parse(std::ifstream(file("m2.json")));
-  EXPECT_EQ(j["mrcs"]["rows"], 1000);
-  EXPECT_EQ(j["mrcs"]["rowsUsed"], 256);
-  EXPECT_EQ(j["mrcs"]["clustersUsed"], j["lights"]);
+  EXPECT_EQ(j["estimatorParameters"]["mrcsRows"], 1000);
+  EXPECT_EQ(j["estimatorStats"]["rowsUsed"], 256);
+  EXPECT_EQ(j["estimatorStats"]["clustersUsed"], j["lights"]);
   EXPECT_NE(r.out.find("warning: 1000 MRCS rows for 256 pixels: 256 used"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("warning: 5000 MRCS clusters for " + j["lights"].dump() + " lights"), std::string::npos)
       << r.out;

@@ -9,12 +9,21 @@
 #include <tuple>
 
 #include "core/estimator.h"
+#include "core/estimator_registry.h"
+#include "core/estimators/mrcs/mrcs_estimator.h"
 #include "core/mrcs.h"
 #include "core/rng.h"
 
 using namespace vsl;
 
 namespace {
+// An estimator's statistic by key (ManyLightEstimator::statistics); NaN if absent.
+double statistic(const ManyLightEstimator& est, const std::string& key) {
+  for (const auto& [k, v] : est.statistics())
+    if (k == key) return v;
+  return NAN;
+}
+
 double mean(const Image& img) {
   double s = 0;
   for (float v : img.rgb) s += v;
@@ -177,23 +186,23 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
   ASSERT_TRUE(ctx);
   const RenderContext& c = *ctx;
   ManyLightSettings s = smallRender();
-  EstimatorSettings e;
-  e.kind = EstimatorKind::Mrcs;
-  e.mrcs = MrcsSettings{24, 60, 3};
-  e.mrcs.spreadVslRadius = GetParam();
+  EstimatorSettings e = mrcsEstimatorSettings(MrcsSettings{24, 60, 3});
+  e.values["mrcs-spread"] = GetParam();
   ManyLightRun run = prepareManyLights(c, s);
-  MrcsResult direct = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, e.mrcs);
-  MrcsProgress progress;
+  MrcsResult direct = renderMrcs(c.scene(), c.accel(), c.lights(), run.set, run.radii, s, mrcsSettings(e));
+  StepProgress progress;
   std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, std::move(run), s, e, &progress);
-  EXPECT_EQ(est->kind(), EstimatorKind::Mrcs);
+  EXPECT_EQ(est->name(), "mrcs");
   EXPECT_EQ(est->stepCount(), 1);
   std::atomic<bool> stop{true};
   EXPECT_FALSE(est->step(&stop)) << "stopped before it began";
   EXPECT_EQ(est->stepsDone(), 0);
   EXPECT_EQ(est->images().vsl.width, 16) << "black layers of the render's size before the step";
-  EXPECT_EQ(progress.stage.load(), MrcsProgress::kIdle) << "a render stopped after its rows is no longer shown";
+  // MrcsProgress::overall(): 0 when idle, 1 when done.
+  EXPECT_EQ(progress.share(), 0.0) << "a render stopped after its rows is no longer shown";
+  EXPECT_EQ(progress.text(), "");
   ASSERT_TRUE(est->step());
-  EXPECT_EQ(progress.stage.load(), MrcsProgress::kDone);
+  EXPECT_EQ(progress.share(), 1.0);
   EXPECT_EQ(progress.text(), "");
   EXPECT_TRUE(est->done());
   EXPECT_FALSE(est->step()) << "nothing left";
@@ -205,7 +214,7 @@ TEST_P(MrcsRender, EstimatorThroughTheSeamEqualsRenderMrcs) {
   EXPECT_EQ(est->stats().pairs.load(), direct.pairs);
   EXPECT_EQ(est->lightsProcessed(), est->run().set.lights.size());
   EXPECT_EQ(est->width(), 16);
-  EXPECT_EQ(est->mrcsStats().zeroColumnsVsl, direct.zeroColumnsVsl);
+  EXPECT_EQ(statistic(*est, "zeroColumnsVsl"), double(direct.zeroColumnsVsl));
 }
 
 // The lobe gather with MRCS: the eye paths gather the narrow receivers'
@@ -249,13 +258,11 @@ TEST(MrcsLobeGather, AClusterPerLightIsTheBruteForceImage) {
     EXPECT_EQ(b.lobeSeconds, 0.0);
   }
   // Through the seam: VSL's time includes the lobe gather's.
-  EstimatorSettings e;
-  e.kind = EstimatorKind::Mrcs;
-  e.mrcs = all;
+  const EstimatorSettings e = mrcsEstimatorSettings(all);
   std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, prepareManyLights(c, s), s, e);
   ASSERT_TRUE(est->step());
   EXPECT_GT(est->stats().vslSeconds, est->stats().vplSeconds);
-  EXPECT_GT(est->mrcsStats().lobeSeconds, 0.0);
+  EXPECT_GT(statistic(*est, "lobeGatherSeconds"), 0.0);
 }
 
 // A stop raised while the lobe gather's light set is traced, or during the
@@ -450,11 +457,12 @@ TEST(MrcsClustering, LightSetSettingsSeedAndShrinkEachSet) {
   m.seed = 10;
   m.radiusScale = 2;
   EstimatorSettings e;
-  e.kind = EstimatorKind::Mrcs;
+  e.name = "mrcs";
   LightSetSettings k0 = lightSetSettings(m, e, 0), k3 = lightSetSettings(m, e, 3);
   EXPECT_EQ(k0.many.seed, 10u);
   EXPECT_EQ(k3.many.seed, 13u);
-  EXPECT_EQ(k3.estimator.mrcs.seed, 13u);
+  EXPECT_EQ(k3.estimator.seed, 13u);
+  EXPECT_EQ(mrcsSettings(k3.estimator).seed, 13u);
   EXPECT_EQ(k3.many.radiusScale, 2.0f);
   // MRCS spreads the direct-light samples over the sets (at least one each,
   // at least the asked total); brute force keeps them all in every set.
@@ -474,9 +482,8 @@ TEST(MrcsClustering, LightSetSettingsSeedAndShrinkEachSet) {
   e.alpha = 1.0f;
   EXPECT_FALSE(e.validate());
   // Names round-trip; unknown names are refused.
-  for (EstimatorKind k : {EstimatorKind::BruteForce, EstimatorKind::Mrcs})
-    EXPECT_EQ(parseEstimatorKind(estimatorName(k)), k);
+  for (const EstimatorInfo& info : estimators()) EXPECT_EQ(findEstimator(info.name), &info);
   for (Method x : {Method::Pt, Method::Vsl, Method::Vpl, Method::All}) EXPECT_EQ(parseMethod(methodName(x)), x);
   EXPECT_FALSE(parseMethod("VSL"));
-  EXPECT_FALSE(parseEstimatorKind("bruteforce"));
+  EXPECT_FALSE(findEstimator("bruteforce"));
 }

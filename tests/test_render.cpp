@@ -327,7 +327,7 @@ TEST(RenderPT, BruteForceEstimatorEqualsManyLightRenderer) {
   ManyLightRun run = prepareManyLights(c, s);
   ManyLightRenderer direct(c.scene(), c.accel(), c.lights(), run.set, run.radii, s);
   std::unique_ptr<ManyLightEstimator> est = makeEstimator(c, prepareManyLights(c, s), s, EstimatorSettings{});
-  EXPECT_EQ(est->kind(), EstimatorKind::BruteForce);
+  EXPECT_EQ(est->name(), "brute-force");
   ASSERT_EQ(est->stepCount(), direct.batchCount());
   EXPECT_EQ(est->run().set.lights.size(), run.set.lights.size());
   std::atomic<bool> stop{true};

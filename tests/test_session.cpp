@@ -12,6 +12,8 @@
 #include <filesystem>
 
 #include "core/compare.h"
+#include "core/estimator_registry.h"
+#include "core/estimators/mrcs/mrcs_estimator.h"
 #include "core/gather.h"
 #include "core/image_io.h"
 #include "core/memory_budget.h"
@@ -262,10 +264,11 @@ TEST(Session, MemoryEstimateIsItemised) {
   EXPECT_NE(tooBig.error(), "");
   // MRCS holds every light decoded and its reduced columns for both
   // estimators (2 x rows floats), and one gather point set per pixel.
-  MemoryEstimate m = estimateStudioMemory(1000, 100, 50, 300);
+  const ExtraMemory rows300 = estimatorMemory(mrcsEstimatorSettings(MrcsSettings{300, 900, 0}), 100 * 50);
+  MemoryEstimate m = estimateStudioMemory(1000, 100, 50, rows300);
   EXPECT_GE(m.bytesPerLight, e.bytesPerLight + 2 * 300 * sizeof(float) + sizeof(GatherLight) / 2);
   EXPECT_GE(m.bytesPerPixel, e.bytesPerPixel + sizeof(EyeSample));
-  EXPECT_FALSE(checkStudioMemory(1000, 100, 50, e.total() * 4 / 3 + 1, 0.75, 300))
+  EXPECT_FALSE(checkStudioMemory(1000, 100, 50, e.total() * 4 / 3 + 1, 0.75, rows300))
       << "what fits brute force need not fit MRCS";
 }
 
@@ -274,14 +277,14 @@ TEST(Session, MemoryEstimateIsItemised) {
 TEST(Session, MrcsMemoryIsCheckedBeforeRendering) {
   Session session;
   StudioSettings s = small("cornell-glossy", 200000, 64);
-  s.estimator.kind = EstimatorKind::Mrcs;
-  s.estimator.mrcs.rows = 2000;
+  s.estimator.name = "mrcs";
+  s.estimator.values["mrcs-rows"] = 2000;
   const uint64_t brute = estimateStudioMemory(200000, 64, 64).total();
   session.setAvailableMemoryForTesting(brute * 2);  // brute force fits in 75% of this; MRCS needs 3.2 GB more
   Result<uint64_t> r = session.restart(s);
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().find("lights fit"), std::string::npos) << r.error();
-  s.estimator.kind = EstimatorKind::BruteForce;
+  s.estimator.name = "brute-force";
   EXPECT_TRUE(session.restart(s)) << "the same settings fit brute force";
 }
 
@@ -509,9 +512,9 @@ TEST(Session, MrcsLightSetsAverageIndependentMrcsRenders) {
   StudioSettings s = small("cornell-glossy", 300, 16);
   s.many.seed = 11;
   s.lightSets = 2;
-  s.estimator.kind = EstimatorKind::Mrcs;
-  s.estimator.mrcs.rows = 12;
-  s.estimator.mrcs.clusters = 40;
+  s.estimator.name = "mrcs";
+  s.estimator.values["mrcs-rows"] = 12;
+  s.estimator.values["mrcs-clusters"] = 40;
   Session session;
   uint64_t g = session.restart(s).value();
   auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
@@ -525,9 +528,9 @@ TEST(Session, MrcsLightSetsAverageIndependentMrcsRenders) {
   for (int k = 0; k < 2; ++k) {
     const LightSetSettings set = lightSetSettings(s.many, s.estimator, k, s.lightSets);
     EXPECT_EQ(set.many.seed, s.many.seed + uint64_t(k));
-    EXPECT_EQ(set.estimator.mrcs.seed, set.many.seed);
+    EXPECT_EQ(set.estimator.seed, set.many.seed);
     EXPECT_EQ(set.many.directSamples, (s.many.directSamples + 1) / 2) << "each set its share of the direct samples";
-    renders.push_back(l.renderWithMrcs(set.many, set.estimator.mrcs));
+    renders.push_back(l.renderWithMrcs(set.many, mrcsSettings(set.estimator)));
   }
   EXPECT_NE(renders[0].vsl.rgb, renders[1].vsl.rgb) << "independent sets";
   auto layer = [&](Image ManyLightImages::*which) {
@@ -540,10 +543,10 @@ TEST(Session, MrcsLightSetsAverageIndependentMrcsRenders) {
 
   // Another estimator is another picture: the session starts over.
   StudioSettings brute = s;
-  brute.estimator.kind = EstimatorKind::BruteForce;
+  brute.estimator.name = "brute-force";
   EXPECT_FALSE(sameImageSettings(s, brute));
   StudioSettings moreRows = s;
-  moreRows.estimator.mrcs.rows = 13;
+  moreRows.estimator.values["mrcs-rows"] = 13;
   EXPECT_FALSE(sameImageSettings(s, moreRows));
 }
 
@@ -559,9 +562,9 @@ TEST(Session, MrcsPublishesTheVslPictureBeforeTheVplColumns) {
   s.many.seed = 11;
   s.lightSets = 2;
   s.maxReferenceSpp = 64;
-  s.estimator.kind = EstimatorKind::Mrcs;
-  s.estimator.mrcs.rows = 12;
-  s.estimator.mrcs.clusters = 40;
+  s.estimator.name = "mrcs";
+  s.estimator.values["mrcs-rows"] = 12;
+  s.estimator.values["mrcs-clusters"] = 40;
   Session session;
   std::vector<std::shared_ptr<const Snapshot>> published;  // every snapshot, in order (worker thread)
   session.setPublishHookForTesting(
@@ -573,7 +576,7 @@ TEST(Session, MrcsPublishesTheVslPictureBeforeTheVplColumns) {
 
   Loaded l("cornell-glossy");
   const LightSetSettings set0 = lightSetSettings(s.many, s.estimator, 0, s.lightSets);
-  const ManyLightImages want = l.renderWithMrcs(set0.many, set0.estimator.mrcs);
+  const ManyLightImages want = l.renderWithMrcs(set0.many, mrcsSettings(set0.estimator));
   // The first snapshot: the first set's VSL picture, VPL still to come.
   const Snapshot& first = *published[0];
   EXPECT_EQ(first.generation, g);
@@ -633,12 +636,12 @@ TEST(Session, ProgressiveRadiusShrinksTheRadiiPerLightSet) {
 TEST(Session, InvalidEstimatorSettingsAreRejected) {
   Session session;
   StudioSettings s = small("furnace", 30, 8);
-  s.estimator.kind = EstimatorKind::Mrcs;
-  s.estimator.mrcs.rows = 0;
+  s.estimator.name = "mrcs";
+  s.estimator.values["mrcs-rows"] = 0;
   Result<uint64_t> r = session.restart(s);
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().find("mrcs rows"), std::string::npos) << r.error();
-  s.estimator.mrcs.rows = 10;
+  s.estimator.values["mrcs-rows"] = 10;
   s.estimator.progressiveRadius = true;
   s.estimator.alpha = 1.5f;
   r = session.restart(s);
@@ -677,9 +680,9 @@ TEST(Session, LobeGatherEqualsDirectRendersWithEitherEstimator) {
   EXPECT_FALSE(sameImageSettings(s, other));
   // MRCS: the picture changes VSL's picture and not VPL's (bit for bit
   // against MRCS without it; the images against brute force: test_mrcs).
-  s.estimator.kind = EstimatorKind::Mrcs;
-  s.estimator.mrcs.rows = 10;
-  s.estimator.mrcs.clusters = 20;
+  s.estimator.name = "mrcs";
+  s.estimator.values["mrcs-rows"] = 10;
+  s.estimator.values["mrcs-clusters"] = 20;
   s.lightSets = 1;
   std::shared_ptr<const Snapshot> mrcs[2];
   for (uint32_t lobe : {2000u, 0u}) {
@@ -755,9 +758,9 @@ TEST(Session, RestartDuringMrcsStopsPromptly) {
   Session session;
   StudioSettings s = small("kitchen", 20000, 96);
   s.lightSets = 2;
-  s.estimator.kind = EstimatorKind::Mrcs;
-  s.estimator.mrcs.rows = 400;
-  s.estimator.mrcs.clusters = 2000;
+  s.estimator.name = "mrcs";
+  s.estimator.values["mrcs-rows"] = 400;
+  s.estimator.values["mrcs-clusters"] = 2000;
   uint64_t g = session.restart(s, true).value();
   (void)g;
   // MRCS names its stage only once its step has begun, some time after the

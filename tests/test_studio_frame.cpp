@@ -385,7 +385,7 @@ TEST_F(StudioFrame, PendingVplPanelWaitsInsteadOfShowingBlack) {
   v.component = Component::Indirect;
   snap = std::make_shared<Snapshot>(*studio->snapshot());
   snap->vplPending = false;
-  snap->settings.estimator.kind = EstimatorKind::Mrcs;
+  snap->settings.estimator.name = "mrcs";
   snap->many.vplUnclamped = snap->many.vpl;  // 0.2 grey: would show if drawn
   studio->setSnapshotForTesting(snap);
   studio->applySettings(snap->settings);
@@ -599,7 +599,7 @@ TEST_F(StudioFrame, ExportLeavesOutWhatWasNotRendered) {
 
   // MRCS: VSL and clamped VPL only.
   snap = std::make_shared<Snapshot>(*snap);
-  snap->settings.estimator.kind = EstimatorKind::Mrcs;
+  snap->settings.estimator.name = "mrcs";
   exportOf(snap, "studio-export-mrcs", files, j, layers);
   for (const char* part : {"vpl-unclamped", "vpl-diffuse", "lost-to-"})
     EXPECT_FALSE(anyFile(files, part)) << part << " exported under MRCS";
@@ -1097,6 +1097,57 @@ TEST(StudioText, TimeLeftCountsDownBetweenSnapshots) {
   EXPECT_EQ(ui::timeLeftText(0.0, 0.0), "time left not known yet");  // the snapshot has none yet
   EXPECT_EQ(ui::timeLeftText(0.0, 10.0), "time left not known yet");
   EXPECT_EQ(ui::timeLeftText(std::nan(""), 0.0), "time left not known yet");
+}
+
+// The estimator comes back by name with its parameters under their keys
+// (the registry's, estimator_registry.h), and a file written before the
+// registry (version 2: "estimator", "mrcsRows", "mrcsClusters") still loads.
+TEST(LastSession, KeepsTheEstimatorAndItsParameters) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-estimator-test";
+  std::filesystem::remove_all(dir);
+  const std::string path = dir + "/last-session.json";
+  StudioSettings s;
+  s.scene = "/some/scene.gltf";
+  s.estimator.name = "mrcs";
+  s.estimator.values = {{"mrcs-rows", 123}, {"mrcs-clusters", 456}, {"mrcs-mix", 0.25}, {"mrcs-spread", 1}};
+  s.estimator.progressiveRadius = true;
+  s.estimator.alpha = 0.5f;
+  ui::ViewState v;
+  ASSERT_TRUE(ui::saveLastSession(path, s, v));
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(path));
+  EXPECT_EQ(j["settings"]["estimator"], "mrcs");
+  EXPECT_EQ(j["settings"]["mrcsRows"], 123);
+  EXPECT_EQ(j["settings"]["mrcsSpread"], true);
+  StudioSettings r;
+  ui::ViewState rv;
+  std::string warning;
+  ASSERT_TRUE(ui::loadLastSession(path, &r, &rv, &warning)) << warning;
+  EXPECT_EQ(r.estimator.name, "mrcs");
+  for (const char* p : {"mrcs-rows", "mrcs-clusters", "mrcs-mix", "mrcs-spread"})
+    EXPECT_EQ(r.estimator.value(p), s.estimator.value(p)) << p;
+  EXPECT_TRUE(r.estimator.sameEstimate(s.estimator));
+  EXPECT_EQ(r.estimator.describe(), s.estimator.describe());
+  // Brute force chosen: MRCS's values are kept for when it is chosen again.
+  s.estimator.name = "brute-force";
+  ASSERT_TRUE(ui::saveLastSession(path, s, v));
+  ASSERT_TRUE(ui::loadLastSession(path, &r, &rv, &warning)) << warning;
+  EXPECT_EQ(r.estimator.name, "brute-force");
+  EXPECT_EQ(r.estimator.value("mrcs-rows"), 123);
+  // The keys of a version-2 file.
+  std::ofstream(path, std::ios::trunc)
+      << R"({"version": 2, "scene": "x.gltf", "settings": {"estimator": "mrcs", "mrcsRows": 77, "mrcsClusters": 88}})";
+  StudioSettings old;
+  ASSERT_TRUE(ui::loadLastSession(path, &old, &rv, &warning)) << warning;
+  EXPECT_EQ(old.estimator.name, "mrcs");
+  EXPECT_EQ(old.estimator.value("mrcs-rows"), 77);
+  EXPECT_EQ(old.estimator.value("mrcs-clusters"), 88);
+  EXPECT_EQ(old.estimator.value("mrcs-mix"), 0) << "absent: the default";
+  EXPECT_EQ(old.estimator.describe(), "mrcs --mrcs 77,88,0");
+  // An estimator this version does not have: the default.
+  std::ofstream(path, std::ios::trunc) << R"({"version": 2, "scene": "x.gltf", "settings": {"estimator": "slc"}})";
+  StudioSettings unknown;
+  ASSERT_TRUE(ui::loadLastSession(path, &unknown, &rv, &warning)) << warning;
+  EXPECT_EQ(unknown.estimator.name, "brute-force");
 }
 
 TEST(LastSession, RoundTripAndCorruptFiles) {

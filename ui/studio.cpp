@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "core/estimator_json.h"
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/log.h"
@@ -403,11 +404,13 @@ bool Studio::panelStale(int i) const {
 }
 
 bool studio_detail::snapshotHasPicture(const Snapshot& s, Source src, Component c) {
-  const bool mrcs = s.settings.estimator.kind == EstimatorKind::Mrcs;
+  // An estimator without the VPL variants renders direct, VSL and clamped VPL only (MRCS).
+  const EstimatorInfo* info = findEstimator(s.settings.estimator.name);
+  const bool twoMethods = info && !info->vplVariants;
   // The lost-energy images are the same in every component (no direct part).
-  if (mrcs && (src == Source::LostClamping || src == Source::LostDiffuse)) return false;
+  if (twoMethods && (src == Source::LostClamping || src == Source::LostDiffuse)) return false;
   if (c == Component::Direct || src == Source::Vsl || src == Source::Reference) return true;
-  if (mrcs && src != Source::Vpl) return false;
+  if (twoMethods && src != Source::Vpl) return false;
   return !s.vplPending;
 }
 
@@ -815,25 +818,37 @@ bool Studio::methodControls() {
   return changed;
 }
 
-// The estimator: brute-force batches or MRCS, and the progressive radius.
+// The estimator: a registered one (estimator_registry.h) and its
+// parameters, and the progressive radius.
 bool Studio::estimatorControls() {
   bool changed = false;
   sectionTitle("Estimator");
   EstimatorSettings& e = settings_.estimator;
-  const char* kinds[] = {"brute force (batches)", "MRCS (row-column sampling)"};
-  int kind = int(e.kind);
-  if (ImGui::Combo("estimator", &kind, kinds, 2)) {
-    e.kind = EstimatorKind(kind);
+  const std::vector<EstimatorInfo>& all = estimators();
+  int chosen = 0;
+  for (size_t i = 0; i < all.size(); ++i)
+    if (all[i].name == e.name) chosen = int(i);
+  auto label = [](void* data, int i, const char** out) {
+    *out = (*static_cast<const std::vector<EstimatorInfo>*>(data))[size_t(i)].label.c_str();
+    return true;
+  };
+  if (ImGui::Combo("estimator", &chosen, label, const_cast<std::vector<EstimatorInfo>*>(&all), int(all.size()))) {
+    e.name = all[size_t(chosen)].name;
     changed |= track("estimator", true);
   }
-  if (ImGui::IsItemHovered())
-    tip("Brute force gathers every (pixel, light) pair in progressive batches. MRCS computes ROWS sampled pixels "
-        "against every light, clusters the lights into CLUSTERS and renders one representative per cluster; "
-        "each light set is one MRCS render, and the sets are averaged.");
-  if (e.kind == EstimatorKind::Mrcs) {
-    changed |= track("estimator", ImGui::SliderInt("rows", &e.mrcs.rows, 10, 4000, "%d", ImGuiSliderFlags_Logarithmic));
-    changed |= track("estimator",
-                     ImGui::SliderInt("clusters", &e.mrcs.clusters, 10, 20000, "%d", ImGuiSliderFlags_Logarithmic));
+  if (ImGui::IsItemHovered()) {
+    std::string help;
+    for (const EstimatorInfo& info : all) help += (help.empty() ? "" : "\n") + info.label + ": " + info.help + ".";
+    tip("%s\nWith several light sets, each set is one estimate and the sets are averaged.", help.c_str());
+  }
+  // The chosen estimator's parameters (param_widgets.h).
+  for (const EstimatorParam& p : all[size_t(chosen)].params) {
+    const Param<EstimatorSettings>* bound = estimatorParams().find(p.spec.name);
+    double v = bound->get(e);
+    if (track("estimator", paramWidget(p.spec, &v, p.defaultValue, paramMemory_))) {
+      bound->set(e, v);
+      changed = true;
+    }
   }
   changed |= track("estimator", ImGui::Checkbox("progressive radius", &e.progressiveRadius));
   if (ImGui::IsItemHovered())
@@ -2286,9 +2301,7 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                    {"height", s.many.height},
                    {"maxReferenceSpp", s.maxReferenceSpp},
                    {"lightSets", s.lightSets},
-                   {"estimator", estimatorName(s.estimator.kind)},
-                   {"mrcsRows", s.estimator.mrcs.rows},
-                   {"mrcsClusters", s.estimator.mrcs.clusters},
+                   {"estimator", s.estimator.name},
                    {"progressiveRadius", s.estimator.progressiveRadius},
                    {"progressiveAlpha", s.estimator.alpha}});
   nlohmann::json j = {{"version", kLastSessionVersion},
@@ -2302,6 +2315,9 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"metric", int(v.metric)},
                         {"exposure", v.exposure},
                         {"errorScale", v.errorScale}}}};
+  // Every registered estimator's parameters under their keys, the chosen
+  // one's and the others' (the studio keeps them while another is chosen).
+  j["settings"].update(paramsToJson(estimatorParams(), s.estimator));
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
   if (ec)
@@ -2342,10 +2358,13 @@ void readSettings(const nlohmann::json& j, StudioSettings& s) {
   if (version < 2 && m.lobeFloor == 0) m.lobeFloor = lobeFloor;
   readField(js, "maxReferenceSpp", &s.maxReferenceSpp);
   readField(js, "lightSets", &s.lightSets);
-  if (js.contains("estimator"))
-    s.estimator.kind = parseEstimatorKind(js.at("estimator").get<std::string>()).value_or(EstimatorKind::BruteForce);
-  readField(js, "mrcsRows", &s.estimator.mrcs.rows);
-  readField(js, "mrcsClusters", &s.estimator.mrcs.clusters);
+  if (js.contains("estimator")) {  // an estimator this version does not have: the default
+    const std::string name = js.at("estimator").get<std::string>();
+    s.estimator.name = findEstimator(name) ? name : EstimatorSettings::kDefaultName;
+  }
+  // Every registered estimator's parameters under their keys (version 2's
+  // mrcsRows and mrcsClusters among them).
+  if (Result<void> r = paramsFromJson(estimatorParams(), js, s.estimator); !r) throw std::out_of_range(r.error());
   readField(js, "progressiveRadius", &s.estimator.progressiveRadius);
   readField(js, "progressiveAlpha", &s.estimator.alpha);
 }

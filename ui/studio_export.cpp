@@ -12,6 +12,7 @@
 #include <thread>
 #include <utility>
 
+#include "core/estimator_json.h"
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/log.h"
@@ -263,15 +264,15 @@ nlohmann::json biasNoiseJson(const Snapshot& s) {
   return biasNoise;
 }
 
-// The many-light estimator and its settings (estimator.h).
-nlohmann::json estimatorJson(const EstimatorSettings& e) {
-  nlohmann::json j = {{"kind", estimatorName(e.kind)}, {"describe", e.describe()}};
-  if (e.kind == EstimatorKind::Mrcs)
-    j["mrcs"] = {{"rows", e.mrcs.rows},
-                 {"clusters", e.mrcs.clusters},
-                 {"uniformMix", e.mrcs.uniformMix},
-                 {"spreadVslRadius", e.mrcs.spreadVslRadius},
-                 {"seed", "per light set: seed + set"}};
+// The many-light estimator (estimator_registry.h): its name, its parameters
+// as resolved (defaults included) and its statistics (the newest light
+// set's, Snapshot::estimatorStats).
+nlohmann::json estimatorJson(const EstimatorSettings& e, const std::vector<std::pair<std::string, double>>& stats) {
+  nlohmann::json j = {{"name", e.name},
+                      {"describe", e.describe()},
+                      {"parameters", estimatorValuesJson(e)},
+                      {"seed", "per light set: seed + set"},
+                      {"statistics", estimatorStatsJson(stats)}};
   j["progressiveRadius"] = e.progressiveRadius ? nlohmann::json({{"alpha", e.alpha}}) : nlohmann::json(nullptr);
   return j;
 }
@@ -299,7 +300,7 @@ nlohmann::json settingsJson(const Snapshot& s) {
             {"seed", m.seed},
             {"maxReferenceSpp", s.settings.maxReferenceSpp},
             {"lightSets", s.settings.lightSets},
-            {"estimator", estimatorJson(s.settings.estimator)}});
+            {"estimator", estimatorJson(s.settings.estimator, s.estimatorStats)}});
   return j;
 }
 
@@ -435,10 +436,7 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
           {"scene", s.settings.scene},
           {"exportedUtc", utcStamp()},
           {"replay", "vsl render " + shellWord(s.settings.scene) + " --method all " + firstSet.describe() +
-                         (s.settings.estimator.kind == EstimatorKind::Mrcs
-                              ? " --mrcs " + std::to_string(s.settings.estimator.mrcs.rows) + "," +
-                                    std::to_string(s.settings.estimator.mrcs.clusters)
-                              : std::string()) +
+                         " --estimator " + s.settings.estimator.name + s.settings.estimator.describeParams() +
                          " -o first-light-set.exr"},
           {"replayRenders", "the first of the " + std::to_string(s.lightSets) + " light sets (seeds " +
                                 std::to_string(s.settings.many.seed) + " to " +
