@@ -125,6 +125,11 @@ void StepProgress::attach(const StepProgressSource* source) {
   source_ = source;
 }
 
+void StepProgress::detach(const StepProgressSource* source) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (source_ == source) source_ = nullptr;
+}
+
 // ---- [5] The factory -------------------------------------------------------------------------
 
 std::unique_ptr<ManyLightEstimator> makeEstimator(const RenderContext& ctx, ManyLightRun run,

@@ -121,8 +121,10 @@ class StepProgress {
   // with the direct and vsl layers set and the others black. Set and cleared
   // by the caller between steps.
   std::function<void(const ManyLightImages&)> onVslImage;
-  // The estimator's: from its making to its end (nullptr).
+  // The estimator's, from its making to its end. detach() leaves a source
+  // attached since in place (an estimator made before another ended).
   void attach(const StepProgressSource* source);
+  void detach(const StepProgressSource* source);
 
  private:
   mutable std::mutex mutex_;

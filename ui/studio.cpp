@@ -424,9 +424,10 @@ bool Studio::pinnedFits() const {
          pinned_->indirect.height == snap_->refIndirect.height && pinned_->settings.scene == snap_->settings.scene;
 }
 
-const char* Studio::missingPictureText(Source s) const {
-  return s == Source::Vpl ? "waiting for its MRCS columns (VSL's come first)"
-                          : "not rendered by MRCS (VSL and clamped VPL only)";
+std::string Studio::missingPictureText(Source s) const {
+  const std::string name = snap_ ? snap_->settings.estimator.name : std::string("the estimator");
+  return s == Source::Vpl ? "waiting for its " + name + " step's clamped VPL (VSL's comes first)"
+                          : "not rendered by " + name + " (VSL and clamped VPL only)";
 }
 
 bool Studio::metricShown(int i) const { return hasPicture(kMetricSources[i], Component::Indirect); }
@@ -1269,11 +1270,11 @@ void Studio::viewsPanel() {
       Source a = view_.panels[0], b = view_.panels[1];
       float sx = p0.x + view_.wipe * w, su = uv0.x + view_.wipe * (uv1.x - uv0.x);
       if (missing(a))
-        waitBox(dl, p0, ImVec2(sx, p1.y), missingPictureText(a));
+        waitBox(dl, p0, ImVec2(sx, p1.y), missingPictureText(a).c_str());
       else if (!flipPending(a))
         drawImage(dl, textures_[int(a)], p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), params(a));
       if (missing(b))
-        waitBox(dl, ImVec2(sx, p0.y), p1, missingPictureText(b));
+        waitBox(dl, ImVec2(sx, p0.y), p1, missingPictureText(b).c_str());
       else if (!flipPending(b))
         drawImage(dl, textures_[int(b)], ImVec2(sx, p0.y), p1, ImVec2(su, uv0.y), uv1, params(b));
       drawn_.push_back({p0, ImVec2(sx, p1.y), uv0, ImVec2(su, uv1.y), a});
@@ -1286,7 +1287,7 @@ void Studio::viewsPanel() {
     } else {
       Source s = view_.panels[i];
       if (missing(s)) {
-        waitBox(dl, p0, p1, missingPictureText(s));
+        waitBox(dl, p0, p1, missingPictureText(s).c_str());
       } else if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
         waitBox(dl, p0, p1, "computing FLIP ...");
       } else {

@@ -186,7 +186,7 @@ class Studio {
   // (Snapshot::vplPending). Such a source is drawn as a labelled box and kept
   // out of colour scales and crops. missingPictureText says why.
   bool hasPicture(Source s, Component c) const;
-  const char* missingPictureText(Source s) const;
+  std::string missingPictureText(Source s) const;
   // A method row the metrics table shows (and ranks): kMetricSources[i] has
   // an indirect picture of its own (the direct image is every method's).
   bool metricShown(int i) const;

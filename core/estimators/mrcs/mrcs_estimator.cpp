@@ -67,7 +67,7 @@ class MrcsEstimator final : public ManyLightEstimator, private StepProgressSourc
     if (progress_) progress_->attach(this);
   }
   ~MrcsEstimator() override {
-    if (progress_) progress_->attach(nullptr);
+    if (progress_) progress_->detach(this);
   }
   const std::string& name() const override {
     static const std::string kName = "mrcs";
