@@ -5,6 +5,7 @@
 #include <string>
 
 #include "app/cli.h"
+#include "core/estimator_registry.h"
 #include "core/many_light.h"
 #include "core/params.h"
 
@@ -21,6 +22,9 @@ int cmdParams(const ParamsArgs& a) {
   const ManyLightSettings defaults;
   if (a.markdown) {
     std::fputs(paramTableMarkdown(manyLightParams(), defaults).c_str(), stdout);
+    std::fputs("\nThe estimators' parameters (`--estimator NAME`; docs/ARCHITECTURE.md, \"Adding an estimator\"):\n\n",
+               stdout);
+    std::fputs(paramTableMarkdown(estimatorParams(), EstimatorSettings()).c_str(), stdout);
     return 0;
   }
   for (const Param<ManyLightSettings>& p : manyLightParams().all()) {
