@@ -233,3 +233,42 @@ TEST(Reference, CacheKeysAndEntries) {
   unsetenv("VSL_REFERENCE_CACHE");
   std::filesystem::remove_all(dir);
 }
+
+// A reference shipped with the source (assets/references/<key>.exr, here a
+// folder of the test's) is found by its key beside the cache: the one with
+// more samples wins, and it names its file. Written in 16-bit channels, it
+// reads back within half's precision.
+TEST(Reference, ShippedReferencesAreFoundByKey) {
+  std::string dir = tempDir("shipped");
+  setenv("VSL_REFERENCE_CACHE", (dir + "/cache").c_str(), 1);
+  setenv("VSL_SHIPPED_REFERENCES", (dir + "/shipped").c_str(), 1);
+  test::Loaded l = test::loadAsset("cornell-glossy", 16);
+  const std::string k = referenceKey(*l.scene, 16, 16, 64);
+  vsl::Reference shipped = renderReference(l, 16, 16, 8, 0);
+  shipped.key = k;
+  std::filesystem::create_directories(dir + "/shipped");
+  const std::string path = dir + "/shipped/" + k + ".exr";
+  ASSERT_TRUE(writeReference(path, shipped, l.scene->path, /*half=*/true));
+  auto found = findCachedReference(k, 16, 16);
+  ASSERT_NE(found, nullptr);
+  EXPECT_EQ(found->source, path);
+  EXPECT_EQ(found->spp, 8);
+  for (size_t i = 0; i < shipped.indirect.rgb.size(); ++i)
+    EXPECT_NEAR(found->indirect.rgb[i], shipped.indirect.rgb[i], 1e-3f * std::abs(shipped.indirect.rgb[i]) + 1e-7f);
+  // A cache entry with more samples wins; one with fewer does not.
+  vsl::Reference cached = renderReference(l, 16, 16, 4, 0);
+  cached.key = k;
+  ASSERT_TRUE(storeCachedReference(cached, l.scene->path));
+  EXPECT_EQ(findCachedReference(k, 16, 16)->source, path);
+  vsl::Reference more = renderReference(l, 16, 16, 16, 0);
+  more.key = k;
+  ASSERT_TRUE(storeCachedReference(more, l.scene->path));
+  EXPECT_EQ(findCachedReference(k, 16, 16)->spp, 16);
+  // VSL_SHIPPED_REFERENCES empty: none shipped (what the tests run with).
+  setenv("VSL_SHIPPED_REFERENCES", "", 1);
+  std::filesystem::remove_all(dir + "/cache");
+  EXPECT_EQ(findCachedReference(k, 16, 16), nullptr);
+  unsetenv("VSL_SHIPPED_REFERENCES");
+  unsetenv("VSL_REFERENCE_CACHE");
+  std::filesystem::remove_all(dir);
+}
