@@ -3,8 +3,8 @@
 # "References"): every bundled scene at the studio's default width (256) and
 # at 64 for tests, each to the relMSE noise given (its own noise, from two
 # independent halves), named by its cache key so that the studio and
-# `vsl sweep` find it. Each run's command and figures are appended to
-# assets/references/README.md.
+# `vsl sweep` find it. Each run prints its command and figures (samples,
+# own noise, seconds) for the table in assets/references/README.md.
 #   bash scripts/make_references.sh [SCENE...]     (default: every bundled scene)
 # Environment: WIDTHS (default "256 64"), NOISE (default 0.002), SPP_MAX
 # (default 65536), TIME (seconds per reference, default 3600).
@@ -20,12 +20,7 @@ for scene in "${scenes[@]}"; do
   for width in ${WIDTHS:-256 64}; do
     cmd="VSL_REFERENCE_CACHE=$out vsl reference $scene --width $width --target-relmse ${NOISE:-0.002} --spp ${SPP_MAX:-65536} --time ${TIME:-3600} --half"
     echo "== $cmd"
-    log=$(VSL_REFERENCE_CACHE=$out "$vsl" reference "$scene" --width "$width" --target-relmse "${NOISE:-0.002}" \
-      --spp "${SPP_MAX:-65536}" --time "${TIME:-3600}" --half 2>&1 | tee /dev/stderr | tail -5)
-    {
-      echo
-      echo "- $(date -u +%Y-%m-%d): \`$cmd\`"
-      echo "$log" | sed 's/^/  /'
-    } >>"$out/README.md"
+    VSL_REFERENCE_CACHE=$out "$vsl" reference "$scene" --width "$width" --target-relmse "${NOISE:-0.002}" \
+      --spp "${SPP_MAX:-65536}" --time "${TIME:-3600}" --half
   done
 done
