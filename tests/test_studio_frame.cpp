@@ -27,6 +27,7 @@
 #include "ui/gl.h"
 #include "ui/headless_gl.h"
 #include "ui/studio.h"
+#include "ui/studio_internal.h"
 
 using namespace vsl;
 
@@ -1497,4 +1498,26 @@ TEST_F(StudioFrame, EarlyPicturesAreMarkedRough) {
   px = renderFrames();
   EXPECT_FALSE(studio->roughPicture());
   EXPECT_FALSE(badge(0));
+}
+
+// The Stats tab's numbers: luminance mean, extremes, percentiles and a
+// histogram of log10 luminance, non-finite pixels counted apart.
+TEST(StudioStats, ImageStatsOfAKnownImage) {
+  Image img(10, 10);
+  for (int i = 0; i < 100; ++i) img.set(i % 10, i / 10, Vec3(float(i + 1)));  // luminance 1..100
+  img.set(0, 0, Vec3(NAN));
+  const ui::studio_detail::ImageStats st = ui::studio_detail::imageStats(img);
+  EXPECT_EQ(st.pixels, 99u);
+  EXPECT_EQ(st.nonFinite, 1u);
+  EXPECT_NEAR(st.mean, (5050.0 - 1) / 99, 1e-3);
+  EXPECT_NEAR(st.min, 2, 1e-4);
+  EXPECT_NEAR(st.max, 100, 1e-3);
+  EXPECT_NEAR(st.p50, 51, 1e-3);
+  EXPECT_NEAR(st.logMin, std::log10(2.0), 1e-5);
+  EXPECT_NEAR(st.logMax, 2.0, 1e-5);
+  float total = 0;
+  for (float c : st.histogram) total += c;
+  EXPECT_EQ(total, 99.0f);
+  EXPECT_EQ(st.histogram.front(), 1.0f) << "2 alone in the first bin (3 is a tenth of the log range further)";
+  EXPECT_GE(st.histogram.back(), 1.0f) << "100 in the last bin";
 }

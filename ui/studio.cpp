@@ -6,6 +6,7 @@
 #include <imgui_stdlib.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <chrono>
 #include <cmath>
 #include <cstdarg>
@@ -156,6 +157,42 @@ float percentile99(const Image& img) {
   size_t k = size_t(0.99 * (v.size() - 1));
   std::nth_element(v.begin(), v.begin() + k, v.end());
   return std::max(v[k], 1e-12f);
+}
+
+ImageStats imageStats(const Image& img) {
+  ImageStats st;
+  std::vector<double> lum;
+  lum.reserve(img.rgb.size() / 3);
+  for (size_t i = 0; i + 2 < img.rgb.size(); i += 3) {
+    const double l = luminance(Vec3(img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]));
+    if (std::isfinite(l))
+      lum.push_back(l);
+    else
+      ++st.nonFinite;
+  }
+  st.pixels = lum.size();
+  if (lum.empty()) return st;
+  double sum = 0;
+  for (double l : lum) sum += l;
+  st.mean = sum / double(lum.size());
+  std::sort(lum.begin(), lum.end());
+  auto at = [&](double q) { return lum[size_t(std::floor(q * double(lum.size() - 1) + 0.5))]; };
+  st.min = lum.front();
+  st.max = lum.back();
+  st.p01 = at(0.01);
+  st.p50 = at(0.5);
+  st.p99 = at(0.99);
+  const auto positive = std::upper_bound(lum.begin(), lum.end(), 0.0);
+  st.zeroOrNegative = size_t(positive - lum.begin());
+  if (positive == lum.end()) return st;
+  st.logMin = std::log10(*positive);
+  st.logMax = std::max(std::log10(lum.back()), st.logMin + 1e-6);
+  st.histogram.assign(ImageStats::kStatsBins, 0.0f);
+  for (auto it = positive; it != lum.end(); ++it) {
+    const double t = (std::log10(*it) - st.logMin) / (st.logMax - st.logMin);
+    ++st.histogram[size_t(std::clamp(int(t * ImageStats::kStatsBins), 0, ImageStats::kStatsBins - 1))];
+  }
+  return st;
 }
 
 }  // namespace studio_detail
@@ -563,6 +600,10 @@ void Studio::frame() {
       ImGui::EndTabItem();
     }
     cropMade_ = false;
+    if (ImGui::BeginTabItem("Stats")) {
+      statsPanel();
+      ImGui::EndTabItem();
+    }
     // The tab counts the warnings and errors (a loader's warnings were easy
     // to miss); "###Log" keeps the tab the same one as the count changes.
     size_t warnings = 0;
@@ -1435,6 +1476,33 @@ void Studio::handleViewKeys() {
       if (p[i] == Source(k)) p[i] = p[0];
     p[0] = Source(k);
   }
+}
+
+// The Stats tab: luminance statistics and a histogram of panel 1's image in
+// the shown component, or of its crop when there is one (tev's histogram).
+void Studio::statsPanel() {
+  const Source src = view_.panels[0];
+  Image scratch;
+  const Image* img =
+      snap_ && hasPicture(src, view_.component) ? componentImage(src, view_.component, scratch) : nullptr;
+  if (!img || img->width == 0) {
+    ImGui::TextDisabled("No picture of %s yet.", sourceName(src));
+    return;
+  }
+  const CropRect r = view_.crop.resolved(img->width, img->height);
+  const Image region = r.empty() ? *img : cropImage(*img, r);
+  const ImageStats st = imageStats(region);
+  ImGui::Text("%s, %s component, %s: %zu pixels", sourceName(src), componentName(view_.component),
+              r.empty() ? "whole image" : "crop", st.pixels);
+  ImGui::Text("luminance  mean %.5g   min %.4g   max %.4g", st.mean, st.min, st.max);
+  ImGui::Text("percentiles  1%% %.4g   50%% %.4g   99%% %.4g", st.p01, st.p50, st.p99);
+  ImGui::TextDisabled("zero or negative %zu, non-finite %zu (panel 1's image; keys 1-8 choose it)", st.zeroOrNegative,
+                      st.nonFinite);
+  if (st.histogram.empty()) return;
+  char overlay[96];
+  std::snprintf(overlay, sizeof overlay, "log10 luminance %.2f .. %.2f", st.logMin, st.logMax);
+  ImGui::PlotHistogram("##histogram", st.histogram.data(), int(st.histogram.size()), 0, overlay, 0.0f, FLT_MAX,
+                       ImVec2(std::min(ImGui::GetContentRegionAvail().x, 640.0f), 110));
 }
 
 // The keys, in a window over the views (F1 or ? shows and hides it).

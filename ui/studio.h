@@ -347,6 +347,7 @@ class Studio {
   bool showLog_ = false;                    // bring up the Log tab in the next frame
   bool showShortcuts_ = false;              // the keys' overlay (F1 or ?)
   void shortcutsOverlay();
+  void statsPanel();
   ImVec2 probeMin_ = {}, probeSize_ = {};  // the pixel probe's last place and size (kept inside the window)
   ParamMemory paramMemory_;                // the numbers parameters return to from "auto" or "off" (param_widgets.h)
   std::string message_, errorDialog_;

@@ -2,6 +2,8 @@
 // constants and image helpers both use. Not part of the ui interface.
 #pragma once
 
+#include <vector>
+
 #include "core/compare.h"
 #include "ui/studio.h"
 
@@ -32,5 +34,18 @@ float percentile99(const Image& img);
 // Per-pixel error of test against ref under a metric, averaged over the
 // channels (as the studio's maps show it), in every channel.
 Image errorMap(const Image& test, const Image& ref, ErrorMetric metric);
+
+// Statistics of an image's luminance (the Stats tab, as tev's histogram):
+// over its finite pixels, the mean, min, max and percentiles, the count of
+// non-finite ones, and a histogram of log10 luminance over the positive
+// pixels in kStatsBins bins from the smallest to the largest.
+struct ImageStats {
+  static constexpr int kStatsBins = 64;
+  size_t pixels = 0, nonFinite = 0, zeroOrNegative = 0;
+  double mean = 0, min = 0, max = 0, p01 = 0, p50 = 0, p99 = 0;
+  double logMin = 0, logMax = 0;  // the histogram's range, log10 luminance
+  std::vector<float> histogram;   // kStatsBins counts (empty without a positive pixel)
+};
+ImageStats imageStats(const Image& img);
 
 }  // namespace vsl::ui::studio_detail
