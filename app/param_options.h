@@ -7,8 +7,10 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <functional>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/params.h"
@@ -27,6 +29,60 @@ inline std::string paramOptionHelp(const ParamSpec& p) {
   return h;
 }
 
+// The check of a parameter's option: its value read as the parameter's.
+// CLI11 names the option, so the message drops the parameter's name.
+inline CLI::Validator paramValidator(const ParamSpec& p, const std::string& what) {
+  return CLI::Validator(
+      [&p](std::string& text) -> std::string {
+        Result<double> v = parseParamValue(p, text);
+        if (v) return {};
+        const std::string prefix = std::string(p.name) + ": ";
+        return v.error().rfind(prefix, 0) == 0 ? v.error().substr(prefix.size()) : v.error();
+      },
+      what);
+}
+
+inline const char* paramTypeName(const ParamSpec& p) {
+  return p.kind == ParamKind::Choice ? "WORD" : (p.kind == ParamKind::Int ? "INT" : "NUMBER");
+}
+
+// Adds --NAME (and --ALIAS) for the parameter p, whose value is checked and
+// handed to set; its name is added to *given. Shows the default text given.
+inline CLI::Option* addParamOption(CLI::App* cmd, const ParamSpec& p, std::function<void(double)> set,
+                                   const std::string& defaultText, std::set<std::string>* given = nullptr) {
+  const std::string option = std::string("--") + p.name + (p.alias ? std::string(",--") + p.alias : "");
+  if (p.kind == ParamKind::Flag)
+    return cmd
+        ->add_flag_function(
+            option,
+            [set, given, &p](int64_t n) {
+              set(n > 0 ? 1.0 : 0.0);
+              if (given) given->insert(p.name);
+            },
+            paramOptionHelp(p))
+        ->group(paramGroup(p));
+  return cmd
+      ->add_option_function<std::string>(
+          option,
+          [set, given, &p](const std::string& text) {
+            if (Result<double> v = parseParamValue(p, text)) set(*v);
+            if (given) given->insert(p.name);
+          },
+          paramOptionHelp(p))
+      ->check(paramValidator(p, paramTypeName(p)))
+      ->default_str(defaultText)
+      ->group(paramGroup(p));
+}
+
+// The same, bound to a field of arithmetic type (which must outlive the
+// parse); the default shown is its value when called.
+template <class T>
+CLI::Option* addParamOption(CLI::App* cmd, const ParamSpec& p, T& field, std::set<std::string>* given = nullptr) {
+  static_assert(std::is_arithmetic_v<T>);
+  return addParamOption(
+      cmd, p, [&field](double v) { field = T(v); }, formatParamValue(p, double(field)), given);
+}
+
 // Adds --NAME for every parameter of table but those in skip; a value given
 // is checked and written into target (which must outlive the parse), and its
 // name added to *given. The default shown is target's value when called.
@@ -34,41 +90,11 @@ template <class S>
 void addParamOptions(CLI::App* cmd, const ParamTable<S>& table, S& target, std::set<std::string>* given = nullptr,
                      const std::vector<std::string>& skip = {}) {
   for (const Param<S>& param : table.all()) {
-    const ParamSpec& p = param.spec;
-    bool skipped = false;
-    for (const std::string& s : skip) skipped |= s == p.name;
-    if (skipped) continue;
-    const std::string option = std::string("--") + p.name;
+    if (std::find(skip.begin(), skip.end(), param.spec.name) != skip.end()) continue;
     const Param<S>* bound = &param;
-    if (p.kind == ParamKind::Flag) {
-      cmd->add_flag_function(
-             option,
-             [bound, &target, given](int64_t n) {
-               bound->set(target, n > 0 ? 1.0 : 0.0);
-               if (given) given->insert(bound->spec.name);
-             },
-             paramOptionHelp(p))
-          ->group(paramGroup(p));
-      continue;
-    }
-    cmd->add_option_function<std::string>(
-           option,
-           [bound, &target, given](const std::string& text) {
-             if (Result<double> v = parseParamValue(bound->spec, text)) bound->set(target, *v);
-             if (given) given->insert(bound->spec.name);
-           },
-           paramOptionHelp(p))
-        ->check(CLI::Validator(
-            [bound](std::string& text) -> std::string {
-              // CLI11 names the option: the message drops the parameter's name.
-              Result<double> v = parseParamValue(bound->spec, text);
-              if (v) return {};
-              const std::string prefix = std::string(bound->spec.name) + ": ";
-              return v.error().rfind(prefix, 0) == 0 ? v.error().substr(prefix.size()) : v.error();
-            },
-            p.kind == ParamKind::Choice ? "WORD" : (p.kind == ParamKind::Int ? "INT" : "NUMBER")))
-        ->default_str(formatParamValue(p, param.get(target)))
-        ->group(paramGroup(p));
+    addParamOption(
+        cmd, param.spec, [bound, &target](double v) { bound->set(target, v); },
+        formatParamValue(param.spec, param.get(target)), given);
   }
 }
 
@@ -80,14 +106,7 @@ void addParamAxisOption(CLI::App* cmd, const ParamSpec& p, std::vector<T>& value
   for (const T& v : values) defaults += (defaults.empty() ? "" : ",") + formatParamValue(p, double(v));
   cmd->add_option(std::string("--") + p.name, values, paramOptionHelp(p) + "; a grid axis: comma-separated values")
       ->delimiter(',')
-      ->check(CLI::Validator(
-          [&p](std::string& text) -> std::string {
-            Result<double> v = parseParamValue(p, text);
-            if (v) return {};
-            const std::string prefix = std::string(p.name) + ": ";
-            return v.error().rfind(prefix, 0) == 0 ? v.error().substr(prefix.size()) : v.error();
-          },
-          p.kind == ParamKind::Int ? "INT,..." : "NUMBER,..."))
+      ->check(paramValidator(p, p.kind == ParamKind::Int ? "INT,..." : "NUMBER,..."))
       ->default_str(defaults)
       ->group("Grid axes");
 }
@@ -101,7 +120,7 @@ inline std::string nearestOptionHint(const CLI::App& cmd, const std::string& mes
     for (const std::string& l : o->get_lnames()) names.push_back("--" + l);
   std::string hint;
   for (size_t at = message.find("--"); at != std::string::npos; at = message.find("--", at + 2)) {
-    const size_t end = message.find_first_of(" ,=", at);
+    const size_t end = message.find_first_of(" ,=:'", at);
     const std::string given = message.substr(at, end == std::string::npos ? std::string::npos : end - at);
     if (std::find(names.begin(), names.end(), given) != names.end()) continue;
     if (std::string near = nearestName(given, names); !near.empty()) hint += " (did you mean " + near + "?)";

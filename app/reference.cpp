@@ -7,7 +7,9 @@
 
 #include "app/cli.h"
 #include "app/finite_options.h"
+#include "app/param_options.h"
 #include "core/log.h"
+#include "core/params.h"
 #include "core/reference.h"
 #include "core/render_context.h"
 
@@ -136,12 +138,10 @@ Subcommand addReferenceCommand(CLI::App& app) {
   CLI::App* reference = app.add_subcommand(
       "reference", "Render a converged path-traced reference in two independent halves, to a file and the cache");
   reference->add_option("scene", rfa.scene, "Scene file (.gltf or .glb)")->required();
-  CLI::Option* spp =
-      reference->add_option("--spp", rfa.settings.spp, "Samples per pixel (rounded up to even)")->default_str("1024");
+  addParamOptions(reference, pathTracerParams(), rfa.settings);  // --spp is rounded up to even
+  CLI::Option* spp = reference->get_option("--spp");
   reference->add_option("--time", rfa.settings.timeLimit, "Stop after this many seconds")->check(positiveSeconds());
-  reference->add_option("--target-relmse", rfa.target,
-                        "Stop once the reference's own indirect relMSE, estimated from its halves, is at most this (0: "
-                        "no target, the default)");
+  addParamOption(reference, runParam("target-relmse"), rfa.target);
   reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)")
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)")
@@ -151,7 +151,6 @@ Subcommand addReferenceCommand(CLI::App& app) {
                    "Random seed (default: one that neither the studio's live path tracer nor vsl sweep uses)")
       ->default_str(std::to_string(kReferenceSeed))
       ->check(seedValue());
-  reference->add_option("--max-depth", rfa.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
   reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");
   reference->add_flag("--no-cache", rfa.noCache, "Do not store the result in the reference cache");

@@ -13,6 +13,7 @@
 #include "app/cli.h"
 #include "app/estimator_options.h"
 #include "app/finite_options.h"
+#include "app/param_options.h"
 #include "app/render.h"
 #include "core/image_io.h"
 #include "core/log.h"
@@ -37,16 +38,15 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
       ->default_str("pt");
   addVslOptions(render, ra.many);
   addEstimatorOptions(render, ra.estimatorOptions);
-  auto* sppOpt = render->add_option("--spp", ra.settings.spp, "Samples per pixel (pt)")->default_str("64");
+  addParamOptions(render, pathTracerParams(), ra.settings);
   render->add_option("--time", ra.settings.timeLimit, "Render for this many seconds instead of --spp")
       ->check(positiveSeconds())
-      ->excludes(sppOpt);
+      ->excludes("--spp");
   render->add_option("--width", ra.settings.width, "Image width (default: from the scene, or 512)")
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   render->add_option("--height", ra.settings.height, "Image height (default: from the scene, or 512)")
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   render->add_option("--seed", ra.settings.seed, "Random seed")->default_str("0")->check(seedValue());
-  render->add_option("--max-depth", ra.settings.maxDepth, "Maximum scattering events per path")->default_str("64");
   render->add_option("--component", ra.component, "Component for the default EXR layer and the PNG")
       ->check(CLI::IsMember({"full", "direct", "indirect"}))
       ->default_str("full");

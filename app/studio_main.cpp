@@ -580,20 +580,12 @@ void addOptions(CLI::App& app, Args& a) {
                  "default: a matching cached reference, else the live path tracer. Headless, a file that cannot be "
                  "used (another size or scene, no image layer) ends the run with exit status 1")
       ->check(CLI::ExistingFile);
-  app.add_option("--light-sets", a.lightSets,
-                 "Independent light sets to render and average; from two on, each method's bias and noise are "
-                 "measured (1: one set)")
-      ->default_str(std::to_string(StudioSettings().lightSets))
-      ->check(CLI::Range(1, StudioSettings::kMaxLightSets));
-  app.add_option("--background-reference", a.backgroundReference,
-                 "Once the methods are done, render a reference of this many spp into the cache and use it")
-      ->check(CLI::Range(0, 1 << 20));
+  addParamOption(&app, runParam("light-sets"), a.lightSets);
+  addParamOption(&app, runParam("background-reference"), a.backgroundReference);
   // Start with this estimator (default: brute-force batches); with MRCS,
   // each light set is one MRCS render and the sets are averaged.
   addEstimatorOptions(&app, a.estimatorOptions);
-  app.add_option("--progressive-radius", a.progressive,
-                 "Consistent progressive VSL: light set k's radii shrink by progressiveRadiusFactor(k, ALPHA), "
-                 "ALPHA in (0,1), e.g. 0.7");
+  addParamOption(&app, runParam("progressive-radius"), a.progressive);
   app.add_flag("--compare-presets", a.comparePresets,
                "Once the render is done, pin its VSL picture and render VSL with the other preset beside it (the "
                "\"Compare with the ... preset\" button); an export or screenshot waits for the second render");
@@ -659,7 +651,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (int rc = resolveEstimator(a, app.count("--progressive-radius") > 0); rc != 0) return rc;
+  if (int rc = resolveEstimator(a, a.progressive > 0); rc != 0) return rc;
   if (Result<void> e = a.estimator.validateWith(a.many); !e) {
     std::fprintf(stderr, "error: --%s\n", e.error().c_str());
     return 2;

@@ -34,6 +34,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "core/compare.h"
@@ -41,6 +42,7 @@
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
+#include "core/params.h"
 #include "core/reference.h"
 #include "core/settings.h"
 #include "core/stopwatch.h"
@@ -972,7 +974,71 @@ int mergeShards(const SweepArgs& a) {
 
 }  // namespace
 
+namespace {
+
+// The axis NAME=V1,V2,... as the parameter and its values' texts, or an error.
+Result<std::pair<std::string, std::vector<std::string>>> parseVary(const std::string& vary, const SweepArgs& a) {
+  const size_t eq = vary.find('=');
+  if (eq == std::string::npos || eq + 1 == vary.size())
+    return Error("--vary must be NAME=V1,V2,... (got '" + vary + "')");
+  const std::string name = vary.substr(0, eq);
+  Result<const Param<ManyLightSettings>*> p = manyLightParams().lookup(name);
+  if (!p) return Error("--vary: " + p.error());
+  if (name == "lights" || name == "radius-scale" || name == "batches")
+    return Error("--vary: " + name + " has its own option (--" + name + ")");
+  std::vector<std::string> texts;
+  std::set<std::string> seen;
+  for (size_t at = eq + 1; at <= vary.size();) {
+    const size_t comma = std::min(vary.find(',', at), vary.size());
+    const std::string text = vary.substr(at, comma - at);
+    ManyLightSettings s = a.many;
+    if (Result<void> r = manyLightParams().setText(s, name, text); !r) return Error("--vary: " + r.error());
+    if (Result<void> r = manyLightParams().check(s); !r) return Error("--vary: " + r.error());
+    const std::string canonical = formatParamValue((*p)->spec, (*p)->get(s));
+    if (!seen.insert(canonical).second) return Error("--vary: " + name + " " + canonical + " is given twice");
+    texts.push_back(canonical);
+    at = comma + 1;
+  }
+  bool vsl = false, vpl = false;
+  for (const std::string& m : a.methods) {
+    vsl |= sweepMethod(m).gather == Method::Vsl;
+    vpl |= sweepMethod(m).gather == Method::Vpl;
+  }
+  if (Result<void> used = manyLightParams().checkUsed(a.many, {name}, vsl, vpl); !used)
+    return Error("--vary: " + used.error());
+  return std::pair{name, texts};
+}
+
+// Runs one sweep per value of --vary, each into outDir/NAME=V, then joins
+// their summary.csv files into outDir/vary.csv.
+int runVary(const SweepArgs& a) {
+  if (!a.shard.empty() || !a.merge.empty()) return fail(kExitBadArguments, "--vary: not with --shard or --merge");
+  Result<std::pair<std::string, std::vector<std::string>>> axis = parseVary(a.vary, a);
+  if (!axis) return fail(kExitBadArguments, axis.error());
+  const auto& [name, texts] = *axis;
+  std::string joined;
+  for (const std::string& text : texts) {
+    SweepArgs one = a;
+    one.vary.clear();
+    (void)manyLightParams().setText(one.many, name, text);
+    one.outDir = (std::filesystem::path(a.outDir) / (name + "=" + text)).string();
+    std::fprintf(stderr, "sweep: %s = %s -> %s\n", name.c_str(), text.c_str(), one.outDir.c_str());
+    if (int rc = runSweep(one); rc != 0) return rc;
+    std::ifstream in(std::filesystem::path(one.outDir) / "summary.csv");
+    std::string line;
+    for (bool header = true; std::getline(in, line); header = false)
+      if (!header || joined.empty()) joined += (header ? name : text) + "," + line + "\n";
+  }
+  const std::string path = (std::filesystem::path(a.outDir) / "vary.csv").string();
+  if (Result<void> written = writeTextFile(path, joined); !written) return fail(kExitBadInput, written.error());
+  std::fprintf(stderr, "wrote %s: each value's summary, with a column for %s\n", path.c_str(), name.c_str());
+  return 0;
+}
+
+}  // namespace
+
 int runSweep(const SweepArgs& a) {
+  if (!a.vary.empty()) return runVary(a);
   if (!a.merge.empty()) {
     if (!a.scene.empty())
       return failf(kExitBadArguments, "--merge joins shard directories and takes no scene (got '%s')", a.scene.c_str());
@@ -990,6 +1056,9 @@ int runSweep(const SweepArgs& a) {
     if (!read || shardCount < 1 || shardIndex < 0 || shardIndex >= shardCount)
       return failf(kExitBadArguments, "--shard must be I/N with 0 <= I < N (got '%s')", a.shard.c_str());
   }
+  for (const std::string& m : a.methods)
+    if (m.find("progressive") != std::string::npos && !(a.alpha > 0))
+      return failf(kExitBadArguments, "%s needs --progressive-radius (--alpha) in (0,0.99], not off", m.c_str());
   // Two configurations with one name (--lights 1000,1000; scales equal to six
   // digits) would share a row of the summary and a final image.
   std::map<std::string, int> names;
@@ -1048,14 +1117,11 @@ Subcommand addSweepCommand(CLI::App& app) {
                    "-sets methods)")
       ->default_str("30")
       ->check(CLI::Range(0.01, 1e6));
-  sweep->add_option("--alpha", sw.alpha, "vsl-progressive: r^2 shrinks by (i+alpha)/(i+1) per pass")
-      ->default_str("0.7")
-      ->check(CLI::Range(0.01, 0.99));
-  sweep
-      ->add_option("--batches", sw.batches,
-                   "Progressive batches per many-light run (for vsl-sets and vpl-sets: light sets averaged)")
-      ->default_str("8")
-      ->check(CLI::Range(1, 64));
+  // vsl-progressive's ALPHA; the batches (for vsl-sets and vpl-sets: the
+  // light sets averaged); the light sets per configuration.
+  addParamOption(sweep, runParam("progressive-radius"), sw.alpha);
+  addParamOption(sweep, manyLightParams().find("batches")->spec, sw.batches);
+  addParamOption(sweep, runParam("light-sets"), sw.sets);
   addEstimatorOptions(sweep, args->estimator, false);
   sweep->add_option("--seed", sw.seed, "Random seed (must differ from the reference's)")
       ->default_str("1")
@@ -1066,15 +1132,17 @@ Subcommand addSweepCommand(CLI::App& app) {
   sweep->add_option("--width", sw.width, "Without --reference: the width of the cached reference to use")
       ->default_str("256")
       ->check(CLI::Range(8, 16384));
+  sweep
+      ->add_option("--vary", sw.vary,
+                   "Another grid axis: NAME=V1,V2,... for any method parameter (`vsl params`); each value's sweep "
+                   "goes to OUTPUT/NAME=V and OUTPUT/vary.csv joins their summaries")
+      ->group("Grid axes");
   sweep->add_option("--shard", sw.shard, "I/N: run only the configurations whose grid index is I mod N");
   sweep->add_option("--merge", sw.merge, "Join these shard output directories into -o (no scene needed)");
   sweep->add_option("--reference-b", sw.referenceB,
                     "A second reference with another seed: relMSE(B, A)/2 estimates the reference's own noise, "
                     "reported and subtracted in the column relmse_minus_ref_noise");
   sweep->add_option("-o,--output", sw.outDir, "Output directory")->required();
-  sweep->add_option("--sets", sw.sets, "Independent light sets (or path-tracer seeds) per configuration")
-      ->default_str("5")
-      ->check(CLI::Range(1, 1000));
   // The grid's axes and the batches are the sweep's own options above.
   addVslOptions(sweep, sw.many, {"lights", "radius-scale", "batches"});
   return {sweep, [args] {

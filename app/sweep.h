@@ -39,6 +39,10 @@ struct SweepArgs {
   // output directories into outDir (scene and reference are not needed then).
   std::string shard;
   std::vector<std::string> merge;
+  // Another grid axis, "NAME=V1,V2,...": any registered method parameter
+  // (core/params.h). Each value's sweep is written to outDir/NAME=V, and
+  // outDir/vary.csv joins their summaries with a column for the value.
+  std::string vary;
 };
 
 // Runs the sweep (or merges shards) and writes its outputs to args.outDir;

@@ -1,13 +1,16 @@
 // Sections: [1] values as text  [2] names  [3] the many-light parameters
-//           [4] the docs table
+//           [4] the path tracer's and the run parameters  [5] the docs table
 #include "core/params.h"
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <cstdlib>
 #include <sstream>
 
 #include "core/many_light.h"
+#include "core/session.h"
+#include "core/settings.h"
 
 namespace vsl {
 
@@ -198,7 +201,8 @@ std::vector<Param<M>> vslParams() {
                  .uiMin = 1e-4,
                  .uiMax = 0.5,
                  .uiLog = true,
-                 .uiStart = 0.02},
+                 .uiStart = 0.02,
+                 .preset = true},
                 &M::globalRadius),
       bindField({.name = "radius-scale",
                  .key = "radiusScale",
@@ -210,7 +214,8 @@ std::vector<Param<M>> vslParams() {
                         "([notebook](notebook/2026-12-01-radius-and-first-comparisons.md))",
                  .uiMin = 1e-3,
                  .uiMax = 100,
-                 .uiLog = true},
+                 .uiLog = true,
+                 .preset = true},
                 &M::radiusScale),
       bindField({.name = "knn",
                  .key = "knn",
@@ -221,7 +226,8 @@ std::vector<Param<M>> vslParams() {
                  .why = "k = 10 at scale 1 has the lower median error "
                         "([notebook](notebook/2026-12-01-radius-and-first-comparisons.md))",
                  .uiMin = 1,
-                 .uiMax = 64},
+                 .uiMax = 64,
+                 .preset = true},
                 &M::knn),
       bindField({.name = "vsl-samples",
                  .key = "vslSamples",
@@ -236,7 +242,8 @@ std::vector<Param<M>> vslParams() {
                  .uiMin = 1,
                  .uiMax = 128,
                  .uiLog = true,
-                 .uiStart = 4},
+                 .uiStart = 4,
+                 .preset = true},
                 &M::vslSamples),
       bindField({.name = "clipped-disk",
                  .key = "clippedDisk",
@@ -244,7 +251,8 @@ std::vector<Param<M>> vslParams() {
                  .help = "Spread each light's flux over the part of its disk on the receiver's side",
                  .why = "a variant of the authors' shader; no gain on tableau "
                         "([notebook](notebook/2026-12-01-radius-and-first-comparisons.md))",
-                 .quiet = 0},
+                 .quiet = 0,
+                 .preset = true},
                 &M::clippedDisk),
   };
 }
@@ -289,7 +297,8 @@ std::vector<Param<M>> heuristicParams() {
                         "([notebook](notebook/2026-12-02-light-sets-and-vsl-counts.md))",
                  .words = {{"authors", double(VslCount::Authors)},
                            {"lobe", double(VslCount::Lobe)},
-                           {"shares", double(VslCount::Shares)}}},
+                           {"shares", double(VslCount::Shares)}},
+                 .preset = true},
                 &M::vslCount),
       bindField({.name = "lobe-radius",
                  .key = "lobeRadius",
@@ -302,7 +311,8 @@ std::vector<Param<M>> heuristicParams() {
                  .words = {{"off", 0}},
                  .quiet = 0,
                  .uiMin = 0,
-                 .uiMax = 4},
+                 .uiMax = 4,
+                 .preset = true},
                 &M::lobeRadius),
       bindField({.name = "lobe-floor",
                  .key = "lobeFloor",
@@ -314,7 +324,8 @@ std::vector<Param<M>> heuristicParams() {
                         "([notebook](notebook/2026-12-03-lobe-floor.md))",
                  .words = {{"off", 0}},
                  .uiMin = 0,
-                 .uiMax = 2},
+                 .uiMax = 2,
+                 .preset = true},
                 &M::lobeFloor),
       bindField({.name = "continue-alpha",
                  .key = "continueAlpha",
@@ -328,7 +339,8 @@ std::vector<Param<M>> heuristicParams() {
                         "([notebook](notebook/2026-12-01-radius-and-first-comparisons.md))",
                  .words = {{"off", 0}},
                  .uiMin = 0,
-                 .uiMax = 0.2},
+                 .uiMax = 0.2,
+                 .preset = true},
                 &M::continueAlpha),
       bindField({.name = "split-alpha",
                  .key = "splitAlpha",
@@ -343,7 +355,8 @@ std::vector<Param<M>> heuristicParams() {
                  .words = {{"off", 0}},
                  .quiet = 0,
                  .uiMin = 0,
-                 .uiMax = 0.2},
+                 .uiMax = 0.2,
+                 .preset = true},
                 &M::splitAlpha),
   };
 }
@@ -366,7 +379,8 @@ std::vector<Param<M>> lobeGatherParams() {
                  .uiMin = M::kLobeGatherK,
                  .uiMax = 1e7,
                  .uiLog = true,
-                 .uiStart = 100'000},
+                 .uiStart = 100'000,
+                 .preset = true},
                 &M::lobeGather),
       bindField({.name = "lobe-gather-rays",
                  .key = "lobeGatherRays",
@@ -381,7 +395,8 @@ std::vector<Param<M>> lobeGatherParams() {
                  .needs = "lobe-gather",
                  .uiMin = 1,
                  .uiMax = 1024,
-                 .uiLog = true},
+                 .uiLog = true,
+                 .preset = true},
                 &M::lobeGatherRays),
       bindField({.name = "lobe-gather-alpha",
                  .key = "lobeGatherAlpha",
@@ -396,7 +411,8 @@ std::vector<Param<M>> lobeGatherParams() {
                  .needs = "lobe-gather",
                  .uiMin = M::kMinLobeGatherAlpha,
                  .uiMax = 1,
-                 .uiLog = true},
+                 .uiLog = true,
+                 .preset = true},
                 &M::lobeGatherAlpha),
       bindField({.name = "pair-roulette",
                  .key = "pairRoulette",
@@ -411,7 +427,8 @@ std::vector<Param<M>> lobeGatherParams() {
                  .words = {{"off", 0}},
                  .quiet = 0,
                  .uiMin = 0,
-                 .uiMax = 100},
+                 .uiMax = 100,
+                 .preset = true},
                 &M::pairRoulette),
   };
 }
@@ -427,9 +444,95 @@ const ParamTable<ManyLightSettings>& manyLightParams() {
   return table;
 }
 
-// ---- [4] The docs table ---------------------------------------------------------------------
+// ---- [4] The path tracer's and the run parameters -----------------------------------
+
+const ParamTable<RenderSettings>& pathTracerParams() {
+  static const ParamTable<RenderSettings> table({
+      bindField({.name = "spp",
+                 .key = "spp",
+                 .kind = ParamKind::Int,
+                 .appliesTo = "PT",
+                 .min = 1,
+                 .max = 1 << 24,
+                 .unit = "samples",
+                 .help = "Samples per pixel of the path tracer",
+                 .why = "render: a quick look; reference: 1,024 is below a fifth of the methods' errors at 64 px "
+                        "([references](../assets/references/README.md))"},
+                &RenderSettings::spp),
+      bindField({.name = "max-depth",
+                 .key = "maxDepth",
+                 .kind = ParamKind::Int,
+                 .appliesTo = "PT",
+                 .min = 1,
+                 .max = 1024,
+                 .unit = "bounces",
+                 .help = "Maximum scattering events per path",
+                 .why = "Russian roulette ends paths long before 64 in the bundled scenes"},
+                &RenderSettings::maxDepth),
+  });
+  return table;
+}
+
+const std::vector<ParamSpec>& runParams() {
+  static const std::vector<ParamSpec> specs = {
+      {.name = "light-sets",
+       .key = "lightSets",
+       .kind = ParamKind::Int,
+       .appliesTo = "VSL, VPL",
+       .min = 1,
+       .max = StudioSettings::kMaxLightSets,
+       .help = "Independent light sets rendered and averaged; from two on, each method's bias and noise are measured",
+       .why = "a many-light method's error is heavy-tailed: judge it on five sets or more "
+              "([RESULTS](RESULTS.md))",
+       .alias = "sets"},
+      {.name = "progressive-radius",
+       .key = "progressiveRadius",
+       .appliesTo = "VSL",
+       .min = 0,
+       .max = 0.99,
+       .minOpen = true,
+       .help = "Consistent progressive VSL: light set k's r^2 shrinks by (k+ALPHA)/(k+1) per set",
+       .why = "0.7 as in progressive photon mapping (Hachisuka et al. 2008); off in the studio",
+       .words = {{"off", 0}},
+       .alias = "alpha"},
+      {.name = "target-relmse",
+       .key = "targetRelMse",
+       .appliesTo = "reference",
+       .min = 0,
+       .max = 1,
+       .help = "Stop once the reference's own indirect relMSE, from its two halves, is at most this (0: no target)",
+       .why = "a fifth of the smallest method error the comparison shows ([references](../assets/references/"
+              "README.md))"},
+      {.name = "background-reference",
+       .key = "backgroundReferenceSpp",
+       .kind = ParamKind::Int,
+       .appliesTo = "studio",
+       .min = 0,
+       .max = 1 << 20,
+       .unit = "samples",
+       .help = "Once the methods are done, render a reference of this many spp into the cache and use it (0: no)",
+       .why = "off: a shipped or cached reference is found by key first ([references](../assets/references/"
+              "README.md))"},
+  };
+  return specs;
+}
+
+const ParamSpec& runParam(std::string_view name) {
+  for (const ParamSpec& p : runParams())
+    if (name == p.name) return p;
+  std::fprintf(stderr, "internal error: no run parameter '%.*s'\n", int(name.size()), name.data());
+  std::abort();
+}
+
+// ---- [5] The docs table ---------------------------------------------------------------------
 
 std::string paramTableMarkdown(const std::vector<ParamSpec>& specs, const std::vector<double>& defaults) {
+  std::vector<std::string> texts;
+  for (size_t i = 0; i < specs.size(); ++i) texts.push_back(formatParamValue(specs[i], defaults[i]));
+  return paramTableMarkdown(specs, texts);
+}
+
+std::string paramTableMarkdown(const std::vector<ParamSpec>& specs, const std::vector<std::string>& defaults) {
   std::ostringstream s;
   s << "| parameter | default | range | unit | tier | methods | meaning | why the default |\n"
     << "|---|---|---|---|---|---|---|---|\n";
@@ -437,7 +540,7 @@ std::string paramTableMarkdown(const std::vector<ParamSpec>& specs, const std::v
     const ParamSpec& p = specs[i];
     std::string range = paramRangeText(p);
     std::replace(range.begin(), range.end(), '|', '/');
-    s << "| `--" << p.name << "` | " << formatParamValue(p, defaults[i]) << " | " << range << " | " << p.unit << " | "
+    s << "| `--" << p.name << "` | " << defaults[i] << " | " << range << " | " << p.unit << " | "
       << (p.tier == ParamTier::Method ? "method" : "experimental") << " | " << p.appliesTo << " | " << p.help << " | "
       << p.why << " |\n";
   }

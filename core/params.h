@@ -64,6 +64,11 @@ struct ParamSpec {
   double uiMin = 0, uiMax = 0;
   bool uiLog = false;
   double uiStart = std::numeric_limits<double>::quiet_NaN();
+  // An older option name a command still accepts ("sets" for light-sets).
+  const char* alias = nullptr;
+  // A preset sets it (core/presets.h): it defines the method's variant. The
+  // light set's scale, the batches and VPL's clamp stay the user's.
+  bool preset = false;
 };
 
 // The text of a value: its word if it has one, else the number in its
@@ -205,8 +210,23 @@ struct ManyLightSettings;
 // core/params.cpp.
 const ParamTable<ManyLightSettings>& manyLightParams();
 
+struct RenderSettings;
+// The path tracer's parameters (RenderSettings: --spp, --max-depth), for
+// `vsl render` and `vsl reference`.
+const ParamTable<RenderSettings>& pathTracerParams();
+
+// How long and how often the methods run, declared once and bound by each
+// command to its own field (app/param_options.h, addParamOption): the light
+// sets averaged, the progressive radius, the reference's stopping rule and
+// the studio's background reference. Each command shows its own default.
+const std::vector<ParamSpec>& runParams();
+// The run parameter of that name; a name not declared is a programming
+// error (it aborts).
+const ParamSpec& runParam(std::string_view name);
+
 // The registry's parameter table as Markdown: name, default, range and unit,
 // tier, methods, meaning and why (docs/REFERENCE.md, "Parameter table").
+std::string paramTableMarkdown(const std::vector<ParamSpec>& specs, const std::vector<std::string>& defaults);
 std::string paramTableMarkdown(const std::vector<ParamSpec>& specs, const std::vector<double>& defaults);
 template <class S>
 std::string paramTableMarkdown(const ParamTable<S>& table, const S& defaults) {

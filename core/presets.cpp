@@ -6,12 +6,11 @@ namespace vsl {
 
 namespace {
 
-// The method fields a preset sets: every parameter of the registry but the
-// light set's (core/params.cpp, lightSetParams) and the VPL's clamp and
-// emission, which are the user's.
+// The method fields a preset sets: the registry's parameters marked
+// ParamSpec::preset.
 void copyMethodFields(const ManyLightSettings& from, ManyLightSettings& to) {
   for (const Param<ManyLightSettings>& p : manyLightParams().all())
-    if (p.spec.appliesTo == std::string_view("VSL") || p.spec.tier == ParamTier::Experimental) p.set(to, p.get(from));
+    if (p.spec.preset) p.set(to, p.get(from));
 }
 
 // The preset's method fields, on otherwise default settings.

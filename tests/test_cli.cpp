@@ -330,6 +330,45 @@ TEST_F(Cli, SweepFinalsAreAtEqualTime) {
   }
 }
 
+// --vary NAME=V1,V2 makes any registered parameter a grid axis: one sweep
+// per value, each recording the value in its settings, and vary.csv joining
+// their summaries. A misspelt name, a bad value or a parameter the methods
+// do not use is refused (exit 2).
+TEST_F(Cli, SweepVariesAnyRegisteredParameter) {
+  std::string header;
+  sweepCsv("--methods vpl --lights 10 --time 0.05 --sets 1", "unused", &header);  // writes ref.exr
+  const std::string base = "sweep " + scene("cornell-glossy") + " --methods vsl --lights 40 --time 0.05 --sets 1 " +
+                           "--reference " + file("ref.exr") + " -o " + file("vary");
+  Proc r = run(base + " --vary lobe-floor=0,2.5");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream csv(file("vary/vary.csv"));
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(csv, line);) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0].rfind("lobe-floor,method,lights,", 0), 0u) << lines[0];
+  EXPECT_EQ(lines[1].rfind("0,vsl,40,", 0), 0u) << lines[1];
+  EXPECT_EQ(lines[2].rfind("2.5,vsl,40,", 0), 0u) << lines[2];
+  for (const char* value : {"0", "2.5"}) {
+    std::ifstream json(file(std::string("vary/lobe-floor=") + value + "/sweep.json"));
+    const std::string text((std::istreambuf_iterator<char>(json)), {});
+    EXPECT_NE(text.find(std::string("--lobe-floor ") + value + " "), std::string::npos) << value;
+  }
+  for (auto [vary, want] :
+       std::vector<std::pair<std::string, std::string>>{{"lobe-flor=0,1", "did you mean 'lobe-floor'?"},
+                                                        {"lobe-floor=0,-1", "lobe-floor: must be in [0,100]"},
+                                                        {"lobe-floor=1,1", "given twice"},
+                                                        {"lights=10,20", "has its own option"},
+                                                        {"lobe-floor", "NAME=V1,V2"}}) {
+    Proc bad = run(base + " --vary " + vary);
+    EXPECT_EQ(bad.code, 2) << vary << ": " << bad.out;
+    EXPECT_NE(bad.out.find(want), std::string::npos) << vary << ": " << bad.out;
+  }
+  Proc unused = run("sweep " + scene("cornell-glossy") + " --methods vpl --reference " + file("ref.exr") + " -o " +
+                    file("vary2") + " --vary lobe-floor=0,1");
+  EXPECT_EQ(unused.code, 2) << unused.out;
+  EXPECT_NE(unused.out.find("only VPL is rendered"), std::string::npos) << unused.out;
+}
+
 TEST_F(Cli, SweepWritesTablesAndPlots) {
   std::string header, line;
   const std::vector<std::vector<std::string>> points = sweepCsv(
@@ -790,12 +829,12 @@ TEST_F(Cli, VslCountIsChosenAndRecorded) {
 TEST_F(Cli, StudioRefusesBadEstimatorFlags) {
   const std::string studio = std::string(VSL_BINARY_DIR) + "/bin/vsl-studio";
   if (!fs::exists(studio)) GTEST_SKIP() << "built without the UI";
-  for (auto [args, want] :
-       std::vector<std::pair<std::string, std::string>>{{"--mrcs 0,5", "mrcs rows: must be in [1,100000]"},
-                                                        {"--mrcs 10,0", "mrcs clusters"},
-                                                        {"--mrcs 10", "--mrcs must be ROWS,CLUSTERS"},
-                                                        {"--mrcs 10,20,x", "--mrcs must be ROWS,CLUSTERS"},
-                                                        {"--progressive-radius 1.5", "alpha: must be in (0,1)"}}) {
+  for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
+           {"--mrcs 0,5", "mrcs rows: must be in [1,100000]"},
+           {"--mrcs 10,0", "mrcs clusters"},
+           {"--mrcs 10", "--mrcs must be ROWS,CLUSTERS"},
+           {"--mrcs 10,20,x", "--mrcs must be ROWS,CLUSTERS"},
+           {"--progressive-radius 1.5", "--progressive-radius: must be in (0,0.99] or off"}}) {
     Proc r = shell(studio + " --headless " + args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;

@@ -422,18 +422,20 @@ bool Studio::sourceStale(Source s) const {
   return !sameImageSettings(a, accepted_);
 }
 
+double Studio::lightsPerSet() const { return double(snap_->lightsTotal) / std::max(snap_->lightSets, 1); }
+
 bool Studio::roughPicture() const {
   if (!snap_ || snap_->lightSetsDone > 0 || snap_->manyLightDone) return false;
-  const double perSet = double(snap_->lightsTotal) / std::max(snap_->lightSets, 1);
-  return double(snap_->lightsProcessed) < kRoughShare * perSet;
+  return double(snap_->lightsProcessed) < kRoughShare * lightsPerSet();
 }
 
 std::string Studio::roughText() const {
-  const double perSet = double(snap_->lightsTotal) / std::max(snap_->lightSets, 1);
   char text[96];
-  std::snprintf(text, sizeof text, "ROUGH - %zu of %.0f lights", snap_->lightsProcessed, perSet);
+  std::snprintf(text, sizeof text, "ROUGH - %zu of %.0f lights", snap_->lightsProcessed, lightsPerSet());
   return text;
 }
+
+bool Studio::vslPictureCurrent() const { return snap_ && !sourceStale(Source::Vsl) && snap_->many.vsl.width > 0; }
 
 bool Studio::panelStale(int i) const {
   if (view_.mode == ViewMode::Wipe && i < 2) return sourceStale(view_.panels[0]) || sourceStale(view_.panels[1]);
@@ -760,7 +762,7 @@ bool Studio::compareButton() {
   const std::string current = matchingPreset(settings_.many);
   const Preset other = current == presetName(Preset::Paper) ? Preset::Default : Preset::Paper;
   const std::string label = std::string("Compare with the ") + presetName(other) + " preset";
-  const bool can = snap_ && !sourceStale(Source::Vsl) && snap_->many.vsl.width > 0;
+  const bool can = vslPictureCurrent();
   if (!can) ImGui::BeginDisabled();
   const bool clicked = ImGui::Button(label.c_str());
   if (!can) ImGui::EndDisabled();
@@ -778,7 +780,7 @@ bool Studio::compareButton() {
 }
 
 bool Studio::comparePresets() {
-  if (!snap_ || sourceStale(Source::Vsl) || snap_->many.vsl.width == 0) return false;
+  if (!vslPictureCurrent()) return false;
   const std::string current = matchingPreset(settings_.many);
   const std::string name = current == "default" ? "VSL" : "VSL [" + current + "]";
   pinned_ = PinnedVsl{name, snap_->many.direct, snap_->many.vsl, snap_->settings};

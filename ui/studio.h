@@ -376,6 +376,8 @@ class Studio {
   void pinnedRow(const TableState& t);
   void headerRow(const TableState& t) const;
   std::string roughText() const;
+  double lightsPerSet() const;     // of the snapshot shown
+  bool vslPictureCurrent() const;  // an up-to-date VSL picture, which the presets comparison pins
   // LDR-FLIP of each method (and the live path tracer) against the reference
   // for the shown component and exposure, computed off the UI thread.
   struct FlipNumbers {
