@@ -894,11 +894,12 @@ bool Studio::estimatorControls() {
       changed = true;
     }
   }
-  changed |= track("estimator", ImGui::Checkbox("progressive radius", &e.progressiveRadius));
-  if (ImGui::IsItemHovered())
-    tip("Consistent progressive VSL: light set k's radii are scaled by sqrt(prod_{i<=k} (i + alpha) / (i + 1)), "
-        "so the mean over the sets converges to the unbiased image. Raise the light sets to see it converge.");
-  if (e.progressiveRadius) changed |= track("estimator", ImGui::SliderFloat("alpha", &e.alpha, 0.05f, 0.95f, "%.2f"));
+  double alpha = e.progressiveRadius ? e.alpha : 0;
+  if (track("estimator", paramWidget(runParam("progressive-radius"), &alpha, 0, paramMemory_))) {
+    e.progressiveRadius = alpha > 0;
+    if (alpha > 0) e.alpha = float(alpha);
+    changed = true;
+  }
   errorField("estimator");
   return changed;
 }
@@ -919,11 +920,11 @@ bool Studio::renderControls() {
     changed |= track("width", true);
   }
   errorField("width");
-  changed |=
-      track("light sets", ImGui::SliderInt("light sets", &settings_.lightSets, 1, StudioSettings::kMaxLightSets));
-  if (ImGui::IsItemHovered())
-    tip("Independent light sets (seeds seed, seed+1, ...) rendered one after another: VSL and VPL show their "
-        "mean, and from two sets on the table shows each method's bias^2 and noise. 1: one set.");
+  double sets = settings_.lightSets;
+  if (track("light sets", paramWidget(runParam("light-sets"), &sets, StudioSettings().lightSets, paramMemory_))) {
+    settings_.lightSets = int(sets);
+    changed = true;
+  }
   errorField("light sets");
   changed |= track("reference spp", ImGui::SliderInt("reference spp", &settings_.maxReferenceSpp, 16, 65536, "%d",
                                                      ImGuiSliderFlags_Logarithmic));
