@@ -140,6 +140,10 @@ TEST(Estimators, SettingsAreGeneric) {
   EXPECT_EQ(s.value("mrcs-rows"), 10);
   EXPECT_EQ(s.value("mrcs-clusters"), 20);
   EXPECT_EQ(s.value("mrcs-mix"), 0.5);
+  // The shorthand's MIX has the bits --mrcs-mix gives it (a float's).
+  const ParamSpec& mix = paramOf(mrcs, "mrcs-mix")->spec;
+  ASSERT_TRUE(mrcs.parseShorthand("10,20,0.123456789", s));
+  EXPECT_EQ(s.value("mrcs-mix"), parseParamValue(mix, "0.123456789").value());
   for (const char* bad : {"10", "10,20x", "10,20,", "x,20", ""}) {
     Result<void> r = mrcs.parseShorthand(bad, s);
     ASSERT_FALSE(r) << bad;

@@ -241,7 +241,9 @@ Result<void> parseShorthand(const std::string& spec, EstimatorSettings& out) {
   out.name = "mrcs";
   out.values["mrcs-rows"] = m.rows;
   out.values["mrcs-clusters"] = m.clusters;
-  out.values["mrcs-mix"] = m.uniformMix;
+  // Read as --mrcs-mix reads it (core/params.h: a Real parameter's value is
+  // a float's), so that both spellings give the same bits.
+  out.values["mrcs-mix"] = double(float(m.uniformMix));
   return {};
 }
 
