@@ -370,19 +370,20 @@ void onChar(GLFWwindow*, unsigned) { gInput = true; }
 void onWindowEvent(GLFWwindow*, int) { gInput = true; }
 void onRefresh(GLFWwindow*) { gInput = true; }
 
-// Quit within two seconds whatever the worker is doing: it is asked to stop
-// and given 1 s. Hack: a stage that cannot be interrupted (parsing a huge
-// scene file, building a k-d tree over millions of lights) would hold the
-// join for longer, so then the process exits without waiting; there is
-// nothing to save.
+// Quit within a second whatever the worker is doing (docs/USAGE.md): it is
+// asked to stop and given kQuitWaitSeconds. A stage that cannot be
+// interrupted (parsing a huge scene file, building a k-d tree over millions
+// of lights) would hold the join for longer, so then the process exits
+// without waiting; the session was saved before, so nothing is lost.
+constexpr double kQuitWaitSeconds = 0.75;
 void quitPromptly(GLFWwindow* win, ui::Studio& studio) {
   glfwHideWindow(win);
   Stopwatch sinceQuit;
-  if (studio.session() && studio.session()->shutdown(1.0)) {
+  if (studio.session() && studio.session()->shutdown(kQuitWaitSeconds)) {
     std::fprintf(stderr, "vsl-studio: the renderer stopped %.0f ms after quit\n", 1000 * sinceQuit.seconds());
   } else if (studio.session()) {
-    std::fprintf(stderr, "vsl-studio: the renderer did not stop within 1 s (%s); exiting without waiting\n",
-                 studio.session()->status().stage.c_str());
+    std::fprintf(stderr, "vsl-studio: the renderer did not stop within %.2f s (%s); exiting without waiting\n",
+                 kQuitWaitSeconds, studio.session()->status().stage.c_str());
     std::fflush(stderr);
     std::_Exit(0);
   }
