@@ -43,10 +43,17 @@ void printLights(const Scene& s) {
               lights.emissiveTriangleCount(), s.punctualLights.size(), lights.totalPower());
   for (size_t i = 0; i < s.materials.size(); ++i)
     if (power[i] > 0) std::printf("  emissive material %-20s power %.6g W\n", s.materials[i].name.c_str(), power[i]);
-  for (const PunctualLight& L : s.punctualLights)
-    std::printf("  %s %-20s at (%g %g %g) intensity (%.4g %.4g %.4g) power %.6g W\n",
-                L.type == PunctualLight::Type::Spot ? "spot " : "point", L.name.c_str(), L.position.x, L.position.y,
-                L.position.z, L.intensity.x, L.intensity.y, L.intensity.z, L.power());
+  for (const PunctualLight& L : s.punctualLights) {
+    const float R = s.boundingRadius();
+    if (L.type == PunctualLight::Type::Directional)
+      std::printf("  sun   %-20s toward (%g %g %g) irradiance (%.4g %.4g %.4g) power %.6g W over the scene\n",
+                  L.name.c_str(), L.direction.x, L.direction.y, L.direction.z, L.intensity.x, L.intensity.y,
+                  L.intensity.z, L.power(R));
+    else
+      std::printf("  %s %-20s at (%g %g %g) intensity (%.4g %.4g %.4g) power %.6g W\n",
+                  L.type == PunctualLight::Type::Spot ? "spot " : "point", L.name.c_str(), L.position.x, L.position.y,
+                  L.position.z, L.intensity.x, L.intensity.y, L.intensity.z, L.power(R));
+  }
 }
 
 int cmdInfo(const InfoArgs& a) {

@@ -15,7 +15,7 @@ LightSampler::LightSampler(const Scene& scene) : scene_(scene) {
     // Power of a Lambertian emitter: pi * L * area, per emitting side.
     power.push_back(double(luminance(m.emission)) * area * kPi * (m.doubleSided ? 2 : 1));
   }
-  for (const PunctualLight& L : scene.punctualLights) power.push_back(L.power());
+  for (const PunctualLight& L : scene.punctualLights) power.push_back(L.power(sceneRadius()));
   dist_ = DiscreteDistribution(power);
 }
 
@@ -64,6 +64,7 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
     s.delta = false;
   } else {
     const PunctualLight& L = scene_.punctualLights[i - emissiveTris_.size()];
+    if (L.type == PunctualLight::Type::Directional) return directionalLi(L, p, pmf);
     Vec3 d = L.position - p;
     float d2 = lengthSquared(d);
     if (!(d2 > 0)) return std::nullopt;
@@ -109,7 +110,16 @@ std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Ve
     const PunctualLight& L = scene_.punctualLights[i - emissiveTris_.size()];
     e.p = L.position;
     e.n = Vec3(0.0f);
-    if (L.type == PunctualLight::Type::Point) {
+    if (L.type == PunctualLight::Type::Directional) {
+      // A parallel beam through the disk of the bounding sphere facing it,
+      // from a point outside the sphere: beta = E pi R^2 / pmf.
+      const float R = sceneRadius();
+      const Vec2 d = sampleUniformDiskConcentric(uPos);
+      const Frame f(L.direction);
+      e.p = scene_.center() - L.direction * (1.01f * R) + f.toWorld(Vec3(d.x * R, d.y * R, 0));
+      e.w = L.direction;
+      e.beta = L.intensity * (kPi * R * R / pmf);
+    } else if (L.type == PunctualLight::Type::Point) {
       e.w = sampleUniformSphere(uDir);
       e.beta = L.intensity * (4 * kPi / pmf);
     } else {
@@ -120,6 +130,23 @@ std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Ve
   }
   if (isBlack(e.beta) || !isFinite(e.beta)) return std::nullopt;
   return e;
+}
+
+float LightSampler::sceneRadius() const { return std::max(scene_.boundingRadius(), 1e-6f); }
+
+// A directional light seen from p: irradiance E from -direction, its shadow
+// ray ending outside the bounding sphere (docs/REFERENCE.md "Lights").
+std::optional<LightSample> LightSampler::directionalLi(const PunctualLight& L, const Vec3& p, float pmf) const {
+  LightSample s;
+  s.wi = -L.direction;
+  s.dist = length(p - scene_.center()) + 2 * sceneRadius();
+  s.pLight = p + s.wi * s.dist;
+  s.nLight = Vec3(0.0f);
+  s.Li = L.intensity;
+  s.pdf = pmf;
+  s.delta = true;
+  if (isBlack(s.Li)) return std::nullopt;
+  return s;
 }
 
 float LightSampler::pdfLi(const Vec3& p, uint32_t tri, const Vec3& y) const {

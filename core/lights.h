@@ -74,6 +74,8 @@ class LightSampler {
   std::vector<uint32_t> emissiveTris_;
   std::vector<int32_t> lightOfTriangle_;  // -1 for non-emissive triangles
   DiscreteDistribution dist_;             // over emissive triangles, then punctual lights
+  float sceneRadius() const;              // the bounding radius, at least 1e-6
+  std::optional<LightSample> directionalLi(const PunctualLight& L, const Vec3& p, float pmf) const;
 };
 
 }  // namespace vsl

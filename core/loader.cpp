@@ -824,8 +824,7 @@ struct Loader {
       L.cosInner = float(std::cos(inner));
       L.cosOuter = float(std::cos(outer));
     } else if (gl.type == "directional") {
-      warn(lw + ": directional lights are not modelled (skipped)");
-      return;
+      L.type = PunctualLight::Type::Directional;  // intensity: lux, the irradiance it gives
     } else {
       throw LoadError{lw + ": unknown light type '" + gl.type + "'"};
     }
@@ -1401,7 +1400,8 @@ void checkEmittedPower(const Scene& scene, const std::string& file) {
                       "': emission times triangle area gives infinite power (triangle " + std::to_string(t) + ")"};
   }
   for (const PunctualLight& L : scene.punctualLights)
-    if (!std::isfinite(L.power())) throw LoadError{file + ": light '" + L.name + "': power is not finite"};
+    if (!std::isfinite(L.power(scene.boundingRadius())))
+      throw LoadError{file + ": light '" + L.name + "': power is not finite"};
 }
 
 }  // namespace

@@ -4,7 +4,7 @@
 // hierarchy; POSITION, NORMAL, TANGENT, TEXCOORD_0; the metallic-roughness
 // material with base-colour, metallic-roughness and emissive textures;
 // KHR_materials_emissive_strength; KHR_materials_anisotropy;
-// KHR_lights_punctual point and spot lights; perspective cameras.
+// KHR_lights_punctual point, spot and directional lights; perspective cameras.
 // Everything else a file uses is reported in Scene::warnings by element name;
 // invalid data makes loadScene() fail with a message naming file and element.
 // Only glTF 2.0 is read (asset.version 2.x, minVersion at most 2.0, GLB

@@ -17,16 +17,17 @@ Ray Camera::generateRay(float x, float y, int width, int height) const {
 }
 
 float PunctualLight::falloff(const Vec3& dirFromLight) const {
-  if (type == Type::Point) return 1.0f;
+  if (type != Type::Spot) return 1.0f;
   float cd = dot(direction, dirFromLight);
   float scale = 1.0f / std::max(0.001f, cosInner - cosOuter);
   float a = clamp((cd - cosOuter) * scale, 0.0f, 1.0f);
   return a * a;
 }
 
-float PunctualLight::power() const {
+float PunctualLight::power(float sceneRadius) const {
   float I = luminance(intensity);
   if (type == Type::Point) return 4 * kPi * I;
+  if (type == Type::Directional) return kPi * sceneRadius * sceneRadius * I;
   // Integrate the falloff over the cone: 2 pi * integral over cos in [cosOuter, 1].
   const int n = 256;
   double sum = 0;

@@ -32,19 +32,26 @@ struct Camera {
   Ray generateRay(float x, float y, int width, int height) const;
 };
 
+// KHR_lights_punctual: a point, a spot, or a directional light (the sun: a
+// parallel beam from infinitely far, docs/REFERENCE.md "Lights").
 struct PunctualLight {
-  enum class Type { Point, Spot };
+  enum class Type { Point, Spot, Directional };
   std::string name;
   Type type = Type::Point;
-  Vec3 position;
-  Vec3 direction{0, 0, -1};  // spot axis (world)
-  Vec3 intensity;            // radiant intensity, colour x intensity (W/sr per unit convention)
+  Vec3 position;             // unused for a directional light
+  Vec3 direction{0, 0, -1};  // spot axis, or the direction a directional light travels (world)
+  // Colour x intensity: radiant intensity (W/sr per unit convention) of a
+  // point or spot; irradiance on a surface facing a directional light
+  // (W/m^2 per unit, glTF's lux).
+  Vec3 intensity;
   float cosInner = 1, cosOuter = 0.70710678f;
   // Angular falloff of glTF spots: smoothstep-free linear ramp squared, as in
   // the KHR_lights_punctual reference implementation.
   float falloff(const Vec3& dirFromLight) const;
-  // Total emitted power (for choosing lights in proportion to power).
-  float power() const;
+  // Total emitted power (for choosing lights in proportion to power); a
+  // directional light's is what crosses the disk of the scene's bounding
+  // sphere, of radius sceneRadius.
+  float power(float sceneRadius) const;
 };
 
 // Everything a shading routine needs at a surface hit.

@@ -353,7 +353,11 @@ TEST_F(LoaderTest, UnmodelledFeaturesAreWarnedByName) {
   EXPECT_TRUE(hasWarning(s, "material 0 'glow': extension KHR_materials_transmission")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "extension EXT_made_up is used but not modelled")) << allWarnings(s);
   EXPECT_TRUE(hasWarning(s, "camera 0 'ortho': orthographic")) << allWarnings(s);
-  EXPECT_TRUE(hasWarning(s, "light 0 'sun': directional")) << allWarnings(s);
+  // A directional light is modelled (docs/REFERENCE.md "Lights"): no warning.
+  EXPECT_FALSE(hasWarning(s, "directional")) << allWarnings(s);
+  ASSERT_EQ(s.punctualLights.size(), 1u);
+  EXPECT_EQ(s.punctualLights[0].type, PunctualLight::Type::Directional);
+  EXPECT_NEAR(s.punctualLights[0].direction.z, -1, 1e-6) << "it travels along the node's -z";
 }
 
 // Issue 12: an unsupported *required* extension (Draco-compressed geometry)

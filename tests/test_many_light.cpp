@@ -13,6 +13,7 @@
 #include "core/many_light.h"
 #include "core/mrcs.h"
 #include "core/parallel.h"
+#include "core/pathtracer.h"
 #include "core/point_tree.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -2350,4 +2351,99 @@ TEST(ManyLightStats, LobeGatherFindsAPointLightThroughTwoNarrowLobes) {
   // (ManyLightSettings::kLobeGatherChainAlpha): 0.028; through its own
   // alpha 0.04 lobe, 0.097.
   EXPECT_LT(var / sq, 0.035) << "spikes of the point light seen through two narrow lobes";
+}
+
+// ---- Directional lights (KHR_lights_punctual "directional"; docs/REFERENCE.md
+// "Lights").
+
+namespace {
+// A diffuse floor (albedo 0.5, facing +y) and a white diffuse wall (facing
+// +z) lit by a directional light of irradiance E travelling along dir, seen
+// from above (the wall edge-on).
+std::shared_ptr<Scene> sunScene(Vec3 dir, float E, bool wall) {
+  auto s = std::make_shared<Scene>();
+  s->path = "<sun>";
+  s->materials = {testMaterial("floor", Vec3(0.5f), 0, 1, 0), testMaterial("wall", Vec3(0.8f), 0, 1, 0), Material()};
+  addQuad(*s, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4}, 0);
+  if (wall) addQuad(*s, {-2, 0, -1}, {4, 0, 0}, {0, 3, 0}, 1);
+  PunctualLight sun;
+  sun.type = PunctualLight::Type::Directional;
+  sun.direction = normalize(dir);
+  sun.intensity = Vec3(E);
+  s->punctualLights = {sun};
+  s->camera.position = Vec3(0, 3, 0.5f);  // looking down: the floor fills the view
+  s->camera.forward = Vec3(0, -1, 0);
+  s->camera.right = Vec3(1, 0, 0);
+  s->camera.up = Vec3(0, 0, -1);
+  s->camera.yfov = 0.9f;
+  return s;
+}
+}  // namespace
+
+// The direct light of a directional light on a Lambertian floor is
+// rho / pi x E x cos(theta) everywhere (no falloff, no shadow), and light
+// tracing's rays carry E x pi R^2 over the disk of the bounding sphere: the
+// share that lands on the floor is its projected area over that disk.
+TEST(DirectionalLight, DirectLightAndEmissionMatchTheClosedForm) {
+  const Vec3 dir = normalize(Vec3(0.3f, -1.0f, -0.4f));
+  const float E = 2.0f, cosTheta = -dir.y;
+  Loaded l = loadedFrom(sunScene(dir, E, false), 16);
+  std::optional<LightSample> ls = l.lights->sampleLi(Vec3(0.3f, 0, 0.2f), 0.5f, {0.5f, 0.5f});
+  ASSERT_TRUE(ls);
+  EXPECT_TRUE(ls->delta);
+  EXPECT_NEAR(length(ls->wi + dir), 0, 1e-6);
+  EXPECT_EQ(ls->Li.x, E);
+  EXPECT_GT(length(ls->pLight - l.scene->center()), l.scene->boundingRadius()) << "the shadow ray leaves the scene";
+
+  RenderSettings rs;
+  rs.width = rs.height = 8;
+  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
+  const double expected = 0.5 / M_PI * E * cosTheta;
+  for (int s = 0; s < 4; ++s)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) {
+        Vec3 Ld, Lind;
+        uint64_t rays = 0, nonFinite = 0;
+        pt.samplePixel(x, y, s, Ld, Lind, rays, nonFinite);
+        ASSERT_NEAR(Ld.x, expected, 1e-4 * expected) << x << "," << y;
+        ASSERT_EQ(Lind.x, 0.0f) << "nothing else reflects";
+      }
+
+  // Emission: N rays; the floor (area 16) takes a binomial share of them.
+  const float R = l.scene->boundingRadius();
+  const int N = 20000;
+  int hits = 0;
+  double flux = 0;
+  Rng rng(5, 0);
+  for (int i = 0; i < N; ++i) {
+    std::optional<EmissionSample> e =
+        l.lights->sampleLe(rng.uniform(), {rng.uniform(), rng.uniform()}, {rng.uniform(), rng.uniform()});
+    ASSERT_TRUE(e);
+    EXPECT_NEAR(length(e->w - dir), 0, 1e-6);
+    EXPECT_GE(length(e->p - l.scene->center()), R);
+    flux += e->beta.x / N;
+    if (e->w.y < 0) {
+      const float t = -e->p.y / e->w.y;
+      const Vec3 p = e->p + e->w * t;
+      hits += std::abs(p.x) <= 2 && std::abs(p.z) <= 2;
+    }
+  }
+  EXPECT_NEAR(flux, E * M_PI * R * R, 1e-3 * flux) << "every ray carries the beam's power";
+  const double share = 16 * cosTheta / (M_PI * R * R), se = std::sqrt(share * (1 - share) / N);
+  EXPECT_NEAR(double(hits) / N, share, 4 * se);
+}
+
+// Light tracing from a directional light agrees with the path tracer: the
+// unclamped VPLs' indirect mean against the path-traced indirect (z-test).
+TEST(DirectionalLight, UnclampedVplAgreesWithThePathTracer) {
+  Loaded l = loadedFrom(sunScene(Vec3(0.2f, -1.0f, -0.6f), 3.0f, true), 16);
+  const int W = 16, H = 16, sets = 12;
+  Reference ref = ptIndirect(l, W, H, 1024, 91);
+  ASSERT_GT(ref.mean, 0);
+  std::vector<double> means;
+  for (int k = 0; k < sets; ++k) means.push_back(greyMean(renderMany(l, vplOnly(W, H, 800, 300 + k)).vplUnclamped));
+  auto [m, se] = meanAndError(means);
+  double z = (m - ref.mean) / std::sqrt(se * se + ref.se * ref.se);
+  std::printf("sun: unclamped VPL %.6f +- %.6f vs PT indirect %.6f +- %.6f (z = %.2f)\n", m, se, ref.mean, ref.se, z);
+  EXPECT_LT(std::abs(z), 4.0);
 }

@@ -378,7 +378,7 @@ TEST(LightSampler, PickFrequenciesMatchPmfAndPower) {
     const Material& m = scene->materials[scene->triMaterial[t]];
     power.push_back(double(luminance(m.emission)) * scene->triangleArea(t) * M_PI * (m.doubleSided ? 2 : 1));
   }
-  for (const PunctualLight& L : scene->punctualLights) power.push_back(L.power());
+  for (const PunctualLight& L : scene->punctualLights) power.push_back(L.power(scene->boundingRadius()));
   double total = 0, pmfSum = 0;
   for (double p : power) total += p;
   for (size_t i = 0; i < power.size(); ++i) {
