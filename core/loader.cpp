@@ -620,8 +620,8 @@ struct Loader {
     // Generate tangents from UV derivatives where the file has none.
     const Material& mat = scene.materials[matIndex];
     if (!at.hasT && at.hasUV && mat.normalTexture >= 0)
-      generateMikkTangents(scene.positions, scene.normals, scene.uvs, absoluteIndices(base, tris), base, scene.tangents,
-                           scene.tangentSigns);
+      generateMikkTangents(scene.positions, scene.normals, scene.uvs, absoluteIndices(base, tris, flip), base,
+                           scene.tangents, scene.tangentSigns);
     else if (!at.hasT && at.hasUV && mat.anisotropyStrength > 0)
       generateTangents(base, tris);
     appendTriangles(base, tris, flip, matIndex, where);
@@ -778,8 +778,12 @@ struct Loader {
     return base;
   }
 
-  static std::vector<uint32_t> absoluteIndices(uint32_t base, std::vector<uint32_t> tris) {
+  // The triangles' vertex indices in the scene, wound as appendTriangles
+  // will wind them (reversed under a mirroring transform).
+  static std::vector<uint32_t> absoluteIndices(uint32_t base, std::vector<uint32_t> tris, bool flip) {
     for (uint32_t& i : tris) i += base;
+    if (flip)
+      for (size_t k = 0; k + 2 < tris.size(); k += 3) std::swap(tris[k + 1], tris[k + 2]);
     return tris;
   }
 
