@@ -16,6 +16,13 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
   g.pOff = offsetToLitSide(g.p, g.ng);
   g.em.frame = v.frame();
   g.em.f = BrdfAt(v.brdf(), g.em.frame.toLocal(decodeUnit(v.wi)));
+  if (v.normalMapped) {
+    // Emission with the geometric cosine (VslEmitter::geometricCosine): the
+    // pair's cosP is then -l.ng, for VPLs as for the orientation test.
+    g.n = g.ng;
+    g.em.geometricCosine = true;
+    g.em.ngLocal = g.em.frame.toLocal(g.ng);
+  }
   g.radius = radius;
   g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
   return g;

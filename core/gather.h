@@ -16,6 +16,8 @@ namespace vsl {
 
 // A virtual light decoded for gathering.
 struct GatherLight {
+  // n: the normal of the emission cosine: the shading normal, or the
+  // geometric one for a normal-mapped light (VirtualLight::normalMapped).
   Vec3 p, Phi, n, ng;
   Vec3 pOff;  // shadow-ray end: p moved off its surface (offsetToLitSide(p, ng))
   VslEmitter em;

@@ -27,6 +27,7 @@
 #include <utility>
 
 #include "core/scene.h"
+#include "core/tangents.h"
 
 namespace vsl {
 
@@ -527,12 +528,27 @@ struct Loader {
       }
     }
     m.emission = emissive * strength;
-    if (gm.normalTexture.index >= 0) warn(where + ": normalTexture is not modelled (ignored)");
+    normalMap(gm, m, where);
     if (gm.occlusionTexture.index >= 0)
       warn(where + ": occlusionTexture is not used (a path tracer computes occlusion itself)");
     if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
       warn(where + ": alphaMode " + gm.alphaMode + " is not modelled (rendered opaque)");
     return m;
+  }
+
+  // The material's normalTexture and its scale (glTF 2.0, 3.9.3). A scale
+  // of any finite sign is allowed: negative flips the map's x and y.
+  void normalMap(const tinygltf::Material& gm, Material& m, const std::string& where) {
+    const tinygltf::NormalTextureInfo& nt = gm.normalTexture;
+    if (nt.index < 0) return;
+    if (!std::isfinite(nt.scale) || std::abs(nt.scale) > 1e6)
+      throw LoadError{where + ": normalTexture scale must be finite, at most 1e6 in magnitude (got " +
+                      formatNumber(nt.scale) + ")"};
+    m.normalTexture = texture(nt.index, where + " normalTexture");
+    m.normalScale = float(nt.scale);
+    if (nt.texCoord != 0)
+      warn(where + ": normalTexture uses TEXCOORD_" + std::to_string(nt.texCoord) + "; only TEXCOORD_0 is modelled");
+    for (auto& [k, v] : nt.extensions) warn(where + ": normalTexture extension " + k + " is not supported (ignored)");
   }
 
   // ---- [3] Nodes, meshes, cameras, lights ---------------------------------------
@@ -602,7 +618,12 @@ struct Loader {
     bool flip = xf.det3() < 0;  // mirrored transforms reverse the winding
     uint32_t base = appendVertices(at, xf, flip, where);
     // Generate tangents from UV derivatives where the file has none.
-    if (!at.hasT && at.hasUV && scene.materials[matIndex].anisotropyStrength > 0) generateTangents(base, tris);
+    const Material& mat = scene.materials[matIndex];
+    if (!at.hasT && at.hasUV && mat.normalTexture >= 0)
+      generateMikkTangents(scene.positions, scene.normals, scene.uvs, absoluteIndices(base, tris, flip), base,
+                           scene.tangents, scene.tangentSigns);
+    else if (!at.hasT && at.hasUV && mat.anisotropyStrength > 0)
+      generateTangents(base, tris);
     appendTriangles(base, tris, flip, matIndex, where);
   }
 
@@ -718,6 +739,9 @@ struct Loader {
     if (mat.anisotropyStrength > 0 && !at.hasT && !at.hasUV)
       warn(where + ": anisotropic material '" + mat.name +
            "' on a mesh with neither TANGENT nor TEXCOORD_0; the anisotropy direction is arbitrary");
+    if (mat.normalTexture >= 0 && !at.hasT && !at.hasUV)
+      warn(where + ": normal-mapped material '" + mat.name +
+           "' on a mesh with neither TANGENT nor TEXCOORD_0; its normal map is not applied");
     return matIndex;
   }
 
@@ -752,6 +776,15 @@ struct Loader {
       scene.uvs.push_back(at.hasUV ? Vec2{float(at.uv[2 * i]), float(at.uv[2 * i + 1])} : Vec2{0, 0});
     }
     return base;
+  }
+
+  // The triangles' vertex indices in the scene, wound as appendTriangles
+  // will wind them (reversed under a mirroring transform).
+  static std::vector<uint32_t> absoluteIndices(uint32_t base, std::vector<uint32_t> tris, bool flip) {
+    for (uint32_t& i : tris) i += base;
+    if (flip)
+      for (size_t k = 0; k + 2 < tris.size(); k += 3) std::swap(tris[k + 1], tris[k + 2]);
+    return tris;
   }
 
   // Tangents from UV derivatives, summed over the triangles at each vertex

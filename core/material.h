@@ -234,6 +234,13 @@ struct Material {
   bool doubleSided = false;
   int baseColorTexture = -1, metallicRoughnessTexture = -1, emissiveTexture = -1;
   int anisotropyTexture = -1;
+  // glTF normalTexture: a tangent-space normal map (RGB = (n + 1) / 2, +y up
+  // in the image) and its `scale`, which multiplies the map's x and y
+  // (glTF 2.0 specification, 3.9.3 "Additional Textures"). Sampled through
+  // Scene::normalMapTexel only, so a per-slot texture transform can be
+  // applied there.
+  int normalTexture = -1;
+  float normalScale = 1;
 
   bool isEmissive() const { return maxComponent(emission) > 0; }
 };

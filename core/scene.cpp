@@ -53,6 +53,42 @@ Vec3 Scene::triangleNormal(uint32_t tri) const {
   return normalize(cross(p1 - p0, p2 - p0));
 }
 
+namespace {
+
+// The smallest cosine between a normal-mapped shading normal and the
+// geometric normal; a map tilted further is bent back to it. A hack with a
+// reason: beyond it most viewers and lights fall below the shading
+// hemisphere (black texels), and the light tracer's adjoint factor
+// |wo.ns| / |wo.ng| grows without need (docs/REFERENCE.md, "Normal maps and
+// shading normals"). View-independent, so the BRDF stays reciprocal.
+constexpr float kMinNormalMapCos = 0.2f;
+
+// The shading normal from a tangent-space normal m (glTF 2.0, 3.9.3): the
+// frame is the interpolated normal ns, the tangent t made orthogonal to it
+// (Gram-Schmidt) and the bitangent cross(ns, t) * sign; all on the side of
+// the front face's geometric normal ng.
+Vec3 normalMapped(const Vec3& ns, const Vec3& t, float sign, const Vec3& ng, const Vec3& m) {
+  const Frame tbn(ns, t);
+  Vec3 n = normalize(tbn.s * m.x + tbn.t * (sign * m.y) + tbn.n * m.z);
+  if (!isFinite(n)) return ns;
+  const float c = dot(n, ng);
+  if (c >= kMinNormalMapCos) return n;
+  const Vec3 side = n - ng * c;
+  const float l = length(side);
+  if (!(l > 1e-6f)) return ng;
+  return normalize(ng * kMinNormalMapCos + side * (std::sqrt(1 - sqr(kMinNormalMapCos)) / l));
+}
+
+}  // namespace
+
+Vec3 Scene::normalMapTexel(const Material& m, Vec2 uv) const {
+  float texel[4];
+  textures[m.normalTexture].lookup(uv, false, texel);
+  const Vec3 n((texel[0] * 2 - 1) * m.normalScale, (texel[1] * 2 - 1) * m.normalScale, texel[2] * 2 - 1);
+  const Vec3 unit = normalize(n);
+  return isFinite(unit) ? unit : Vec3(0, 0, 1);
+}
+
 SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) const {
   SurfaceHit h;
   uint32_t i0 = indices[3 * tri], i1 = indices[3 * tri + 1], i2 = indices[3 * tri + 2];
@@ -68,6 +104,11 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
   if (dot(ns, h.ng) < 0) ns = -ns;
   Vec3 t = tangents[i0] * w + tangents[i1] * u + tangents[i2] * v;
   float sign = tangentSigns[i0] < 0 ? -1.0f : 1.0f;
+  const Material& m = materials[h.material];
+  if (m.normalTexture >= 0 && lengthSquared(t) > 1e-12f) {
+    ns = normalMapped(ns, t, sign, h.ng, normalMapTexel(m, h.uv));
+    h.normalMapped = true;
+  }
   h.frontFace = dot(d, h.ng) < 0;
   if (!h.frontFace) {
     // Shade the back side as a mirror image: flip the normals.
@@ -77,7 +118,6 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
   }
   // Anisotropy direction: the tangent rotated by the material's rotation in
   // the tangent-bitangent plane (KHR_materials_anisotropy).
-  const Material& m = materials[h.material];
   if (m.anisotropyStrength > 0 && lengthSquared(t) > 1e-12f) {
     Frame tb(ns, t);
     Vec3 bt = tb.t * sign;

@@ -63,6 +63,10 @@ struct SurfaceHit {
   uint32_t triangle = 0;
   uint32_t material = 0;
   bool frontFace = true;  // the ray arrived on the front side
+  // The shading normal comes from a normal map (Material::normalTexture).
+  // Light tracing then applies the adjoint correction for shading normals
+  // (docs/REFERENCE.md, "Normal maps and shading normals").
+  bool normalMapped = false;
 };
 
 struct Scene {
@@ -92,6 +96,10 @@ struct Scene {
   // Fills a SurfaceHit for triangle tri at Embree barycentrics (u, v), where
   // p = (1-u-v) p0 + u p1 + v p2, hit by a ray with direction d.
   SurfaceHit surfaceHit(uint32_t tri, float u, float v, const Vec3& d) const;
+  // The normal map's texel at uv as a unit tangent-space normal (+z = the
+  // interpolated normal), with the material's scale applied to x and y. The
+  // one place a normal map is read (a texture transform hooks in here).
+  Vec3 normalMapTexel(const Material& m, Vec2 uv) const;
   // The BRDF at a hit, with textures applied.
   Brdf brdf(const SurfaceHit& hit) const;
   // Emitted radiance leaving the hit toward direction w (zero from the back

@@ -77,6 +77,27 @@ struct PathResult {
   uint64_t rays = 0, nonFinite = 0;
 };
 
+// Light transport with shading normals (Veach 1997, "Robust Monte Carlo
+// Methods for Light Transport Simulation", section 5.3). Radiance is
+// transported with f(wo, wi) |wi.ns| (what the path tracer does); its
+// adjoint, for light (importance transport) arriving from wo and leaving
+// along wi, is f(wo, wi) |wo.ns| |wi.ng| / |wo.ng|, i.e. continuePath's
+// f |wi.ns| / pdf times |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) (Veach's
+// eq. 5.19). Without it a normal-mapped surface reflects a different amount
+// of light in light tracing than in the path tracer. Only where the shading
+// normal comes from a normal map, so that interpolated vertex normals keep
+// their (uncorrected) transport and existing scenes their renders.
+//
+// |wo.ns| / |wo.ng|: the factor of the arriving direction. A virtual light
+// keeps it in its flux; its emission then uses the geometric cosine.
+inline float shadingInFactor(const SurfaceHit& sh, const Vec3& wo) {
+  return std::abs(dot(wo, sh.shading.n)) / std::abs(dot(wo, sh.ng));
+}
+// |wi.ng| / |wi.ns|: the factor of the leaving direction.
+inline float shadingOutFactor(const SurfaceHit& sh, const Vec3& wi) {
+  return std::abs(dot(wi, sh.ng)) / std::abs(dot(wi, sh.shading.n));
+}
+
 // Traces light path `index` and appends its virtual lights (flux not yet
 // divided by the path count).
 void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& lights,
@@ -106,7 +127,8 @@ void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& li
     // Deposit a virtual light.
     VirtualLight v;
     v.p = sh.p;
-    v.Phi = beta;
+    v.Phi = sh.normalMapped ? beta * shadingInFactor(sh, wo) : beta;
+    v.normalMapped = sh.normalMapped;
     v.n = encodeUnit(sh.shading.n);
     v.s = encodeUnit(sh.shading.s);
     v.wi = encodeUnit(wo);
@@ -116,11 +138,13 @@ void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& li
     v.roughX = toUnorm16(std::sqrt(brdf.ggx.ax));
     v.roughY = toUnorm16(std::sqrt(brdf.ggx.ay));
     v.specular = toUnorm16(brdf.specularWeight);
-    v.depth = uint16_t(std::min(depth, 65535));
+    v.depth = uint16_t(std::min(depth, 32767));
     out.lights.push_back(v);
 
-    // Continue by BRDF sampling (the adjoint of a reciprocal BRDF is itself).
+    // Continue by BRDF sampling (the adjoint of a reciprocal BRDF is itself,
+    // up to the shading-normal correction where a normal map bends n).
     if (!continuePath(BrdfAt(brdf, woL), sh, rng.uniform(), {rng.uniform(), rng.uniform()}, beta, ray)) break;
+    if (sh.normalMapped) beta *= shadingInFactor(sh, wo) * shadingOutFactor(sh, ray.d);
     if (depth >= settings.rrDepth) {
       float q = std::min(0.95f, maxComponent(beta) / std::max(maxComponent(e->beta), 1e-30f));
       if (rng.uniform() >= q) break;

@@ -31,18 +31,23 @@ Vec3 decodeUnit(uint32_t e);
 // One virtual light, 56 bytes. The BRDF at the light is stored resolved
 // (textures applied) so that gathering never touches the scene's materials.
 struct VirtualLight {
-  Vec3 p;             // position
-  Vec3 Phi;           // flux carried by the light path (W), already divided by the path count
-  uint32_t n;         // shading normal (encodeUnit), facing the side the path arrived from
-  uint32_t s;         // shading tangent (anisotropy direction)
-  uint32_t wi;        // unit direction toward the previous path vertex
-  uint32_t ng;        // geometric normal, same side as n
-  uint16_t base[3];   // base colour, unorm16
-  uint16_t metallic;  // unorm16
-  uint16_t roughX;    // sqrt(alpha_x), unorm16
-  uint16_t roughY;    // sqrt(alpha_y), unorm16
-  uint16_t specular;  // specularWeight, unorm16
-  uint16_t depth;     // scattering vertices on the path so far (1 = first hit)
+  Vec3 p;               // position
+  Vec3 Phi;             // flux carried by the light path (W), already divided by the path count
+  uint32_t n;           // shading normal (encodeUnit), facing the side the path arrived from
+  uint32_t s;           // shading tangent (anisotropy direction)
+  uint32_t wi;          // unit direction toward the previous path vertex
+  uint32_t ng;          // geometric normal, same side as n
+  uint16_t base[3];     // base colour, unorm16
+  uint16_t metallic;    // unorm16
+  uint16_t roughX;      // sqrt(alpha_x), unorm16
+  uint16_t roughY;      // sqrt(alpha_y), unorm16
+  uint16_t specular;    // specularWeight, unorm16
+  uint16_t depth : 15;  // scattering vertices on the path so far (1 = first hit)
+  // The shading normal n comes from a normal map: Phi already holds the
+  // adjoint factor |wi.n| / |wi.ng|, and the light emits with the geometric
+  // cosine |l.ng| (Veach 1997, section 5.3; docs/REFERENCE.md, "Normal maps
+  // and shading normals").
+  uint16_t normalMapped : 1;
 
   Brdf brdf() const;
   Frame frame() const { return Frame(decodeUnit(n), decodeUnit(s)); }

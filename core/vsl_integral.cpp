@@ -85,8 +85,8 @@ bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, V
 bool widenLobeTo(const VslEmitter& p, float alpha, VslEmitter& out) {
   const Brdf b = p.f.brdf();
   if (!(b.ggx.ax < alpha || b.ggx.ay < alpha)) return false;
+  out = p;
   out.f = BrdfAt(b.widened(alpha), p.f.w());
-  out.frame = p.frame;
   return true;
 }
 
@@ -236,7 +236,7 @@ VslResult scalarQuadrature(const VslReceiver& x, const VslEmitter& p, const VslC
     Vec3 fp = fromP ? fromP->f : p.f.evalParts(lp, cone.useP ? &pdfP : nullptr).total();
     if (fromX) pdfX = fromX->pdf;
     if (fromP) pdfP = fromP->pdf;
-    addBalanced(fx * fp * (lx.z * lp.z), cone.pdfSum(pdfX, pdfP), sums.s[fromX ? 1 : fromP ? 2 : 0]);
+    addBalanced(fx * fp * (lx.z * p.cosine(lp)), cone.pdfSum(pdfX, pdfP), sums.s[fromX ? 1 : fromP ? 2 : 0]);
   };
   for (int i = 0; i < cone.n; ++i) cone.drawRound(i, x, p, rng, accumulate);
   double sum[3];
@@ -313,6 +313,13 @@ struct VslPending {
       n += __builtin_popcount(unsigned(keep));
     }
   }
+  // dot(lp_i, n) for lanes i0..i0+7, in VslEmitter::cosine's order of
+  // operations (x, then y, then z; no fused multiply-adds).
+  static VSL_AVX2 __m256 dot8(const float (*v)[kCapacity + 8], int i0, const Vec3& n) {
+    using namespace simd;
+    return add(add(mul(_mm256_load_ps(v[0] + i0), splat(n.x)), mul(_mm256_load_ps(v[1] + i0), splat(n.y))),
+               mul(_mm256_load_ps(v[2] + i0), splat(n.z)));
+  }
   // Evaluates both BRDFs on every pending sample at once, adds the balance
   // heuristic's terms to their strategies' sums in order, and empties the
   // queue. The terms are addBalanced's, eight (float) and four (double)
@@ -343,8 +350,10 @@ struct VslPending {
                                 VSL_AVX2 { return both(greater(v, zero), less(_mm256_andnot_ps(signBit, v), inf)); };
       const __m256 failed = _mm256_or_ps(_mm256_andnot_ps(positiveFinite(px), within(start[1], start[2])),
                                          _mm256_andnot_ps(positiveFinite(pp), within(start[2], start[3])));
-      // f = fx fp (lx.z lp.z), and whether it is black.
-      const __m256 cosines = mul(_mm256_load_ps(lx[2] + i0), _mm256_load_ps(lp[2] + i0));
+      // f = fx fp (lx.z lp.z), and whether it is black (a normal-mapped
+      // light: VslEmitter::cosine's geometric cosine for lp.z).
+      const __m256 cosP = p.geometricCosine ? _mm256_max_ps(zero, dot8(lp, i0, p.ngLocal)) : _mm256_load_ps(lp[2] + i0);
+      const __m256 cosines = mul(_mm256_load_ps(lx[2] + i0), cosP);
       __m256 f[3], black = _mm256_castsi256_ps(allBits);
       for (int c = 0; c < 3; ++c) {
         f[c] = mul(mul(_mm256_load_ps(ex[c] + i0), _mm256_load_ps(ep[c] + i0)), cosines);

@@ -54,6 +54,14 @@ struct VslReceiver {
 struct VslEmitter {
   BrdfAt f;     // the light's BRDF with its incoming direction (local) fixed
   Frame frame;  // shading frame at p
+  // A normal-mapped light emits with the geometric cosine max(0, -l.ng)
+  // instead of the shading one (Veach 1997, section 5.3; its flux holds the
+  // rest of the adjoint factor, core/virtual_lights.cpp). ngLocal: ng in the
+  // shading frame.
+  bool geometricCosine = false;
+  Vec3 ngLocal{0, 0, 1};
+  // The emission cosine for a direction lp (local, leaving p).
+  float cosine(const Vec3& lp) const { return geometricCosine ? std::max(0.0f, dot(lp, ngLocal)) : lp.z; }
 };
 
 // See "Strategy selection" above.
