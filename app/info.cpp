@@ -26,6 +26,8 @@ void printMaterials(const Scene& s) {
                 m.baseColor.y, m.baseColor.z, m.metallic, m.roughness);
     if (m.anisotropyStrength > 0) std::printf(" anisotropy %.3g rot %.3g", m.anisotropyStrength, m.anisotropyRotation);
     if (m.isEmissive()) std::printf(" emission (%.4g %.4g %.4g)", m.emission.x, m.emission.y, m.emission.z);
+    if (m.alphaMode == AlphaMode::Mask) std::printf(" alpha MASK %.3g cutoff %.3g", m.alpha, m.alphaCutoff);
+    if (m.alphaMode == AlphaMode::Blend) std::printf(" alpha BLEND %.3g", m.alpha);
     std::printf(" [%zu triangles]\n", useCount[i]);
   }
 }

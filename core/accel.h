@@ -22,7 +22,10 @@ struct Hit {
 class Accel {
  public:
   // Builds a BVH over the scene's triangles; on failure an error names the
-  // Embree error (Embree errors also go to the log).
+  // Embree error (Embree errors also go to the log). Triangles of Mask and
+  // Blend materials are holes where their alpha says so, for every query
+  // (docs/REFERENCE.md, "Alpha: MASK and BLEND"); for them the Accel keeps a
+  // pointer to the scene, which must outlive it.
   static Result<std::unique_ptr<Accel>> build(const Scene& scene);
   ~Accel();
 

@@ -273,8 +273,10 @@ uint8_t toSrgb8(float v) {
   return uint8_t(std::lround(s * 255.0f));
 }
 
-Result<void> writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb) {
-  if (width <= 0 || height <= 0 || rgb.size() != size_t(width) * size_t(height) * 3) {
+Result<void> writePng8(const std::string& path, int width, int height, int channels,
+                       const std::vector<uint8_t>& pixels) {
+  if (width <= 0 || height <= 0 || channels < 1 || channels > 4 ||
+      pixels.size() != size_t(width) * size_t(height) * size_t(channels)) {
     return Error(path + ": cannot write PNG (no pixels, or pixel count does not match " + std::to_string(width) + "x" +
                  std::to_string(height) + ")");
   }
@@ -284,10 +286,15 @@ Result<void> writePngRgb8(const std::string& path, int width, int height, const 
     auto* out = static_cast<std::vector<char>*>(context);
     out->insert(out->end(), static_cast<char*>(data), static_cast<char*>(data) + size);
   };
-  if (stbi_write_png_to_func(append, &png, width, height, 3, rgb.data(), width * 3) == 0 || png.empty()) {
+  if (stbi_write_png_to_func(append, &png, width, height, channels, pixels.data(), width * channels) == 0 ||
+      png.empty()) {
     return Error(path + ": cannot encode PNG (" + std::to_string(width) + "x" + std::to_string(height) + ")");
   }
   return writeFileAtomically(path, png.data(), png.size());
+}
+
+Result<void> writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb) {
+  return writePng8(path, width, height, 3, rgb);
 }
 
 Result<void> writePng(const std::string& path, const Image& image, float exposure) {

@@ -50,6 +50,9 @@ uint8_t toSrgb8(float linear);
 Result<void> writePng(const std::string& path, const Image& image, float exposure);
 // 8-bit RGB pixels as they are.
 Result<void> writePngRgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb);
+// 8-bit pixels of 1 (grey), 2 (grey, alpha), 3 (RGB) or 4 (RGBA) channels as they are.
+Result<void> writePng8(const std::string& path, int width, int height, int channels,
+                       const std::vector<uint8_t>& pixels);
 Result<void> writeTextFile(const std::string& path, const std::string& text);
 
 }  // namespace vsl

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -195,6 +196,7 @@ const Semantic kTexCoord0{"TEXCOORD_0",
                            {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, true},
                            {TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, true}},
                           true};
+const Semantic kTexCoord1{"TEXCOORD_1", kTexCoord0.type, kTexCoord0.formats, true};
 const Semantic kIndices{"indices",
                         TINYGLTF_TYPE_SCALAR,
                         {{TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, false},
@@ -404,6 +406,27 @@ Vec3 unitOrZero(double x, double y, double z) {
   return Vec3(float(x / len), float(y / len), float(z / len));
 }
 
+// Two numbers under key in a KHR_texture_transform object, finite in float.
+Vec2 transformPair(const tinygltf::Value& ext, const char* key, Vec2 fallback, const std::string& where) {
+  if (!ext.Has(key)) return fallback;
+  const tinygltf::Value& a = ext.Get(key);
+  Vec2 v;
+  bool ok = a.IsArray() && a.ArrayLen() == 2 && a.Get(0).IsNumber() && a.Get(1).IsNumber();
+  if (ok) v = {float(a.Get(0).GetNumberAsDouble()), float(a.Get(1).GetNumberAsDouble())};
+  if (!ok || !std::isfinite(v.x) || !std::isfinite(v.y))
+    throw LoadError{where + ": '" + key + "' must be an array of 2 finite numbers"};
+  return v;
+}
+
+// A texCoord value (a set index) as an int; -1 when absent.
+int texCoordOf(const tinygltf::Value& obj, const std::string& where) {
+  if (!obj.IsObject() || !obj.Has("texCoord")) return -1;
+  const tinygltf::Value& v = obj.Get("texCoord");
+  if (!v.IsNumber() || !isIndexNumber(v.GetNumberAsDouble()))
+    throw LoadError{where + ": 'texCoord' must be an integer in [0, 2147483647]"};
+  return int(v.GetNumberAsDouble());
+}
+
 struct Loader {
   const tinygltf::Model& model;
   Scene& scene;
@@ -471,11 +494,69 @@ struct Loader {
     return textureSlot[gltfIndex];
   }
 
-  void checkTexCoord(const tinygltf::TextureInfo& ti, const std::string& where, const char* slot) {
-    if (ti.index >= 0 && ti.texCoord != 0)
-      warn(where + ": " + slot + " uses TEXCOORD_" + std::to_string(ti.texCoord) + "; only TEXCOORD_0 is modelled");
-    if (ti.index >= 0)
-      for (auto& [k, v] : ti.extensions) warn(where + ": " + slot + " extension " + k + " is not supported (ignored)");
+  // A texture slot's UV set and KHR_texture_transform (ext: the extension's
+  // object, or null): the extension's texCoord overrides the textureInfo's.
+  // Sets beyond TEXCOORD_1 are not read: TEXCOORD_0 is used, with a warning.
+  TextureTransform slotTransform(int texCoord, const tinygltf::Value* ext, const std::string& where,
+                                 const std::string& slot) {
+    Vec2 offset{0, 0}, scale{1, 1};
+    float rotation = 0;
+    if (ext) {
+      std::string ew = where + " " + slot + " KHR_texture_transform";
+      if (!ext->IsObject()) throw LoadError{ew + ": must be an object"};
+      offset = transformPair(*ext, "offset", offset, ew);
+      scale = transformPair(*ext, "scale", scale, ew);
+      rotation = float(numberOr(*ext, "rotation", 0.0, ew));
+      if (!std::isfinite(rotation)) throw LoadError{ew + ": 'rotation' must be finite"};
+      if (int t = texCoordOf(*ext, ew); t >= 0) texCoord = t;
+    }
+    if (texCoord > 1) {
+      warn(where + ": " + slot + " uses TEXCOORD_" + std::to_string(texCoord) +
+           "; only TEXCOORD_0 and TEXCOORD_1 are read (TEXCOORD_0 used)");
+      texCoord = 0;
+    }
+    return TextureTransform::make(offset, rotation, scale, texCoord);
+  }
+
+  // slotTransform for a textureInfo; warns about its other extensions.
+  TextureTransform textureInfo(const tinygltf::TextureInfo& ti, const std::string& where, const char* slot) {
+    if (ti.index < 0) return {};
+    const tinygltf::Value* ext = nullptr;
+    for (auto& [k, v] : ti.extensions) {
+      if (k == "KHR_texture_transform")
+        ext = &v;
+      else
+        warn(where + ": " + slot + " extension " + k + " is not supported (ignored)");
+    }
+    return slotTransform(ti.texCoord, ext, where, slot);
+  }
+
+  // slotTransform for a textureInfo inside an extension's JSON (key in obj).
+  TextureTransform textureInfo(const tinygltf::Value& obj, const char* key, const std::string& where) {
+    if (!obj.IsObject() || !obj.Has(key)) return {};
+    const tinygltf::Value& ti = obj.Get(key);
+    const tinygltf::Value* ext = nullptr;
+    if (ti.Has("extensions") && ti.Get("extensions").IsObject())
+      for (const std::string& k : ti.Get("extensions").Keys()) {
+        if (k == "KHR_texture_transform")
+          ext = &ti.Get("extensions").Get(k);
+        else
+          warn(where + ": " + key + " extension " + k + " is not supported (ignored)");
+      }
+    return slotTransform(std::max(0, texCoordOf(ti, where + " " + key)), ext, where, key);
+  }
+
+  // alphaMode, alphaCutoff and baseColorFactor's alpha (glTF 2.0, 3.9.4).
+  void alphaOf(const tinygltf::Material& gm, const std::string& where, Material& m) {
+    m.alpha = float(gm.pbrMetallicRoughness.baseColorFactor[3]);
+    if (gm.alphaMode == "MASK")
+      m.alphaMode = AlphaMode::Mask;
+    else if (gm.alphaMode == "BLEND")
+      m.alphaMode = AlphaMode::Blend;
+    else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
+      throw LoadError{where + ": alphaMode must be OPAQUE, MASK or BLEND (got '" + abbreviated(gm.alphaMode) + "')"};
+    checkRange(gm.alphaCutoff, 0, std::numeric_limits<double>::max(), where, "alphaCutoff");
+    m.alphaCutoff = float(gm.alphaCutoff);
   }
 
   Material material(int index) {
@@ -495,9 +576,10 @@ struct Loader {
     m.baseColorTexture = texture(pbr.baseColorTexture.index, where + " baseColorTexture");
     m.metallicRoughnessTexture = texture(pbr.metallicRoughnessTexture.index, where + " metallicRoughnessTexture");
     m.emissiveTexture = texture(gm.emissiveTexture.index, where + " emissiveTexture");
-    checkTexCoord(pbr.baseColorTexture, where, "baseColorTexture");
-    checkTexCoord(pbr.metallicRoughnessTexture, where, "metallicRoughnessTexture");
-    checkTexCoord(gm.emissiveTexture, where, "emissiveTexture");
+    m.baseColorTransform = textureInfo(pbr.baseColorTexture, where, "baseColorTexture");
+    m.metallicRoughnessTransform = textureInfo(pbr.metallicRoughnessTexture, where, "metallicRoughnessTexture");
+    m.emissiveTransform = textureInfo(gm.emissiveTexture, where, "emissiveTexture");
+    alphaOf(gm, where, m);
 
     Vec3 emissive(0.0f);
     if (!gm.emissiveFactor.empty()) {
@@ -517,6 +599,7 @@ struct Loader {
         m.anisotropyRotation = float(numberOr(ext, "anisotropyRotation", 0.0, ew));
         if (!std::isfinite(m.anisotropyRotation)) throw LoadError{ew + ": anisotropyRotation must be finite"};
         m.anisotropyTexture = texture(textureIndexOf(ext, "anisotropyTexture", ew), ew + " anisotropyTexture");
+        if (m.anisotropyTexture >= 0) m.anisotropyTransform = textureInfo(ext, "anisotropyTexture", ew);
       } else if (name == "KHR_materials_specular") {
         m.specularWeight = float(numberOr(ext, "specularFactor", 1.0, ew));
         checkRange(m.specularWeight, 0, 1, ew, "specularFactor");
@@ -531,8 +614,6 @@ struct Loader {
     normalMap(gm, m, where);
     if (gm.occlusionTexture.index >= 0)
       warn(where + ": occlusionTexture is not used (a path tracer computes occlusion itself)");
-    if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
-      warn(where + ": alphaMode " + gm.alphaMode + " is not modelled (rendered opaque)");
     return m;
   }
 
@@ -546,9 +627,14 @@ struct Loader {
                       formatNumber(nt.scale) + ")"};
     m.normalTexture = texture(nt.index, where + " normalTexture");
     m.normalScale = float(nt.scale);
-    if (nt.texCoord != 0)
-      warn(where + ": normalTexture uses TEXCOORD_" + std::to_string(nt.texCoord) + "; only TEXCOORD_0 is modelled");
-    for (auto& [k, v] : nt.extensions) warn(where + ": normalTexture extension " + k + " is not supported (ignored)");
+    const tinygltf::Value* ext = nullptr;
+    for (auto& [k, v] : nt.extensions) {
+      if (k == "KHR_texture_transform")
+        ext = &v;
+      else
+        warn(where + ": normalTexture extension " + k + " is not supported (ignored)");
+    }
+    m.normalTransform = slotTransform(nt.texCoord, ext, where, "normalTexture");
   }
 
   // ---- [3] Nodes, meshes, cameras, lights ---------------------------------------
@@ -598,8 +684,8 @@ struct Loader {
   // A primitive's vertex attributes, as read from the file (object space).
   struct Attributes {
     size_t count = 0;  // vertices
-    std::vector<double> pos, nrm, tan, uv;
-    bool hasN = false, hasT = false, hasUV = false;
+    std::vector<double> pos, nrm, tan, uv, uv1;
+    bool hasN = false, hasT = false, hasUV = false, hasUV1 = false;
   };
 
   // One mesh primitive under world transform xf: its triangles, with their
@@ -672,6 +758,7 @@ struct Loader {
     at.hasN = optional(kNormal, at.nrm);
     at.hasT = optional(kTangent, at.tan);
     at.hasUV = optional(kTexCoord0, at.uv);
+    at.hasUV1 = optional(kTexCoord1, at.uv1);
     return at;
   }
 
@@ -736,6 +823,10 @@ struct Loader {
       matIndex = uint32_t(prim.material);
     }
     const Material& mat = scene.materials[matIndex];
+    for (const TextureTransform* t :
+         {&mat.baseColorTransform, &mat.metallicRoughnessTransform, &mat.emissiveTransform, &mat.anisotropyTransform})
+      if (t->texCoord() == 1 && !at.hasUV1)
+        warn(where + ": material '" + mat.name + "' reads TEXCOORD_1, which the primitive lacks (TEXCOORD_0 used)");
     if (mat.anisotropyStrength > 0 && !at.hasT && !at.hasUV)
       warn(where + ": anisotropic material '" + mat.name +
            "' on a mesh with neither TANGENT nor TEXCOORD_0; the anisotropy direction is arbitrary");
@@ -775,6 +866,7 @@ struct Loader {
       scene.tangentSigns.push_back(s);
       scene.uvs.push_back(at.hasUV ? Vec2{float(at.uv[2 * i]), float(at.uv[2 * i + 1])} : Vec2{0, 0});
     }
+    appendTexCoord1(at, base);
     return base;
   }
 
@@ -785,6 +877,15 @@ struct Loader {
     if (flip)
       for (size_t k = 0; k + 2 < tris.size(); k += 3) std::swap(tris[k + 1], tris[k + 2]);
     return tris;
+  }
+
+  // TEXCOORD_1 (Scene::uvs1), kept only once a primitive has it: then every
+  // vertex has one, TEXCOORD_0's where its primitive has no TEXCOORD_1.
+  void appendTexCoord1(const Attributes& at, uint32_t base) {
+    if (!at.hasUV1 && scene.uvs1.empty()) return;
+    if (scene.uvs1.empty()) scene.uvs1.assign(scene.uvs.begin(), scene.uvs.begin() + base);
+    for (size_t i = 0; i < at.count; ++i)
+      scene.uvs1.push_back(at.hasUV1 ? Vec2{float(at.uv1[2 * i]), float(at.uv1[2 * i + 1])} : scene.uvs[base + i]);
   }
 
   // Tangents from UV derivatives, summed over the triangles at each vertex
@@ -1512,7 +1613,8 @@ std::string parseGltf(const std::string& path, const std::vector<unsigned char>&
 // animations and skins.
 void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string& path) {
   static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
-                                                   "KHR_materials_specular", "KHR_lights_punctual"};
+                                                   "KHR_materials_specular", "KHR_lights_punctual",
+                                                   "KHR_texture_transform"};
   // A required extension changes what the file means (Draco-compressed
   // geometry, quantised attributes): loading without it would render
   // something else, so it is refused.
@@ -1520,7 +1622,7 @@ void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string&
     if (!kSupported.count(e))
       throw LoadError{path + ": required extension " + e +
                       " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
-                      "KHR_materials_emissive_strength, KHR_materials_specular)"};
+                      "KHR_materials_emissive_strength, KHR_materials_specular, KHR_texture_transform)"};
   for (const auto& e : model.extensionsUsed)
     if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
   if (!model.animations.empty())

@@ -1,8 +1,10 @@
 // Loading glTF 2.0 (.gltf or .glb) into a core::Scene, with tinygltf.
 //
 // What is modelled: triangle meshes (triangles, strips, fans) through the node
-// hierarchy; POSITION, NORMAL, TANGENT, TEXCOORD_0; the metallic-roughness
-// material with base-colour, metallic-roughness and emissive textures;
+// hierarchy; POSITION, NORMAL, TANGENT, TEXCOORD_0, TEXCOORD_1; the
+// metallic-roughness material with base-colour, metallic-roughness and
+// emissive textures; alphaMode MASK and BLEND (docs/REFERENCE.md, "Alpha:
+// MASK and BLEND"); KHR_texture_transform on every texture slot read;
 // KHR_materials_emissive_strength; KHR_materials_anisotropy;
 // KHR_lights_punctual point, spot and directional lights; perspective cameras.
 // Everything else a file uses is reported in Scene::warnings by element name;

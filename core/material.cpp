@@ -626,6 +626,23 @@ VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, co
 
 // ---- Texture --------------------------------------------------------------
 
+TextureTransform TextureTransform::make(Vec2 offset, float rotation, Vec2 scale, int texCoord) {
+  TextureTransform t;
+  t.offset_ = offset;
+  t.rotation_ = rotation;
+  t.scale_ = scale;
+  t.texCoord_ = texCoord;
+  // R S with R = [cos -sin; sin cos] (KHR_texture_transform README, its
+  // column-major mat3 written out by rows) and S = diag(sx, sy).
+  const float c = std::cos(rotation), s = std::sin(rotation);
+  t.m_[0] = c * scale.x;
+  t.m_[1] = -s * scale.y;
+  t.m_[2] = s * scale.x;
+  t.m_[3] = c * scale.y;
+  t.identity_ = offset.x == 0 && offset.y == 0 && rotation == 0 && scale.x == 1 && scale.y == 1;
+  return t;
+}
+
 static inline float srgbToLinear(float v) { return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f); }
 
 void Texture::lookup(Vec2 uv, bool srgb, float out[4]) const {

@@ -222,9 +222,46 @@ struct Texture {
   void lookup(Vec2 uv, bool srgb, float out[4]) const;
 };
 
+// KHR_texture_transform on one texture slot (the extension's README): the UV
+// set the slot reads, then uv' = T R S (u, v, 1) with T the offset, S the
+// scale and R a rotation of the UVs counter-clockwise by `rotation` radians
+// (the README's GLSL matrices, which are column-major):
+//   u' = sx cos(r) u - sy sin(r) v + ox,  v' = sx sin(r) u + sy cos(r) v + oy.
+// The default is the identity on TEXCOORD_0, applied as no operation at all.
+class TextureTransform {
+ public:
+  static TextureTransform make(Vec2 offset, float rotation, Vec2 scale, int texCoord);
+  Vec2 offset() const { return offset_; }
+  float rotation() const { return rotation_; }  // radians
+  Vec2 scale() const { return scale_; }
+  int texCoord() const { return texCoord_; }  // 0: TEXCOORD_0, 1: TEXCOORD_1 (Scene::uvs1)
+  // True when apply() returns its argument unchanged.
+  bool isIdentity() const { return identity_; }
+  Vec2 apply(Vec2 uv) const {
+    if (identity_) return uv;
+    return {m_[0] * uv.x + m_[1] * uv.y + offset_.x, m_[2] * uv.x + m_[3] * uv.y + offset_.y};
+  }
+
+ private:
+  Vec2 offset_{0, 0}, scale_{1, 1};
+  float rotation_ = 0;
+  int texCoord_ = 0;
+  float m_[4] = {1, 0, 0, 1};  // R S, row-major
+  bool identity_ = true;
+};
+
+// glTF alphaMode (glTF 2.0 specification, 3.9.4 "Alpha Coverage"). Opaque
+// ignores alpha; Mask keeps a surface point where alpha >= alphaCutoff; Blend
+// is rendered as stochastic opacity, kept with probability alpha
+// (docs/REFERENCE.md, "Alpha: MASK and BLEND").
+enum class AlphaMode { Opaque, Mask, Blend };
+
 struct Material {
   std::string name;
   Vec3 baseColor{1.0f};
+  float alpha = 1;  // baseColorFactor's fourth component
+  AlphaMode alphaMode = AlphaMode::Opaque;
+  float alphaCutoff = 0.5f;  // Mask only
   float metallic = 1.0f;
   float roughness = 1.0f;
   Vec3 emission{0.0f};  // emissiveFactor x KHR_materials_emissive_strength (radiance)
@@ -241,8 +278,13 @@ struct Material {
   // applied there.
   int normalTexture = -1;
   float normalScale = 1;
+  // Per texture slot: which UV set it reads and its KHR_texture_transform.
+  TextureTransform baseColorTransform, metallicRoughnessTransform, emissiveTransform, anisotropyTransform,
+      normalTransform;
 
   bool isEmissive() const { return maxComponent(emission) > 0; }
+  // Mask or Blend: rays may pass through the surface (Accel's filter).
+  bool hasAlpha() const { return alphaMode != AlphaMode::Opaque; }
 };
 
 }  // namespace vsl

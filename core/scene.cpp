@@ -79,6 +79,13 @@ Vec3 normalMapped(const Vec3& ns, const Vec3& t, float sign, const Vec3& ng, con
   return normalize(ng * kMinNormalMapCos + side * (std::sqrt(1 - sqr(kMinNormalMapCos)) / l));
 }
 
+// A UV set interpolated at Embree barycentrics (u, v) of triangle tri.
+Vec2 uvAt(const Scene& s, const std::vector<Vec2>& set, uint32_t tri, float u, float v) {
+  uint32_t i0 = s.indices[3 * tri], i1 = s.indices[3 * tri + 1], i2 = s.indices[3 * tri + 2];
+  float w = 1 - u - v;
+  return {set[i0].x * w + set[i1].x * u + set[i2].x * v, set[i0].y * w + set[i1].y * u + set[i2].y * v};
+}
+
 }  // namespace
 
 Vec3 Scene::normalMapTexel(const Material& m, Vec2 uv) const {
@@ -98,6 +105,7 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
   h.p = positions[i0] * w + positions[i1] * u + positions[i2] * v;
   h.ng = triangleNormal(tri);
   h.uv = {uvs[i0].x * w + uvs[i1].x * u + uvs[i2].x * v, uvs[i0].y * w + uvs[i1].y * u + uvs[i2].y * v};
+  h.uv1 = uvs1.empty() ? h.uv : uvAt(*this, uvs1, tri, u, v);
   Vec3 ns = normals[i0] * w + normals[i1] * u + normals[i2] * v;
   ns = isFinite(ns) && lengthSquared(ns) > 1e-12f ? normalize(ns) : h.ng;
   // Keep the shading normal on the geometric normal's side.
@@ -106,7 +114,7 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
   float sign = tangentSigns[i0] < 0 ? -1.0f : 1.0f;
   const Material& m = materials[h.material];
   if (m.normalTexture >= 0 && lengthSquared(t) > 1e-12f) {
-    ns = normalMapped(ns, t, sign, h.ng, normalMapTexel(m, h.uv));
+    ns = normalMapped(ns, t, sign, h.ng, normalMapTexel(m, texCoord(h, m.normalTransform)));
     h.normalMapped = true;
   }
   h.frontFace = dot(d, h.ng) < 0;
@@ -125,7 +133,7 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
     float dirX = std::cos(rot), dirY = std::sin(rot);
     if (m.anisotropyTexture >= 0) {
       float texel[4];
-      textures[m.anisotropyTexture].lookup(h.uv, false, texel);
+      textures[m.anisotropyTexture].lookup(texCoord(h, m.anisotropyTransform), false, texel);
       Vec2 dtex{texel[0] * 2 - 1, texel[1] * 2 - 1};
       float x = dtex.x * dirX - dtex.y * dirY, y = dtex.x * dirY + dtex.y * dirX;
       dirX = x;
@@ -144,16 +152,16 @@ Brdf Scene::brdf(const SurfaceHit& hit) const {
   float metallic = m.metallic, roughness = m.roughness, aniso = m.anisotropyStrength;
   float texel[4];
   if (m.baseColorTexture >= 0) {
-    textures[m.baseColorTexture].lookup(hit.uv, true, texel);
+    textures[m.baseColorTexture].lookup(texCoord(hit, m.baseColorTransform), true, texel);
     base *= Vec3(texel[0], texel[1], texel[2]);
   }
   if (m.metallicRoughnessTexture >= 0) {
-    textures[m.metallicRoughnessTexture].lookup(hit.uv, false, texel);
+    textures[m.metallicRoughnessTexture].lookup(texCoord(hit, m.metallicRoughnessTransform), false, texel);
     roughness *= texel[1];
     metallic *= texel[2];
   }
   if (m.anisotropyTexture >= 0 && aniso > 0) {
-    textures[m.anisotropyTexture].lookup(hit.uv, false, texel);
+    textures[m.anisotropyTexture].lookup(texCoord(hit, m.anisotropyTransform), false, texel);
     aniso *= texel[2];
   }
   return Brdf::fromGltf(base, metallic, roughness, aniso, m.specularWeight);
@@ -162,14 +170,51 @@ Brdf Scene::brdf(const SurfaceHit& hit) const {
 Vec3 Scene::emission(uint32_t tri, Vec2 bary) const {
   const Material& m = materials[triMaterial[tri]];
   if (!m.isEmissive()) return Vec3(0.0f);
-  if (m.emissiveTexture < 0) return m.emission;
-  uint32_t i0 = indices[3 * tri], i1 = indices[3 * tri + 1], i2 = indices[3 * tri + 2];
-  float w = 1 - bary.x - bary.y;
-  Vec2 uv{uvs[i0].x * w + uvs[i1].x * bary.x + uvs[i2].x * bary.y,
-          uvs[i0].y * w + uvs[i1].y * bary.x + uvs[i2].y * bary.y};
-  float texel[4];
-  textures[m.emissiveTexture].lookup(uv, true, texel);
-  return m.emission * Vec3(texel[0], texel[1], texel[2]);
+  Vec3 e = m.emission;
+  if (m.emissiveTexture >= 0) {
+    const TextureTransform& t = m.emissiveTransform;
+    Vec2 uv = uvAt(*this, t.texCoord() == 1 && !uvs1.empty() ? uvs1 : uvs, tri, bary.x, bary.y);
+    float texel[4];
+    textures[m.emissiveTexture].lookup(t.apply(uv), true, texel);
+    e = e * Vec3(texel[0], texel[1], texel[2]);
+  }
+  // A sampled point in a hole emits nothing; on Blend the expected opacity
+  // (a hit on the surface is kept with probability alpha, Accel).
+  if (m.alphaMode == AlphaMode::Mask) return alpha(tri, bary.x, bary.y) >= m.alphaCutoff ? e : Vec3(0.0f);
+  if (m.alphaMode == AlphaMode::Blend) return e * alpha(tri, bary.x, bary.y);
+  return e;
+}
+
+float Scene::alpha(uint32_t tri, float u, float v) const {
+  const Material& m = materials[triMaterial[tri]];
+  float a = m.alpha;
+  if (m.baseColorTexture >= 0) {
+    const TextureTransform& t = m.baseColorTransform;
+    float texel[4];
+    textures[m.baseColorTexture].lookup(
+        t.apply(uvAt(*this, t.texCoord() == 1 && !uvs1.empty() ? uvs1 : uvs, tri, u, v)), false, texel);
+    a *= texel[3];
+  }
+  return clamp(a, 0.0f, 1.0f);
+}
+
+bool Scene::surfacePresent(uint32_t tri, float u, float v, float xi) const {
+  const Material& m = materials[triMaterial[tri]];
+  switch (m.alphaMode) {
+    case AlphaMode::Opaque:
+      return true;
+    case AlphaMode::Mask:
+      return alpha(tri, u, v) >= m.alphaCutoff;
+    case AlphaMode::Blend:
+      return xi < alpha(tri, u, v);
+  }
+  return true;
+}
+
+bool Scene::hasAlpha() const {
+  for (const Material& m : materials)
+    if (m.hasAlpha()) return true;
+  return false;
 }
 
 Vec3 Scene::emitted(const SurfaceHit& hit, const Vec3& w) const {
@@ -181,7 +226,7 @@ Vec3 Scene::emitted(const SurfaceHit& hit, const Vec3& w) const {
   Vec3 e = m.emission;
   if (m.emissiveTexture >= 0) {
     float texel[4];
-    textures[m.emissiveTexture].lookup(hit.uv, true, texel);
+    textures[m.emissiveTexture].lookup(texCoord(hit, m.emissiveTransform), true, texel);
     e *= Vec3(texel[0], texel[1], texel[2]);
   }
   return e;

@@ -60,6 +60,7 @@ struct SurfaceHit {
   Vec3 ng;        // geometric normal (unit, front face = glTF CCW winding)
   Frame shading;  // shading frame: n = shading normal, s = anisotropy direction
   Vec2 uv;
+  Vec2 uv1;  // TEXCOORD_1 (uv where the scene has none)
   uint32_t triangle = 0;
   uint32_t material = 0;
   bool frontFace = true;  // the ray arrived on the front side
@@ -77,6 +78,7 @@ struct Scene {
   std::vector<Vec3> tangents;  // unit xyz; zero = none
   std::vector<float> tangentSigns;
   std::vector<Vec2> uvs;
+  std::vector<Vec2> uvs1;             // TEXCOORD_1; empty when no primitive has one
   std::vector<uint32_t> indices;      // 3 per triangle
   std::vector<uint32_t> triMaterial;  // per triangle
   std::vector<Material> materials;    // last entry is the glTF default material
@@ -105,8 +107,27 @@ struct Scene {
   // Emitted radiance leaving the hit toward direction w (zero from the back
   // face unless the material is double-sided).
   Vec3 emitted(const SurfaceHit& hit, const Vec3& w) const;
-  // Emitted radiance of a triangle at barycentrics, ignoring direction.
+  // Emitted radiance of a triangle at barycentrics, ignoring direction. On
+  // a Mask or Blend material it is weighted by the opacity there (0 or 1,
+  // or alpha): emitters are sampled by area, holes included.
   Vec3 emission(uint32_t tri, Vec2 uv) const;
+
+  // The texture coordinates a slot reads at a hit: its UV set, transformed
+  // (KHR_texture_transform; core/material.h).
+  Vec2 texCoord(const SurfaceHit& hit, const TextureTransform& t) const {
+    return t.apply(t.texCoord() == 1 ? hit.uv1 : hit.uv);
+  }
+  // Alpha at triangle tri, Embree barycentrics (u, v): baseColorFactor's
+  // alpha times the base colour texture's (glTF 2.0, 3.9.4; COLOR_0 is not
+  // read). In [0,1].
+  float alpha(uint32_t tri, float u, float v) const;
+  // Whether a ray meets triangle tri at (u, v), given a uniform xi in [0,1)
+  // that the ray chooses (Accel: a hash of the ray): always on an Opaque
+  // material, where alpha >= alphaCutoff on Mask, where xi < alpha on Blend
+  // (docs/REFERENCE.md, "Alpha: MASK and BLEND").
+  bool surfacePresent(uint32_t tri, float u, float v, float xi) const;
+  // Whether any triangle's material is Mask or Blend.
+  bool hasAlpha() const;
 };
 
 // A camera that frames the bounding box from the +z side.
