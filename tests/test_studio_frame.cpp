@@ -1521,3 +1521,71 @@ TEST(StudioStats, ImageStatsOfAKnownImage) {
   EXPECT_EQ(st.histogram.front(), 1.0f) << "2 alone in the first bin (3 is a tenth of the log range further)";
   EXPECT_GE(st.histogram.back(), 1.0f) << "100 in the last bin";
 }
+
+// Layout (issue 49, item 4): the largest whole scale that fits, or the fit
+// scale when not even 1x fits.
+TEST(StudioLayout, ImageScaleIsTheLargestWholeNumberThatFits) {
+  using ui::studio_detail::imageScale;
+  EXPECT_EQ(imageScale(305, 480, 256, 256), 1.0f) << "1.19x fits: 1x, pixel for pixel";
+  EXPECT_EQ(imageScale(914, 520, 256, 256), 2.0f);
+  EXPECT_EQ(imageScale(914, 520, 128, 64), 7.0f) << "the width decides";
+  EXPECT_FLOAT_EQ(imageScale(200, 300, 256, 256), 200.0f / 256) << "too large for 1x: fit";
+  EXPECT_EQ(imageScale(0, 300, 256, 256), 0.0f);
+}
+
+// The panels' images are drawn at a whole scale that fills their room: the
+// next scale would not fit, and the view area ends under the images (the
+// metrics get the rest).
+TEST_F(StudioFrame, ImagesFillTheViewAreaAtAWholeScale) {
+  for (ui::ViewMode mode : {ui::ViewMode::Single, ui::ViewMode::SideBySide3}) {
+    studio->view().mode = mode;
+    renderFrames();
+    const auto& d = studio->drawnImages().front();
+    const float w = d.p1.x - d.p0.x, h = d.p1.y - d.p0.y, scale = w / 64;
+    EXPECT_EQ(scale, std::round(scale)) << "a whole scale, not " << scale;
+    EXPECT_EQ(h, scale * 32);
+    const int n = mode == ui::ViewMode::Single ? 1 : 3;
+    const float areaW = studio->viewAreaMax().x - studio->viewAreaMin().x;
+    const float panelW = (areaW - 8 * (n - 1)) / n;
+    // The views end at most 260 px (the metrics' least) above the window's
+    // content bottom, less their padding.
+    const float roomH = (kH - 8 - 260 - 8 - 2) - d.p0.y;
+    EXPECT_TRUE((scale + 1) * 64 > panelW || (scale + 1) * 32 > roomH) << "scale " << scale << " could be larger";
+    EXPECT_LT(studio->viewAreaMax().y - d.p1.y, 8) << "the area ends under the images";
+  }
+}
+
+// "Save view" writes the panels as drawn (titles, images), not the empty
+// room beside them.
+TEST_F(StudioFrame, SaveViewWritesOnlyThePanels) {
+  studio->view().mode = ui::ViewMode::Single;
+  renderFrames();
+  studio->saveView();
+  renderFrames(1);
+  studio->afterRender(kW, kH);
+  const std::string path = studio->messagePath();
+  ASSERT_FALSE(path.empty()) << studio->message();
+  EXPECT_TRUE(std::filesystem::path(path).is_absolute()) << path;
+  int w = 0, h = 0, n = 0;
+  ASSERT_TRUE(stbi_info(path.c_str(), &w, &h, &n)) << path;
+  const auto& d = studio->drawnImages().front();
+  EXPECT_NEAR(w, d.p1.x - d.p0.x, 1) << "the image's width, not the view area's "
+                                     << studio->viewAreaMax().x - studio->viewAreaMin().x;
+  EXPECT_NEAR(h, d.p1.y - studio->panelsMin().y, 1) << "the title and the image";
+  std::filesystem::remove(path);
+}
+
+// The export's message names the folder's absolute path, and its button
+// copies it.
+TEST_F(StudioFrame, ExportMessageGivesTheAbsolutePathToCopy) {
+  renderFrames(1);
+  studio->exportFromControls();
+  const std::string folder = studio->messagePath();
+  ASSERT_FALSE(folder.empty()) << studio->errorDialog();
+  EXPECT_TRUE(std::filesystem::path(folder).is_absolute()) << folder;
+  EXPECT_TRUE(std::filesystem::exists(folder + "/metrics.json"));
+  EXPECT_NE(studio->message().find(folder), std::string::npos) << studio->message();
+  studio->copyMessagePath();
+  EXPECT_EQ(std::string(ImGui::GetClipboardText()), folder);
+  std::filesystem::remove_all(folder);
+}

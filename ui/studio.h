@@ -243,6 +243,19 @@ class Studio {
   const std::vector<DrawnImage>& drawnImages() const { return drawn_; }
   ImVec2 viewAreaMin() const { return viewMin_; }
   ImVec2 viewAreaMax() const { return viewMax_; }
+  // What "Save view" writes: the panels' titles, images and legend as drawn
+  // in the last frame (the whole view area before there is a picture).
+  ImVec2 panelsMin() const { return panelsMin_; }
+  ImVec2 panelsMax() const { return panelsMax_; }
+  // "Save view (PNG)": a new PNG in the export folder, written by the next
+  // afterRender.
+  void saveView();
+  // "Export images": exportAll into the export folder; the message names the
+  // folder's absolute path, which copyMessagePath() puts on the clipboard.
+  void exportFromControls();
+  const std::string& message() const { return message_; }
+  const std::string& messagePath() const { return messagePath_; }
+  void copyMessagePath() const;
 
  private:
   void controlsPanel();
@@ -259,9 +272,18 @@ class Studio {
   bool referenceControls();
   void viewControls();
   void exportControls();
+  void viewToolbar();  // above the images: layout, component, display, Save view, Export
   bool track(const char* key, bool c);
   void viewsPanel();
   float mapScale(int n) const;  // the maps' colour scale for n panels
+  int panelCount() const;
+  bool legendShown() const;
+  ImVec2 panelImageSize(ImVec2 avail, float* panelW) const;
+  float viewsHeight(float width, float maxH) const;
+  void drawPanels(ImDrawList* dl, ImVec2 origin, float panelW, ImVec2 size, float mapMax);
+  static constexpr float kLegendH = 28;  // the colour bar's room under the images
+  float chromeH_ = 80;                   // the views' toolbar and status lines, as last drawn
+  ImVec2 panelsMin_, panelsMax_;
   DisplayParams displayParams(Source s, float mapMax) const;
   void metricsPanel();
   // metricsPanel's parts, top to bottom.
@@ -351,6 +373,7 @@ class Studio {
   ImVec2 probeMin_ = {}, probeSize_ = {};  // the pixel probe's last place and size (kept inside the window)
   ParamMemory paramMemory_;                // the numbers parameters return to from "auto" or "off" (param_widgets.h)
   std::string message_, errorDialog_;
+  std::string messagePath_;  // the absolute path message_ names (copied by its button)
   uint64_t seenLoadErrors_ = 0;
   bool savePngPending_ = false;
   std::string savePngPath_;

@@ -51,11 +51,13 @@ using namespace studio_detail;
 void Studio::afterRender(int fbWidth, int fbHeight) {
   if (!savePngPending_) return;
   savePngPending_ = false;
-  int x0 = std::max(0, int(viewMin_.x)), y0 = std::max(0, int(viewMin_.y));
-  int x1 = std::min(fbWidth, int(viewMax_.x)), y1 = std::min(fbHeight, int(viewMax_.y));
+  // The panels as drawn (titles, images, legend), not the empty room around them.
+  int x0 = std::max(0, int(std::floor(panelsMin_.x))), y0 = std::max(0, int(std::floor(panelsMin_.y)));
+  int x1 = std::min(fbWidth, int(std::ceil(panelsMax_.x))), y1 = std::min(fbHeight, int(std::ceil(panelsMax_.y)));
   if (x1 <= x0 || y1 <= y0) return;
   std::vector<uint8_t> px = readFramebuffer(x0, y0, x1 - x0, y1 - y0, fbHeight);
   if (Result<void> saved = writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px)) {
+    messagePath_ = savePngPath_;
     message_ = "wrote " + savePngPath_;
     log::info(message_);
   } else {

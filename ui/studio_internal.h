@@ -35,6 +35,13 @@ float percentile99(const Image& img);
 // channels (as the studio's maps show it), in every channel.
 Image errorMap(const Image& test, const Image& ref, ErrorMetric metric);
 
+// The on-screen scale of an image of imageW x imageH pixels in a panel of
+// panelW x panelH screen pixels (issue 49, "Layout"): the largest whole
+// number that fits, so that every pixel is a square of s x s screen pixels
+// (tev zooms in such steps), or the fit scale (below 1) when not even 1x fits.
+// 0 for an empty panel or image.
+float imageScale(float panelW, float panelH, int imageW, int imageH);
+
 // Statistics of an image's luminance (the Stats tab, as tev's histogram):
 // over its finite pixels, the mean, min, max and percentiles, the count of
 // non-finite ones, and a histogram of log10 luminance over the positive
