@@ -505,7 +505,10 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
     ASSERT_TRUE(stbi_info(f.c_str(), &w, &h, &n)) << f;
     EXPECT_EQ(w, 64) << f;
     const bool map = f.find("/error-") != std::string::npos || f.find("/flip-") != std::string::npos;
-    EXPECT_EQ(h, map ? 32 + kColourBarRows : 32) << f << ": maps have a colour bar and its scale below them";
+    if (map)
+      EXPECT_GE(h, 32 + 4 + 12 + 2 * 13) << f << ": maps have a colour bar, its scale and its name below them";
+    else
+      EXPECT_EQ(h, 32) << f;
   }
   EXPECT_GE(pngs, 11);
   std::ifstream js(f1 + "/metrics.json");
@@ -1588,4 +1591,121 @@ TEST_F(StudioFrame, ExportMessageGivesTheAbsolutePathToCopy) {
   studio->copyMessagePath();
   EXPECT_EQ(std::string(ImGui::GetClipboardText()), folder);
   std::filesystem::remove_all(folder);
+}
+
+// Tone maps (issue 49, item 7): the filmic curve compresses highlights
+// without clipping, and false colour maps log10 luminance over its decades.
+TEST(StudioToneMap, CurvesAsStated) {
+  using ui::studio_detail::acesFilmic;
+  using ui::studio_detail::toneMapPixel;
+  EXPECT_EQ(acesFilmic(0), 0.0f);
+  EXPECT_LT(acesFilmic(4), 1.0f) << "not clipped where linear is";
+  EXPECT_LT(acesFilmic(1), acesFilmic(4));
+  EXPECT_LT(acesFilmic(0.9f), 0.9f) << "highlights compressed";
+  EXPECT_NEAR(toneMapPixel(Vec3(4.0f), 0, ui::ToneMap::Linear).x, 1.0f, 1e-6f);
+  const Vec3 fc = toneMapPixel(Vec3(0.01f), 1, ui::ToneMap::FalseColour);  // luminance 0.02: t = (log10 0.02 + 3) / 4
+  const Vec3 want = falseColour((std::log10(0.02f) + 3) / 4);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(fc[c], want[c], 1e-5f);
+}
+
+// The tone-map choice reaches the panels and the exported PNGs: filmic
+// darkens VSL's bright red ramp, false colour shows VPL's constant 0.2 as
+// the ramp's colour for log10 0.2, with its bar under the images. It is kept
+// in the last session.
+TEST_F(StudioFrame, ToneMapChangesThePanelsAndTheExports) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide2;
+  v.panels[0] = ui::Source::Vsl;
+  v.panels[1] = ui::Source::Vpl;
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-tonemap-test";
+  std::filesystem::remove_all(dir);
+  auto exported = [&](const char* file) {
+    std::string folder;
+    EXPECT_TRUE(studio->exportAll(dir, nullptr, &folder));
+    int w = 0, h = 0, n = 0;
+    uint8_t* data = stbi_load((folder + "/" + file).c_str(), &w, &h, &n, 3);
+    EXPECT_TRUE(data) << folder << "/" << file;
+    std::vector<uint8_t> px(data, data + (data ? w * h * 3 : 0));
+    stbi_image_free(data);
+    return px;
+  };
+  v.toneMap = ui::ToneMap::Filmic;
+  const std::vector<uint8_t> filmic = exported("vsl-indirect.png");
+  ASSERT_EQ(filmic.size(), 64u * 32 * 3);
+  const size_t brightRed = (size_t(16) * 64 + 63) * 3;  // x = 63: red 0.9
+  EXPECT_LT(filmic[brightRed], toSrgb8(0.9f) - 20) << "filmic compresses the highlight that linear shows at 0.9";
+  EXPECT_NEAR(filmic[brightRed], 255 * ui::studio_detail::toneMapPixel(Vec3(0.9f, 0.3f, 0.3f), 0, v.toneMap).x, 1);
+
+  v.toneMap = ui::ToneMap::FalseColour;
+  const Vec3 want = falseColour((std::log10(0.2f) + 3) / 4) * 255.0f;
+  const std::vector<uint8_t> fc = exported("vpl-clamped-indirect.png");
+  ASSERT_GE(fc.size(), 3u);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(fc[size_t(c)], want[c], 1);
+  auto px = renderFrames();
+  const auto& d = studio->drawnImages()[1];
+  const Vec3 shown = pixel(px, int((d.p0.x + d.p1.x) / 2), int((d.p0.y + d.p1.y) / 2));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(shown[c], want[c], 2) << "the panel as exported";
+  EXPECT_GT(studio->panelsMax().y, d.p1.y + 12) << "the bar under the images";
+  std::filesystem::remove_all(dir);
+
+  const std::string session = dir + "-session.json";
+  ASSERT_TRUE(ui::saveLastSession(session, studio->acceptedSettings(), v));
+  StudioSettings s;
+  ui::ViewState back;
+  std::string warning;
+  ASSERT_TRUE(ui::loadLastSession(session, &s, &back, &warning)) << warning;
+  EXPECT_EQ(back.toneMap, ui::ToneMap::FalseColour);
+  std::filesystem::remove(session);
+}
+
+// A heuristic's tooltip: the one-line help, then where to read more (issue
+// 49, item 2), and short.
+TEST(StudioTooltips, HeuristicsHaveAMoreLine) {
+  int heuristics = 0;
+  for (const Param<ManyLightSettings>& p : manyLightParams().all()) {
+    const std::string t = ui::paramTooltip(p.spec, p.get(ManyLightSettings{}));
+    std::vector<std::string> lines;
+    for (size_t a = 0, b; a <= t.size(); a = b + 1) {
+      b = t.find('\n', a);
+      if (b == std::string::npos) b = t.size();
+      lines.push_back(t.substr(a, b - a));
+    }
+    EXPECT_EQ(lines[0], std::string(p.spec.help) + ".") << p.spec.name;
+    EXPECT_LE(lines.size(), 4u) << t;
+    if (p.spec.tier != ParamTier::Experimental) continue;
+    ++heuristics;
+    ASSERT_GE(lines.size(), 2u) << t;
+    EXPECT_EQ(lines[1].rfind("More: ", 0), 0u) << t;
+    EXPECT_NE(lines[1].find("docs/"), std::string::npos) << "names a document: " << t;
+    EXPECT_EQ(t.find("Why: "), std::string::npos) << "the more line replaces the why line: " << t;
+  }
+  EXPECT_GT(heuristics, 3);
+}
+
+// The reference's bar never reads over 100%: past its setting the live path
+// tracer is "refining past N spp".
+TEST(StudioText, ReferenceProgressNeverExceedsAHundredPercent) {
+  for (int spp : {0, 1, 511, 1023, 1024, 1025, 1044, 5000}) {
+    const ui::studio_detail::ReferenceProgressText r = ui::studio_detail::referenceProgressText(spp, 1024);
+    EXPECT_LE(r.fraction, 1.0f) << spp;
+    const int percent = std::atoi(r.overlay.c_str() + r.overlay.find_first_of("0123456789"));
+    EXPECT_LE(percent, 100) << r.overlay;
+    EXPECT_EQ(r.count.find("refining past 1024 spp") != std::string::npos, spp > 1024) << r.count;
+  }
+  EXPECT_EQ(ui::studio_detail::referenceProgressText(1023, 1024).overlay, "reference 99%") << "not rounded up to done";
+}
+
+// A reference given on the command line (--reference FILE, through the
+// studio's starting settings) shows in the Reference field.
+TEST_F(StudioFrame, ReferenceFieldHoldsTheGivenReference) {
+  ui::StudioOptions o;
+  o.scene = "synthetic.gltf";
+  o.startSession = false;
+  o.settings.referencePath = "/data/kitchen-reference.exr";
+  ui::Studio s(o);
+  EXPECT_EQ(s.referenceField(), "/data/kitchen-reference.exr");
+  StudioSettings other = o.settings;
+  other.referencePath.clear();
+  s.applySettings(other);
+  EXPECT_EQ(s.referenceField(), "") << "the field follows the settings applied";
 }

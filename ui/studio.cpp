@@ -86,6 +86,18 @@ std::string sourceSlug(Source s) {
   return "image";
 }
 
+const char* toneMapName(ToneMap t) {
+  switch (t) {
+    case ToneMap::Linear:
+      return "linear sRGB";
+    case ToneMap::Filmic:
+      return "filmic (ACES)";
+    case ToneMap::FalseColour:
+      return "false colour";
+  }
+  return "?";
+}
+
 std::string panelTitle(Source s, Component c) {
   // The lost-energy maps are differences of indirect images whatever the component.
   const char* comp = s == Source::LostClamping || s == Source::LostDiffuse ? "indirect" : componentName(c);
@@ -159,6 +171,49 @@ float percentile99(const Image& img) {
   return std::max(v[k], 1e-12f);
 }
 
+float acesFilmic(float x) {
+  x *= 0.6f;
+  const float a = 2.51f, b = 0.03f, c = 2.43f, d = 0.59f, e = 0.14f;
+  return std::clamp(x * (a * x + b) / (x * (c * x + d) + e), 0.0f, 1.0f);
+}
+
+Vec3 toneMapPixel(Vec3 linear, float exposure, ToneMap t) {
+  const Vec3 v = linear * std::exp2(exposure);
+  auto srgb = [](float x) {
+    x = std::clamp(std::isfinite(x) ? x : 0.0f, 0.0f, 1.0f);
+    return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1 / 2.4f) - 0.055f;
+  };
+  switch (t) {
+    case ToneMap::Linear:
+      return Vec3(srgb(v.x), srgb(v.y), srgb(v.z));
+    case ToneMap::Filmic:
+      return Vec3(srgb(acesFilmic(v.x)), srgb(acesFilmic(v.y)), srgb(acesFilmic(v.z)));
+    case ToneMap::FalseColour: {
+      const float lum = 0.2126f * v.x + 0.7152f * v.y + 0.0722f * v.z;
+      const float lo = kFalseColourDecades[0], hi = kFalseColourDecades[1];
+      return falseColour(lum > 0 ? (std::log10(lum) - lo) / (hi - lo) : 0.0f);
+    }
+  }
+  return v;
+}
+
+ReferenceProgressText referenceProgressText(int spp, int maxSpp) {
+  ReferenceProgressText r;
+  maxSpp = std::max(maxSpp, 1);
+  r.fraction = std::clamp(float(spp) / float(maxSpp), 0.0f, 1.0f);
+  char buf[96];
+  if (spp > maxSpp) {
+    r.overlay = "reference 100%";
+    std::snprintf(buf, sizeof buf, "refining past %d spp (%d spp)", maxSpp, spp);
+  } else {
+    std::snprintf(buf, sizeof buf, "reference %.0f%%", std::floor(100 * r.fraction));
+    r.overlay = buf;
+    std::snprintf(buf, sizeof buf, "%d / %d spp", spp, maxSpp);
+  }
+  r.count = buf;
+  return r;
+}
+
 float imageScale(float panelW, float panelH, int imageW, int imageH) {
   if (!(panelW > 0 && panelH > 0) || imageW <= 0 || imageH <= 0) return 0;
   const float fit = std::min(panelW / float(imageW), panelH / float(imageH));
@@ -209,6 +264,7 @@ Studio::Studio(const StudioOptions& options) : options_(options), settings_(opti
   settings_.scene = options.scene;
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
+  referencePathInput_ = settings_.referencePath;  // --reference FILE shows in its field
   if (options.startSession) session_ = std::make_unique<Session>();
   restart();
 }
@@ -258,6 +314,7 @@ bool Studio::restartIfDue() {
 void Studio::applySettings(const StudioSettings& settings) {
   settings_ = settings;
   scenePath_ = settings.scene;
+  referencePathInput_ = settings.referencePath;
   restart();
 }
 
@@ -1089,6 +1146,18 @@ void Studio::viewToolbar() {
               "pixel in [0,1]; computed off the UI thread with the table's FLIP column. Colours: magma."
             : "Display: the image, each method's error map against the reference (metric: left panel), the signed "
               "difference, or the LDR-FLIP map");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(115);
+  if (ImGui::BeginCombo("##tonemap", toneMapName(view_.toneMap))) {
+    for (ToneMap t : {ToneMap::Linear, ToneMap::Filmic, ToneMap::FalseColour})
+      if (ImGui::Selectable(toneMapName(t), view_.toneMap == t)) view_.toneMap = t;
+    ImGui::EndCombo();
+  }
+  if (ImGui::IsItemHovered())
+    tip("Tone map of the images (not the error or FLIP maps): linear sRGB; filmic, the ACES curve fitted by "
+        "Narkowicz 2015; false colour, log10 luminance over %g..%g decades with its bar. Applies to the panels, "
+        "Save view and the exported PNGs (images and crops); the EXR stays linear and FLIP uses linear sRGB.",
+        kFalseColourDecades[0], kFalseColourDecades[1]);
   ImGui::SameLine(0, 16);
   if (ImGui::Button("Save view (PNG)")) saveView();
   if (ImGui::IsItemHovered())
@@ -1266,9 +1335,9 @@ void Studio::statusBar() {
 // The reference's progress bar and line (age: seconds since the snapshot
 // was published), after the many-light methods' where it fits.
 void Studio::referenceProgress(const Snapshot& s, double age) {
-  char overlay[64], detail[160];
-  float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
-  std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
+  char detail[160];
+  const ReferenceProgressText text = referenceProgressText(s.ptSpp, s.settings.maxReferenceSpp);
+  std::snprintf(detail, sizeof detail, "%s  %s spp/s  %s", text.count.c_str(),
                 humanCount(s.referenceSppPerSecond).c_str(),
                 s.referenceDone ? "done" : timeLeftText(s.referenceRemainingSeconds, age).c_str());
   // The reference's half on the same line where it fits, else on the next
@@ -1279,8 +1348,7 @@ void Studio::referenceProgress(const Snapshot& s, double age) {
   const float room = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x - ImGui::GetItemRectMax().x;
   statusTwoLines_ = statusTwoLines_ ? room < needed + 40 : room < needed;
   if (!statusTwoLines_) ImGui::SameLine(0, 24);
-  std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
-  ImGui::ProgressBar(fr, ImVec2(130, 0), overlay);
+  ImGui::ProgressBar(text.fraction, ImVec2(130, 0), text.overlay.c_str());
   ImGui::SameLine();
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered())
@@ -1329,7 +1397,9 @@ void waitBox(ImDrawList* dl, ImVec2 p0, ImVec2 p1, const char* text) {
 DisplayParams Studio::displayParams(Source s, float mapMax) const {
   DisplayParams p;
   if (view_.display == Display::Image || !isMethod(s)) {
-    p.mode = DisplayMode::Tonemap;
+    p.mode = view_.toneMap == ToneMap::Filmic        ? DisplayMode::Filmic
+             : view_.toneMap == ToneMap::FalseColour ? DisplayMode::LogFalseColour
+                                                     : DisplayMode::Tonemap;
     p.scale = std::exp2(view_.exposure);
   } else {
     p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
@@ -1346,7 +1416,7 @@ int Studio::panelCount() const {
 }
 
 // A colour bar under the images: the maps, and the false-colour tone map.
-bool Studio::legendShown() const { return view_.display != Display::Image; }
+bool Studio::legendShown() const { return view_.display != Display::Image || view_.toneMap == ToneMap::FalseColour; }
 
 // Each panel's image size on screen for a view area of avail (the titles
 // and the legend included): imageScale of the render in one panel's room.
@@ -1711,7 +1781,13 @@ void Studio::legend(float vmax) {
                       IM_COL32(int(c.x * 255), int(c.y * 255), int(c.z * 255), 255));
   }
   char buf[128];
-  if (signedMap) {
+  const bool toneBar = view_.display == Display::Image;  // the false-colour tone map's bar
+  if (toneBar) {
+    const float s = std::exp2(-view_.exposure);
+    std::snprintf(buf, sizeof buf, "%.3g ... %.3g   luminance (Rec. 709, log scale) at %+.1f stops",
+                  s * std::pow(10.0f, kFalseColourDecades[0]), s * std::pow(10.0f, kFalseColourDecades[1]),
+                  view_.exposure);
+  } else if (signedMap) {
     std::snprintf(buf, sizeof buf, "%.3g   0   +%.3g   (method - reference)", -vmax, vmax);
   } else if (flipView) {
     bool fresh = true;
@@ -1721,11 +1797,15 @@ void Studio::legend(float vmax) {
                   : fresh ? ""
                           : "  (updating: from an earlier picture)");
   } else {
-    std::snprintf(buf, sizeof buf, "0 ... %.3g   %s", vmax, kMetricNames[int(view_.metric)]);
+    std::snprintf(buf, sizeof buf, "0 ... %.3g   %s", vmax, metricLabel(view_.metric).c_str());
   }
   dl->AddText(ImVec2(p.x + W + 8, p.y - 2), IM_COL32_WHITE, buf);
   ImGui::Dummy(ImVec2(W, H));
-  if (ImGui::IsItemHovered() && flipView)
+  if (ImGui::IsItemHovered() && toneBar)
+    tip("False colour: log10 of the luminance times 2^exposure, black at %g and white at %g decades; the exposure "
+        "slides the range",
+        kFalseColourDecades[0], kFalseColourDecades[1]);
+  else if (ImGui::IsItemHovered() && flipView)
     tip("LDR-FLIP per pixel, mean-pooled in the table's FLIP column; the maximum is %s",
         view_.errorScale > 0 ? "set by hand" : "1, FLIP's largest value");
   else if (ImGui::IsItemHovered())
@@ -2487,6 +2567,7 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"display", int(v.display)},
                         {"metric", int(v.metric)},
                         {"exposure", v.exposure},
+                        {"toneMap", int(v.toneMap)},
                         {"errorScale", v.errorScale}}}};
   // Every registered estimator's parameters under their keys, the chosen
   // one's and the others' (the studio keeps them while another is chosen).
@@ -2549,6 +2630,7 @@ void readView(const nlohmann::json& jv, ViewState& v) {
   readEnum(jv, "component", &v.component, 3);
   readEnum(jv, "display", &v.display, 4);
   readEnum(jv, "metric", &v.metric, 4);
+  readEnum(jv, "toneMap", &v.toneMap, 3);
   readField(jv, "exposure", &v.exposure);
   readField(jv, "errorScale", &v.errorScale);
   if (jv.contains("panels")) {

@@ -35,6 +35,12 @@ enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostCla
 enum class Display : int { Image, Error, Signed, Flip };
 enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSquared };
 enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
+// How the images (not the maps) are shown, in the panels, Save view and the
+// exported PNGs (gl_image.h DisplayMode, studio_internal.h toneMapPixel):
+// linear * 2^exposure clamped and sRGB-encoded; a filmic curve; or log10
+// luminance through the false-colour ramp (kFalseColourDecades).
+enum class ToneMap : int { Linear, Filmic, FalseColour };
+const char* toneMapName(ToneMap t);
 
 const char* sourceName(Source s);
 // "vsl", "vpl-clamped", "reference", ...: file names and JSON keys.
@@ -85,7 +91,8 @@ struct ViewState {
   Display display = Display::Image;
   ErrorMetric metric = ErrorMetric::RelativeAbsolute;
   Component component = Component::Indirect;
-  float exposure = 0;         // stops
+  float exposure = 0;  // stops
+  ToneMap toneMap = ToneMap::Linear;
   float errorScale = 0;       // colour-map maximum; 0 = automatic (99th percentile)
   float wipe = 0.5f;          // split position in [0,1]
   float zoom = 1;             // 1 = fit
@@ -175,6 +182,9 @@ class Studio {
   static constexpr double kRoughShare = 0.05;
   // The scene field's text (a failed load leaves the typed path there).
   const std::string& sceneField() const { return scenePath_; }
+  // The reference field's text: the settings' reference file (the
+  // --reference option) until the user types another.
+  const std::string& referenceField() const { return referencePathInput_; }
   // The pixel probe's tooltip: where it was last drawn and its size.
   ImVec2 probeMin() const { return probeMin_; }
   ImVec2 probeSize() const { return probeSize_; }
