@@ -506,11 +506,28 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
     EXPECT_EQ(w, 64) << f;
     const bool map = f.find("/error-") != std::string::npos || f.find("/flip-") != std::string::npos;
     if (map)
-      EXPECT_GE(h, 32 + 4 + 12 + 2 * 13) << f << ": maps have a colour bar, its scale and its name below them";
+      EXPECT_GE(h, 32 + 4 + 12 + 2 * 26) << f << ": maps have a colour bar, its scale and its name below them";
     else
       EXPECT_EQ(h, 32) << f;
   }
   EXPECT_GE(pngs, 11);
+  // The maps' bars are labelled in the studio's 13-px font drawn 2x (issue
+  // 49, item 6: "about 5 px tall"): under the bar, text at least 16 rows
+  // tall (the digits; '|' more), naming the metric and its units.
+  EXPECT_EQ(ui::studio_detail::metricLabel(ui::ErrorMetric::RelativeAbsolute),
+            "relative absolute error |t-r|/(r+eps), unitless");
+  int mw = 0, mh = 0, mn = 0;
+  unsigned char* map = stbi_load((f1 + "/error-vsl-relabs-indirect.png").c_str(), &mw, &mh, &mn, 3);
+  ASSERT_NE(map, nullptr);
+  int run = 0, tallest = 0;
+  for (int y = 32 + 16; y < mh; ++y) {
+    bool text = false;
+    for (int x = 0; x < mw; ++x) text |= map[(size_t(y) * mw + x) * 3] > 150 && map[(size_t(y) * mw + x) * 3 + 2] > 150;
+    run = text ? run + 1 : 0;
+    tallest = std::max(tallest, run);
+  }
+  stbi_image_free(map);
+  EXPECT_GE(tallest, 16) << "the labels' tallest glyphs";
   std::ifstream js(f1 + "/metrics.json");
   nlohmann::json j = nlohmann::json::parse(js);
   EXPECT_EQ(j["settings"]["clamp"], "auto");
@@ -677,12 +694,32 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
     EXPECT_EQ(h, 8 * f) << file;
   }
   EXPECT_EQ(crops, 9) << "the reference, four methods and their four error maps";
-  // The figure: the 64x32 image magnified 8x (512 / 32 = 16, at most 8),
-  // then five columns of crops magnified (256 - 8) / (2 x 8) = 15x, 8 px apart.
+  // The figure: a band of titles (the font's 13 px line drawn 2x, 2 px, 4
+  // px), the 64x32 image magnified 8x (512 / 32 = 16, at most 8), then five
+  // columns of crops magnified (256 - 32) / (2 x 8) = 14x, 8 px apart, the
+  // error maps' row under a band of 32 naming them.
   int w = 0, h = 0, n = 0;
   ASSERT_TRUE(stbi_info((folder + "/crop-figure-indirect.png").c_str(), &w, &h, &n));
-  EXPECT_EQ(w, 8 * 64 + 8 + 5 * (16 * 15 + 8));
-  EXPECT_EQ(h, 8 * 32);
+  EXPECT_EQ(w, 8 * 64 + 8 + 5 * (16 * 14 + 8));
+  EXPECT_EQ(h, 32 + 8 * 32);
+  {
+    unsigned char* figure = stbi_load((folder + "/crop-figure-indirect.png").c_str(), &w, &h, &n, 3);
+    ASSERT_NE(figure, nullptr);
+    // Light text in the title band over the reference and over each column,
+    // and in the band between the rows.
+    auto textIn = [&](int x0, int x1, int y0, int y1) {
+      int light = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+          light += figure[(size_t(y) * w + x) * 3] > 150 && figure[(size_t(y) * w + x) * 3 + 2] > 150;
+      return light;
+    };
+    EXPECT_GT(textIn(0, 8 * 64, 0, 32), 20) << "the reference's title";
+    for (int col = 0; col < 5; ++col)
+      EXPECT_GT(textIn(520 + col * 232, 520 + col * 232 + 224, 0, 32), 10) << "column " << col << "'s title";
+    EXPECT_GT(textIn(520, w, 32 + 8 * 14, 32 + 8 * 14 + 32), 40) << "the error maps' title";
+    stbi_image_free(figure);
+  }
   // A crop of the magnified VSL file is the VSL crop, pixel for pixel (nearest neighbour).
   int cw = 0, chh = 0;
   unsigned char* png = stbi_load((folder + "/crop-vsl-indirect.png").c_str(), &cw, &chh, &n, 3);

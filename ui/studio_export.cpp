@@ -91,9 +91,11 @@ std::vector<uint8_t> toneMappedBytes(const Image& img, float exposure, ToneMap t
 }
 
 // ---- Labelled colour bars (issue 49, item 6: labels of 5 px that did not
-// name the metric). Their text is in the studio's own font, ImGui's default
-// (ProggyClean, 13 px), taken from its font atlas; without an ImGui context
-// the bar has no labels.
+// name the metric). Their text is the studio's own font, ImGui's default
+// (ProggyClean, a 13-px bitmap font), from its font atlas, every pixel drawn
+// as kLabelScale x kLabelScale (digits 16 px tall, '|' 24 px); without an
+// ImGui context the bar has no labels.
+constexpr int kLabelScale = 2;
 
 const ImFont* labelFont() {
   if (!ImGui::GetCurrentContext() || ImGui::GetIO().Fonts->Fonts.empty()) return nullptr;
@@ -105,10 +107,10 @@ int labelWidth(const std::string& t) {
   float x = 0;
   for (char c : t)
     if (const ImFontGlyph* g = font ? font->FindGlyph(ImWchar(c)) : nullptr) x += g->AdvanceX;
-  return int(std::ceil(x));
+  return int(std::ceil(x)) * kLabelScale;
 }
 
-int labelLineHeight() { return labelFont() ? int(std::ceil(labelFont()->FontSize)) + 2 : 0; }
+int labelLineHeight() { return labelFont() ? kLabelScale * int(std::ceil(labelFont()->FontSize)) + 2 : 0; }
 
 // Draws t with its top-left corner at (x, y) in light grey over the pixels
 // (w wide, h tall), clipped to them.
@@ -118,16 +120,16 @@ void drawLabel(std::vector<uint8_t>& px, int w, int h, int x, int y, const std::
   unsigned char* atlas = nullptr;
   int aw = 0, ah = 0;
   ImGui::GetIO().Fonts->GetTexDataAsRGBA32(&atlas, &aw, &ah);
-  float pen = float(x);
+  float pen = 0;  // in font pixels
   for (char c : t) {
     const ImFontGlyph* g = font->FindGlyph(ImWchar(c));
     if (!g) continue;
     const int gw = int(std::lround((g->U1 - g->U0) * aw)), gh = int(std::lround((g->V1 - g->V0) * ah));
     const int u0 = int(std::lround(g->U0 * aw)), v0 = int(std::lround(g->V0 * ah));
-    for (int gy = 0; gy < gh; ++gy)
-      for (int gx = 0; gx < gw; ++gx) {
-        const int X = int(pen + g->X0) + gx, Y = y + int(g->Y0) + gy;
-        const int a = atlas[(size_t(v0 + gy) * aw + size_t(u0 + gx)) * 4 + 3];
+    for (int gy = 0; gy < gh * kLabelScale; ++gy)
+      for (int gx = 0; gx < gw * kLabelScale; ++gx) {
+        const int X = x + int(pen + g->X0) * kLabelScale + gx, Y = y + int(g->Y0) * kLabelScale + gy;
+        const int a = atlas[(size_t(v0 + gy / kLabelScale) * aw + size_t(u0 + gx / kLabelScale)) * 4 + 3];
         if (X < 0 || X >= w || Y < 0 || Y >= h || a == 0) continue;
         uint8_t* q = &px[(size_t(Y) * w + X) * 3];
         for (int k = 0; k < 3; ++k) q[k] = uint8_t(q[k] + (235 - q[k]) * a / 255);
@@ -703,6 +705,43 @@ void outline(Rgb8& img, const CropRect& r, int t) {
 
 }  // namespace
 
+namespace {
+
+// The crop figure: a band of titles on top (the reference, each column's
+// image), the reference magnified `scale` times with the crop outlined on
+// the left, and right of it the crops at the largest integer factor *fig
+// that fits two rows in its height (at least 1x): the reference and the
+// methods, then, below a band with errorTitle (the metric, its units and
+// scale), the methods' error maps (issue 49, item 6: "the crop figure has
+// no labels").
+Rgb8 cropFigure(const Rgb8& whole, int scale, const std::vector<Rgb8>& tiles,
+                const std::vector<Studio::CropItem>& items, const CropRect& r, const std::string& errorTitle,
+                int* fig) {
+  const int gap = 8, band = labelLineHeight() + 4;
+  const int fullW = whole.w * scale, fullH = whole.h * scale;
+  *fig = std::max(1, (fullH - std::max(band, gap)) / (2 * r.h));
+  const int cw = r.w * *fig, ch = r.h * *fig, columns = 1 + int(std::size(kMetricSources));
+  const int mid = std::max(band, gap);  // between the rows: the error maps' title
+  Rgb8 figure(fullW + gap + columns * (cw + gap), band + std::max(fullH, 2 * ch + mid));
+  blit(figure, magnified(whole, scale), 0, band);
+  // A title cut to its column's width.
+  auto title = [&](int x, int y, std::string t, int width) {
+    while (!t.empty() && labelWidth(t) > width) t.pop_back();
+    drawLabel(figure.px, figure.w, figure.h, x, y, t);
+  };
+  title(0, 2, "reference, crop outlined", fullW);
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
+    const int x = fullW + gap + col * (cw + gap);
+    blit(figure, magnified(tiles[i], *fig), x, band + row * (ch + mid));
+    if (row == 0) title(x, 2, sourceName(items[i].source), cw + gap - 2);
+  }
+  title(fullW + gap, band + ch + (mid - labelLineHeight()) / 2, errorTitle, figure.w - fullW - gap);
+  return figure;
+}
+
+}  // namespace
+
 // Writes crop-<image>-<component>.png (each image and error map, magnified
 // by an integer factor, nearest neighbour) and crop-figure-<component>.png
 // (the reference with the rectangle outlined, then the crops side by side:
@@ -736,21 +775,12 @@ Result<void> Studio::exportCrops(const std::string& folder, const Image& full, n
     files->push_back(path);
     names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
   }
-  // The figure: the reference magnified `scale` times (at least 512 pixels
-  // tall, at most 8x), and beside it the crops at the largest integer factor
-  // that fits two rows in that height (at least 1x).
-  const int gap = 8, scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
-  const int fullW = full.width * scale, fullH = full.height * scale;
-  const int fig = std::max(1, (fullH - gap) / (2 * r.h));
-  const int cw = r.w * fig, ch = r.h * fig, columns = 1 + int(std::size(kMetricSources));
-  Rgb8 figure(fullW + gap + columns * (cw + gap), std::max(fullH, 2 * ch + gap));
+  const int scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
   Rgb8 whole = toneMapped(full, view_.exposure, view_.toneMap);
   outline(whole, r, scale > 1 ? 1 : 2);
-  blit(figure, magnified(whole, scale), 0, 0);
-  for (size_t i = 0; i < tiles.size(); ++i) {
-    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
-    blit(figure, magnified(tiles[i], fig), fullW + gap + col * (cw + gap), row * (ch + gap));
-  }
+  int fig = 1;
+  const std::string errorTitle = "error maps: " + metricLabel(view_.metric) + "; 0 ... " + numberLabel(vmax);
+  const Rgb8 figure = cropFigure(whole, scale, tiles, items, r, errorTitle, &fig);
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
   if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) return w;
@@ -782,9 +812,9 @@ Result<void> Studio::exportCrops(const std::string& folder, const Image& full, n
           {"figureMagnification", fig},
           {"figureScale", scale},
           {"figureLayout",
-           "left: the reference (magnified figureScale times) with the crop outlined; right, magnified "
-           "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
-           "bottom row: the methods' error maps"},
+           "titles on top; left: the reference (magnified figureScale times) with the crop outlined; right, "
+           "magnified figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL "
+           "diffuse-only; then a band naming the error metric and its scale; bottom row: the methods' error maps"},
           {"metricsAgainstReferenceCrop", metrics}};
   return {};
 }
