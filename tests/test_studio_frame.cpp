@@ -505,9 +505,29 @@ TEST_F(StudioFrame, ExportsNeverOverwriteAndKeepNativeResolution) {
     ASSERT_TRUE(stbi_info(f.c_str(), &w, &h, &n)) << f;
     EXPECT_EQ(w, 64) << f;
     const bool map = f.find("/error-") != std::string::npos || f.find("/flip-") != std::string::npos;
-    EXPECT_EQ(h, map ? 32 + kColourBarRows : 32) << f << ": maps have a colour bar and its scale below them";
+    if (map)
+      EXPECT_GE(h, 32 + 4 + 12 + 2 * 26) << f << ": maps have a colour bar, its scale and its name below them";
+    else
+      EXPECT_EQ(h, 32) << f;
   }
   EXPECT_GE(pngs, 11);
+  // The maps' bars are labelled in the studio's 13-px font drawn 2x (issue
+  // 49, item 6: "about 5 px tall"): under the bar, text at least 16 rows
+  // tall (the digits; '|' more), naming the metric and its units.
+  EXPECT_EQ(ui::studio_detail::metricLabel(ui::ErrorMetric::RelativeAbsolute),
+            "relative absolute error |t-r|/(r+eps), unitless");
+  int mw = 0, mh = 0, mn = 0;
+  unsigned char* map = stbi_load((f1 + "/error-vsl-relabs-indirect.png").c_str(), &mw, &mh, &mn, 3);
+  ASSERT_NE(map, nullptr);
+  int run = 0, tallest = 0;
+  for (int y = 32 + 16; y < mh; ++y) {
+    bool text = false;
+    for (int x = 0; x < mw; ++x) text |= map[(size_t(y) * mw + x) * 3] > 150 && map[(size_t(y) * mw + x) * 3 + 2] > 150;
+    run = text ? run + 1 : 0;
+    tallest = std::max(tallest, run);
+  }
+  stbi_image_free(map);
+  EXPECT_GE(tallest, 16) << "the labels' tallest glyphs";
   std::ifstream js(f1 + "/metrics.json");
   nlohmann::json j = nlohmann::json::parse(js);
   EXPECT_EQ(j["settings"]["clamp"], "auto");
@@ -674,12 +694,32 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
     EXPECT_EQ(h, 8 * f) << file;
   }
   EXPECT_EQ(crops, 9) << "the reference, four methods and their four error maps";
-  // The figure: the 64x32 image magnified 8x (512 / 32 = 16, at most 8),
-  // then five columns of crops magnified (256 - 8) / (2 x 8) = 15x, 8 px apart.
+  // The figure: a band of titles (the font's 13 px line drawn 2x, 2 px, 4
+  // px), the 64x32 image magnified 8x (512 / 32 = 16, at most 8), then five
+  // columns of crops magnified (256 - 32) / (2 x 8) = 14x, 8 px apart, the
+  // error maps' row under a band of 32 naming them.
   int w = 0, h = 0, n = 0;
   ASSERT_TRUE(stbi_info((folder + "/crop-figure-indirect.png").c_str(), &w, &h, &n));
-  EXPECT_EQ(w, 8 * 64 + 8 + 5 * (16 * 15 + 8));
-  EXPECT_EQ(h, 8 * 32);
+  EXPECT_EQ(w, 8 * 64 + 8 + 5 * (16 * 14 + 8));
+  EXPECT_EQ(h, 32 + 8 * 32);
+  {
+    unsigned char* figure = stbi_load((folder + "/crop-figure-indirect.png").c_str(), &w, &h, &n, 3);
+    ASSERT_NE(figure, nullptr);
+    // Light text in the title band over the reference and over each column,
+    // and in the band between the rows.
+    auto textIn = [&](int x0, int x1, int y0, int y1) {
+      int light = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+          light += figure[(size_t(y) * w + x) * 3] > 150 && figure[(size_t(y) * w + x) * 3 + 2] > 150;
+      return light;
+    };
+    EXPECT_GT(textIn(0, 8 * 64, 0, 32), 20) << "the reference's title";
+    for (int col = 0; col < 5; ++col)
+      EXPECT_GT(textIn(520 + col * 232, 520 + col * 232 + 224, 0, 32), 10) << "column " << col << "'s title";
+    EXPECT_GT(textIn(520, w, 32 + 8 * 14, 32 + 8 * 14 + 32), 40) << "the error maps' title";
+    stbi_image_free(figure);
+  }
   // A crop of the magnified VSL file is the VSL crop, pixel for pixel (nearest neighbour).
   int cw = 0, chh = 0;
   unsigned char* png = stbi_load((folder + "/crop-vsl-indirect.png").c_str(), &cw, &chh, &n, 3);
@@ -1520,4 +1560,189 @@ TEST(StudioStats, ImageStatsOfAKnownImage) {
   EXPECT_EQ(total, 99.0f);
   EXPECT_EQ(st.histogram.front(), 1.0f) << "2 alone in the first bin (3 is a tenth of the log range further)";
   EXPECT_GE(st.histogram.back(), 1.0f) << "100 in the last bin";
+}
+
+// Layout (issue 49, item 4): the largest whole scale that fits, or the fit
+// scale when not even 1x fits.
+TEST(StudioLayout, ImageScaleIsTheLargestWholeNumberThatFits) {
+  using ui::studio_detail::imageScale;
+  EXPECT_EQ(imageScale(305, 480, 256, 256), 1.0f) << "1.19x fits: 1x, pixel for pixel";
+  EXPECT_EQ(imageScale(914, 520, 256, 256), 2.0f);
+  EXPECT_EQ(imageScale(914, 520, 128, 64), 7.0f) << "the width decides";
+  EXPECT_FLOAT_EQ(imageScale(200, 300, 256, 256), 200.0f / 256) << "too large for 1x: fit";
+  EXPECT_EQ(imageScale(0, 300, 256, 256), 0.0f);
+}
+
+// The panels' images are drawn at a whole scale that fills their room: the
+// next scale would not fit, and the view area ends under the images (the
+// metrics get the rest).
+TEST_F(StudioFrame, ImagesFillTheViewAreaAtAWholeScale) {
+  for (ui::ViewMode mode : {ui::ViewMode::Single, ui::ViewMode::SideBySide3}) {
+    studio->view().mode = mode;
+    renderFrames();
+    const auto& d = studio->drawnImages().front();
+    const float w = d.p1.x - d.p0.x, h = d.p1.y - d.p0.y, scale = w / 64;
+    EXPECT_EQ(scale, std::round(scale)) << "a whole scale, not " << scale;
+    EXPECT_EQ(h, scale * 32);
+    const int n = mode == ui::ViewMode::Single ? 1 : 3;
+    const float areaW = studio->viewAreaMax().x - studio->viewAreaMin().x;
+    const float panelW = (areaW - 8 * (n - 1)) / n;
+    // The views end at most 260 px (the metrics' least) above the window's
+    // content bottom, less their padding.
+    const float roomH = (kH - 8 - 260 - 8 - 2) - d.p0.y;
+    EXPECT_TRUE((scale + 1) * 64 > panelW || (scale + 1) * 32 > roomH) << "scale " << scale << " could be larger";
+    EXPECT_LT(studio->viewAreaMax().y - d.p1.y, 8) << "the area ends under the images";
+  }
+}
+
+// "Save view" writes the panels as drawn (titles, images), not the empty
+// room beside them.
+TEST_F(StudioFrame, SaveViewWritesOnlyThePanels) {
+  studio->view().mode = ui::ViewMode::Single;
+  renderFrames();
+  studio->saveView();
+  renderFrames(1);
+  studio->afterRender(kW, kH);
+  const std::string path = studio->messagePath();
+  ASSERT_FALSE(path.empty()) << studio->message();
+  EXPECT_TRUE(std::filesystem::path(path).is_absolute()) << path;
+  int w = 0, h = 0, n = 0;
+  ASSERT_TRUE(stbi_info(path.c_str(), &w, &h, &n)) << path;
+  const auto& d = studio->drawnImages().front();
+  EXPECT_NEAR(w, d.p1.x - d.p0.x, 1) << "the image's width, not the view area's "
+                                     << studio->viewAreaMax().x - studio->viewAreaMin().x;
+  EXPECT_NEAR(h, d.p1.y - studio->panelsMin().y, 1) << "the title and the image";
+  std::filesystem::remove(path);
+}
+
+// The export's message names the folder's absolute path, and its button
+// copies it.
+TEST_F(StudioFrame, ExportMessageGivesTheAbsolutePathToCopy) {
+  renderFrames(1);
+  studio->exportFromControls();
+  const std::string folder = studio->messagePath();
+  ASSERT_FALSE(folder.empty()) << studio->errorDialog();
+  EXPECT_TRUE(std::filesystem::path(folder).is_absolute()) << folder;
+  EXPECT_TRUE(std::filesystem::exists(folder + "/metrics.json"));
+  EXPECT_NE(studio->message().find(folder), std::string::npos) << studio->message();
+  studio->copyMessagePath();
+  EXPECT_EQ(std::string(ImGui::GetClipboardText()), folder);
+  std::filesystem::remove_all(folder);
+}
+
+// Tone maps (issue 49, item 7): the filmic curve compresses highlights
+// without clipping, and false colour maps log10 luminance over its decades.
+TEST(StudioToneMap, CurvesAsStated) {
+  using ui::studio_detail::acesFilmic;
+  using ui::studio_detail::toneMapPixel;
+  EXPECT_EQ(acesFilmic(0), 0.0f);
+  EXPECT_LT(acesFilmic(4), 1.0f) << "not clipped where linear is";
+  EXPECT_LT(acesFilmic(1), acesFilmic(4));
+  EXPECT_LT(acesFilmic(0.9f), 0.9f) << "highlights compressed";
+  EXPECT_NEAR(toneMapPixel(Vec3(4.0f), 0, ui::ToneMap::Linear).x, 1.0f, 1e-6f);
+  const Vec3 fc = toneMapPixel(Vec3(0.01f), 1, ui::ToneMap::FalseColour);  // luminance 0.02: t = (log10 0.02 + 3) / 4
+  const Vec3 want = falseColour((std::log10(0.02f) + 3) / 4);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(fc[c], want[c], 1e-5f);
+}
+
+// The tone-map choice reaches the panels and the exported PNGs: filmic
+// darkens VSL's bright red ramp, false colour shows VPL's constant 0.2 as
+// the ramp's colour for log10 0.2, with its bar under the images. It is kept
+// in the last session.
+TEST_F(StudioFrame, ToneMapChangesThePanelsAndTheExports) {
+  ui::ViewState& v = studio->view();
+  v.mode = ui::ViewMode::SideBySide2;
+  v.panels[0] = ui::Source::Vsl;
+  v.panels[1] = ui::Source::Vpl;
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-tonemap-test";
+  std::filesystem::remove_all(dir);
+  auto exported = [&](const char* file) {
+    std::string folder;
+    EXPECT_TRUE(studio->exportAll(dir, nullptr, &folder));
+    int w = 0, h = 0, n = 0;
+    uint8_t* data = stbi_load((folder + "/" + file).c_str(), &w, &h, &n, 3);
+    EXPECT_TRUE(data) << folder << "/" << file;
+    std::vector<uint8_t> px(data, data + (data ? w * h * 3 : 0));
+    stbi_image_free(data);
+    return px;
+  };
+  v.toneMap = ui::ToneMap::Filmic;
+  const std::vector<uint8_t> filmic = exported("vsl-indirect.png");
+  ASSERT_EQ(filmic.size(), 64u * 32 * 3);
+  const size_t brightRed = (size_t(16) * 64 + 63) * 3;  // x = 63: red 0.9
+  EXPECT_LT(filmic[brightRed], toSrgb8(0.9f) - 20) << "filmic compresses the highlight that linear shows at 0.9";
+  EXPECT_NEAR(filmic[brightRed], 255 * ui::studio_detail::toneMapPixel(Vec3(0.9f, 0.3f, 0.3f), 0, v.toneMap).x, 1);
+
+  v.toneMap = ui::ToneMap::FalseColour;
+  const Vec3 want = falseColour((std::log10(0.2f) + 3) / 4) * 255.0f;
+  const std::vector<uint8_t> fc = exported("vpl-clamped-indirect.png");
+  ASSERT_GE(fc.size(), 3u);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(fc[size_t(c)], want[c], 1);
+  auto px = renderFrames();
+  const auto& d = studio->drawnImages()[1];
+  const Vec3 shown = pixel(px, int((d.p0.x + d.p1.x) / 2), int((d.p0.y + d.p1.y) / 2));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(shown[c], want[c], 2) << "the panel as exported";
+  EXPECT_GT(studio->panelsMax().y, d.p1.y + 12) << "the bar under the images";
+  std::filesystem::remove_all(dir);
+
+  const std::string session = dir + "-session.json";
+  ASSERT_TRUE(ui::saveLastSession(session, studio->acceptedSettings(), v));
+  StudioSettings s;
+  ui::ViewState back;
+  std::string warning;
+  ASSERT_TRUE(ui::loadLastSession(session, &s, &back, &warning)) << warning;
+  EXPECT_EQ(back.toneMap, ui::ToneMap::FalseColour);
+  std::filesystem::remove(session);
+}
+
+// A heuristic's tooltip: the one-line help, then where to read more (issue
+// 49, item 2), and short.
+TEST(StudioTooltips, HeuristicsHaveAMoreLine) {
+  int heuristics = 0;
+  for (const Param<ManyLightSettings>& p : manyLightParams().all()) {
+    const std::string t = ui::paramTooltip(p.spec, p.get(ManyLightSettings{}));
+    std::vector<std::string> lines;
+    for (size_t a = 0, b; a <= t.size(); a = b + 1) {
+      b = t.find('\n', a);
+      if (b == std::string::npos) b = t.size();
+      lines.push_back(t.substr(a, b - a));
+    }
+    EXPECT_EQ(lines[0], std::string(p.spec.help) + ".") << p.spec.name;
+    EXPECT_LE(lines.size(), 4u) << t;
+    if (p.spec.tier != ParamTier::Experimental) continue;
+    ++heuristics;
+    ASSERT_GE(lines.size(), 2u) << t;
+    EXPECT_EQ(lines[1].rfind("More: ", 0), 0u) << t;
+    EXPECT_NE(lines[1].find("docs/"), std::string::npos) << "names a document: " << t;
+    EXPECT_EQ(t.find("Why: "), std::string::npos) << "the more line replaces the why line: " << t;
+  }
+  EXPECT_GT(heuristics, 3);
+}
+
+// The reference's bar never reads over 100%: past its setting the live path
+// tracer is "refining past N spp".
+TEST(StudioText, ReferenceProgressNeverExceedsAHundredPercent) {
+  for (int spp : {0, 1, 511, 1023, 1024, 1025, 1044, 5000}) {
+    const ui::studio_detail::ReferenceProgressText r = ui::studio_detail::referenceProgressText(spp, 1024);
+    EXPECT_LE(r.fraction, 1.0f) << spp;
+    const int percent = std::atoi(r.overlay.c_str() + r.overlay.find_first_of("0123456789"));
+    EXPECT_LE(percent, 100) << r.overlay;
+    EXPECT_EQ(r.count.find("refining past 1024 spp") != std::string::npos, spp > 1024) << r.count;
+  }
+  EXPECT_EQ(ui::studio_detail::referenceProgressText(1023, 1024).overlay, "reference 99%") << "not rounded up to done";
+}
+
+// A reference given on the command line (--reference FILE, through the
+// studio's starting settings) shows in the Reference field.
+TEST_F(StudioFrame, ReferenceFieldHoldsTheGivenReference) {
+  ui::StudioOptions o;
+  o.scene = "synthetic.gltf";
+  o.startSession = false;
+  o.settings.referencePath = "/data/kitchen-reference.exr";
+  ui::Studio s(o);
+  EXPECT_EQ(s.referenceField(), "/data/kitchen-reference.exr");
+  StudioSettings other = o.settings;
+  other.referencePath.clear();
+  s.applySettings(other);
+  EXPECT_EQ(s.referenceField(), "") << "the field follows the settings applied";
 }

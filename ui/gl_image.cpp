@@ -72,11 +72,21 @@ float srgb(float v) {
   v = clamp(v, 0.0, 1.0);
   return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
 }
+// Must match ui/studio.cpp acesFilmic(): Narkowicz 2015's ACES fit, 0.6 pre-scale.
+vec3 aces(vec3 x) {
+  x *= 0.6;
+  return clamp(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
 void main() {
   vec3 c = texture(Texture, Frag_UV).rgb;
-  if (Mode == 0) {
+  if (Mode == 0 || Mode == 4) {
     c *= Scale;
+    if (Mode == 4) c = aces(c);
     Out_Color = vec4(srgb(c.r), srgb(c.g), srgb(c.b), 1.0);
+  } else if (Mode == 5) {
+    // Must match ui/studio.cpp toneMapPixel(): log10 luminance over [-3, 1].
+    float lum = dot(c * Scale, vec3(0.2126, 0.7152, 0.0722));
+    Out_Color = vec4(falseColour(lum > 0.0 ? (log(lum) / log(10.0) + 3.0) / 4.0 : 0.0), 1.0);
   } else if (Mode == 1) {
     float v = (c.r + c.g + c.b) / 3.0 * Scale;
     Out_Color = vec4(falseColour(v), 1.0);

@@ -31,10 +31,12 @@ class FloatTexture {
 };
 
 enum class DisplayMode : int {
-  Tonemap = 0,      // rgb * scale, clamped, sRGB-encoded
-  FalseColour = 1,  // channel mean * scale in [0,1] through falseColour()
-  Signed = 2,       // channel mean * scale in [-1,1]: blue (negative), white, red (positive)
-  Magma = 3,        // channel mean * scale in [0,1] through magma() (core/flip.h): FLIP maps
+  Tonemap = 0,         // rgb * scale, clamped, sRGB-encoded
+  FalseColour = 1,     // channel mean * scale in [0,1] through falseColour()
+  Signed = 2,          // channel mean * scale in [-1,1]: blue (negative), white, red (positive)
+  Magma = 3,           // channel mean * scale in [0,1] through magma() (core/flip.h): FLIP maps
+  Filmic = 4,          // rgb * scale through the ACES fit (studio_internal.h acesFilmic), sRGB-encoded
+  LogFalseColour = 5,  // log10 luminance of rgb * scale over kFalseColourDecades through falseColour()
 };
 
 struct DisplayParams {

@@ -99,10 +99,15 @@ bool modeAndSlider(const ParamSpec& p, const std::vector<const ParamWord*>& mode
 
 std::string paramTooltip(const ParamSpec& p, double defaultValue) {
   std::string t = std::string(p.help) + ".\n";
+  // A heuristic's second line says where to read more (issue 49: "a 'more'
+  // line for the heuristics"): the measurement behind its default, which
+  // names its notebook entry, else the parameters' table.
+  const bool heuristic = p.tier == ParamTier::Experimental;
+  if (heuristic) t += "More: " + (*p.why ? plainLinks(p.why) : std::string("docs/REFERENCE.md#parameters")) + ".\n";
   if (p.kind != ParamKind::Flag) t += "Range: " + paramRangeText(p) + (*p.unit ? std::string(" ") + p.unit : "") + ". ";
   t += "Default: " + formatParamValue(p, defaultValue) + " (" + p.appliesTo + ", " +
        (p.tier == ParamTier::Method ? "method parameter" : "experimental heuristic") + ").\n";
-  if (*p.why) t += "Why: " + plainLinks(p.why) + ".\n";
+  if (*p.why && !heuristic) t += "Why: " + plainLinks(p.why) + ".\n";
   return t + "Option: --" + p.name;
 }
 

@@ -31,6 +31,9 @@ bool paramWidget(const Param<S>& p, S& s, ParamMemory& memory) {
 }
 
 // The parameter's tooltip text: help, range and unit, default, why, option.
+// An experimental heuristic's has the one-line help first, then "More: "
+// and the measurement behind its default (naming its notebook entry), or
+// docs/REFERENCE.md#parameters when it has none.
 std::string paramTooltip(const ParamSpec& p, double defaultValue);
 
 }  // namespace vsl::ui

@@ -86,6 +86,18 @@ std::string sourceSlug(Source s) {
   return "image";
 }
 
+const char* toneMapName(ToneMap t) {
+  switch (t) {
+    case ToneMap::Linear:
+      return "linear sRGB";
+    case ToneMap::Filmic:
+      return "filmic (ACES)";
+    case ToneMap::FalseColour:
+      return "false colour";
+  }
+  return "?";
+}
+
 std::string panelTitle(Source s, Component c) {
   // The lost-energy maps are differences of indirect images whatever the component.
   const char* comp = s == Source::LostClamping || s == Source::LostDiffuse ? "indirect" : componentName(c);
@@ -159,6 +171,55 @@ float percentile99(const Image& img) {
   return std::max(v[k], 1e-12f);
 }
 
+float acesFilmic(float x) {
+  x *= 0.6f;
+  const float a = 2.51f, b = 0.03f, c = 2.43f, d = 0.59f, e = 0.14f;
+  return std::clamp(x * (a * x + b) / (x * (c * x + d) + e), 0.0f, 1.0f);
+}
+
+Vec3 toneMapPixel(Vec3 linear, float exposure, ToneMap t) {
+  const Vec3 v = linear * std::exp2(exposure);
+  auto srgb = [](float x) {
+    x = std::clamp(std::isfinite(x) ? x : 0.0f, 0.0f, 1.0f);
+    return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1 / 2.4f) - 0.055f;
+  };
+  switch (t) {
+    case ToneMap::Linear:
+      return Vec3(srgb(v.x), srgb(v.y), srgb(v.z));
+    case ToneMap::Filmic:
+      return Vec3(srgb(acesFilmic(v.x)), srgb(acesFilmic(v.y)), srgb(acesFilmic(v.z)));
+    case ToneMap::FalseColour: {
+      const float lum = 0.2126f * v.x + 0.7152f * v.y + 0.0722f * v.z;
+      const float lo = kFalseColourDecades[0], hi = kFalseColourDecades[1];
+      return falseColour(lum > 0 ? (std::log10(lum) - lo) / (hi - lo) : 0.0f);
+    }
+  }
+  return v;
+}
+
+ReferenceProgressText referenceProgressText(int spp, int maxSpp) {
+  ReferenceProgressText r;
+  maxSpp = std::max(maxSpp, 1);
+  r.fraction = std::clamp(float(spp) / float(maxSpp), 0.0f, 1.0f);
+  char buf[96];
+  if (spp > maxSpp) {
+    r.overlay = "reference 100%";
+    std::snprintf(buf, sizeof buf, "refining past %d spp (%d spp)", maxSpp, spp);
+  } else {
+    std::snprintf(buf, sizeof buf, "reference %.0f%%", std::floor(100 * r.fraction));
+    r.overlay = buf;
+    std::snprintf(buf, sizeof buf, "%d / %d spp", spp, maxSpp);
+  }
+  r.count = buf;
+  return r;
+}
+
+float imageScale(float panelW, float panelH, int imageW, int imageH) {
+  if (!(panelW > 0 && panelH > 0) || imageW <= 0 || imageH <= 0) return 0;
+  const float fit = std::min(panelW / float(imageW), panelH / float(imageH));
+  return fit >= 1 ? std::floor(fit) : fit;
+}
+
 ImageStats imageStats(const Image& img) {
   ImageStats st;
   std::vector<double> lum;
@@ -203,6 +264,7 @@ Studio::Studio(const StudioOptions& options) : options_(options), settings_(opti
   settings_.scene = options.scene;
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
+  referencePathInput_ = settings_.referencePath;  // --reference FILE shows in its field
   if (options.startSession) session_ = std::make_unique<Session>();
   restart();
 }
@@ -252,6 +314,7 @@ bool Studio::restartIfDue() {
 void Studio::applySettings(const StudioSettings& settings) {
   settings_ = settings;
   scenePath_ = settings.scene;
+  referencePathInput_ = settings.referencePath;
   restart();
 }
 
@@ -269,6 +332,7 @@ void Studio::takeSnapshot(std::shared_ptr<const Snapshot> s) {
   if (snap_ && s && s->settings.scene != snap_->settings.scene) {
     view_.crop = {};
     message_.clear();
+    messagePath_.clear();
   }
   snap_ = std::move(s);
   texturesDirty_ = true;
@@ -583,8 +647,11 @@ void Studio::frame() {
   restartIfDue();
   ImGui::SameLine();
   ImGui::BeginChild("right", ImVec2(0, 0), false);
-  float bottom = std::min(260.0f, ImGui::GetContentRegionAvail().y * 0.4f);
-  ImGui::BeginChild("views", ImVec2(0, -bottom), true,
+  // The views take what their images need, up to all but the bottom's
+  // least; the metrics below get the rest.
+  const ImVec2 right = ImGui::GetContentRegionAvail();
+  const float viewsH = viewsHeight(right.x, right.y - std::min(260.0f, right.y * 0.4f));
+  ImGui::BeginChild("views", ImVec2(0, viewsH), true,
                     ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse);
   viewsPanel();
   ImGui::EndChild();
@@ -731,6 +798,16 @@ void Studio::sceneControls() {
     if (ImGui::SmallButton("show the log")) showLog_ = true;
   }
 }
+
+namespace {
+// path made absolute and normal (a message names a file wherever the studio
+// was started from); as it is when that fails.
+std::string absolutePath(const std::string& path) {
+  std::error_code ec;
+  const std::filesystem::path p = std::filesystem::absolute(path, ec);
+  return ec ? path : p.lexically_normal().string();
+}
+}  // namespace
 
 // The controls below return whether a setting changed.
 
@@ -970,9 +1047,7 @@ bool Studio::referenceControls() {
 
 void Studio::viewControls() {
   sectionTitle("View");
-  int mode = int(view_.mode);
-  if (ImGui::Combo("layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
-  if (ImGui::IsItemHovered()) tip("Keys: T swaps VSL and VPL; 1-8 put that image in panel 1; F1 lists every key");
+  ImGui::TextDisabled("layout, component, display: above the images");
   int panels = view_.mode == ViewMode::Single ? 1 : view_.mode == ViewMode::SideBySide3 ? 3 : 2;
   for (int i = 0; i < panels; ++i) {
     int src = int(view_.panels[i]);
@@ -980,15 +1055,8 @@ void Studio::viewControls() {
     std::vector<const char*> names;
     for (int k = 0; k < int(Source::Count); ++k) names.push_back(sourceName(Source(k)));
     if (ImGui::Combo(label.c_str(), &src, names.data(), int(names.size()))) view_.panels[i] = Source(src);
+    if (ImGui::IsItemHovered()) tip("The image in this panel; keys 1-8 put one in panel 1, T swaps VSL and VPL");
   }
-  int comp = int(view_.component);
-  if (ImGui::Combo("component", &comp, kComponentNames, 3)) view_.component = Component(comp);
-  int disp = int(view_.display);
-  const char* displays[] = {"image", "error map", "signed difference", "FLIP map"};
-  if (ImGui::Combo("display", &disp, displays, 4)) view_.display = Display(disp);
-  if (ImGui::IsItemHovered() && view_.display == Display::Flip)
-    tip("LDR-FLIP (HPG 2020) of each method against the reference, both tone-mapped at this exposure, per pixel "
-        "in [0,1]; computed off the UI thread with the table's FLIP column. Colours: magma.");
   if (view_.display == Display::Error) {
     int metric = int(view_.metric);
     if (ImGui::Combo("metric", &metric, kMetricNames, 4)) view_.metric = ErrorMetric(metric);
@@ -1022,28 +1090,92 @@ void Studio::viewControls() {
   }
 }
 
+// The export folder; the buttons are in the toolbar above the images.
 void Studio::exportControls() {
   sectionTitle("Export");
   ImGui::SetNextItemWidth(-1);
   ImGui::InputText("##dir", &exportDir_);
-  if (ImGui::Button("Save view (PNG)")) {
-    std::error_code ec;
-    std::filesystem::create_directories(exportDir_, ec);
-    savePngPath_ = uniquePath(exportDir_, exportStem() + "-view", ".png");
-    savePngPending_ = true;
+  if (ImGui::IsItemHovered())
+    tip("The folder \"Save view\" and \"Export images\" (above the images) write into; each export makes a new "
+        "folder in it");
+}
+
+void Studio::saveView() {
+  std::error_code ec;
+  std::filesystem::create_directories(exportDir_, ec);
+  savePngPath_ = absolutePath(uniquePath(exportDir_, exportStem() + "-view", ".png"));
+  savePngPending_ = true;
+}
+
+void Studio::exportFromControls() {
+  std::string folder;
+  std::vector<std::string> written;
+  if (Result<void> exported = exportAll(exportDir_, &written, &folder)) {
+    messagePath_ = absolutePath(folder);
+    message_ = "wrote " + std::to_string(written.size()) + " files to " + messagePath_;
+  } else {
+    errorDialog_ = "Export failed; existing files are untouched.\n\n" + exported.error();
   }
-  if (ImGui::IsItemHovered()) tip("A screen grab of the view area, in a new file");
+}
+
+void Studio::copyMessagePath() const { ImGui::SetClipboardText(messagePath_.c_str()); }
+
+// Above the images, visible at any scroll of the controls (issue 49: "View
+// and Export sit below the fold at 1280x800"): the layout, component and
+// display, Save view and Export; then the last export's path with a button
+// that copies it, or the view's keys.
+void Studio::viewToolbar() {
+  ImGui::SetNextItemWidth(140);
+  int mode = int(view_.mode);
+  if (ImGui::Combo("##layout", &mode, kModeNames, 4)) view_.mode = ViewMode(mode);
+  if (ImGui::IsItemHovered())
+    tip("Layout. Keys: T swaps VSL and VPL; 1-8 put that image in panel 1; F1 lists every key");
   ImGui::SameLine();
-  if (ImGui::Button("Export images")) {
-    std::string folder;
-    std::vector<std::string> written;
-    if (Result<void> exported = exportAll(exportDir_, &written, &folder))
-      message_ = "wrote " + std::to_string(written.size()) + " files to " + folder;
-    else
-      errorDialog_ = "Export failed; existing files are untouched.\n\n" + exported.error();
+  ImGui::SetNextItemWidth(80);
+  int comp = int(view_.component);
+  if (ImGui::Combo("##component", &comp, kComponentNames, 3)) view_.component = Component(comp);
+  if (ImGui::IsItemHovered()) tip("Component shown and measured: full, direct or indirect light");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(135);
+  int disp = int(view_.display);
+  const char* displays[] = {"image", "error map", "signed difference", "FLIP map"};
+  if (ImGui::Combo("##display", &disp, displays, 4)) view_.display = Display(disp);
+  if (ImGui::IsItemHovered())
+    tip(view_.display == Display::Flip
+            ? "LDR-FLIP (HPG 2020) of each method against the reference, both tone-mapped at this exposure, per "
+              "pixel in [0,1]; computed off the UI thread with the table's FLIP column. Colours: magma."
+            : "Display: the image, each method's error map against the reference (metric: left panel), the signed "
+              "difference, or the LDR-FLIP map");
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(115);
+  if (ImGui::BeginCombo("##tonemap", toneMapName(view_.toneMap))) {
+    for (ToneMap t : {ToneMap::Linear, ToneMap::Filmic, ToneMap::FalseColour})
+      if (ImGui::Selectable(toneMapName(t), view_.toneMap == t)) view_.toneMap = t;
+    ImGui::EndCombo();
   }
-  if (ImGui::IsItemHovered()) tip("A new folder: EXR with every layer, PNGs at the render's resolution, JSON");
-  if (!message_.empty()) ImGui::TextWrapped("%s", message_.c_str());
+  if (ImGui::IsItemHovered())
+    tip("Tone map of the images (not the error or FLIP maps): linear sRGB; filmic, the ACES curve fitted by "
+        "Narkowicz 2015; false colour, log10 luminance over %g..%g decades with its bar. Applies to the panels, "
+        "Save view and the exported PNGs (images and crops); the EXR stays linear and FLIP uses linear sRGB.",
+        kFalseColourDecades[0], kFalseColourDecades[1]);
+  ImGui::SameLine(0, 16);
+  if (ImGui::Button("Save view (PNG)")) saveView();
+  if (ImGui::IsItemHovered())
+    tip("The panels as shown (titles, images, colour bar), in a new file in the export folder");
+  ImGui::SameLine();
+  if (ImGui::Button("Export images")) exportFromControls();
+  if (ImGui::IsItemHovered())
+    tip("A new folder in the export folder (left panel): EXR with every layer, PNGs at the render's resolution, JSON");
+  if (message_.empty()) {
+    ImGui::TextDisabled("wheel: zoom  drag: pan  Shift+drag: crop  E/Shift+E: exposure  R: reset  F1: keys");
+    return;
+  }
+  if (!messagePath_.empty()) {
+    if (ImGui::SmallButton("Copy path")) copyMessagePath();
+    if (ImGui::IsItemHovered()) tip("Copies %s to the clipboard", messagePath_.c_str());
+    ImGui::SameLine();
+  }
+  ImGui::TextUnformatted(message_.c_str());
 }
 
 void Studio::controlsPanel() {
@@ -1203,9 +1335,9 @@ void Studio::statusBar() {
 // The reference's progress bar and line (age: seconds since the snapshot
 // was published), after the many-light methods' where it fits.
 void Studio::referenceProgress(const Snapshot& s, double age) {
-  char overlay[64], detail[160];
-  float fr = float(s.ptSpp) / float(std::max(s.settings.maxReferenceSpp, 1));
-  std::snprintf(detail, sizeof detail, "%d / %d spp  %s spp/s  %s", s.ptSpp, s.settings.maxReferenceSpp,
+  char detail[160];
+  const ReferenceProgressText text = referenceProgressText(s.ptSpp, s.settings.maxReferenceSpp);
+  std::snprintf(detail, sizeof detail, "%s  %s spp/s  %s", text.count.c_str(),
                 humanCount(s.referenceSppPerSecond).c_str(),
                 s.referenceDone ? "done" : timeLeftText(s.referenceRemainingSeconds, age).c_str());
   // The reference's half on the same line where it fits, else on the next
@@ -1216,8 +1348,7 @@ void Studio::referenceProgress(const Snapshot& s, double age) {
   const float room = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x - ImGui::GetItemRectMax().x;
   statusTwoLines_ = statusTwoLines_ ? room < needed + 40 : room < needed;
   if (!statusTwoLines_) ImGui::SameLine(0, 24);
-  std::snprintf(overlay, sizeof overlay, "reference %.0f%%", 100 * fr);
-  ImGui::ProgressBar(fr, ImVec2(130, 0), overlay);
+  ImGui::ProgressBar(text.fraction, ImVec2(130, 0), text.overlay.c_str());
   ImGui::SameLine();
   ImGui::TextUnformatted(detail);
   if (ImGui::IsItemHovered())
@@ -1266,7 +1397,9 @@ void waitBox(ImDrawList* dl, ImVec2 p0, ImVec2 p1, const char* text) {
 DisplayParams Studio::displayParams(Source s, float mapMax) const {
   DisplayParams p;
   if (view_.display == Display::Image || !isMethod(s)) {
-    p.mode = DisplayMode::Tonemap;
+    p.mode = view_.toneMap == ToneMap::Filmic        ? DisplayMode::Filmic
+             : view_.toneMap == ToneMap::FalseColour ? DisplayMode::LogFalseColour
+                                                     : DisplayMode::Tonemap;
     p.scale = std::exp2(view_.exposure);
   } else {
     p.mode = view_.display == Display::Error  ? DisplayMode::FalseColour
@@ -1277,38 +1410,83 @@ DisplayParams Studio::displayParams(Source s, float mapMax) const {
   return p;
 }
 
+// The panels drawn side by side: 1, 2 or 3 (the wipe's two share one).
+int Studio::panelCount() const {
+  return view_.mode == ViewMode::SideBySide2 ? 2 : view_.mode == ViewMode::SideBySide3 ? 3 : 1;
+}
+
+// A colour bar under the images: the maps, and the false-colour tone map.
+bool Studio::legendShown() const { return view_.display != Display::Image || view_.toneMap == ToneMap::FalseColour; }
+
+// Each panel's image size on screen for a view area of avail (the titles
+// and the legend included): imageScale of the render in one panel's room.
+ImVec2 Studio::panelImageSize(ImVec2 avail, float* panelW) const {
+  const int n = panelCount();
+  if (legendShown()) avail.y -= kLegendH;
+  *panelW = (avail.x - 8 * (n - 1)) / n;
+  const float panelH = avail.y - ImGui::GetTextLineHeightWithSpacing();
+  const float scale = imageScale(*panelW, panelH, snap_->width, snap_->height);
+  return ImVec2(scale * float(snap_->width), scale * float(snap_->height));
+}
+
+// The views child's height for a width and at most maxH: the toolbar and
+// status lines (as measured in the last frame), the titles, the images and
+// the legend, so that the metrics below get the rest (issue 49: "the image
+// area is half empty").
+float Studio::viewsHeight(float width, float maxH) const {
+  if (!snap_ || snap_->width == 0) return maxH;
+  const ImVec2 pad = ImGui::GetStyle().WindowPadding;
+  const float fixed = 2 * pad.y + chromeH_ + 2;
+  float panelW = 0;
+  const ImVec2 img = panelImageSize(ImVec2(width - 2 * pad.x, maxH - fixed), &panelW);
+  const float needed = fixed + ImGui::GetTextLineHeightWithSpacing() + img.y + (legendShown() ? kLegendH : 0);
+  return std::min(maxH, needed);
+}
+
 void Studio::viewsPanel() {
+  viewToolbar();
   statusBar();
   ImVec2 origin = ImGui::GetCursorScreenPos(), avail = ImGui::GetContentRegionAvail();
-  viewMin_ = origin;
-  viewMax_ = ImVec2(origin.x + avail.x, origin.y + avail.y);
+  chromeH_ = origin.y - ImGui::GetWindowPos().y - ImGui::GetStyle().WindowPadding.y;
+  viewMin_ = panelsMin_ = origin;
+  viewMax_ = panelsMax_ = ImVec2(origin.x + avail.x, origin.y + avail.y);
   if (!snap_ || snap_->width == 0) return;
   ImDrawList* dl = ImGui::GetWindowDrawList();
-  const bool maps = view_.display != Display::Image;
-  if (maps) avail.y -= 28;  // room for the legend
-  int n = view_.mode == ViewMode::SideBySide2 ? 2 : view_.mode == ViewMode::SideBySide3 ? 3 : 1;
+  const int n = panelCount();
   const float labelH = ImGui::GetTextLineHeightWithSpacing();
-  const float aspect = float(snap_->width) / float(snap_->height);
-  const float panelW = (avail.x - 8 * (n - 1)) / n, panelH = avail.y - labelH;
-  // Fit the image into a panel, keeping its aspect.
-  float w = panelW, h = panelW / aspect;
-  if (h > panelH) {
-    h = panelH;
-    w = panelH * aspect;
-  }
+  float panelW = 0;
+  const ImVec2 size = panelImageSize(avail, &panelW);
+  const float w = size.x, h = size.y;
   handleViewInput(origin, avail, panelW, w, h, n);
+  const float mapMax = mapScale(n);
+  drawPanels(dl, origin, panelW, size, mapMax);
+  drawCropOutline(dl);
+  if (ImGui::IsItemHovered()) probe(ImGui::GetIO().MousePos);
+  // What "Save view" writes: the titles, the images and the legend.
+  panelsMin_ = ImVec2(drawn_.front().p0.x, origin.y);
+  panelsMax_ = ImVec2(drawn_.back().p1.x, drawn_.back().p1.y);
+  if (legendShown()) {
+    ImGui::SetCursorScreenPos(ImVec2(panelsMin_.x, origin.y + labelH + h + 6));
+    legend(mapMax);
+    panelsMax_.y = origin.y + labelH + h + kLegendH;
+    panelsMax_.x = std::max(panelsMax_.x, ImGui::GetItemRectMax().x);
+  }
+}
+
+// The n panels' images (or why there is none), their titles and badges.
+void Studio::drawPanels(ImDrawList* dl, ImVec2 origin, float panelW, ImVec2 size, float mapMax) {
+  const float labelH = ImGui::GetTextLineHeightWithSpacing(), w = size.x, h = size.y;
   // Zoom and pan: the visible UV window.
   float half = 0.5f / view_.zoom;
   ImVec2 uv0(view_.center.x - half, view_.center.y - half), uv1(view_.center.x + half, view_.center.y + half);
-
-  const float mapMax = mapScale(n);
   // The FLIP display shows a method only once a map for this view exists.
   auto flipPending = [&](Source s) { return view_.display == Display::Flip && isMethod(s) && !flipMap(s); };
   auto missing = [&](Source s) { return !hasPicture(s, view_.component); };
   auto params = [&](Source s) { return displayParams(s, mapMax); };
   const ImU32 staleTitle = IM_COL32(255, 190, 60, 255);
-  for (int i = 0; i < n; ++i) {
-    ImVec2 p0(origin.x + i * (panelW + 8) + (panelW - w) / 2, origin.y + labelH);
+  for (int i = 0; i < panelCount(); ++i) {
+    // On whole screen pixels: at a whole scale every texel is then s x s.
+    ImVec2 p0(std::floor(origin.x + i * (panelW + 8) + (panelW - w) / 2), std::floor(origin.y + labelH));
     ImVec2 p1(p0.x + w, p0.y + h);
     if (view_.mode == ViewMode::Wipe) {
       Source a = view_.panels[0], b = view_.panels[1];
@@ -1328,30 +1506,23 @@ void Studio::viewsPanel() {
       dl->AddLine(ImVec2(sx, p0.y), ImVec2(sx, p1.y), IM_COL32(255, 255, 255, 200), 1.5f);
       dl->AddText(ImVec2(p0.x, origin.y), panelStale(0) ? staleTitle : IM_COL32_WHITE,
                   (panelTitle(a, view_.component) + "  |  " + panelTitle(b, view_.component)).c_str());
-    } else {
-      Source s = view_.panels[i];
-      if (missing(s)) {
-        waitBox(dl, p0, p1, missingPictureText(s).c_str());
-      } else if (flipPending(s)) {  // no FLIP map for this view yet: never an old texture in its place
-        waitBox(dl, p0, p1, "computing FLIP ...");
-      } else {
-        drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
-      }
-      drawn_.push_back({p0, p1, uv0, uv1, s});
-      bool stale = sourceStale(s);
-      if (stale)
-        staleMark(dl, p0, p1);
-      else if (isMethod(s) && s != Source::Pinned && roughPicture())
-        roughMark(dl, p0, roughText().c_str());
-      dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
-                  (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
+      continue;
     }
-  }
-  drawCropOutline(dl);
-  if (ImGui::IsItemHovered()) probe(ImGui::GetIO().MousePos);
-  if (maps) {
-    ImGui::SetCursorScreenPos(ImVec2(origin.x, origin.y + labelH + h + 6));
-    legend(mapMax);
+    Source s = view_.panels[i];
+    if (missing(s))
+      waitBox(dl, p0, p1, missingPictureText(s).c_str());
+    else if (flipPending(s))  // no FLIP map for this view yet: never an old texture in its place
+      waitBox(dl, p0, p1, "computing FLIP ...");
+    else
+      drawImage(dl, textures_[int(s)], p0, p1, uv0, uv1, params(s));
+    drawn_.push_back({p0, p1, uv0, uv1, s});
+    bool stale = sourceStale(s);
+    if (stale)
+      staleMark(dl, p0, p1);
+    else if (isMethod(s) && s != Source::Pinned && roughPicture())
+      roughMark(dl, p0, roughText().c_str());
+    dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
+                (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());
   }
 }
 
@@ -1372,7 +1543,7 @@ float Studio::mapScale(int n) const {
 void Studio::handleViewInput(const ImVec2& origin, const ImVec2& avail, float panelW, float w, float h, int n) {
   ImGuiIO& io = ImGui::GetIO();
   const float labelH = ImGui::GetTextLineHeightWithSpacing();
-  auto imageX0 = [&](int i) { return origin.x + i * (panelW + 8) + (panelW - w) / 2; };
+  auto imageX0 = [&](int i) { return std::floor(origin.x + i * (panelW + 8) + (panelW - w) / 2); };  // as drawPanels
   ImGui::SetCursorScreenPos(origin);
   ImGui::InvisibleButton("viewarea", ImVec2(std::max(avail.x, 1.0f), std::max(avail.y, 1.0f)));
   const bool hovered = ImGui::IsItemHovered();
@@ -1610,7 +1781,13 @@ void Studio::legend(float vmax) {
                       IM_COL32(int(c.x * 255), int(c.y * 255), int(c.z * 255), 255));
   }
   char buf[128];
-  if (signedMap) {
+  const bool toneBar = view_.display == Display::Image;  // the false-colour tone map's bar
+  if (toneBar) {
+    const float s = std::exp2(-view_.exposure);
+    std::snprintf(buf, sizeof buf, "%.3g ... %.3g   luminance (Rec. 709, log scale) at %+.1f stops",
+                  s * std::pow(10.0f, kFalseColourDecades[0]), s * std::pow(10.0f, kFalseColourDecades[1]),
+                  view_.exposure);
+  } else if (signedMap) {
     std::snprintf(buf, sizeof buf, "%.3g   0   +%.3g   (method - reference)", -vmax, vmax);
   } else if (flipView) {
     bool fresh = true;
@@ -1620,11 +1797,15 @@ void Studio::legend(float vmax) {
                   : fresh ? ""
                           : "  (updating: from an earlier picture)");
   } else {
-    std::snprintf(buf, sizeof buf, "0 ... %.3g   %s", vmax, kMetricNames[int(view_.metric)]);
+    std::snprintf(buf, sizeof buf, "0 ... %.3g   %s", vmax, metricLabel(view_.metric).c_str());
   }
   dl->AddText(ImVec2(p.x + W + 8, p.y - 2), IM_COL32_WHITE, buf);
   ImGui::Dummy(ImVec2(W, H));
-  if (ImGui::IsItemHovered() && flipView)
+  if (ImGui::IsItemHovered() && toneBar)
+    tip("False colour: log10 of the luminance times 2^exposure, black at %g and white at %g decades; the exposure "
+        "slides the range",
+        kFalseColourDecades[0], kFalseColourDecades[1]);
+  else if (ImGui::IsItemHovered() && flipView)
     tip("LDR-FLIP per pixel, mean-pooled in the table's FLIP column; the maximum is %s",
         view_.errorScale > 0 ? "set by hand" : "1, FLIP's largest value");
   else if (ImGui::IsItemHovered())
@@ -2386,6 +2567,7 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
                         {"display", int(v.display)},
                         {"metric", int(v.metric)},
                         {"exposure", v.exposure},
+                        {"toneMap", int(v.toneMap)},
                         {"errorScale", v.errorScale}}}};
   // Every registered estimator's parameters under their keys, the chosen
   // one's and the others' (the studio keeps them while another is chosen).
@@ -2448,6 +2630,7 @@ void readView(const nlohmann::json& jv, ViewState& v) {
   readEnum(jv, "component", &v.component, 3);
   readEnum(jv, "display", &v.display, 4);
   readEnum(jv, "metric", &v.metric, 4);
+  readEnum(jv, "toneMap", &v.toneMap, 3);
   readField(jv, "exposure", &v.exposure);
   readField(jv, "errorScale", &v.errorScale);
   if (jv.contains("panels")) {

@@ -35,6 +35,12 @@ enum class Source : int { Vsl, Vpl, Reference, VplUnclamped, VplDiffuse, LostCla
 enum class Display : int { Image, Error, Signed, Flip };
 enum class ErrorMetric : int { Absolute, RelativeAbsolute, Squared, RelativeSquared };
 enum class ViewMode : int { Single, SideBySide2, SideBySide3, Wipe };
+// How the images (not the maps) are shown, in the panels, Save view and the
+// exported PNGs (gl_image.h DisplayMode, studio_internal.h toneMapPixel):
+// linear * 2^exposure clamped and sRGB-encoded; a filmic curve; or log10
+// luminance through the false-colour ramp (kFalseColourDecades).
+enum class ToneMap : int { Linear, Filmic, FalseColour };
+const char* toneMapName(ToneMap t);
 
 const char* sourceName(Source s);
 // "vsl", "vpl-clamped", "reference", ...: file names and JSON keys.
@@ -85,7 +91,8 @@ struct ViewState {
   Display display = Display::Image;
   ErrorMetric metric = ErrorMetric::RelativeAbsolute;
   Component component = Component::Indirect;
-  float exposure = 0;         // stops
+  float exposure = 0;  // stops
+  ToneMap toneMap = ToneMap::Linear;
   float errorScale = 0;       // colour-map maximum; 0 = automatic (99th percentile)
   float wipe = 0.5f;          // split position in [0,1]
   float zoom = 1;             // 1 = fit
@@ -175,6 +182,9 @@ class Studio {
   static constexpr double kRoughShare = 0.05;
   // The scene field's text (a failed load leaves the typed path there).
   const std::string& sceneField() const { return scenePath_; }
+  // The reference field's text: the settings' reference file (the
+  // --reference option) until the user types another.
+  const std::string& referenceField() const { return referencePathInput_; }
   // The pixel probe's tooltip: where it was last drawn and its size.
   ImVec2 probeMin() const { return probeMin_; }
   ImVec2 probeSize() const { return probeSize_; }
@@ -243,6 +253,19 @@ class Studio {
   const std::vector<DrawnImage>& drawnImages() const { return drawn_; }
   ImVec2 viewAreaMin() const { return viewMin_; }
   ImVec2 viewAreaMax() const { return viewMax_; }
+  // What "Save view" writes: the panels' titles, images and legend as drawn
+  // in the last frame (the whole view area before there is a picture).
+  ImVec2 panelsMin() const { return panelsMin_; }
+  ImVec2 panelsMax() const { return panelsMax_; }
+  // "Save view (PNG)": a new PNG in the export folder, written by the next
+  // afterRender.
+  void saveView();
+  // "Export images": exportAll into the export folder; the message names the
+  // folder's absolute path, which copyMessagePath() puts on the clipboard.
+  void exportFromControls();
+  const std::string& message() const { return message_; }
+  const std::string& messagePath() const { return messagePath_; }
+  void copyMessagePath() const;
 
  private:
   void controlsPanel();
@@ -259,9 +282,18 @@ class Studio {
   bool referenceControls();
   void viewControls();
   void exportControls();
+  void viewToolbar();  // above the images: layout, component, display, Save view, Export
   bool track(const char* key, bool c);
   void viewsPanel();
   float mapScale(int n) const;  // the maps' colour scale for n panels
+  int panelCount() const;
+  bool legendShown() const;
+  ImVec2 panelImageSize(ImVec2 avail, float* panelW) const;
+  float viewsHeight(float width, float maxH) const;
+  void drawPanels(ImDrawList* dl, ImVec2 origin, float panelW, ImVec2 size, float mapMax);
+  static constexpr float kLegendH = 28;  // the colour bar's room under the images
+  float chromeH_ = 80;                   // the views' toolbar and status lines, as last drawn
+  ImVec2 panelsMin_, panelsMax_;
   DisplayParams displayParams(Source s, float mapMax) const;
   void metricsPanel();
   // metricsPanel's parts, top to bottom.
@@ -351,6 +383,7 @@ class Studio {
   ImVec2 probeMin_ = {}, probeSize_ = {};  // the pixel probe's last place and size (kept inside the window)
   ParamMemory paramMemory_;                // the numbers parameters return to from "auto" or "off" (param_widgets.h)
   std::string message_, errorDialog_;
+  std::string messagePath_;  // the absolute path message_ names (copied by its button)
   uint64_t seenLoadErrors_ = 0;
   bool savePngPending_ = false;
   std::string savePngPath_;

@@ -12,6 +12,8 @@
 #include <thread>
 #include <utility>
 
+#include <imgui.h>
+
 #include "core/estimator_json.h"
 #include "core/flip.h"
 #include "core/image_io.h"
@@ -51,11 +53,13 @@ using namespace studio_detail;
 void Studio::afterRender(int fbWidth, int fbHeight) {
   if (!savePngPending_) return;
   savePngPending_ = false;
-  int x0 = std::max(0, int(viewMin_.x)), y0 = std::max(0, int(viewMin_.y));
-  int x1 = std::min(fbWidth, int(viewMax_.x)), y1 = std::min(fbHeight, int(viewMax_.y));
+  // The panels as drawn (titles, images, legend), not the empty room around them.
+  int x0 = std::max(0, int(std::floor(panelsMin_.x))), y0 = std::max(0, int(std::floor(panelsMin_.y)));
+  int x1 = std::min(fbWidth, int(std::ceil(panelsMax_.x))), y1 = std::min(fbHeight, int(std::ceil(panelsMax_.y)));
   if (x1 <= x0 || y1 <= y0) return;
   std::vector<uint8_t> px = readFramebuffer(x0, y0, x1 - x0, y1 - y0, fbHeight);
   if (Result<void> saved = writePngRgb8(savePngPath_, x1 - x0, y1 - y0, px)) {
+    messagePath_ = savePngPath_;
     message_ = "wrote " + savePngPath_;
     log::info(message_);
   } else {
@@ -69,10 +73,128 @@ namespace {
 
 const char* kMetricSlugs[] = {"abs", "relabs", "sq", "relsq"};
 
-// An error map in false colour (0 black ... vmax white), with a colour bar in
-// 16 rows below it.
-std::vector<uint8_t> falseColourWithBar(const Image& map, float vmax, int* rows) {
-  return colourMapWithBar(map, falseColour, vmax, rows);
+// 8-bit RGB pixels of an image as the view's tone map shows it
+// (toneMapPixel; the linear one through toSrgb8, byte for byte as writePng).
+std::vector<uint8_t> toneMappedBytes(const Image& img, float exposure, ToneMap t) {
+  std::vector<uint8_t> px(size_t(img.width) * img.height * 3);
+  const float s = std::exp2(exposure);
+  for (size_t i = 0; i < px.size(); ++i) {
+    if (t == ToneMap::Linear) {
+      px[i] = toSrgb8(img.rgb[i] * s);
+      continue;
+    }
+    if (i % 3) continue;
+    const Vec3 c = toneMapPixel(Vec3(img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]), exposure, t);
+    for (int k = 0; k < 3; ++k) px[i + k] = uint8_t(std::clamp(c[k], 0.0f, 1.0f) * 255 + 0.5f);
+  }
+  return px;
+}
+
+// ---- Labelled colour bars (issue 49, item 6: labels of 5 px that did not
+// name the metric). Their text is the studio's own font, ImGui's default
+// (ProggyClean, a 13-px bitmap font), from its font atlas, every pixel drawn
+// as kLabelScale x kLabelScale (digits 16 px tall, '|' 24 px); without an
+// ImGui context the bar has no labels.
+constexpr int kLabelScale = 2;
+
+const ImFont* labelFont() {
+  if (!ImGui::GetCurrentContext() || ImGui::GetIO().Fonts->Fonts.empty()) return nullptr;
+  return ImGui::GetIO().Fonts->Fonts[0];
+}
+
+int labelWidth(const std::string& t) {
+  const ImFont* font = labelFont();
+  float x = 0;
+  for (char c : t)
+    if (const ImFontGlyph* g = font ? font->FindGlyph(ImWchar(c)) : nullptr) x += g->AdvanceX;
+  return int(std::ceil(x)) * kLabelScale;
+}
+
+int labelLineHeight() { return labelFont() ? kLabelScale * int(std::ceil(labelFont()->FontSize)) + 2 : 0; }
+
+// Draws t with its top-left corner at (x, y) in light grey over the pixels
+// (w wide, h tall), clipped to them.
+void drawLabel(std::vector<uint8_t>& px, int w, int h, int x, int y, const std::string& t) {
+  const ImFont* font = labelFont();
+  if (!font) return;
+  unsigned char* atlas = nullptr;
+  int aw = 0, ah = 0;
+  ImGui::GetIO().Fonts->GetTexDataAsRGBA32(&atlas, &aw, &ah);
+  float pen = 0;  // in font pixels
+  for (char c : t) {
+    const ImFontGlyph* g = font->FindGlyph(ImWchar(c));
+    if (!g) continue;
+    const int gw = int(std::lround((g->U1 - g->U0) * aw)), gh = int(std::lround((g->V1 - g->V0) * ah));
+    const int u0 = int(std::lround(g->U0 * aw)), v0 = int(std::lround(g->V0 * ah));
+    for (int gy = 0; gy < gh * kLabelScale; ++gy)
+      for (int gx = 0; gx < gw * kLabelScale; ++gx) {
+        const int X = x + int(pen + g->X0) * kLabelScale + gx, Y = y + int(g->Y0) * kLabelScale + gy;
+        const int a = atlas[(size_t(v0 + gy / kLabelScale) * aw + size_t(u0 + gx / kLabelScale)) * 4 + 3];
+        if (X < 0 || X >= w || Y < 0 || Y >= h || a == 0) continue;
+        uint8_t* q = &px[(size_t(Y) * w + X) * 3];
+        for (int k = 0; k < 3; ++k) q[k] = uint8_t(q[k] + (235 - q[k]) * a / 255);
+      }
+    pen += g->AdvanceX;
+  }
+}
+
+// The words of t in lines no wider than w pixels (a longer word alone).
+std::vector<std::string> wrapLabel(const std::string& t, int w) {
+  std::vector<std::string> lines(1);
+  size_t a = 0;
+  while (a < t.size()) {
+    size_t b = t.find(' ', a);
+    if (b == std::string::npos) b = t.size();
+    const std::string word = t.substr(a, b - a);
+    const std::string longer = lines.back().empty() ? word : lines.back() + " " + word;
+    if (!lines.back().empty() && labelWidth(longer) > w)
+      lines.push_back(word);
+    else
+      lines.back() = longer;
+    a = b + 1;
+  }
+  return lines;
+}
+
+// Appends under w x h pixels a colour bar: a dark gap of 4 rows, the ramp's
+// 12, then lo at the left and hi at the right, then the name (the metric and
+// its units) wrapped to the width. Returns the new height.
+int appendLabelledBar(std::vector<uint8_t>& px, int w, int h, Vec3 (*colour)(float), const std::string& lo,
+                      const std::string& hi, const std::string& name) {
+  const std::vector<std::string> lines = wrapLabel(name, w - 2);
+  const int line = labelLineHeight(), rows = h + 4 + 12 + 2 + line * int(1 + lines.size()) + 2;
+  px.resize(size_t(w) * rows * 3, 20);
+  for (int y = h + 4; y < h + 16; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Vec3 c = colour((x + 0.5f) / float(w));
+      uint8_t* q = &px[(size_t(y) * w + x) * 3];
+      for (int k = 0; k < 3; ++k) q[k] = uint8_t(std::clamp(c[k], 0.0f, 1.0f) * 255 + 0.5f);
+    }
+  const int y = h + 18;
+  drawLabel(px, w, rows, 1, y, lo);
+  if (labelWidth(lo) + labelWidth(hi) + 8 <= w) drawLabel(px, w, rows, w - 1 - labelWidth(hi), y, hi);
+  for (size_t i = 0; i < lines.size(); ++i) drawLabel(px, w, rows, 1, y + line * int(i + 1), lines[i]);
+  return rows;
+}
+
+std::string numberLabel(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// A map (values in the R channel, as errorMap and FLIP make them) through a
+// colour ramp over [0, vmax], with its labelled bar below.
+std::vector<uint8_t> mapWithBar(const Image& map, Vec3 (*colour)(float), float vmax, const std::string& name,
+                                int* rows) {
+  std::vector<uint8_t> px(size_t(map.width) * map.height * 3);
+  const float scale = 1.0f / std::max(vmax, 1e-12f);
+  for (size_t i = 0; i < px.size(); i += 3) {
+    const Vec3 c = colour(map.rgb[i] * scale);
+    for (int k = 0; k < 3; ++k) px[i + k] = uint8_t(std::clamp(c[k], 0.0f, 1.0f) * 255 + 0.5f);
+  }
+  *rows = appendLabelledBar(px, map.width, map.height, colour, "0", numberLabel(vmax), name);
+  return px;
 }
 
 std::string firstLineOf(const char* path, const std::string& key) {
@@ -338,7 +460,15 @@ Result<float> Studio::exportPictures(const std::string& folder, std::vector<std:
     Image scratch;
     const Image* img = componentImage(Source(i), view_.component, scratch);
     std::string name = sourceSlug(Source(i)) + "-" + comp + ".png";
-    if (Result<void> w = writePng(path(name), *img, view_.exposure); !w) return Error(w.error());
+    std::vector<uint8_t> px = toneMappedBytes(*img, view_.exposure, view_.toneMap);
+    int rows = img->height;
+    if (view_.toneMap == ToneMap::FalseColour) {
+      const double s = std::exp2(-view_.exposure);
+      rows = appendLabelledBar(
+          px, img->width, img->height, falseColour, numberLabel(s * std::pow(10.0, kFalseColourDecades[0])),
+          numberLabel(s * std::pow(10.0, kFalseColourDecades[1])), "luminance (Rec. 709, log scale, radiance)");
+    }
+    if (Result<void> w = writePngRgb8(path(name), img->width, rows, px); !w) return Error(w.error());
     files->push_back(path(name));
   }
   Image refScratch;
@@ -356,7 +486,7 @@ Result<float> Studio::exportPictures(const std::string& folder, std::vector<std:
   if (!(vmax > 0)) vmax = autoMax > 0 ? autoMax : 1.0f;
   for (size_t i = 0; i < maps.size(); ++i) {
     int rows = 0;
-    std::vector<uint8_t> px = falseColourWithBar(maps[i], vmax, &rows);
+    std::vector<uint8_t> px = mapWithBar(maps[i], falseColour, vmax, metricLabel(view_.metric), &rows);
     std::string name = "error-" + sourceSlug(mapped[i]) + "-" + kMetricSlugs[int(view_.metric)] + "-" + comp + ".png";
     if (Result<void> w = writePngRgb8(path(name), snap_->width, rows, px); !w) return Error(w.error());
     files->push_back(path(name));
@@ -379,7 +509,7 @@ Result<nlohmann::json> Studio::exportFlipMaps(const std::string& folder, std::ve
   for (size_t i = 0; i < std::size(kMetricSources); ++i) {
     if (!hasPicture(kMetricSources[i], view_.component)) continue;
     int rows = 0;
-    std::vector<uint8_t> px = magmaWithBar(flip.map[i], &rows);
+    std::vector<uint8_t> px = mapWithBar(flip.map[i], magma, 1, "LDR-FLIP per pixel (unitless, 0 = identical)", &rows);
     std::string name = "flip-" + sourceSlug(kMetricSources[i]) + "-" + comp + ".png";
     const std::string path = (std::filesystem::path(folder) / name).string();
     if (Result<void> w = writePngRgb8(path, s.width, rows, px); !w) return Error(w.error());
@@ -454,6 +584,7 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
           {"view",
            {{"component", componentName(view_.component)},
             {"exposure", view_.exposure},
+            {"toneMap", toneMapName(view_.toneMap)},
             {"errorMetric", kMetricNames[int(view_.metric)]},
             {"errorMapMax", errorMapMax}}},
           {"metricsAgainstReference", metrics},
@@ -521,17 +652,9 @@ struct Rgb8 {
   const uint8_t* at(int x, int y) const { return &px[(size_t(y) * w + x) * 3]; }
 };
 
-Rgb8 toneMapped(const Image& img, float exposure) {
+Rgb8 toneMapped(const Image& img, float exposure, ToneMap t) {
   Rgb8 out(img.width, img.height);
-  const float s = std::exp2(exposure);
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) {
-      Vec3 v = img.at(x, y) * s;
-      uint8_t* q = out.at(x, y);
-      q[0] = toSrgb8(v.x);
-      q[1] = toSrgb8(v.y);
-      q[2] = toSrgb8(v.z);
-    }
+  out.px = toneMappedBytes(img, exposure, t);
   return out;
 }
 
@@ -582,6 +705,43 @@ void outline(Rgb8& img, const CropRect& r, int t) {
 
 }  // namespace
 
+namespace {
+
+// The crop figure: a band of titles on top (the reference, each column's
+// image), the reference magnified `scale` times with the crop outlined on
+// the left, and right of it the crops at the largest integer factor *fig
+// that fits two rows in its height (at least 1x): the reference and the
+// methods, then, below a band with errorTitle (the metric, its units and
+// scale), the methods' error maps (issue 49, item 6: "the crop figure has
+// no labels").
+Rgb8 cropFigure(const Rgb8& whole, int scale, const std::vector<Rgb8>& tiles,
+                const std::vector<Studio::CropItem>& items, const CropRect& r, const std::string& errorTitle,
+                int* fig) {
+  const int gap = 8, band = labelLineHeight() + 4;
+  const int fullW = whole.w * scale, fullH = whole.h * scale;
+  *fig = std::max(1, (fullH - std::max(band, gap)) / (2 * r.h));
+  const int cw = r.w * *fig, ch = r.h * *fig, columns = 1 + int(std::size(kMetricSources));
+  const int mid = std::max(band, gap);  // between the rows: the error maps' title
+  Rgb8 figure(fullW + gap + columns * (cw + gap), band + std::max(fullH, 2 * ch + mid));
+  blit(figure, magnified(whole, scale), 0, band);
+  // A title cut to its column's width.
+  auto title = [&](int x, int y, std::string t, int width) {
+    while (!t.empty() && labelWidth(t) > width) t.pop_back();
+    drawLabel(figure.px, figure.w, figure.h, x, y, t);
+  };
+  title(0, 2, "reference, crop outlined", fullW);
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
+    const int x = fullW + gap + col * (cw + gap);
+    blit(figure, magnified(tiles[i], *fig), x, band + row * (ch + mid));
+    if (row == 0) title(x, 2, sourceName(items[i].source), cw + gap - 2);
+  }
+  title(fullW + gap, band + ch + (mid - labelLineHeight()) / 2, errorTitle, figure.w - fullW - gap);
+  return figure;
+}
+
+}  // namespace
+
 // Writes crop-<image>-<component>.png (each image and error map, magnified
 // by an integer factor, nearest neighbour) and crop-figure-<component>.png
 // (the reference with the rectangle outlined, then the crops side by side:
@@ -606,7 +766,7 @@ Result<void> Studio::exportCrops(const std::string& folder, const Image& full, n
   std::vector<Rgb8> tiles;
   nlohmann::json names = nlohmann::json::object();
   for (const CropItem& c : items) {
-    tiles.push_back(c.error ? falseColoured(c.image, vmax) : toneMapped(c.image, view_.exposure));
+    tiles.push_back(c.error ? falseColoured(c.image, vmax) : toneMapped(c.image, view_.exposure, view_.toneMap));
     std::string name = c.error ? "crop-error-" + sourceSlug(c.source) + "-" + metricSlug + "-" + comp + ".png"
                                : "crop-" + sourceSlug(c.source) + "-" + comp + ".png";
     Rgb8 big = magnified(tiles.back(), f);
@@ -615,21 +775,12 @@ Result<void> Studio::exportCrops(const std::string& folder, const Image& full, n
     files->push_back(path);
     names[(c.error ? "error " : "") + std::string(sourceName(c.source))] = name;
   }
-  // The figure: the reference magnified `scale` times (at least 512 pixels
-  // tall, at most 8x), and beside it the crops at the largest integer factor
-  // that fits two rows in that height (at least 1x).
-  const int gap = 8, scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
-  const int fullW = full.width * scale, fullH = full.height * scale;
-  const int fig = std::max(1, (fullH - gap) / (2 * r.h));
-  const int cw = r.w * fig, ch = r.h * fig, columns = 1 + int(std::size(kMetricSources));
-  Rgb8 figure(fullW + gap + columns * (cw + gap), std::max(fullH, 2 * ch + gap));
-  Rgb8 whole = toneMapped(full, view_.exposure);
+  const int scale = std::clamp((512 + full.height - 1) / full.height, 1, 8);
+  Rgb8 whole = toneMapped(full, view_.exposure, view_.toneMap);
   outline(whole, r, scale > 1 ? 1 : 2);
-  blit(figure, magnified(whole, scale), 0, 0);
-  for (size_t i = 0; i < tiles.size(); ++i) {
-    const int col = items[i].error ? int(i) - columns + 1 : int(i), row = items[i].error ? 1 : 0;
-    blit(figure, magnified(tiles[i], fig), fullW + gap + col * (cw + gap), row * (ch + gap));
-  }
+  int fig = 1;
+  const std::string errorTitle = "error maps: " + metricLabel(view_.metric) + "; 0 ... " + numberLabel(vmax);
+  const Rgb8 figure = cropFigure(whole, scale, tiles, items, r, errorTitle, &fig);
   const std::string figName = std::string("crop-figure-") + comp + ".png";
   const std::string figPath = (std::filesystem::path(folder) / figName).string();
   if (Result<void> w = writePngRgb8(figPath, figure.w, figure.h, figure.px); !w) return w;
@@ -661,9 +812,9 @@ Result<void> Studio::exportCrops(const std::string& folder, const Image& full, n
           {"figureMagnification", fig},
           {"figureScale", scale},
           {"figureLayout",
-           "left: the reference (magnified figureScale times) with the crop outlined; right, magnified "
-           "figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL diffuse-only; "
-           "bottom row: the methods' error maps"},
+           "titles on top; left: the reference (magnified figureScale times) with the crop outlined; right, "
+           "magnified figureMagnification times, top row: the reference, VSL, VPL (clamped), VPL unclamped, VPL "
+           "diffuse-only; then a band naming the error metric and its scale; bottom row: the methods' error maps"},
           {"metricsAgainstReferenceCrop", metrics}};
   return {};
 }

@@ -13,6 +13,14 @@ namespace vsl::ui::studio_detail {
 inline constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
 inline const char* const kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)", "squared (t-r)^2",
                                            "relative squared (t-r)^2/(r^2+eps)"};
+// Each metric's units: the images' radiance, or none for the relative ones.
+inline const char* const kMetricUnits[] = {"radiance", "unitless", "radiance^2", "unitless"};
+// "relative absolute error |t-r|/(r+eps), unitless": the colour bars' name.
+inline std::string metricLabel(ErrorMetric m) {
+  std::string name = kMetricNames[int(m)];
+  return name.insert(name.find(' ') == std::string::npos ? name.size() : name.rfind(' '), " error") + ", " +
+         kMetricUnits[int(m)];
+}
 
 // Whether snapshot s holds a picture of source src in component c (see
 // Studio::hasPicture: under MRCS the VPL variants and the lost-energy images
@@ -34,6 +42,36 @@ float percentile99(const Image& img);
 // Per-pixel error of test against ref under a metric, averaged over the
 // channels (as the studio's maps show it), in every channel.
 Image errorMap(const Image& test, const Image& ref, ErrorMetric metric);
+
+// The false-colour tone map's range: log10 of the luminance (Rec. 709
+// weights) times 2^exposure, from kFalseColourDecades[0] (black) to [1]
+// (white), through falseColour() (core/compare.h).
+inline constexpr float kFalseColourDecades[2] = {-3, 1};
+// One pixel as the tone map shows it: display values in [0,1], sRGB-encoded
+// (the linear and filmic curves) or false colour. Must match the display
+// shader in gl_image.cpp.
+Vec3 toneMapPixel(Vec3 linear, float exposure, ToneMap t);
+// The ACES filmic curve fitted by Narkowicz 2015 ("ACES Filmic Tone Mapping
+// Curve", knarkowicz.wordpress.com), with his 0.6 pre-scale, per channel,
+// clamped to [0,1]; linear in, linear out.
+float acesFilmic(float x);
+
+// The reference's progress bar: its fraction (never over 1) and its text.
+// Past its setting the live path tracer keeps refining (it takes turns with
+// the methods): the bar stays full and says "refining past N spp".
+struct ReferenceProgressText {
+  float fraction = 0;
+  std::string overlay;  // inside the bar
+  std::string count;    // "S / N spp", or "refining past N spp (S spp)"
+};
+ReferenceProgressText referenceProgressText(int spp, int maxSpp);
+
+// The on-screen scale of an image of imageW x imageH pixels in a panel of
+// panelW x panelH screen pixels (issue 49, "Layout"): the largest whole
+// number that fits, so that every pixel is a square of s x s screen pixels
+// (tev zooms in such steps), or the fit scale (below 1) when not even 1x fits.
+// 0 for an empty panel or image.
+float imageScale(float panelW, float panelH, int imageW, int imageH);
 
 // Statistics of an image's luminance (the Stats tab, as tev's histogram):
 // over its finite pixels, the mean, min, max and percentiles, the count of
