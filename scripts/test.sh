@@ -85,8 +85,9 @@ case $mode in
     ;;
   default)
     with_defaults -LE monkey
-    # bench/ is no test's: the release builds (--quick, --full) compile it.
-    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF)
+    # bench/ and the monkey test are no default test's: the release builds
+    # (--quick, --full) compile bench/, --monkey the monkey.
+    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF -DVSL_BUILD_MONKEY=OFF)
     run_suite build-asan
     # The studio's command-line and last-session tests check options and
     # files in processes of their own; they run under ASan+UBSan.
@@ -104,7 +105,7 @@ case $mode in
   monkey)
     export VSL_MONKEY_SECONDS=${VSL_MONKEY_SECONDS:-600}
     with_defaults -L monkey --verbose
-    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF)
+    CMAKE_ARGS=(-DVSL_SANITIZE=address "$LINES_ONLY" -DVSL_BUILD_BENCH=OFF -DVSL_BUILD_MONKEY=ON)
     run_suite build-asan test_monkey vsl-studio
     ;;
 esac

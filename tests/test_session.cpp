@@ -31,6 +31,15 @@ namespace {
 
 std::string asset(const char* name) { return std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf"; }
 
+// Under the sanitizers work runs 5-20x slower: the tests that need a long
+// light set (to restart inside it) take a fifth of the lights there, which
+// still lasts seconds per set, and the same checks hold.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr uint32_t kLongSetLights = 4000, kLongLobeGather = 60'000;
+#else
+constexpr uint32_t kLongSetLights = 20000, kLongLobeGather = 300'000;
+#endif
+
 StudioSettings small(const char* scene, uint32_t lights, int size) {
   StudioSettings s;
   s.scene = asset(scene);
@@ -733,7 +742,7 @@ TEST(Session, ResumedJobTracesAStoppedLobeGatherSetAgain) {
   TempCache cache;
   StudioSettings s = small("kitchen", 1000, 16);
   s.lightSets = 1;
-  s.many.lobeGather = 300'000;  // a fraction of a second of tracing, longer under the sanitizers
+  s.many.lobeGather = kLongLobeGather;  // a fraction of a second of tracing, seconds under the sanitizers
   Session session;
   ASSERT_TRUE(session.restart(s, true));
   Session::Status st = session.status();
@@ -789,7 +798,7 @@ TEST(Session, RestartDuringMrcsStopsPromptly) {
 // backwards.
 TEST(Session, FewerLightSetsKeepTheCompletedOnes) {
   Session session;
-  StudioSettings s = small("cornell-glossy", 20000, 16);
+  StudioSettings s = small("cornell-glossy", kLongSetLights, 16);
   s.many.batches = 16;
   s.lightSets = 3;
   uint64_t g = session.restart(s).value();
@@ -817,7 +826,7 @@ TEST(Session, FewerLightSetsKeepTheCompletedOnes) {
 // within one step of work (generous bound: the machine is shared).
 TEST(Session, RestartDuringALaterLightSetStopsPromptly) {
   Session session;
-  StudioSettings s = small("cornell-glossy", 20000, 24);
+  StudioSettings s = small("cornell-glossy", kLongSetLights, 24);
   s.many.batches = 16;
   s.lightSets = 4;
   for (int delayMs : {0, 300}) {
