@@ -1,5 +1,9 @@
 #include "core/memory_budget.h"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -76,6 +80,12 @@ uint64_t availableMemoryBytes() {
     avail = avail ? std::min(avail, left) : left;
   }
   return avail;
+}
+
+void returnFreeMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 std::string formatBytes(uint64_t bytes) {

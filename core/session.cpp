@@ -397,7 +397,10 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   // A job with more completed light sets than now asked for starts over;
   // fewer, and it goes on to the new count.
   if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s) || w.job->setsDone > s.lightSets)) w.job.reset();
-  if (!w.job) w.job = prepare(w, s);
+  if (!w.job) {
+    returnFreeMemory();  // what the previous job (or scene) held
+    w.job = prepare(w, s);
+  }
   if (!w.job) return;  // stopped while preparing
   // Settings that change no image (the reference, the set count) apply to a resumed job.
   w.job->settings.referencePath = s.referencePath;
@@ -427,8 +430,7 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
   if (ctx && !ctx->hasEmitters()) {
     noEmitters = true;
     err = s.scene +
-          ": the scene has no emitters (no emissive material and no point or spot light; directional lights are "
-          "not modelled), so every method renders black";
+          ": the scene has no emitters (no emissive material and no punctual light), so every method renders black";
     for (const std::string& warning : ctx->scene().warnings) err += "\n" + warning;  // e.g. an unsupported extension
   }
   if (!ctx || noEmitters) {

@@ -14,8 +14,13 @@
 #include <gtest/gtest.h>
 #include <imgui.h>
 #include <imgui_impl_opengl3.h>
+#include <imgui_internal.h>
 
+#include <malloc.h>
 #include <unistd.h>
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/allocator_interface.h>
+#endif
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -50,6 +55,22 @@ double residentMiB() {
   long pages = 0, resident = 0;
   statm >> pages >> resident;
   return double(resident) * double(sysconf(_SC_PAGESIZE)) / (1 << 20);
+}
+
+// Resident memory and the C heap's own figures (in use, and held by the
+// allocator), to tell growth of live data from fragmentation.
+void logMemory(double t, int actions, int imguiWindows) {
+#if defined(__SANITIZE_ADDRESS__)
+  // ASan's allocator: in use, and mapped (in use, free and its quarantine).
+  const double inUse = double(__sanitizer_get_current_allocated_bytes()), held = double(__sanitizer_get_heap_size());
+#else
+  const struct mallinfo2 m = mallinfo2();
+  const double inUse = double(m.uordblks + m.hblkhd), held = double(m.arena + m.hblkhd);
+#endif
+  std::printf(
+      "monkey: %4.0f s, %6d actions: resident %.0f MiB, heap in use %.0f MiB, held %.0f MiB, %d ImGui windows\n", t,
+      actions, residentMiB(), inUse / (1 << 20), held / (1 << 20), imguiWindows);
+  std::fflush(stdout);
 }
 
 class Monkey {
@@ -209,9 +230,14 @@ TEST(Monkey, RandomUseLeavesTheStudioSound) {
     const double warmUp = std::min(120.0, seconds / 5);
     double warmMiB = 0;
     Stopwatch clock;
+    double nextLog = 0;
     while (clock.seconds() < seconds) {
       monkey.step();
       if (warmMiB == 0 && clock.seconds() >= warmUp) warmMiB = residentMiB();
+      if (clock.seconds() >= nextLog) {
+        logMemory(clock.seconds(), monkey.actions, ImGui::GetCurrentContext()->Windows.Size);
+        nextLog += 30;
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     const double endMiB = residentMiB();

@@ -768,6 +768,67 @@ TEST_F(StudioFrame, CropInsetsAreExportedWithTheirMetrics) {
   EXPECT_EQ(entries(), before) << "a failed export leaves no folder";
 }
 
+// The figure export (issue 49, item 6): reference, methods and error maps in
+// one labelled PNG, each tile the same pixels as its own file, magnified.
+TEST_F(StudioFrame, FigureLaysOutReferenceMethodsAndErrorMaps) {
+  renderFrames(1);
+  studio->view().component = Component::Indirect;
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-figure-test";
+  std::filesystem::remove_all(dir);
+  std::string folder;
+  std::vector<std::string> written;
+  Result<void> exported = studio->exportAll(dir, &written, &folder);
+  ASSERT_TRUE(exported) << exported.error();
+  std::ifstream js(folder + "/metrics.json");
+  const nlohmann::json j = nlohmann::json::parse(js);
+  ASSERT_TRUE(j["figure"].is_object()) << j.dump();
+  EXPECT_EQ(j["figure"]["file"], "figure-indirect.png");
+  // 64x32 pixels: magnified min(ceil(256 / 32), 4) = 4 times; five columns
+  // (the reference and four methods) 8 px apart; two title lines (the
+  // font's 13 px drawn 2x, plus 2, each) and 4 px over the top row.
+  const int f = 4, tw = 64 * f, th = 32 * f, band = 2 * 28 + 4;
+  EXPECT_EQ(j["figure"]["magnification"], f);
+  int w = 0, h = 0, n = 0;
+  unsigned char* fig = stbi_load((folder + "/figure-indirect.png").c_str(), &w, &h, &n, 3);
+  ASSERT_NE(fig, nullptr);
+  EXPECT_EQ(w, 5 * tw + 4 * 8);
+  EXPECT_GT(h, band + 2 * th + 8) << "the rows, then the colour bar";
+  // Each tile's centre pixels are its own file's pixels.
+  auto samePixels = [&](const std::string& file, int x0, int y0) {
+    int pw = 0, ph = 0, pn = 0;
+    unsigned char* png = stbi_load((folder + "/" + file).c_str(), &pw, &ph, &pn, 3);
+    if (!png) return ::testing::AssertionFailure() << file << " is missing";
+    ::testing::AssertionResult r = ::testing::AssertionSuccess();
+    for (int y : {1, 15, 30})
+      for (int x : {2, 33, 60})
+        for (int k = 0; k < 3; ++k) {
+          const int a = fig[(size_t(y0 + y * f + f / 2) * w + x0 + x * f + f / 2) * 3 + k],
+                    b = png[(size_t(y) * pw + x) * 3 + k];
+          if (a != b)
+            r = ::testing::AssertionFailure() << file << " pixel " << x << "," << y << ": " << a << " vs " << b;
+        }
+    stbi_image_free(png);
+    return r;
+  };
+  EXPECT_TRUE(samePixels("reference-indirect.png", 0, band));
+  EXPECT_TRUE(samePixels("vsl-indirect.png", tw + 8, band));
+  EXPECT_TRUE(samePixels("vpl-clamped-indirect.png", 2 * (tw + 8), band));
+  EXPECT_TRUE(samePixels("error-vsl-relabs-indirect.png", tw + 8, band + th + 8));
+  // Light text in the title band of every column and in the cell under the reference.
+  auto textIn = [&](int x0, int x1, int y0, int y1) {
+    int light = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x)
+        light += fig[(size_t(y) * w + x) * 3] > 150 && fig[(size_t(y) * w + x) * 3 + 2] > 150;
+    return light;
+  };
+  for (int col = 0; col < 5; ++col)
+    EXPECT_GT(textIn(col * (tw + 8), col * (tw + 8) + tw, 0, band), 40) << "column " << col << "'s two title lines";
+  EXPECT_GT(textIn(0, tw, band + th + 8, band + 2 * th + 8), 40) << "the error maps' metric";
+  EXPECT_GT(textIn(0, w, band + 2 * th + 8, h), 40) << "the colour bar's labels";
+  stbi_image_free(fig);
+}
+
 // Shift+drag on an image draws the crop rectangle over the pixels it
 // touches; the Crops tab shows it; Shift+click clears it.
 TEST_F(StudioInput, ShiftDragMakesACrop) {

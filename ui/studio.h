@@ -313,6 +313,7 @@ class Studio {
   void drawCropOutline(ImDrawList* dl);
   Result<void> exportCrops(const std::string& folder, const Image& full, nlohmann::json* out,
                            std::vector<std::string>* files) const;
+  Result<void> exportFigure(const std::string& folder, nlohmann::json* out, std::vector<std::string>* files) const;
   // exportAll's parts (studio_export.cpp): the PNGs and error maps (returns
   // the error maps' scale), the FLIP maps (returns their JSON), metrics.json.
   Result<float> exportPictures(const std::string& folder, std::vector<std::string>* files) const;

@@ -18,6 +18,7 @@
 #include "core/flip.h"
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/memory_budget.h"
 #include "core/parallel.h"
 #include "core/params_json.h"
 #include "core/presets.h"
@@ -623,19 +624,22 @@ Result<void> Studio::exportAll(const std::string& dir, std::vector<std::string>*
   if (!errorMapMax) return fail(errorMapMax.error());
   Result<nlohmann::json> flipJson = exportFlipMaps(folder.string(), &files);
   if (!flipJson) return fail(flipJson.error());
-  nlohmann::json cropJson = nullptr;
+  nlohmann::json figureJson = nullptr, cropJson = nullptr;
+  if (Result<void> w = exportFigure(folder.string(), &figureJson, &files); !w) return fail(w.error());
   if (!view_.crop.empty()) {
     Image full;
     const Image* refFull = referenceImage(view_.component, full);
     if (Result<void> w = exportCrops(folder.string(), *refFull, &cropJson, &files); !w) return fail(w.error());
   }
 
-  const nlohmann::json j = exportMetricsJson(*errorMapMax, *flipJson, cropJson);
+  nlohmann::json j = exportMetricsJson(*errorMapMax, *flipJson, cropJson);
+  j["figure"] = figureJson;
   if (Result<void> w = writeTextFile(path("metrics.json"), j.dump(2) + "\n"); !w) return fail(w.error());
   files.push_back(path("metrics.json"));
   if (written) *written = files;
   if (folderOut) *folderOut = folder.string();
   log::info("exported " + std::to_string(files.size()) + " files to " + folder.string());
+  returnFreeMemory();  // the export's buffers (core/memory_budget.h)
   return {};
 }
 
@@ -741,6 +745,73 @@ Rgb8 cropFigure(const Rgb8& whole, int scale, const std::vector<Rgb8>& tiles,
 }
 
 }  // namespace
+
+namespace {
+
+// The whole-image figure (issue 49, item 6: "a single figure export lays out
+// reference, methods and error maps with labels"): two title lines over the
+// top row (the reference, then each method and its relMSE against the
+// reference; under the reference's title what it is), the methods' error maps in the row below, each under its
+// method, with the metric named in the cell under the reference, and the
+// maps' colour bar across the bottom. Every tile is magnified f times
+// (nearest neighbour).
+Rgb8 wholeFigure(const std::vector<Studio::CropItem>& items, const std::vector<Rgb8>& tiles, int f,
+                 const std::string& referenceNote, const std::string& metric, float vmax) {
+  const int gap = 8, line = labelLineHeight(), band = 2 * line + 4;
+  const int tw = tiles.front().w * f, th = tiles.front().h * f;
+  int columns = 0;
+  for (const Studio::CropItem& c : items) columns += c.error ? 0 : 1;
+  const int rowY[2] = {band, band + th + gap};
+  Rgb8 figure(columns * tw + (columns - 1) * gap, rowY[1] + th);
+  auto title = [&](int x, int y, std::string t) {
+    while (!t.empty() && labelWidth(t) > tw) t.pop_back();
+    drawLabel(figure.px, figure.w, figure.h, x, y, t);
+  };
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    const Studio::CropItem& c = items[i];
+    const int col = c.error ? int(i) - columns + 1 : int(i), row = c.error ? 1 : 0;
+    const int x = col * (tw + gap);
+    blit(figure, magnified(tiles[i], f), x, rowY[row]);
+    if (c.error) continue;
+    title(x, 2, sourceName(c.source));
+    title(x, 2 + line, c.hasMetrics ? "relMSE " + numberLabel(c.metrics.average.relMse) : referenceNote);
+  }
+  const std::vector<std::string> lines = wrapLabel("error maps: " + metric, tw - 4);
+  for (size_t i = 0; i < lines.size(); ++i) title(2, rowY[1] + 4 + line * int(i), lines[i]);
+  figure.h = appendLabelledBar(figure.px, figure.w, figure.h, falseColour, "0", numberLabel(vmax), metric);
+  return figure;
+}
+
+}  // namespace
+
+// Writes figure-<component>.png: wholeFigure at the magnification that makes
+// each image at least 256 pixels tall (at most 4x), and describes it in *out.
+Result<void> Studio::exportFigure(const std::string& folder, nlohmann::json* out,
+                                  std::vector<std::string>* files) const {
+  float vmax = 1;
+  const std::vector<CropItem> items = buildCrops({0, 0, snap_->width, snap_->height}, view_.component, &vmax);
+  if (items.size() < 3) return {};  // no method has a picture yet
+  std::vector<Rgb8> tiles;
+  for (const CropItem& c : items)
+    tiles.push_back(c.error ? falseColoured(c.image, vmax) : toneMapped(c.image, view_.exposure, view_.toneMap));
+  const int f = std::clamp((256 + snap_->height - 1) / snap_->height, 1, 4);
+  const std::string refNote = std::string(snap_->convergedReference ? "converged" : "live path tracer") +
+                              (snap_->referenceSpp > 0 ? ", " + std::to_string(snap_->referenceSpp) + " spp" : "");
+  const Rgb8 figure = wholeFigure(items, tiles, f, refNote, metricLabel(view_.metric), vmax);
+  const std::string name = std::string("figure-") + componentName(view_.component) + ".png";
+  const std::string path = (std::filesystem::path(folder) / name).string();
+  if (Result<void> w = writePngRgb8(path, figure.w, figure.h, figure.px); !w) return w;
+  files->push_back(path);
+  *out = {{"file", name},
+          {"magnification", f},
+          {"errorMapMax", vmax},
+          {"layout",
+           "top row: the reference, then each method titled with its relMSE against the reference (the shown "
+           "component); bottom row: each method's error map under it; a colour bar of the error metric across the "
+           "bottom; every image "
+           "magnified `magnification` times. The same pictures are written one per file alongside."}};
+  return {};
+}
 
 // Writes crop-<image>-<component>.png (each image and error map, magnified
 // by an integer factor, nearest neighbour) and crop-figure-<component>.png
