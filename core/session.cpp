@@ -14,6 +14,7 @@
 #include "core/log.h"
 #include "core/memory_budget.h"
 #include "core/parallel.h"
+#include "core/params.h"
 
 namespace vsl {
 
@@ -44,6 +45,7 @@ namespace {
 // The work of completed light sets, summed.
 struct SetTotals {
   double tracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0, vslSeconds = 0, vplSeconds = 0;
+  double vplOwnSeconds = 0;  // VPL's own time: the tracing of the sets it gathers, and its transfers
   uint64_t pairs = 0, vslEvaluations = 0, nonFinite = 0, rouletteDropped = 0;
   size_t lights = 0;  // traced and gathered
 };
@@ -56,6 +58,14 @@ Image ManyLightImages::*const kLayer[kLayers] = {&ManyLightImages::vsl,         
                                                  &ManyLightImages::vplUnclamped, &ManyLightImages::vplDiffuse,
                                                  &ManyLightImages::direct,       &ManyLightImages::lostToClamping,
                                                  &ManyLightImages::lostToDiffuse};
+
+// The layers only clamped VPL and its variants make (the rest are VSL's and
+// the shared direct light).
+bool vplLayer(int l) {
+  const Image ManyLightImages::*m = kLayer[l];
+  return m == &ManyLightImages::vpl || m == &ManyLightImages::vplUnclamped || m == &ManyLightImages::vplDiffuse ||
+         m == &ManyLightImages::lostToClamping || m == &ManyLightImages::lostToDiffuse;
+}
 
 // An indirect image with the direct light added: the full component, which a
 // full-only reference is compared on (Snapshot::comparesFull). Unchanged when
@@ -108,7 +118,30 @@ struct Session::Job {
   int backgroundSpp = 0;
   // The newest completed set's estimator statistics (ManyLightEstimator::statistics).
   std::vector<std::pair<std::string, double>> lastStats;
+  // VPL's completed sets taken over from the job this one replaced, whose
+  // settings differed in VSL's parameters only (docs/USAGE.md, "One-method
+  // restarts"): sets [0, keptVplSets) are gathered for VSL alone, and their
+  // VPL layers, already in sum, setImages and mean, are the kept ones.
+  // vplSets counts the sets in the VPL layers' sums.
+  int keptVplSets = 0, vplSets = 0;
+  double keptVplSeconds = 0;  // VPL's own time spent on the job it replaced
+  bool gathersVpl(int k) const { return k >= keptVplSets; }
+  // VPL's own clock: the kept time, the sets retired, the set in progress.
+  double vplOwnSeconds() const {
+    const double current = ml && gathersVpl(set) ? ml->run().set.seconds + ml->stats().vplSeconds : 0;
+    return keptVplSeconds + done.vplOwnSeconds + current;
+  }
 };
+
+bool onlyVslChanged(const StudioSettings& a, const StudioSettings& b) {
+  if (!a.many.computeVpl || !b.many.computeVpl || a.many.pairRoulette > 0 || b.many.pairRoulette > 0) return false;
+  const EstimatorInfo* info = findEstimator(b.estimator.name);
+  if (!info || info->wholeSetPerStep) return false;
+  StudioSettings vslAsA = b;
+  for (const Param<ManyLightSettings>& p : manyLightParams().all())
+    if (std::string_view(p.spec.appliesTo) == "VSL") p.set(vslAsA.many, p.get(a.many));
+  return sameImageSettings(a, vslAsA) && !sameImageSettings(a, b);
+}
 
 // Worker-owned state: the current scene survives failed loads, and the
 // reference (keyed by scene and resolution) survives restarts.
@@ -396,10 +429,15 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   }
   // A job with more completed light sets than now asked for starts over;
   // fewer, and it goes on to the new count.
-  if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s) || w.job->setsDone > s.lightSets)) w.job.reset();
+  std::unique_ptr<Job> replaced;
+  if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s) || w.job->setsDone > s.lightSets))
+    replaced = std::move(w.job);
+  if (replaced && (fromScratch || !onlyVslChanged(replaced->settings, s) || replaced->vplSets > s.lightSets))
+    replaced.reset();
   if (!w.job) {
-    returnFreeMemory();  // what the previous job (or scene) held
-    w.job = prepare(w, s);
+    if (replaced) replaced->ml.reset();  // its lights
+    returnFreeMemory();                  // what the previous job (or scene) held
+    w.job = prepare(w, s, replaced.get());
   }
   if (!w.job) return;  // stopped while preparing
   // Settings that change no image (the reference, the set count) apply to a resumed job.
@@ -467,11 +505,12 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
 
 // A new job: its first light set and the live path tracer for its
 // resolution. Null if stopped.
-std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& s) {
+std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& s, Job* replaced) {
   auto job = std::make_unique<Job>();
   job->settings = s;
   job->directShareSets = s.lightSets;
   job->clock.reset();
+  if (replaced) keepVpl(*replaced, *job);
   if (!prepareSet(w, *job)) return nullptr;
   job->width = job->ml->width();
   job->height = job->ml->height();
@@ -494,6 +533,21 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
   return job;
 }
 
+// Moves VPL's completed sets from the job being replaced (onlyVslChanged) into
+// the new one: their sums, images and mean, and VPL's own time.
+void Session::keepVpl(Job& from, Job& to) {
+  if (from.vplSets == 0) return;
+  to.keptVplSets = to.vplSets = from.vplSets;
+  to.keptVplSeconds = from.vplOwnSeconds();
+  for (int l = 0; l < kLayers; ++l) {
+    if (!vplLayer(l)) continue;
+    to.sum[l] = std::move(from.sum[l]);
+    to.mean.*kLayer[l] = std::move(from.mean.*kLayer[l]);
+    if (l < kIndirectLayers) to.setImages[l] = std::move(from.setImages[l]);
+  }
+  log::info("clamped VPL keeps its " + std::to_string(to.keptVplSets) + " light set(s): only VSL's parameters changed");
+}
+
 // Light set number job.set (lightSetSettings: seed settings.many.seed + set,
 // the radii of the progressive VSL): light tracing and radii, as
 // prepareManyLights does but with the stage shown between them, then its
@@ -502,7 +556,8 @@ bool Session::prepareSet(Worker& w, Job& job) {
   const StudioSettings& s = job.settings;
   job.ml.reset();
   job.batch = 0;
-  const LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set, job.directShareSets);
+  LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set, job.directShareSets);
+  if (!job.gathersVpl(job.set)) set.many.computeVpl = false;  // a kept set: VSL alone
   const ManyLightSettings& many = set.many;
   const Scene& scene = w.ctx->scene();
   setStage("tracing lights", many.lights);
@@ -562,17 +617,21 @@ bool Session::prepareSet(Worker& w, Job& job) {
 void Session::retireSet(Job& job, bool completed) {
   const ManyLightStats& st = job.ml->stats();
   const ManyLightRun& prep = job.ml->run();
+  const bool withVpl = job.gathersVpl(job.set);
   if (completed) {
     const ManyLightImages im = job.ml->images();
     const size_t n = im.vsl.rgb.size();
-    const int K = ++job.setsDone;
+    ++job.setsDone;
+    if (withVpl) ++job.vplSets;
     for (int l = 0; l < kLayers; ++l) {
+      if (vplLayer(l) && !withVpl) continue;  // the kept set's VPL layers are in already
       const Image& img = im.*kLayer[l];
       std::vector<double>& sum = job.sum[l];
       if (sum.empty()) sum.assign(n, 0.0);
       for (size_t i = 0; i < n; ++i) sum[i] += img.rgb[i];
       // The mean as biasVariance computes it (a double sum in set order over
       // K), so that it equals biasVariance's mean bit for bit.
+      const int K = vplLayer(l) ? job.vplSets : job.setsDone;
       Image& mean = job.mean.*kLayer[l];
       mean = Image(im.vsl.width, im.vsl.height);
       for (size_t i = 0; i < n; ++i) mean.rgb[i] = float(sum[i] / K);
@@ -588,6 +647,7 @@ void Session::retireSet(Job& job, bool completed) {
   d.gatherSeconds += st.gatherSeconds;
   d.vslSeconds += st.vslSeconds;
   d.vplSeconds += st.vplSeconds;
+  if (withVpl) d.vplOwnSeconds += prep.set.seconds + st.vplSeconds;  // a kept set's shared work is VSL's
   d.pairs += st.pairs;
   d.vslEvaluations += st.vslEvaluations;
   d.rouletteDropped += st.rouletteDropped;
@@ -830,6 +890,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   const double liveNoise = snapshotImages(job, ref, vslFirst, *snap);
   snap->lightSets = job.settings.lightSets;
   snap->lightSetsDone = job.setsDone;
+  snap->vplLightSetsDone = job.vplSets;
   snap->directSamplesPerSet =
       lightSetSettings(job.settings.many, job.settings.estimator, 0, job.directShareSets).many.directSamples;
   snap->estimatorStats = ml && ml->stepsDone() > 0 ? ml->statistics() : job.lastStats;
@@ -862,7 +923,7 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   const int target = liveTarget(w, job);
   referenceRate(job, ref, target, *snap);
   snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
-  snap->vplSeconds = snap->lightTracingSeconds + d.vplSeconds + st.vplSeconds;
+  snap->vplSeconds = job.vplOwnSeconds();
   snap->backgroundSpp = job.backgroundSpp;
   useReference(w, liveNoise, *snap);
   biasNoise(w, job, *snap);
@@ -887,9 +948,12 @@ double Session::snapshotImages(const Job& job, const ReferenceRenderer& ref, con
   const ManyLightEstimator* ml = job.ml.get();
   double liveNoise = -1;
   parallelFor(4, [&](size_t k) {
-    if (k == 0)
+    if (k == 0) {
       snap.many = vslFirst ? *vslFirst : job.setsDone > 0 ? job.mean : ml->images();
-    else if (k == 1)
+      if (!vslFirst && job.setsDone == 0 && job.vplSets > 0)  // kept VPL sets, before VSL's first
+        for (int l = 0; l < kLayers; ++l)
+          if (vplLayer(l)) snap.many.*kLayer[l] = job.mean.*kLayer[l];
+    } else if (k == 1)
       snap.ptDirect = ref.meanDirect();
     else if (k == 2)
       snap.ptIndirect = ref.meanIndirect();
@@ -1016,8 +1080,8 @@ void Session::biasNoise(const Worker& w, const Job& job, Snapshot& snap) const {
   // mean direct light of the sets (its variance is the indirect light's).
   const bool full = snap.comparesFull;
   const Image& ref = full ? w.converged->full : snap.refIndirect;
-  if (job.setsDone >= 2) {
-    for (int l = 0; l < kIndirectLayers; ++l) {
+  for (int l = 0; l < kIndirectLayers; ++l) {
+    if (job.setImages[l].size() >= 2) {
       std::vector<Image> fullSets;
       if (full)
         for (const Image& img : job.setImages[l]) fullSets.push_back(withDirect(snap.many.direct, img));

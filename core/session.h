@@ -73,6 +73,14 @@ struct StudioSettings {
 // render with more sets goes on from the sets it has.
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b);
 
+// True when a and b differ, but only in parameters VPL never reads
+// (ParamSpec::appliesTo "VSL"), so that VPL's images are the same bit for
+// bit: a restart from a to b keeps VPL's completed light sets and renders VSL
+// alone for them (docs/USAGE.md, "One-method restarts"). False under the pair
+// roulette, whose choice of pairs reads VSL's bound, and with an estimator
+// that gathers a light set in one step (its VSL and VPL share the step).
+bool onlyVslChanged(const StudioSettings& a, const StudioSettings& b);
+
 // Error of each method's indirect image at one moment, as relMSE (compare.h)
 // against the reference in use with that reference's own noise subtracted:
 // for a test image T independent of the reference R,
@@ -135,8 +143,11 @@ struct Snapshot {
   // The mean over the completed light sets (the first set's progressive
   // estimate until it completes; a set in progress after that is not in it).
   ManyLightImages many;
-  int lightSets = 1;            // asked for (settings.lightSets)
-  int lightSetsDone = 0;        // completed: `many` is their mean
+  int lightSets = 1;      // asked for (settings.lightSets)
+  int lightSetsDone = 0;  // completed: `many` is their mean
+  // Completed sets in the VPL layers: lightSetsDone, or more while VSL
+  // renders again the sets VPL kept across a restart (onlyVslChanged).
+  int vplLightSetsDone = 0;
   int directSamplesPerSet = 0;  // each set's direct-light samples (lightSetSettings)
   // The estimator's statistics (ManyLightEstimator::statistics): the set in
   // progress once it has a step, else the newest completed set's.
@@ -282,7 +293,8 @@ class Session {
   void run();
   void step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch);
   bool ensureScene(Worker& w, StudioSettings& s);
-  std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s);
+  std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s, Job* replaced);
+  static void keepVpl(Job& from, Job& to);
   bool prepareSet(Worker& w, Job& job);
   void retireSet(Job& job, bool completed);
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;

@@ -513,6 +513,68 @@ TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
   EXPECT_EQ(snap->biasNoise[0].renders, 0);
 }
 
+// Issue 49, item 3: a change to VSL's parameters only (the radius scale)
+// restarts VSL alone. Clamped VPL keeps its picture, its clock and its bias
+// and noise from the first moment, gathers nothing more for the kept sets,
+// and its kept picture is bit for bit what a fresh render of the new settings
+// makes; VSL's is the new settings'. A change VPL reads (the clamp) restarts
+// both.
+TEST(Session, RadiusChangeKeepsClampedVplsPictureAndCounters) {
+  TempCache cache;  // no cached reference: the live path tracer
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 11;
+  s.lightSets = 3;
+  Session session;
+  uint64_t g = session.restart(s).value();
+  auto before = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(before);
+
+  s.many.radiusScale = 2.5f;
+  g = session.restart(s).value();
+  auto first = waitFor(session, g, [](const Snapshot& x) { return x.batchesDone > 0 || x.lightSetsDone > 0; });
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->many.vpl.rgb, before->many.vpl.rgb);
+  EXPECT_EQ(first->many.vplUnclamped.rgb, before->many.vplUnclamped.rgb);
+  EXPECT_EQ(first->many.lostToClamping.rgb, before->many.lostToClamping.rgb);
+  EXPECT_EQ(first->vplSeconds, before->vplSeconds) << "VPL's own clock goes on from where it was";
+  EXPECT_LT(first->vslSeconds, before->vslSeconds) << "VSL starts over";
+  Loaded l("cornell-glossy");
+  std::vector<ManyLightImages> fresh;
+  for (uint64_t k = 0; k < 3; ++k) {
+    ManyLightSettings m = s.many;
+    m.seed = s.many.seed + k;
+    fresh.push_back(l.render(m));
+  }
+  // VPL's bias and noise from the kept sets against the reference of now.
+  const BiasVarianceResult vplSets = biasVariance({&fresh[0].vpl, &fresh[1].vpl, &fresh[2].vpl}, first->refIndirect);
+  EXPECT_EQ(first->biasNoise[int(BiasNoiseRow::Vpl)].renders, 3);
+  EXPECT_DOUBLE_EQ(first->biasNoise[int(BiasNoiseRow::Vpl)].variance, vplSets.average.variance);
+  ASSERT_FALSE(first->history.empty());
+  EXPECT_EQ(first->history.back().vplSeconds, before->vplSeconds);
+
+  auto after = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->many.vpl.rgb, before->many.vpl.rgb);
+  EXPECT_EQ(after->vplSeconds, before->vplSeconds) << "no VPL work for the kept sets";
+  EXPECT_NE(after->many.vsl.rgb, before->many.vsl.rgb);
+  auto layer = [&](Image ManyLightImages::*which) {
+    return meanOf({&(fresh[0].*which), &(fresh[1].*which), &(fresh[2].*which)}).rgb;
+  };
+  EXPECT_EQ(after->many.vsl.rgb, layer(&ManyLightImages::vsl));
+  EXPECT_EQ(after->many.vpl.rgb, layer(&ManyLightImages::vpl));
+  EXPECT_EQ(after->many.vplDiffuse.rgb, layer(&ManyLightImages::vplDiffuse));
+  EXPECT_EQ(after->many.lostToDiffuse.rgb, layer(&ManyLightImages::lostToDiffuse));
+  EXPECT_EQ(after->many.direct.rgb, layer(&ManyLightImages::direct));
+
+  // The clamp is VPL's: both restart, VPL from zero.
+  s.many.clamp = 0.5f * before->clampBound;
+  g = session.restart(s).value();
+  first = waitFor(session, g, [](const Snapshot& x) { return x.batchesDone > 0 || x.lightSetsDone > 0; });
+  ASSERT_TRUE(first);
+  EXPECT_LT(first->vplSeconds, before->vplSeconds);
+  EXPECT_NE(first->many.vpl.rgb, before->many.vpl.rgb);
+}
+
 // The MRCS estimator in the session: each light set k is one MRCS render
 // (lights and rows drawn with seed s + k), and the picture is their mean, bit
 // for bit the mean of renderMrcs calls made directly with those seeds.

@@ -483,6 +483,8 @@ bool Studio::sourceStale(Source s) const {
   if (s == Source::Pinned) return false;  // kept as it was
   if (s == Source::Reference)             // the reference belongs to the scene and the resolution only
     return a.scene != accepted_.scene || a.many.width != accepted_.many.width || a.many.height != accepted_.many.height;
+  // VPL's pictures hold across a change of VSL's parameters (onlyVslChanged).
+  if (vplSource(s)) return !sameImageSettings(a, accepted_) && !onlyVslChanged(a, accepted_);
   return !sameImageSettings(a, accepted_);
 }
 
@@ -1519,7 +1521,7 @@ void Studio::drawPanels(ImDrawList* dl, ImVec2 origin, float panelW, ImVec2 size
     bool stale = sourceStale(s);
     if (stale)
       staleMark(dl, p0, p1);
-    else if (isMethod(s) && s != Source::Pinned && roughPicture())
+    else if (isMethod(s) && s != Source::Pinned && roughPicture() && !(vplSource(s) && snap_->vplLightSetsDone > 0))
       roughMark(dl, p0, roughText().c_str());
     dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
                 (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());

@@ -10,6 +10,11 @@
 namespace vsl::ui::studio_detail {
 
 // The methods of the metrics table, the FLIP maps and the exported error maps.
+// The pictures clamped VPL and its variants make.
+inline bool vplSource(Source s) {
+  return s == Source::Vpl || s == Source::VplUnclamped || s == Source::VplDiffuse || s == Source::LostClamping ||
+         s == Source::LostDiffuse;
+}
 inline constexpr Source kMetricSources[4] = {Source::Vsl, Source::Vpl, Source::VplUnclamped, Source::VplDiffuse};
 inline const char* const kMetricNames[] = {"absolute |t-r|", "relative absolute |t-r|/(r+eps)", "squared (t-r)^2",
                                            "relative squared (t-r)^2/(r^2+eps)"};
