@@ -427,6 +427,16 @@ struct Loaded {
     for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
     return r.images();
   }
+  // Light sets 0 .. n - 1 (seeds m.seed + k), each rendered as by render().
+  std::vector<ManyLightImages> renderSets(const ManyLightSettings& m, int n) const {
+    std::vector<ManyLightImages> out;
+    for (int k = 0; k < n; ++k) {
+      ManyLightSettings mk = m;
+      mk.seed = m.seed + uint64_t(k);
+      out.push_back(render(mk));
+    }
+    return out;
+  }
   // One light set rendered with renderMrcs directly.
   ManyLightImages renderWithMrcs(const ManyLightSettings& m, const MrcsSettings& mrcs) const {
     ManyLightRun run = prepareManyLights(*scene, *accel, *lights, m);
@@ -435,6 +445,14 @@ struct Loaded {
     return r.images;
   }
 };
+
+// Three light sets of 300 lights on cornell-glossy at 16 px, seeds 11-13.
+StudioSettings threeSets() {
+  StudioSettings s = small("cornell-glossy", 300, 16);
+  s.many.seed = 11;
+  s.lightSets = 3;
+  return s;
+}
 
 // The mean of images as biasVariance computes it: a double sum in order, over K.
 Image meanOf(const std::vector<const Image*>& images) {
@@ -456,9 +474,7 @@ Image meanOf(const std::vector<const Image*>& images) {
 // (equal to the last bit of a double). lightSets = 1 is one set, as before.
 TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
   TempCache cache;  // no cached reference: the live path tracer
-  StudioSettings s = small("cornell-glossy", 300, 16);
-  s.many.seed = 11;
-  s.lightSets = 3;
+  StudioSettings s = threeSets();
   Session session;
   uint64_t g = session.restart(s).value();
   auto snap = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone && x.referenceDone; });
@@ -468,12 +484,7 @@ TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
   EXPECT_EQ(snap->lightsProcessed, snap->lightsTotal);
 
   Loaded l("cornell-glossy");
-  std::vector<ManyLightImages> renders;
-  for (uint64_t k = 0; k < 3; ++k) {
-    ManyLightSettings m = s.many;
-    m.seed = s.many.seed + k;
-    renders.push_back(l.render(m));
-  }
+  const std::vector<ManyLightImages> renders = l.renderSets(s.many, 3);
   EXPECT_NE(renders[0].vsl.rgb, renders[1].vsl.rgb) << "independent sets";
   auto layer = [&](Image ManyLightImages::*which) {
     return std::vector<const Image*>{&(renders[0].*which), &(renders[1].*which), &(renders[2].*which)};
@@ -521,9 +532,7 @@ TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
 // both.
 TEST(Session, RadiusChangeKeepsClampedVplsPictureAndCounters) {
   TempCache cache;  // no cached reference: the live path tracer
-  StudioSettings s = small("cornell-glossy", 300, 16);
-  s.many.seed = 11;
-  s.lightSets = 3;
+  StudioSettings s = threeSets();
   Session session;
   uint64_t g = session.restart(s).value();
   auto before = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
@@ -539,12 +548,7 @@ TEST(Session, RadiusChangeKeepsClampedVplsPictureAndCounters) {
   EXPECT_EQ(first->vplSeconds, before->vplSeconds) << "VPL's own clock goes on from where it was";
   EXPECT_LT(first->vslSeconds, before->vslSeconds) << "VSL starts over";
   Loaded l("cornell-glossy");
-  std::vector<ManyLightImages> fresh;
-  for (uint64_t k = 0; k < 3; ++k) {
-    ManyLightSettings m = s.many;
-    m.seed = s.many.seed + k;
-    fresh.push_back(l.render(m));
-  }
+  const std::vector<ManyLightImages> fresh = l.renderSets(s.many, 3);
   // VPL's bias and noise from the kept sets against the reference of now.
   const BiasVarianceResult vplSets = biasVariance({&fresh[0].vpl, &fresh[1].vpl, &fresh[2].vpl}, first->refIndirect);
   EXPECT_EQ(first->biasNoise[int(BiasNoiseRow::Vpl)].renders, 3);
