@@ -29,14 +29,16 @@ Scenes
 The many-light fractions are asserted by tests/test_scenes.cpp.
 Only the Python standard library is used; output is deterministic.
 
-    python3 assets/generate_scenes.py --dense TRIANGLES OUT.gltf [BASE]
+    python3 assets/generate_scenes.py --dense TRIANGLES OUT.gltf [BASE] [--textured]
 
 writes a dense version of a bundled scene (BASE, default cornell-glossy) for
 measuring how costs grow with geometry (docs/RESULTS.md, "Cost growth with
 geometry and lights"): every quad face except emitters is tessellated into a grid and
 dented (displaced against its normal) by smooth noise that vanishes on its edges
 (so boxes stay closed), with about TRIANGLES triangles in all. Not bundled: a
-million triangles make a ~40 MB file.
+million triangles make a ~40 MB file. With --textured every non-emissive
+material also gets a 1024x1024 base-colour texture and normal map (tiles),
+embedded (docs/RESULTS.md, "Loading a textured million-triangle asset").
 """
 import base64
 import json
@@ -784,12 +786,63 @@ def dense_scene(base, triangles):
     return g
 
 
+def _png(width, height, pixel):
+    """A PNG (8-bit RGB, no filtering) of pixel(x, y) -> (r, g, b) in 0..255."""
+    import zlib
+    rows = bytearray()
+    for y in range(height):
+        rows.append(0)
+        for x in range(width):
+            rows += bytes(pixel(x, y))
+    chunk = lambda kind, data: (struct.pack(">I", len(data)) + kind + data +
+                                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(bytes(rows), 6)) + chunk(b"IEND", b""))
+
+
+def texture_materials(g, size):
+    """Gives every non-emissive material of g a base-colour texture (tiles
+    with grout, modulating the material's colour) and a normal map (the
+    tiles' bevelled edges), size x size pixels each, embedded in the buffer and
+    shared: what a textured asset asks of the loader."""
+    tiles = 8
+    def colour(x, y):
+        u, v = (x * tiles / size) % 1, (y * tiles / size) % 1
+        grout = min(u, v, 1 - u, 1 - v) < 0.04
+        shade = 150 + 60 * ((x * tiles // size + y * tiles // size) % 2)
+        return (90, 90, 90) if grout else (shade, shade, shade)
+    def normal(x, y):
+        u, v = (x * tiles / size) % 1, (y * tiles / size) % 1
+        edge = 0.08
+        nx = -0.5 if u < edge else 0.5 if u > 1 - edge else 0.0
+        ny = -0.5 if v < edge else 0.5 if v > 1 - edge else 0.0
+        n = norm([nx, ny, 1.0])
+        return tuple(int(round(255 * (c * 0.5 + 0.5))) for c in n)
+    images = []
+    for name, pixel in (("tiles-colour", colour), ("tiles-normal", normal)):
+        view = g._view(_png(size, size, pixel), None)
+        del g.doc["bufferViews"][view]["target"]
+        g.doc.setdefault("images", []).append({"name": name, "bufferView": view, "mimeType": "image/png"})
+        g.doc.setdefault("textures", []).append({"source": len(g.doc["images"]) - 1})
+        images.append(len(g.doc["textures"]) - 1)
+    for m in g.doc["materials"]:
+        if "emissiveFactor" in m:
+            continue
+        m["pbrMetallicRoughness"]["baseColorTexture"] = {"index": images[0]}
+        m["normalTexture"] = {"index": images[1]}
+
+
 def main():
     if len(sys.argv) > 1 and sys.argv[1] == "--dense":
+        textured = "--textured" in sys.argv
+        if textured:
+            sys.argv.remove("--textured")
         if len(sys.argv) not in (4, 5):
-            sys.exit("usage: generate_scenes.py --dense TRIANGLES OUT.gltf [BASE]")
+            sys.exit("usage: generate_scenes.py --dense TRIANGLES OUT.gltf [BASE] [--textured]")
         base = sys.argv[4] if len(sys.argv) == 5 else "cornell-glossy"
         g = dense_scene(base, int(sys.argv[2]))
+        if textured:
+            texture_materials(g, 1024)
         g.write(sys.argv[3])
         tris = sum(len(_read_accessor(g, m["primitives"][0]["indices"])) // 3 for m in g.doc["meshes"])
         print("wrote %s (%d triangles)" % (sys.argv[3], tris))
