@@ -45,7 +45,9 @@ namespace {
 // The work of completed light sets, summed.
 struct SetTotals {
   double tracingSeconds = 0, knnSeconds = 0, gatherSeconds = 0, vslSeconds = 0, vplSeconds = 0;
-  double vplOwnSeconds = 0;  // VPL's own time: the tracing of the sets it gathers, and its transfers
+  // Each method's own time over the sets it gathers: VSL's tracing, k-NN
+  // radii and its share of the gather, VPL's tracing and its share.
+  double vslOwnSeconds = 0, vplOwnSeconds = 0;
   uint64_t pairs = 0, vslEvaluations = 0, nonFinite = 0, rouletteDropped = 0;
   size_t lights = 0;  // traced and gathered
 };
@@ -59,12 +61,14 @@ Image ManyLightImages::*const kLayer[kLayers] = {&ManyLightImages::vsl,         
                                                  &ManyLightImages::direct,       &ManyLightImages::lostToClamping,
                                                  &ManyLightImages::lostToDiffuse};
 
-// The layers only clamped VPL and its variants make (the rest are VSL's and
-// the shared direct light).
-bool vplLayer(int l) {
+// The layers a method alone makes: VSL's image, or clamped VPL's and its
+// variants' (the direct light is shared).
+bool methodLayer(StudioMethod method, int l) {
   const Image ManyLightImages::*m = kLayer[l];
-  return m == &ManyLightImages::vpl || m == &ManyLightImages::vplUnclamped || m == &ManyLightImages::vplDiffuse ||
-         m == &ManyLightImages::lostToClamping || m == &ManyLightImages::lostToDiffuse;
+  if (method == StudioMethod::Vsl) return m == &ManyLightImages::vsl;
+  return method == StudioMethod::Vpl &&
+         (m == &ManyLightImages::vpl || m == &ManyLightImages::vplUnclamped || m == &ManyLightImages::vplDiffuse ||
+          m == &ManyLightImages::lostToClamping || m == &ManyLightImages::lostToDiffuse);
 }
 
 // An indirect image with the direct light added: the full component, which a
@@ -118,29 +122,44 @@ struct Session::Job {
   int backgroundSpp = 0;
   // The newest completed set's estimator statistics (ManyLightEstimator::statistics).
   std::vector<std::pair<std::string, double>> lastStats;
-  // VPL's completed sets taken over from the job this one replaced, whose
-  // settings differed in VSL's parameters only (docs/USAGE.md, "One-method
-  // restarts"): sets [0, keptVplSets) are gathered for VSL alone, and their
-  // VPL layers, already in sum, setImages and mean, are the kept ones.
-  // vplSets counts the sets in the VPL layers' sums.
-  int keptVplSets = 0, vplSets = 0;
-  double keptVplSeconds = 0;  // VPL's own time spent on the job it replaced
-  bool gathersVpl(int k) const { return k >= keptVplSets; }
-  // VPL's own clock: the kept time, the sets retired, the set in progress.
-  double vplOwnSeconds() const {
-    const double current = ml && gathersVpl(set) ? ml->run().set.seconds + ml->stats().vplSeconds : 0;
-    return keptVplSeconds + done.vplOwnSeconds + current;
+  // One method's completed sets taken over from the job this one replaced,
+  // whose settings differed only in the other method's parameters
+  // (unchangedFor, docs/USAGE.md "One-method restarts"): sets [0, keptSets)
+  // are gathered for the other method alone, and the kept method's layers,
+  // already in sum, setImages and mean, are the kept ones. keptLayerSets
+  // counts the sets in those layers' sums. kept is Pt when nothing is kept.
+  StudioMethod kept = StudioMethod::Pt;
+  int keptSets = 0, keptLayerSets = 0;
+  double keptSeconds = 0;  // the kept method's own time in the job it replaced
+  bool keptLayer(int l) const { return methodLayer(kept, l); }
+  bool gathers(StudioMethod m, int k) const { return m != kept || k >= keptSets; }
+  // Sets in layer l's sums.
+  int layerSets(int l) const { return keptLayer(l) ? keptLayerSets : setsDone; }
+  // A method's own clock: the kept time, the sets retired, the set in progress.
+  double ownSeconds(StudioMethod m) const {
+    double current = 0;
+    if (ml && gathers(m, set)) {
+      const ManyLightRun& run = ml->run();
+      current = m == StudioMethod::Vsl ? run.set.seconds + run.knnSeconds + ml->stats().vslSeconds
+                                       : run.set.seconds + ml->stats().vplSeconds;
+    }
+    const double retired = m == StudioMethod::Vsl ? done.vslOwnSeconds : done.vplOwnSeconds;
+    return (m == kept ? keptSeconds : 0) + retired + current;
   }
 };
 
-bool onlyVslChanged(const StudioSettings& a, const StudioSettings& b) {
-  if (!a.many.computeVpl || !b.many.computeVpl || a.many.pairRoulette > 0 || b.many.pairRoulette > 0) return false;
+bool unchangedFor(StudioMethod m, const StudioSettings& a, const StudioSettings& b) {
+  if (m == StudioMethod::Pt || !a.many.computeVsl || !b.many.computeVsl || !a.many.computeVpl || !b.many.computeVpl ||
+      a.many.pairRoulette > 0 || b.many.pairRoulette > 0)
+    return false;
   const EstimatorInfo* info = findEstimator(b.estimator.name);
   if (!info || info->wholeSetPerStep) return false;
-  StudioSettings vslAsA = b;
+  // b with the other method's parameters set back to a's.
+  const std::string_view other = m == StudioMethod::Vpl ? "VSL" : "VPL";
+  StudioSettings bAsA = b;
   for (const Param<ManyLightSettings>& p : manyLightParams().all())
-    if (std::string_view(p.spec.appliesTo) == "VSL") p.set(vslAsA.many, p.get(a.many));
-  return sameImageSettings(a, vslAsA) && !sameImageSettings(a, b);
+    if (std::string_view(p.spec.appliesTo) == other) p.set(bAsA.many, p.get(a.many));
+  return sameImageSettings(a, bAsA) && !sameImageSettings(a, b);
 }
 
 // Worker-owned state: the current scene survives failed loads, and the
@@ -432,8 +451,7 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   std::unique_ptr<Job> replaced;
   if (w.job && (fromScratch || !sameImageSettings(w.job->settings, s) || w.job->setsDone > s.lightSets))
     replaced = std::move(w.job);
-  if (replaced && (fromScratch || !onlyVslChanged(replaced->settings, s) || replaced->vplSets > s.lightSets))
-    replaced.reset();
+  if (replaced && fromScratch) replaced.reset();
   if (!w.job) {
     if (replaced) replaced->ml.reset();  // its lights
     returnFreeMemory();                  // what the previous job (or scene) held
@@ -510,7 +528,7 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
   job->settings = s;
   job->directShareSets = s.lightSets;
   job->clock.reset();
-  if (replaced) keepVpl(*replaced, *job);
+  if (replaced) keepMethod(*replaced, *job);
   if (!prepareSet(w, *job)) return nullptr;
   job->width = job->ml->width();
   job->height = job->ml->height();
@@ -533,19 +551,27 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
   return job;
 }
 
-// Moves VPL's completed sets from the job being replaced (onlyVslChanged) into
-// the new one: their sums, images and mean, and VPL's own time.
-void Session::keepVpl(Job& from, Job& to) {
-  if (from.vplSets == 0) return;
-  to.keptVplSets = to.vplSets = from.vplSets;
-  to.keptVplSeconds = from.vplOwnSeconds();
+// Moves one method's completed sets from the job being replaced into the new
+// one when the new settings leave that method's images unchanged
+// (unchangedFor): their sums, images and mean, and the method's own time.
+void Session::keepMethod(Job& from, Job& to) {
+  StudioMethod m = StudioMethod::Pt;
+  for (StudioMethod k : {StudioMethod::Vpl, StudioMethod::Vsl})
+    if (unchangedFor(k, from.settings, to.settings)) m = k;
+  const int sets = m == from.kept ? from.keptLayerSets : from.setsDone;
+  if (m == StudioMethod::Pt || sets == 0 || sets > to.settings.lightSets) return;
+  to.kept = m;
+  to.keptSets = to.keptLayerSets = sets;
+  to.keptSeconds = from.ownSeconds(m);
   for (int l = 0; l < kLayers; ++l) {
-    if (!vplLayer(l)) continue;
+    if (!to.keptLayer(l)) continue;
     to.sum[l] = std::move(from.sum[l]);
     to.mean.*kLayer[l] = std::move(from.mean.*kLayer[l]);
     if (l < kIndirectLayers) to.setImages[l] = std::move(from.setImages[l]);
   }
-  log::info("clamped VPL keeps its " + std::to_string(to.keptVplSets) + " light set(s): only VSL's parameters changed");
+  const bool vpl = m == StudioMethod::Vpl;
+  log::info(std::string(vpl ? "clamped VPL" : "VSL") + " keeps its " + std::to_string(sets) + " light set(s): only " +
+            (vpl ? "VSL" : "VPL") + "'s parameters changed");
 }
 
 // Light set number job.set (lightSetSettings: seed settings.many.seed + set,
@@ -557,7 +583,8 @@ bool Session::prepareSet(Worker& w, Job& job) {
   job.ml.reset();
   job.batch = 0;
   LightSetSettings set = lightSetSettings(s.many, s.estimator, job.set, job.directShareSets);
-  if (!job.gathersVpl(job.set)) set.many.computeVpl = false;  // a kept set: VSL alone
+  if (!job.gathers(StudioMethod::Vpl, job.set)) set.many.computeVpl = false;  // a kept set: the other method alone
+  if (!job.gathers(StudioMethod::Vsl, job.set)) set.many.computeVsl = false;
   const ManyLightSettings& many = set.many;
   const Scene& scene = w.ctx->scene();
   setStage("tracing lights", many.lights);
@@ -617,21 +644,22 @@ bool Session::prepareSet(Worker& w, Job& job) {
 void Session::retireSet(Job& job, bool completed) {
   const ManyLightStats& st = job.ml->stats();
   const ManyLightRun& prep = job.ml->run();
-  const bool withVpl = job.gathersVpl(job.set);
+  const int k = job.set;  // before a completed set moves it on
+  const bool keptSet = k < job.keptSets;
   if (completed) {
     const ManyLightImages im = job.ml->images();
     const size_t n = im.vsl.rgb.size();
     ++job.setsDone;
-    if (withVpl) ++job.vplSets;
+    if (!keptSet) ++job.keptLayerSets;
     for (int l = 0; l < kLayers; ++l) {
-      if (vplLayer(l) && !withVpl) continue;  // the kept set's VPL layers are in already
+      if (job.keptLayer(l) && keptSet) continue;  // the kept set's layers are in already
       const Image& img = im.*kLayer[l];
       std::vector<double>& sum = job.sum[l];
       if (sum.empty()) sum.assign(n, 0.0);
       for (size_t i = 0; i < n; ++i) sum[i] += img.rgb[i];
       // The mean as biasVariance computes it (a double sum in set order over
       // K), so that it equals biasVariance's mean bit for bit.
-      const int K = vplLayer(l) ? job.vplSets : job.setsDone;
+      const int K = job.layerSets(l);
       Image& mean = job.mean.*kLayer[l];
       mean = Image(im.vsl.width, im.vsl.height);
       for (size_t i = 0; i < n; ++i) mean.rgb[i] = float(sum[i] / K);
@@ -647,7 +675,9 @@ void Session::retireSet(Job& job, bool completed) {
   d.gatherSeconds += st.gatherSeconds;
   d.vslSeconds += st.vslSeconds;
   d.vplSeconds += st.vplSeconds;
-  if (withVpl) d.vplOwnSeconds += prep.set.seconds + st.vplSeconds;  // a kept set's shared work is VSL's
+  // A kept set's shared work is the other method's.
+  if (job.gathers(StudioMethod::Vsl, k)) d.vslOwnSeconds += prep.set.seconds + prep.knnSeconds + st.vslSeconds;
+  if (job.gathers(StudioMethod::Vpl, k)) d.vplOwnSeconds += prep.set.seconds + st.vplSeconds;
   d.pairs += st.pairs;
   d.vslEvaluations += st.vslEvaluations;
   d.rouletteDropped += st.rouletteDropped;
@@ -890,7 +920,8 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   const double liveNoise = snapshotImages(job, ref, vslFirst, *snap);
   snap->lightSets = job.settings.lightSets;
   snap->lightSetsDone = job.setsDone;
-  snap->vplLightSetsDone = job.vplSets;
+  snap->vslLightSetsDone = job.layerSets(0);
+  snap->vplLightSetsDone = job.layerSets(1);
   snap->directSamplesPerSet =
       lightSetSettings(job.settings.many, job.settings.estimator, 0, job.directShareSets).many.directSamples;
   snap->estimatorStats = ml && ml->stepsDone() > 0 ? ml->statistics() : job.lastStats;
@@ -922,8 +953,8 @@ std::shared_ptr<Snapshot> Session::makeSnapshot(const Worker& w, Job& job, uint6
   const double manyLeft = manyLightSecondsLeft(job, st, setSize, untraced, *snap);  // made wall-clock below
   const int target = liveTarget(w, job);
   referenceRate(job, ref, target, *snap);
-  snap->vslSeconds = snap->lightTracingSeconds + snap->knnSeconds + d.vslSeconds + st.vslSeconds;
-  snap->vplSeconds = job.vplOwnSeconds();
+  snap->vslSeconds = job.ownSeconds(StudioMethod::Vsl);
+  snap->vplSeconds = job.ownSeconds(StudioMethod::Vpl);
   snap->backgroundSpp = job.backgroundSpp;
   useReference(w, liveNoise, *snap);
   biasNoise(w, job, *snap);
@@ -950,9 +981,9 @@ double Session::snapshotImages(const Job& job, const ReferenceRenderer& ref, con
   parallelFor(4, [&](size_t k) {
     if (k == 0) {
       snap.many = vslFirst ? *vslFirst : job.setsDone > 0 ? job.mean : ml->images();
-      if (!vslFirst && job.setsDone == 0 && job.vplSets > 0)  // kept VPL sets, before VSL's first
+      if (!vslFirst && job.setsDone == 0 && job.keptLayerSets > 0)  // kept sets, before the other method's first
         for (int l = 0; l < kLayers; ++l)
-          if (vplLayer(l)) snap.many.*kLayer[l] = job.mean.*kLayer[l];
+          if (job.keptLayer(l)) snap.many.*kLayer[l] = job.mean.*kLayer[l];
     } else if (k == 1)
       snap.ptDirect = ref.meanDirect();
     else if (k == 2)

@@ -73,14 +73,6 @@ struct StudioSettings {
 // render with more sets goes on from the sets it has.
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b);
 
-// True when a and b differ, but only in parameters VPL never reads
-// (ParamSpec::appliesTo "VSL"), so that VPL's images are the same bit for
-// bit: a restart from a to b keeps VPL's completed light sets and renders VSL
-// alone for them (docs/USAGE.md, "One-method restarts"). False under the pair
-// roulette, whose choice of pairs reads VSL's bound, and with an estimator
-// that gathers a light set in one step (its VSL and VPL share the step).
-bool onlyVslChanged(const StudioSettings& a, const StudioSettings& b);
-
 // Error of each method's indirect image at one moment, as relMSE (compare.h)
 // against the reference in use with that reference's own noise subtracted:
 // for a test image T independent of the reference R,
@@ -112,6 +104,17 @@ int liveReferenceTarget(int spp, int maxSpp, double noise, const std::vector<Err
 
 // Equal time: each method's error at the same amount of its own time.
 enum class StudioMethod { Vsl, Vpl, Pt };
+
+// True when a and b differ, but only in parameters method m (VSL or VPL)
+// never reads: those declared for the other method alone (ParamSpec::
+// appliesTo "VSL" or "VPL"), so that m's images are the same bit for bit. A
+// restart from a to b keeps m's completed light sets and renders the other
+// method alone for them (docs/USAGE.md, "One-method restarts"). False under
+// the pair roulette, whose choice of pairs reads both methods' bounds, with
+// an estimator that gathers a light set in one step (its VSL and VPL share
+// the step), and when either method is off.
+bool unchangedFor(StudioMethod m, const StudioSettings& a, const StudioSettings& b);
+
 // The method's own time and error in one history entry.
 double ownSeconds(const ErrorSample& e, StudioMethod m);
 double ownError(const ErrorSample& e, StudioMethod m);
@@ -145,9 +148,10 @@ struct Snapshot {
   ManyLightImages many;
   int lightSets = 1;      // asked for (settings.lightSets)
   int lightSetsDone = 0;  // completed: `many` is their mean
-  // Completed sets in the VPL layers: lightSetsDone, or more while VSL
-  // renders again the sets VPL kept across a restart (onlyVslChanged).
-  int vplLightSetsDone = 0;
+  // Completed sets in VSL's and in the VPL layers: lightSetsDone, or more
+  // for the method whose sets were kept across a restart while the other
+  // renders them again (unchangedFor).
+  int vslLightSetsDone = 0, vplLightSetsDone = 0;
   int directSamplesPerSet = 0;  // each set's direct-light samples (lightSetSettings)
   // The estimator's statistics (ManyLightEstimator::statistics): the set in
   // progress once it has a step, else the newest completed set's.
@@ -294,7 +298,7 @@ class Session {
   void step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch);
   bool ensureScene(Worker& w, StudioSettings& s);
   std::unique_ptr<Job> prepare(Worker& w, const StudioSettings& s, Job* replaced);
-  static void keepVpl(Job& from, Job& to);
+  static void keepMethod(Job& from, Job& to);
   bool prepareSet(Worker& w, Job& job);
   void retireSet(Job& job, bool completed);
   void biasNoise(const Worker& w, const Job& job, Snapshot& snap) const;

@@ -528,8 +528,8 @@ TEST(Session, LightSetsAverageIndependentRendersAndMeasureBiasAndNoise) {
 // restarts VSL alone. Clamped VPL keeps its picture, its clock and its bias
 // and noise from the first moment, gathers nothing more for the kept sets,
 // and its kept picture is bit for bit what a fresh render of the new settings
-// makes; VSL's is the new settings'. A change VPL reads (the clamp) restarts
-// both.
+// makes; VSL's is the new settings'. A change to VPL's only (the clamp) keeps
+// VSL's sets the same way; one to both (the light count) restarts both.
 TEST(Session, RadiusChangeKeepsClampedVplsPictureAndCounters) {
   TempCache cache;  // no cached reference: the live path tracer
   StudioSettings s = threeSets();
@@ -570,13 +570,28 @@ TEST(Session, RadiusChangeKeepsClampedVplsPictureAndCounters) {
   EXPECT_EQ(after->many.lostToDiffuse.rgb, layer(&ManyLightImages::lostToDiffuse));
   EXPECT_EQ(after->many.direct.rgb, layer(&ManyLightImages::direct));
 
-  // The clamp is VPL's: both restart, VPL from zero.
+  // The clamp is VPL's: VPL restarts from zero and VSL keeps its sets.
   s.many.clamp = 0.5f * before->clampBound;
   g = session.restart(s).value();
   first = waitFor(session, g, [](const Snapshot& x) { return x.batchesDone > 0 || x.lightSetsDone > 0; });
   ASSERT_TRUE(first);
-  EXPECT_LT(first->vplSeconds, before->vplSeconds);
-  EXPECT_NE(first->many.vpl.rgb, before->many.vpl.rgb);
+  EXPECT_EQ(first->many.vsl.rgb, after->many.vsl.rgb);
+  EXPECT_EQ(first->vslSeconds, after->vslSeconds);
+  EXPECT_LT(first->vplSeconds, after->vplSeconds);
+  auto clamped = waitFor(session, g, [](const Snapshot& x) { return x.manyLightDone; });
+  ASSERT_TRUE(clamped);
+  EXPECT_EQ(clamped->vslSeconds, after->vslSeconds) << "no VSL work for the kept sets";
+  const std::vector<ManyLightImages> freshClamped = l.renderSets(s.many, 3);
+  EXPECT_EQ(clamped->many.vpl.rgb, meanOf({&freshClamped[0].vpl, &freshClamped[1].vpl, &freshClamped[2].vpl}).rgb);
+  EXPECT_EQ(clamped->many.vsl.rgb, meanOf({&freshClamped[0].vsl, &freshClamped[1].vsl, &freshClamped[2].vsl}).rgb);
+
+  // The light count is both methods': both restart.
+  s.many.lights = 400;
+  g = session.restart(s).value();
+  first = waitFor(session, g, [](const Snapshot& x) { return x.batchesDone > 0 || x.lightSetsDone > 0; });
+  ASSERT_TRUE(first);
+  EXPECT_LT(first->vslSeconds, clamped->vslSeconds);
+  EXPECT_LT(first->vplSeconds, clamped->vplSeconds);
 }
 
 // The MRCS estimator in the session: each light set k is one MRCS render

@@ -483,12 +483,17 @@ bool Studio::sourceStale(Source s) const {
   if (s == Source::Pinned) return false;  // kept as it was
   if (s == Source::Reference)             // the reference belongs to the scene and the resolution only
     return a.scene != accepted_.scene || a.many.width != accepted_.many.width || a.many.height != accepted_.many.height;
-  // VPL's pictures hold across a change of VSL's parameters (onlyVslChanged).
-  if (vplSource(s)) return !sameImageSettings(a, accepted_) && !onlyVslChanged(a, accepted_);
+  // A method's pictures hold across a change of the other's parameters (unchangedFor).
+  if (vplSource(s)) return !sameImageSettings(a, accepted_) && !unchangedFor(StudioMethod::Vpl, a, accepted_);
+  if (s == Source::Vsl) return !sameImageSettings(a, accepted_) && !unchangedFor(StudioMethod::Vsl, a, accepted_);
   return !sameImageSettings(a, accepted_);
 }
 
 double Studio::lightsPerSet() const { return double(snap_->lightsTotal) / std::max(snap_->lightSets, 1); }
+
+bool Studio::keptSetsShown(Source s) const {
+  return snap_ && ((vplSource(s) && snap_->vplLightSetsDone > 0) || (s == Source::Vsl && snap_->vslLightSetsDone > 0));
+}
 
 bool Studio::roughPicture() const {
   if (!snap_ || snap_->lightSetsDone > 0 || snap_->manyLightDone) return false;
@@ -1521,7 +1526,7 @@ void Studio::drawPanels(ImDrawList* dl, ImVec2 origin, float panelW, ImVec2 size
     bool stale = sourceStale(s);
     if (stale)
       staleMark(dl, p0, p1);
-    else if (isMethod(s) && s != Source::Pinned && roughPicture() && !(vplSource(s) && snap_->vplLightSetsDone > 0))
+    else if (isMethod(s) && s != Source::Pinned && roughPicture() && !keptSetsShown(s))
       roughMark(dl, p0, roughText().c_str());
     dl->AddText(ImVec2(p0.x, origin.y), stale ? staleTitle : IM_COL32_WHITE,
                 (panelTitle(s, view_.component) + (stale ? "  [stale]" : "")).c_str());

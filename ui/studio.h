@@ -179,6 +179,9 @@ class Studio {
   // The methods' picture comes from under kRoughShare of the first light
   // set's lights: its panels carry a "ROUGH" badge.
   bool roughPicture() const;
+  // The source shows completed light sets kept across a restart that changed
+  // only the other method's parameters (never rough).
+  bool keptSetsShown(Source s) const;
   static constexpr double kRoughShare = 0.05;
   // The scene field's text (a failed load leaves the typed path there).
   const std::string& sceneField() const { return scenePath_; }
