@@ -196,6 +196,9 @@ class BrdfAt {
   float specularProbability() const { return ps_; }
   // False for a BRDF restricted to its diffuse lobe (diffuseLobe()).
   bool specularOn() const { return specularOn_; }
+  // The diffuse lobe's largest value: evalParts(wi).diffuse <= kd() for every
+  // wi (the lobe is kd (1 - s E(wi)), core/material.cpp).
+  const Vec3& kd() const { return kd_; }
   // An upper bound of pdf(wi) over all directions wi.
   float pdfBound() const { return pdfBound_; }
 

@@ -1,0 +1,398 @@
+// Stochastic lightcuts as an estimator: Yuksel, "Stochastic Lightcuts",
+// HPG 2019, over the virtual lights, for every gather layer (VSL, clamped,
+// unclamped and diffuse-only VPL). Each gather point draws its lights from
+// a light tree (light_tree.h): from the root, a child with probability
+// proportional to a bound of its lights' contribution (flux, distance, the
+// orientation cone of Conty Estevez and Kulla 2018, and a conservative
+// bound of the receiver's GGX lobe, LightTreeReceiver), and adds each
+// light's contribution over its probability. Eye paths, direct light,
+// shadow rays and the transfers are brute force's (core/gather.h).
+//
+// Parameters (docs/REFERENCE.md, "Stochastic lightcuts"):
+//   slc-samples  4     lights drawn per gather point per step
+//   slc-steps    16    steps per light set (the picture refines per step)
+//   slc-floor    0.05  share of descents by flux alone
+// Bias: none for a fixed light set (the floor gives every light with flux
+// a non-zero probability at every gather point); each step is an
+// unbiased estimate of brute force's all-lights image and the images are
+// the running mean. It refuses the pair roulette and the lobe gather.
+#include "core/estimators/slc/slc.h"
+
+#include <cstdio>
+#include <mutex>
+
+#include "core/estimator_registry.h"
+#include "core/estimators/slc/light_tree.h"
+#include "core/gather.h"
+#include "core/parallel.h"
+#include "core/rng.h"
+#include "core/settings.h"
+#include "core/stopwatch.h"
+
+namespace vsl {
+
+SlcSettings slcSettings(const EstimatorSettings& est) {
+  SlcSettings s;
+  s.samples = int(est.value("slc-samples"));
+  s.steps = int(est.value("slc-steps"));
+  s.floor = float(est.value("slc-floor"));
+  return s;
+}
+
+EstimatorSettings slcEstimatorSettings(const SlcSettings& s) {
+  EstimatorSettings e;
+  e.name = "slc";
+  e.values = {{"slc-samples", s.samples}, {"slc-steps", s.steps}, {"slc-floor", double(s.floor)}};
+  return e;
+}
+
+namespace {
+
+// The light choices' random stream (eye paths use 2, as brute force's).
+constexpr uint64_t kPickStream = 0x51c;
+
+RenderSettings directSettings(const ManyLightSettings& s) {
+  RenderSettings r;
+  r.width = s.width;
+  r.height = s.height;
+  r.seed = s.seed;
+  r.maxDepth = 1;  // emission + one scattering event: the reference's direct part
+  return r;
+}
+
+// The VSL quadrature stream of draw j of step s at gather point k: draw 0
+// of step 0 is brute force's (gatherStream), so that a tree of one light
+// gives brute force's picture.
+uint64_t drawStream(size_t pix, int k, int s, int K, int j) {
+  return gatherStream(pix, k) ^ (uint64_t(uint32_t(s * K + j)) << 24);
+}
+
+class SlcEstimator final : public ManyLightEstimator {
+ public:
+  SlcEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const SlcSettings& slc);
+  const std::string& name() const override {
+    static const std::string kName = "slc";
+    return kName;
+  }
+  bool step(const std::atomic<bool>* stop) override;
+  ManyLightImages images() const override;
+  int stepsDone() const override { return done_; }
+  int stepCount() const override { return slc_.steps; }
+  std::optional<double> nextStepSeconds() const override {
+    if (done() || done_ == 0) return std::nullopt;
+    return stepSeconds_ / done_;
+  }
+  std::optional<double> remainingSeconds() const override {
+    if (done()) return 0.0;
+    if (done_ == 0) return std::nullopt;
+    return stepSeconds_ / done_ * (slc_.steps - done_);
+  }
+  // The light set's share gathered: lights x steps done / steps.
+  size_t lightsProcessed() const override {
+    return size_t(double(run_.set.lights.size()) * done_ / std::max(slc_.steps, 1));
+  }
+  const ManyLightStats& stats() const override { return stats_; }
+  std::vector<std::pair<std::string, double>> statistics() const override {
+    return {{"treeSeconds", tree_.buildSeconds()},
+            {"treeMegabytes", double(tree_.bytes()) / 1e6},
+            {"samplesPerGatherPoint", double(done_) * slc_.samples}};
+  }
+  StepReport stepReport(double stepSeconds) const override;
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  float clampBound() const override { return clamp_; }
+
+ private:
+  struct Step;
+  void gatherTile(Step& st, const Gatherer& gatherer, int x0, int y0, int x1, int y1);
+  void gatherPoint(Step& st, const Gatherer& gatherer, const GatherPoint& gp, size_t pix, int k, Rng& pick,
+                   double acc[kGatherLayers][3], GatherCounters& c, double& vplOwn, double& vslOwn) const;
+  void merge(const Step& st);
+  int sharedEyes(int s) const {
+    return Gatherer::sharedEyePaths(sharedEnd_[size_t(s)] - (s > 0 ? sharedEnd_[size_t(s) - 1] : 0));
+  }
+
+  const RenderContext& ctx_;
+  ManyLightSettings many_;
+  SlcSettings slc_;
+  PathTracer direct_;
+  LightTree tree_;
+  int width_ = 0, height_ = 0;
+  float clamp_ = 0;
+  int done_ = 0;
+  double stepSeconds_ = 0;
+  std::vector<int> directEnd_, sharedEnd_;  // cumulative per step, as brute force's batches
+  Film directFilm_, sharedFilm_;
+  std::vector<Film> gather_;  // kGatherLayers films, one unbiased estimate per step
+  std::vector<Vec3> stepDirect_, stepShared_, stepLayers_[kGatherLayers];
+  ManyLightStats stats_;
+};
+
+SlcEstimator::SlcEstimator(const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many,
+                           const SlcSettings& slc)
+    : ManyLightEstimator(std::move(run)),
+      ctx_(ctx),
+      many_(many),
+      slc_(slc),
+      direct_(ctx.scene(), ctx.accel(), ctx.lights(), directSettings(many)),
+      tree_(LightTree::build(run_.set, run_.radii)),
+      width_(direct_.width()),
+      height_(direct_.height()),
+      clamp_(manyLightClampBound(ctx.scene(), many)),
+      directFilm_(width_, height_),
+      sharedFilm_(width_, height_) {
+  // Direct samples and shared eye paths spread evenly over the steps, at
+  // least one each (as brute force's batches spread them).
+  for (int s = 0; s < slc_.steps; ++s) {
+    const double share = double(s + 1) / slc_.steps;
+    auto addEnd = [&](std::vector<int>& ends, int samples) {
+      const int e = std::max(s + 1, int(std::lround(samples * share)));
+      ends.push_back(std::max(e, ends.empty() ? 1 : ends.back() + 1));
+    };
+    addEnd(directEnd_, many.directSamples);
+    addEnd(sharedEnd_, Gatherer::kSharedEyePaths);
+  }
+  gather_.reserve(kGatherLayers);
+  for (int k = 0; k < kGatherLayers; ++k) gather_.emplace_back(width_, height_);
+}
+
+// What one step's tiles share; its per-pixel results are merged only if
+// the step completes.
+struct SlcEstimator::Step {
+  int s = 0, dBegin = 0, dEnd = 0, eyes = 1;
+  const std::atomic<bool>* stop = nullptr;
+  std::atomic<bool> abandoned{false};
+  std::mutex mutex;
+  double threadTime = 0, vplTime = 0, vslTime = 0;
+};
+
+bool SlcEstimator::step(const std::atomic<bool>* stop) {
+  if (done() || run_.set.lights.empty()) return false;
+  Stopwatch wall;
+  Step st;
+  st.s = done_;
+  st.dBegin = st.s == 0 ? 0 : directEnd_[size_t(st.s) - 1];
+  st.dEnd = directEnd_[size_t(st.s)];
+  st.eyes = sharedEyes(st.s);
+  st.stop = stop;
+  const Gatherer gatherer(ctx_.scene(), ctx_.accel(), direct_.lightSampler(), many_, clamp_, many_.computeVsl,
+                          many_.computeVpl);
+  const size_t np = size_t(width_) * height_;
+  stepDirect_.resize(np);
+  stepShared_.resize(np);
+  for (auto& l : stepLayers_) l.resize(np);
+  const bool complete = parallelForTiles(
+      width_, height_, stop, [&](int x0, int y0, int x1, int y1) { gatherTile(st, gatherer, x0, y0, x1, y1); });
+  if (!complete || st.abandoned) return false;
+  merge(st);
+  const double seconds = wall.seconds();
+  stepSeconds_ += seconds;
+  stats_.gatherSeconds += seconds;
+  if (st.threadTime > 0) {
+    stats_.vslSeconds += seconds * std::max(0.0, 1.0 - st.vplTime / st.threadTime);
+    stats_.vplSeconds += seconds * std::max(0.0, 1.0 - st.vslTime / st.threadTime);
+  }
+  ++done_;
+  return true;
+}
+
+// Per pixel: direct light (this step's share of samples), the eye path to
+// its gather points and the light behind specular chains (as brute force's
+// batch), then each gather point's draws.
+void SlcEstimator::gatherTile(Step& st, const Gatherer& gatherer, int x0, int y0, int x1, int y1) {
+  Stopwatch clock;
+  GatherCounters c;
+  double vplOwn = 0, vslOwn = 0;
+  const Gatherer::EyePathOptions options = Gatherer::eyePathOptions(st.eyes);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      if (st.abandoned || (st.stop && st.stop->load(std::memory_order_relaxed))) {
+        st.abandoned = true;
+        return;
+      }
+      const size_t pix = size_t(y) * width_ + x;
+      stepDirect_[pix] = directLight(direct_, x, y, st.dBegin, st.dEnd, c);
+      Rng rng = Rng::forItem(pix, uint64_t(st.s), 2, many_.seed);
+      const EyeSample es = gatherer.eyePath(x, y, width_, height_, rng, c, options);
+      stepShared_[pix] = gatherer.sharedLight(es, st.eyes, x, y, width_, height_, uint64_t(st.s), c);
+      double acc[kGatherLayers][3] = {};
+      Rng pick = Rng::forItem(pix, uint64_t(st.s), kPickStream, many_.seed);
+      for (int k = 0; k < kMaxGatherPoints; ++k)
+        if (const GatherPoint* gp = es.point(k)) gatherPoint(st, gatherer, *gp, pix, k, pick, acc, c, vplOwn, vslOwn);
+      for (int l = 0; l < kGatherLayers; ++l)
+        stepLayers_[l][pix] = Vec3(float(acc[l][0]), float(acc[l][1]), float(acc[l][2]));
+    }
+  {
+    std::lock_guard<std::mutex> lock(st.mutex);
+    st.threadTime += clock.seconds();
+    st.vplTime += vplOwn;
+    st.vslTime += vslOwn;
+  }
+  ManyLightStats& s = stats_;
+  s.pairs.fetch_add(c.pairs, std::memory_order_relaxed);
+  s.shadowRays.fetch_add(c.shadowRays + c.rays, std::memory_order_relaxed);
+  s.vslEvaluations.fetch_add(c.vslEvaluations, std::memory_order_relaxed);
+  s.nonFinite.fetch_add(c.nonFinite, std::memory_order_relaxed);
+}
+
+// K lights drawn from the tree, each pair's transfers (one shadow ray, as
+// brute force's) over K times its probability. Each method's own transfer
+// is timed where both are computed.
+void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherPoint& gp, size_t pix, int k, Rng& pick,
+                               double acc[kGatherLayers][3], GatherCounters& c, double& vplOwn, double& vslOwn) const {
+  const LightTreeReceiver r = LightTreeReceiver::make(gp);
+  const int K = slc_.samples;
+  const bool both = many_.computeVpl && many_.computeVsl;
+  for (int j = 0; j < K; ++j) {
+    const LightTree::Sample smp = tree_.sample(r, pick, slc_.floor);
+    if (!(smp.pdf > 0)) continue;  // a light without flux
+    const GatherLight L = decodeGatherLight(run_.set.lights[smp.light], run_.radii[smp.light]);
+    PairGeometry g;
+    if (!gatherer.connect(gp, L, g, c)) continue;
+    double one[kGatherLayers][3] = {};
+    Stopwatch own;
+    gatherer.addVpl(gp, L, g, one, c);
+    if (both) vplOwn += own.lap();
+    gatherer.addVsl(gp, L, g, smp.light, drawStream(pix, k, st.s, K, j), one, c);
+    if (both) vslOwn += own.seconds();
+    const double w = 1.0 / (double(K) * smp.pdf);
+    for (int l = 0; l < kGatherLayers; ++l)
+      for (int ch = 0; ch < 3; ++ch) acc[l][ch] += one[l][ch] * w;
+  }
+}
+
+// Each step is an unbiased estimate of the all-lights image: weight 1.
+void SlcEstimator::merge(const Step& st) {
+  const int dCount = st.dEnd - st.dBegin;
+  parallelForChunks(size_t(height_), 16, [&](size_t y0, size_t y1) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < width_; ++x) {
+        const size_t pix = size_t(y) * width_ + x;
+        directFilm_.add(x, y, stepDirect_[pix], double(dCount));
+        sharedFilm_.add(x, y, stepShared_[pix], double(st.eyes));
+        for (int k = 0; k < kGatherLayers; ++k) gather_[size_t(k)].add(x, y, stepLayers_[k][pix], 1.0);
+      }
+  });
+}
+
+// As brute force's (ManyLightRenderer::images): indirect = gathered + the
+// light found on the eye paths; the lost layers are differences.
+ManyLightImages SlcEstimator::images() const {
+  ManyLightImages im;
+  im.direct = directFilm_.image();
+  const Image shared = sharedFilm_.image();
+  Image layer[kGatherLayers];
+  for (int k = 0; k < kGatherLayers; ++k) {
+    layer[k] = gather_[size_t(k)].image();
+    for (size_t i = 0; i < layer[k].rgb.size(); ++i) layer[k].rgb[i] += shared.rgb[i];
+  }
+  const int u = many_.diffuseOnly ? kVplDiffuse : kVplFull;
+  const int cl = many_.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
+  im.lostToClamping = Image(width_, height_);
+  im.lostToDiffuse = Image(width_, height_);
+  for (size_t i = 0; i < shared.rgb.size(); ++i) {
+    im.lostToClamping.rgb[i] = layer[u].rgb[i] - layer[cl].rgb[i];
+    im.lostToDiffuse.rgb[i] = layer[kVplFull].rgb[i] - layer[kVplDiffuse].rgb[i];
+  }
+  im.vsl = std::move(layer[kVslLayer]);
+  im.vpl = std::move(layer[cl]);
+  im.vplUnclamped = std::move(layer[kVplFull]);
+  im.vplDiffuse = std::move(layer[kVplDiffuse]);
+  return im;
+}
+
+StepReport SlcEstimator::stepReport(double stepSeconds) const {
+  StepReport out;
+  char text[160];
+  if (done_ == 1) {
+    std::snprintf(text, sizeof text, "SLC light tree over %zu lights: %.2f s, %.1f MB", tree_.lights(),
+                  tree_.buildSeconds(), double(tree_.bytes()) / 1e6);
+    out.info.push_back(text);
+  }
+  std::snprintf(text, sizeof text, "SLC step %d/%d: %.2f s, %d lights per gather point", done_, slc_.steps, stepSeconds,
+                done_ * slc_.samples);
+  out.info.push_back(text);
+  return out;
+}
+
+// ---- Its parameters ---------------------------------------------------------------------
+
+std::vector<EstimatorParam> slcParams() {
+  return {
+      {{.name = "slc-samples",
+        .key = "slcSamples",
+        .kind = ParamKind::Int,
+        .appliesTo = "VSL, VPL",
+        .min = 1,
+        .max = 4096,
+        .unit = "lights",
+        .help = "Stochastic lightcuts: lights drawn from the light tree per gather point per step",
+        .why = "a step of 4 draws costs about an eye path and its direct light "
+               "([RESULTS](RESULTS.md#stochastic-lightcuts))",
+        .uiMin = 1,
+        .uiMax = 256,
+        .uiLog = true},
+       SlcSettings::kDefaultSamples},
+      {{.name = "slc-steps",
+        .key = "slcSteps",
+        .kind = ParamKind::Int,
+        .appliesTo = "VSL, VPL",
+        .min = 1,
+        .max = 100000,
+        .unit = "steps",
+        .help = "Stochastic lightcuts: steps per light set, each adding slc-samples draws per gather point",
+        .why = "16 steps of 4 draws: 64 draws per gather point per light set, as brute force's 64 direct samples",
+        .uiMin = 1,
+        .uiMax = 1024,
+        .uiLog = true},
+       SlcSettings::kDefaultSteps},
+      {{.name = "slc-floor",
+        .key = "slcFloor",
+        .tier = ParamTier::Experimental,
+        .appliesTo = "VSL, VPL",
+        .min = 0,
+        .max = 1,
+        .minOpen = true,
+        .help = "Stochastic lightcuts: share of descents by flux alone (every light keeps a non-zero probability)",
+        .why = "a light the bounds miss (a glossy emitter's lobe) is still drawn; 5% of the draws "
+               "([RESULTS](RESULTS.md#stochastic-lightcuts))",
+        .uiMin = 0.001,
+        .uiMax = 1,
+        .uiLog = true},
+       SlcSettings::kDefaultFloor},
+  };
+}
+
+}  // namespace
+
+namespace plugins {
+EstimatorInfo slc();
+}
+
+// The registration function core/estimator_registry.cpp calls (its name is
+// this folder's, from core/CMakeLists.txt's vsl_estimator(slc)).
+EstimatorInfo plugins::slc() {
+  EstimatorInfo e;
+  e.name = "slc";
+  e.label = "stochastic lightcuts";
+  e.help =
+      "Stochastic lightcuts (Yuksel 2019): per gather point, SAMPLES lights drawn from a light tree by bounds of "
+      "their contribution, in STEPS progressive steps (unbiased after each step)";
+  e.params = slcParams();
+  e.validateWith = [](const ManyLightSettings& many) -> Result<void> {
+    if (many.pairRoulette > 0) return Error("pair-roulette: brute force only, not with stochastic lightcuts");
+    if (many.lobeGather > 0) return Error("lobe-gather: not with stochastic lightcuts");
+    return {};
+  };
+  // The tree: two nodes and a parent and leaf index per light.
+  e.memory = [](const EstimatorSettings&, uint64_t) -> ExtraMemory {
+    return {2 * sizeof(LightTreeNode) + 3 * sizeof(int32_t), 0};
+  };
+  e.create = [](const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const EstimatorSettings& est,
+                StepProgress*, const std::atomic<bool>*) -> std::unique_ptr<ManyLightEstimator> {
+    return std::make_unique<SlcEstimator>(ctx, std::move(run), many, slcSettings(est));
+  };
+  return e;
+}
+
+}  // namespace vsl
