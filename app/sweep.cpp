@@ -69,6 +69,8 @@ constexpr SweepMethod kSweepMethods[] = {
     {"vsl-mrcs", Method::Vsl, "mrcs", false, true, false},
     {"vpl-mrcs", Method::Vpl, "mrcs", false, true, false},
     {"vsl-mrcs-progressive", Method::Vsl, "mrcs", true, true, false},
+    {"vsl-slc", Method::Vsl, "slc", false, false, false},
+    {"vpl-slc", Method::Vpl, "slc", false, false, false},
     {"vsl-sets", Method::Vsl, "brute-force", false, true, true},
     {"vpl-sets", Method::Vpl, "brute-force", false, true, true},
 };
@@ -430,14 +432,18 @@ struct SweepContext {
     finish();
   }
 
-  // Brute force: one light set in progressive batches (each batch an unbiased
-  // estimate of the all-lights image), capped by the budget. The clock
-  // includes light tracing and k-NN, and only this method's own gather.
+  // Brute force (or stochastic lightcuts): one light set in progressive
+  // batches (steps), each an unbiased estimate of the all-lights image,
+  // capped by the budget. The clock includes light tracing and k-NN (and
+  // the light tree), and only this method's own gather.
   void runBatches(const std::string& method, uint32_t n, float sc, int set) {
     ManyLightSettings m = manySettings(method, n, sc, seedOf(set));
     m.batches = a.batches;
     Stopwatch clock;
-    std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, EstimatorSettings{});
+    EstimatorSettings e = a.estimator;
+    e.name = sweepMethod(method).estimator;
+    e.seed = m.seed;
+    std::unique_ptr<ManyLightEstimator> est = makeEstimator(ctx, prepareManyLights(ctx, m), m, e);
     double before = clock.seconds();  // when this step started (light tracing and k-NN are done)
     double gatheredBefore = est->stats().gatherSeconds;
     while (est->step()) {
@@ -1100,11 +1106,13 @@ Subcommand addSweepCommand(CLI::App& app) {
   CLI::App* sweep = app.add_subcommand("sweep", "Error against time for a grid of methods, light counts and radii");
   sweep->add_option("scene", sw.scene, "Scene file (not with --merge)");
   sweep
-      ->add_option("--methods", sw.methods,
-                   "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
-                   "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
-                   "vsl-mrcs-progressive (both); vsl-sets, vpl-sets (the mean of --batches independent light "
-                   "sets, one eye sample per pixel each; not capped by --time)")
+      ->add_option(
+          "--methods", sw.methods,
+          "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
+          "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
+          "vsl-mrcs-progressive (both); vsl-slc, vpl-slc (one light set in stochastic lightcuts steps, capped by "
+          "--time like vsl and vpl); vsl-sets, vpl-sets (the mean of --batches independent light "
+          "sets, one eye sample per pixel each; not capped by --time)")
       ->delimiter(',')
       ->check(CLI::IsMember(sweepMethodNames()))
       ->default_str("pt,vpl,vsl");

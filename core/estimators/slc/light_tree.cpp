@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <limits>
 
 #include "core/check.h"
 #include "core/stopwatch.h"
@@ -28,16 +29,12 @@ CosSin fromCos(float c) {
   return {c, safeSqrt(1 - c * c)};
 }
 
-// Squared distance from x to the box's closest point (0 inside).
-float closestDistance2(const LightTreeNode& nd, const Vec3& x) {
-  const Vec3 d = max(max(nd.lo - x, x - nd.hi), Vec3(0.0f));
-  return lengthSquared(d);
-}
-
 }  // namespace
 
-LightTreeReceiver LightTreeReceiver::make(const GatherPoint& gp) {
+LightTreeReceiver LightTreeReceiver::make(const GatherPoint& gp, bool vsl, float vplClamp) {
   LightTreeReceiver r;
+  r.vsl = vsl;
+  r.vplCap = vplClamp < kInf ? kPi * vplClamp : kInf;
   r.p = gp.p;
   r.n = gp.rx.frame.n;
   const BrdfAt& f = gp.rx.f;
@@ -53,6 +50,15 @@ LightTreeReceiver LightTreeReceiver::make(const GatherPoint& gp) {
   // blends towards 1 from F0 <= 1), G2 <= G1(wo) (Heitz 2014, height-
   // correlated Smith).
   r.specular = std::max(1.0f, b.specularWeight) * b.ggx.G1(wo) / (4 * wo.z);
+  r.albedo = std::max(1.0f, b.specularWeight);
+  // The lobes' albedos, roughly: the dielectric layer's E(cos_o, alpha) and
+  // the metal's colour; the diffuse lobe's at most pi kd.
+  if (!r.specularOn) return r;
+  const float alpha = std::sqrt(b.ggx.ax * b.ggx.ay);
+  const float as =
+      (1 - b.metallic) * b.specularWeight * dielectricSpecularAlbedo(wo.z, alpha) + b.metallic * luminance(b.baseColor);
+  const float ad = kPi * r.diffuse;
+  r.specularShare = ad > 0 ? clamp(as / std::max(as + ad, 1e-20f), 0.1f, 0.9f) : 1.0f;
   return r;
 }
 
@@ -62,20 +68,21 @@ LightTreeReceiver LightTreeReceiver::make(const GatherPoint& gp) {
 // falls with theta_h. A half vector is at least half as far from n as wi
 // is from the mirror direction: reflections about two axes theta apart
 // differ by a rotation of 2 theta, so |angle(wi, mirror)| <= 2 angle(h, n).
-float LightTreeReceiver::brdfCosBound(float thetaRCos, float cosX) const {
-  if (!(cosX > 0)) return 0;
-  float b = diffuse * cosX;
+void LightTreeReceiver::brdfCosBounds(float thetaRCos, float cosX, float out[2]) const {
+  out[0] = out[1] = 0;
+  if (!(cosX > 0)) return;
+  out[0] = diffuse * cosX;
   if (specularOn) {
     const float c2 = std::max(0.0f, 0.5f * (1 + thetaRCos)), s2 = std::max(0.0f, 1 - c2);  // cos^2, sin^2 theta_h
     const float am = std::max(ax, ay), am2 = am * am;
     const float den = am2 * c2 + s2;
-    b += specular * am2 * am2 / (kPi * ax * ay * den * den);
+    out[1] = specular * am2 * am2 / (kPi * ax * ay * den * den);
   }
-  return b;
 }
 
-float LightTree::orientedFlux(const LightTreeNode& nd, const LightTreeReceiver& r) const {
-  if (!(nd.flux > 0)) return 0;
+void LightTree::importance(const LightTreeNode& nd, const LightTreeReceiver& r, float out[2], bool withDistance) const {
+  out[0] = out[1] = 0;
+  if (!(nd.flux > 0)) return;
   const Vec3 c = 0.5f * (nd.lo + nd.hi);
   const float R = 0.5f * length(nd.hi - nd.lo);
   const Vec3 d = c - r.p;
@@ -90,19 +97,51 @@ float LightTree::orientedFlux(const LightTreeNode& nd, const LightTreeReceiver& 
     const float rs = std::min(1.0f, (R + nd.radius) / dist);
     sphere = fromCos(safeSqrt(1 - rs * rs));
   }
-  // Receiver cosine: the largest over the box's directions.
-  const float cosX = narrowed(fromCos(dot(r.n, dir)), box).c;
-  if (!(cosX > 0)) return 0;
-  // Emission cosine: the largest over the cone's normals and the box's
-  // directions (Conty Estevez and Kulla 2018, eq. 5's theta').
-  const CosSin cone = fromCos(nd.cosTheta);
-  const float cosP = narrowed(narrowed(fromCos(-dot(nd.axis, dir)), cone), box).c;
-  if (!(cosP > 0)) return 0;
+  // The cosines: zero (the pair contributes nothing, Gatherer::connect's
+  // test at the lights' centres) where they are zero over the box's
+  // directions; otherwise their largest over the cone to the lights'
+  // spheres, which VSL integrates over (a receiver near a sphere sees it
+  // at grazing angles from its centre's direction).
+  const CosSin toX = fromCos(dot(r.n, dir));
+  if (!(narrowed(toX, box).c > 0)) return;
+  const float cosX = narrowed(toX, sphere).c;
+  // Emission cosine: over the cone's normals as well (Conty Estevez and
+  // Kulla 2018, eq. 5's theta').
+  const CosSin toP = narrowed(fromCos(-dot(nd.axis, dir)), fromCos(nd.cosTheta));
+  if (!(narrowed(toP, box).c > 0)) return;
+  const float cosP = narrowed(toP, sphere).c;
   // The receiver's lobe: the closest direction to its peak within the cone
   // to the lights' spheres.
   const float cosR = narrowed(fromCos(dot(r.mirror, dir)), sphere).c;
-  const float f = r.brdfCosBound(cosR, cosX);
-  return nd.flux * cosP * f;
+  float f[2];
+  r.brdfCosBounds(cosR, cosX, f);
+  // A VSL's light is at most its sphere's over the sphere's area (twice
+  // that for the clipped disk) from the whole hemisphere: albedo / (pi
+  // r^2); the smallest sphere below bounds them all.
+  const float cap = r.vsl ? 2 * r.albedo / (kPi * sqr(std::max(nd.radiusMin, 1e-20f))) : r.vplCap;
+  // Distance as pbrt-v4's BVH light sampler takes it (after Conty Estevez
+  // and Kulla 2018): to the box's centre, at least half its diagonal, so
+  // that a box around the receiver is not infinitely important.
+  const float d2 = withDistance ? std::max(dist * dist, R * R) : 1.0f;
+  for (int k = 0; k < 2; ++k) {
+    if (withDistance) f[k] = d2 > 0 ? std::min(f[k] / d2, cap) : (f[k] > 0 ? cap : 0.0f);
+    out[k] = nd.flux * cosP * f[k];
+  }
+}
+
+float PairImportance::operator()(uint32_t i) const {
+  const GatherLight L = decodeGatherLight(set_.lights[i], radii_[i]);
+  PairGeometry pg;
+  pg.d = L.p - gp_.p;
+  pg.d2 = lengthSquared(pg.d);
+  pg.dist = std::sqrt(pg.d2);
+  if (!(pg.dist > 0)) return 0;
+  pg.l = pg.d / pg.dist;
+  pg.cosX = dot(gp_.rx.frame.n, pg.l);
+  pg.cosP = -dot(L.n, pg.l);
+  if (!(pg.cosX > 0 && dot(gp_.rx.ng, pg.l) > 0 && pg.cosP > 0 && -dot(L.ng, pg.l) > 0)) return 0;
+  const float e = g_.pairEstimate(gp_, L, pg);
+  return std::isfinite(e) ? std::max(e, 0.0f) : std::numeric_limits<float>::max();
 }
 
 double LightTree::fluxProbability(const LightTreeNode& nd) const {
@@ -110,23 +149,32 @@ double LightTree::fluxProbability(const LightTreeNode& nd) const {
   return f0 + f1 > 0 ? f0 / (f0 + f1) : 0.5;
 }
 
-double LightTree::childProbability(const LightTreeNode& nd, const LightTreeReceiver& r) const {
+void LightTree::childProbabilities(const LightTreeNode& nd, const LightTreeReceiver& r, const LeafImportance* leaf,
+                                   double p0[2]) const {
   const LightTreeNode& c0 = nodes_[size_t(nd.child)];
   const LightTreeNode& c1 = nodes_[size_t(nd.child) + 1];
-  double w0 = orientedFlux(c0, r), w1 = orientedFlux(c1, r);
-  // Distance (Yuksel 2019, section 4.2): the box's closest point, not used
-  // while the receiver is within either box's size (it would favour the
-  // box it is in whatever its lights); at least the VSL radius (a sphere's
-  // light is finite inside it).
-  const float d0 = closestDistance2(c0, r.p), d1 = closestDistance2(c1, r.p);
-  if (!(d0 < lengthSquared(c0.hi - c0.lo) || d1 < lengthSquared(c1.hi - c1.lo))) {
-    w0 /= std::max({double(d0), double(c0.radius) * c0.radius, 1e-30});
-    w1 /= std::max({double(d1), double(c1.radius) * c1.radius, 1e-30});
+  if (leaf && c0.leaf() && c1.leaf()) {
+    const double e0 = (*leaf)(c0.light()), e1 = (*leaf)(c1.light());
+    if (e0 + e1 > 0 && std::isfinite(e0 + e1)) {
+      p0[0] = p0[1] = e0 / (e0 + e1);
+      return;
+    }
   }
-  const double s = w0 + w1;
-  // Neither child can face the receiver (or a bound overflowed): by flux.
-  if (!(s > 0) || !std::isfinite(s)) return fluxProbability(nd);
-  return w0 / s;
+  float w0[2], w1[2];
+  importance(c0, r, w0);
+  importance(c1, r, w1);
+  for (int k = 0; k < 2; ++k) {
+    double a = w0[k], b = w1[k];
+    if (!std::isfinite(a) || !std::isfinite(b)) {
+      float u0[2], u1[2];
+      importance(c0, r, u0, false);
+      importance(c1, r, u1, false);
+      a = u0[k];
+      b = u1[k];
+    }
+    // Neither child can face the receiver (or a bound overflowed): by flux.
+    p0[k] = a + b > 0 && std::isfinite(a + b) ? a / (a + b) : fluxProbability(nd);
+  }
 }
 
 // ---- [2] Build ------------------------------------------------------------------------
@@ -180,8 +228,9 @@ void mergeCones(const Vec3& a, float cosA, const Vec3& b, float cosB, Vec3& axis
 
 LightTree LightTree::build(const std::vector<GatherLight>& lights) {
   std::vector<Prim> prims(lights.size());
-  for (size_t i = 0; i < lights.size(); ++i)
+  for (size_t i = 0; i < lights.size(); ++i) {
     prims[i] = {lights[i].p, lights[i].n, std::max(0.0f, luminance(lights[i].Phi)), lights[i].radius};
+  }
   return fromPrims(std::move(prims));
 }
 
@@ -240,7 +289,7 @@ LightTree LightTree::fromPrims(std::vector<Prim> prims) {
       nd.axis = p.n;
       nd.cosTheta = 1;
       nd.flux = p.flux;
-      nd.radius = p.radius;
+      nd.radius = nd.radiusMin = p.radius;
       nd.child = -int32_t(li) - 1;
       t.leafOf_[li] = r.node;
       continue;
@@ -271,6 +320,7 @@ LightTree LightTree::fromPrims(std::vector<Prim> prims) {
     nd.hi = max(a.hi, b.hi);
     nd.flux = a.flux + b.flux;
     nd.radius = std::max(a.radius, b.radius);
+    nd.radiusMin = std::min(a.radiusMin, b.radiusMin);
     mergeCones(a.axis, a.cosTheta, b.axis, b.cosTheta, nd.axis, nd.cosTheta);
   }
   t.buildSeconds_ = clock.seconds();
@@ -279,27 +329,33 @@ LightTree LightTree::fromPrims(std::vector<Prim> prims) {
 
 // ---- [3] Sampling and pdf ------------------------------------------------------------
 
-LightTree::Sample LightTree::sample(const LightTreeReceiver& r, Rng& rng, float floor) const {
-  const bool byFlux = rng.uniform() < floor;
-  double pImp = 1, pFlux = 1;
+LightTree::Sample LightTree::sample(const LightTreeReceiver& r, Rng& rng, float floor,
+                                    const LeafImportance* leaf) const {
+  // The descent: diffuse lobe's (0), specular lobe's (1), or by flux (2).
+  const float u = rng.uniform();
+  const int strategy = u < floor ? 2 : (u < floor + (1 - floor) * r.specularShare ? 1 : 0);
+  double p[3] = {1, 1, 1};
   int32_t i = 0;
   while (!nodes_[size_t(i)].leaf()) {
     const LightTreeNode& nd = nodes_[size_t(i)];
-    const double pi0 = childProbability(nd, r), pf0 = fluxProbability(nd);
-    const bool first = rng.uniform() < (byFlux ? pf0 : pi0);
-    pImp *= first ? pi0 : 1 - pi0;
-    pFlux *= first ? pf0 : 1 - pf0;
+    double q[3];
+    childProbabilities(nd, r, leaf, q);
+    q[2] = fluxProbability(nd);
+    const bool first = rng.uniform() < q[strategy];
+    for (int k = 0; k < 3; ++k) p[k] *= first ? q[k] : 1 - q[k];
     i = nd.child + (first ? 0 : 1);
   }
-  return {nodes_[size_t(i)].light(), mix(pImp, pFlux, floor)};
+  return {nodes_[size_t(i)].light(), mix(p, floor, r.specularShare)};
 }
 
-double LightTree::mix(double pImp, double pFlux, float floor) {
+double LightTree::mix(const double p[3], float floor, float share) {
   // Equal parts give that value exactly (a tree of one light: 1).
-  return pImp == pFlux ? pImp : double(floor) * pFlux + (1 - double(floor)) * pImp;
+  if (p[0] == p[1] && p[1] == p[2]) return p[0];
+  const double f = floor, s = share;
+  return f * p[2] + (1 - f) * (s * p[1] + (1 - s) * p[0]);
 }
 
-double LightTree::pdf(const LightTreeReceiver& r, uint32_t light, float floor) const {
+double LightTree::pdf(const LightTreeReceiver& r, uint32_t light, float floor, const LeafImportance* leaf) const {
   VSL_CHECK(light < leafOf_.size());
   int32_t path[128];
   int depth = 0;
@@ -307,15 +363,16 @@ double LightTree::pdf(const LightTreeReceiver& r, uint32_t light, float floor) c
     VSL_CHECK(depth < 128);
     path[depth++] = i;
   }
-  double pImp = 1, pFlux = 1;
+  double p[3] = {1, 1, 1};
   for (int k = depth - 1; k > 0; --k) {
     const LightTreeNode& nd = nodes_[size_t(path[k])];
     const bool first = path[k - 1] == nd.child;
-    const double pi0 = childProbability(nd, r), pf0 = fluxProbability(nd);
-    pImp *= first ? pi0 : 1 - pi0;
-    pFlux *= first ? pf0 : 1 - pf0;
+    double q[3];
+    childProbabilities(nd, r, leaf, q);
+    q[2] = fluxProbability(nd);
+    for (int j = 0; j < 3; ++j) p[j] *= first ? q[j] : 1 - q[j];
   }
-  return mix(pImp, pFlux, floor);
+  return mix(p, floor, r.specularShare);
 }
 
 }  // namespace vsl

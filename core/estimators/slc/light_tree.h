@@ -11,11 +11,11 @@
 //
 // Sampling (sample): from the root, each step takes a child with
 // probability proportional to its importance at the receiver (importance()
-// below: flux x orientation bounds x receiver BRDF bound / distance^2),
-// with probability `floor` the whole descent by flux alone instead; the
-// pdf of a light is floor x (its flux share) + (1 - floor) x (the product
-// of its path's importance choices), so every light with flux has a
-// non-zero probability at every receiver. Thread-safety: const methods are
+// below: flux x orientation bounds x a bound of one lobe of the receiver's
+// BRDF / distance^2), the lobe chosen per descent (one-sample MIS); with
+// probability `floor` the whole descent by flux alone instead. The pdf of
+// a light is the mixture of the three descents' path products, so every
+// light with flux has a non-zero probability at every receiver. Thread-safety: const methods are
 // safe from any thread.
 #pragma once
 
@@ -30,11 +30,12 @@
 namespace vsl {
 
 struct LightTreeNode {
-  Vec3 lo, hi;         // box of the lights' positions
-  Vec3 axis;           // orientation cone's axis (emission normals)
-  float cosTheta = 1;  // cone's half-angle cosine (-1: every direction)
-  float flux = 0;      // sum of the lights' luminance(Phi)
-  float radius = 0;    // largest VSL radius below
+  Vec3 lo, hi;          // box of the lights' positions
+  Vec3 axis;            // orientation cone's axis (emission normals)
+  float cosTheta = 1;   // cone's half-angle cosine (-1: every direction)
+  float flux = 0;       // sum of the lights' luminance(Phi)
+  float radius = 0;     // largest VSL radius below
+  float radiusMin = 0;  // smallest VSL radius below
   // Inner node: children child and child + 1. Leaf: light -(child + 1).
   int32_t child = 0;
   bool leaf() const { return child < 0; }
@@ -51,11 +52,64 @@ struct LightTreeReceiver {
   float specular = 0;  // F_max G1(wo) / (4 cos_o): the specular lobe's factor besides D
   float ax = 1, ay = 1;
   bool specularOn = false;
-  static LightTreeReceiver make(const GatherPoint& gp);
-  // An upper bound of f_r(wo, wi) cos(wi) over directions wi whose angle to
-  // the mirror direction is at least thetaR and whose cosine with n is at
-  // most cosX (for cosX <= 0: zero).
-  float brdfCosBound(float thetaR, float cosX) const;
+  // The largest share of light from the whole hemisphere the BRDF returns
+  // (its albedo, at most 1 for an energy-conserving BRDF; max(1,
+  // specularWeight) here).
+  float albedo = 1;
+  // What a single light can contribute at most, besides its flux and the
+  // bounds' cosines (LightTree::importance): for VSL, albedo / (pi r^2)
+  // (the sphere's light over its area, from at most the whole hemisphere,
+  // twice that for the clipped disk); for VPL alone, the clamp x pi (T <=
+  // clamp with a Lambertian light's 1/pi); infinite for neither.
+  bool vsl = true;
+  float vplCap = kInf;
+  // One-sample MIS over the lobes (Veach 1997's balance heuristic as a
+  // mixture): the share of importance descents that follow the specular
+  // lobe's bound, the rest the diffuse lobe's, by the lobes' albedos (in
+  // [0.1, 0.9] where both are on). A narrow lobe's bound is large wherever
+  // its peak falls inside a node's cone, and would otherwise swamp the
+  // diffuse lobe's choice.
+  float specularShare = 0;
+  // vsl: computeVsl; vplClamp: the VPL clamp bound where only VPL is
+  // computed (+inf: none).
+  static LightTreeReceiver make(const GatherPoint& gp, bool vsl = true, float vplClamp = kInf);
+  // Upper bounds of f_r(wo, wi) cos(wi), [0] of the diffuse lobe and [1]
+  // of the specular lobe, over directions wi whose cosine with the mirror
+  // direction is at most cosR and with n at most cosX (for cosX <= 0:
+  // zero).
+  void brdfCosBounds(float cosR, float cosX, float out[2]) const;
+};
+
+// A light's own importance at one receiver, for the last choice of a
+// descent (between two single lights), where the node bounds ignore what
+// sets two lights apart most: their own BRDF toward the receiver (a glossy
+// light's lobe). Not normalised; it must be 0 only where the light
+// contributes nothing. Used where both children are leaves and their
+// importances do not both vanish.
+class LeafImportance {
+ public:
+  virtual float operator()(uint32_t light) const = 0;
+
+ protected:
+  ~LeafImportance() = default;
+};
+
+// A pair's estimated contribution before its shadow ray, the estimator's
+// LeafImportance: zero where the two do not face each other along the line
+// between their centres (as Gatherer::connect), else Gatherer::pairEstimate
+// (VSL's estimate from above, unclamped VPL's value; both with the light's
+// own BRDF toward the receiver).
+class PairImportance final : public LeafImportance {
+ public:
+  PairImportance(const Gatherer& g, const GatherPoint& gp, const VirtualLightSet& set, const std::vector<float>& radii)
+      : g_(g), gp_(gp), set_(set), radii_(radii) {}
+  float operator()(uint32_t i) const override;
+
+ private:
+  const Gatherer& g_;
+  const GatherPoint& gp_;
+  const VirtualLightSet& set_;
+  const std::vector<float>& radii_;
 };
 
 class LightTree {
@@ -68,15 +122,21 @@ class LightTree {
 
   size_t lights() const { return leafOf_.size(); }
   const std::vector<LightTreeNode>& nodes() const { return nodes_; }
-  // A node's importance at the receiver (not normalised): flux x bound of
-  // the receiver's BRDF and cosine x bound of the emission cosine, without
-  // the distance (childProbability applies it). 0 where no light below can
-  // face the receiver.
-  float orientedFlux(const LightTreeNode& node, const LightTreeReceiver& r) const;
-  // The probability of child `node.child` (the first) at the receiver;
-  // 1 - it for the second. Distance by Yuksel 2019: 1 / (closest point of
-  // the box)^2, ignored while the receiver is within either box's size.
-  double childProbability(const LightTreeNode& node, const LightTreeReceiver& r) const;
+  // A node's importance at the receiver for each lobe, [0] diffuse and [1]
+  // specular (not normalised): flux x bound of the emission cosine x the
+  // smaller of (the lobe's bound of f_r cos) / d^2 and the receiver's cap
+  // (a VSL's light is finite however near), d the distance to the box's
+  // centre but at least half its diagonal (pbrt-v4's BVH light sampler).
+  // 0 where no light below can face the receiver (the cosine bounds are
+  // conservative); infinite only for an uncapped VPL at the receiver.
+  // withDistance false: without the distance and the cap.
+  void importance(const LightTreeNode& node, const LightTreeReceiver& r, float out[2], bool withDistance = true) const;
+  // The probability of child `node.child` (the first) at the receiver for
+  // each lobe's descent; 1 - it for the second: by importance(), and where
+  // an importance is infinite by importance without distance; where both
+  // children are single lights and `leaf` is given, by it, for both lobes.
+  void childProbabilities(const LightTreeNode& node, const LightTreeReceiver& r, const LeafImportance* leaf,
+                          double p0[2]) const;
   // The flux share of the first child (0.5 when neither has flux).
   double fluxProbability(const LightTreeNode& node) const;
   // A light drawn for the receiver (one uniform for the floor's choice and
@@ -85,9 +145,9 @@ class LightTree {
     uint32_t light = 0;
     double pdf = 0;
   };
-  Sample sample(const LightTreeReceiver& r, Rng& rng, float floor) const;
+  Sample sample(const LightTreeReceiver& r, Rng& rng, float floor, const LeafImportance* leaf = nullptr) const;
   // The pdf sample() gives light i at the receiver.
-  double pdf(const LightTreeReceiver& r, uint32_t light, float floor) const;
+  double pdf(const LightTreeReceiver& r, uint32_t light, float floor, const LeafImportance* leaf = nullptr) const;
   double buildSeconds() const { return buildSeconds_; }
   // Bytes held.
   size_t bytes() const {
@@ -100,8 +160,9 @@ class LightTree {
     float flux, radius;
   };
   static LightTree fromPrims(std::vector<Prim> prims);
-  // floor x pFlux + (1 - floor) x pImp.
-  static double mix(double pImp, double pFlux, float floor);
+  // floor x p[2] (flux) + (1 - floor) x (share x p[1] (specular) +
+  // (1 - share) x p[0] (diffuse)).
+  static double mix(const double p[3], float floor, float share);
   std::vector<LightTreeNode> nodes_;  // root at 0
   std::vector<int32_t> parent_;       // per node; -1 at the root
   std::vector<int32_t> leafOf_;       // per light
