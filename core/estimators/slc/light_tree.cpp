@@ -93,9 +93,10 @@ void LightTree::importance(const LightTreeNode& nd, const LightTreeReceiver& r, 
   Vec3 dir = r.n;
   if (dist > R) {
     dir = d / dist;
-    box = fromCos(safeSqrt(1 - sqr(R / dist)));
+    const float sb = R / dist;
+    box = {safeSqrt(1 - sb * sb), sb};
     const float rs = std::min(1.0f, (R + nd.radius) / dist);
-    sphere = fromCos(safeSqrt(1 - rs * rs));
+    sphere = {safeSqrt(1 - rs * rs), rs};
   }
   // The cosines: zero (the pair contributes nothing, Gatherer::connect's
   // test at the lights' centres) where they are zero over the box's

@@ -148,16 +148,17 @@ SlcEstimator::SlcEstimator(const RenderContext& ctx, ManyLightRun run, const Man
       clamp_(manyLightClampBound(ctx.scene(), many)),
       directFilm_(width_, height_),
       sharedFilm_(width_, height_) {
-  // Direct samples and shared eye paths spread evenly over the steps, at
-  // least one each (as brute force's batches spread them).
+  // Shared eye paths spread evenly over the steps, at least one each (as
+  // brute force's batches spread them: every step traces an eye path).
+  // Direct samples spread evenly too, but a step of many may take none
+  // (they are the direct light's, not the gather's: a sweep of thousands
+  // of steps would otherwise trace thousands per pixel).
   for (int s = 0; s < slc_.steps; ++s) {
     const double share = double(s + 1) / slc_.steps;
-    auto addEnd = [&](std::vector<int>& ends, int samples) {
-      const int e = std::max(s + 1, int(std::lround(samples * share)));
-      ends.push_back(std::max(e, ends.empty() ? 1 : ends.back() + 1));
-    };
-    addEnd(directEnd_, many.directSamples);
-    addEnd(sharedEnd_, Gatherer::kSharedEyePaths);
+    const int e = std::max(s + 1, int(std::lround(Gatherer::kSharedEyePaths * share)));
+    sharedEnd_.push_back(std::max(e, sharedEnd_.empty() ? 1 : sharedEnd_.back() + 1));
+    const int d = std::max(1, int(std::lround(many.directSamples * share)));
+    directEnd_.push_back(std::max(d, directEnd_.empty() ? 1 : directEnd_.back()));
   }
   gather_.reserve(kGatherLayers);
   for (int k = 0; k < kGatherLayers; ++k) gather_.emplace_back(width_, height_);
@@ -210,7 +211,10 @@ void SlcEstimator::gatherTile(Step& st, const Gatherer& gatherer, int x0, int y0
   Stopwatch clock;
   GatherCounters c;
   double vplOwn = 0, vslOwn = 0;
-  const Gatherer::EyePathOptions options = Gatherer::eyePathOptions(st.eyes);
+  Gatherer::EyePathOptions options = Gatherer::eyePathOptions(st.eyes);
+  // Past the 64 eye paths' schedule (one per step), one next-event sample
+  // per step for the light behind specular chains: the steps average them.
+  if (slc_.steps > Gatherer::kSharedEyePaths) options.lightSamples = 1;
   for (int y = y0; y < y1; ++y)
     for (int x = x0; x < x1; ++x) {
       if (st.abandoned || (st.stop && st.stop->load(std::memory_order_relaxed))) {
@@ -218,7 +222,7 @@ void SlcEstimator::gatherTile(Step& st, const Gatherer& gatherer, int x0, int y0
         return;
       }
       const size_t pix = size_t(y) * width_ + x;
-      stepDirect_[pix] = directLight(direct_, x, y, st.dBegin, st.dEnd, c);
+      if (st.dEnd > st.dBegin) stepDirect_[pix] = directLight(direct_, x, y, st.dBegin, st.dEnd, c);
       Rng rng = Rng::forItem(pix, uint64_t(st.s), 2, many_.seed);
       const EyeSample es = gatherer.eyePath(x, y, width_, height_, rng, c, options);
       stepShared_[pix] = gatherer.sharedLight(es, st.eyes, x, y, width_, height_, uint64_t(st.s), c);
@@ -279,7 +283,7 @@ void SlcEstimator::merge(const Step& st) {
     for (int y = int(y0); y < int(y1); ++y)
       for (int x = 0; x < width_; ++x) {
         const size_t pix = size_t(y) * width_ + x;
-        directFilm_.add(x, y, stepDirect_[pix], double(dCount));
+        if (dCount > 0) directFilm_.add(x, y, stepDirect_[pix], double(dCount));
         sharedFilm_.add(x, y, stepShared_[pix], double(st.eyes));
         for (int k = 0; k < kGatherLayers; ++k) gather_[size_t(k)].add(x, y, stepLayers_[k][pix], 1.0);
       }
