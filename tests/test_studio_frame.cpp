@@ -1247,7 +1247,8 @@ TEST(LastSession, KeepsTheEstimatorAndItsParameters) {
   EXPECT_EQ(old.estimator.value("mrcs-mix"), 0) << "absent: the default";
   EXPECT_EQ(old.estimator.describe(), "mrcs --mrcs 77,88,0");
   // An estimator this version does not have: the default.
-  std::ofstream(path, std::ios::trunc) << R"({"version": 2, "scene": "x.gltf", "settings": {"estimator": "lightslice"}})";
+  std::ofstream(path, std::ios::trunc)
+      << R"({"version": 2, "scene": "x.gltf", "settings": {"estimator": "lightslice"}})";
   StudioSettings unknown;
   ASSERT_TRUE(ui::loadLastSession(path, &unknown, &rv, &warning)) << warning;
   EXPECT_EQ(unknown.estimator.name, "brute-force");
