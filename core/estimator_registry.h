@@ -44,6 +44,13 @@ struct EstimatorInfo {
   // (its progress is shown and its report logged per set), and a lobe gather
   // is traced within the step rather than when the estimator is made.
   bool wholeSetPerStep = false;
+  // Its choices for one method read the other's settings (stochastic
+  // lightcuts: the draws that VSL and VPL share come from a tree holding
+  // the VSL radii, shaped by which methods are computed), so a change to
+  // one method's parameters changes the other's pictures too: the studio
+  // restarts both (Session, "one-method restarts"; docs/ARCHITECTURE.md on
+  // appliesTo).
+  bool methodsShareChoices = false;
   // Renders the VPL variants (unclamped, diffuse-only) and the lost-energy
   // layers; if not, only direct, VSL and clamped VPL (the others stay black).
   bool vplVariants = true;

@@ -153,7 +153,7 @@ bool unchangedFor(StudioMethod m, const StudioSettings& a, const StudioSettings&
       a.many.pairRoulette > 0 || b.many.pairRoulette > 0)
     return false;
   const EstimatorInfo* info = findEstimator(b.estimator.name);
-  if (!info || info->wholeSetPerStep) return false;
+  if (!info || info->wholeSetPerStep || info->methodsShareChoices) return false;
   // b with the other method's parameters set back to a's.
   const std::string_view other = m == StudioMethod::Vpl ? "VSL" : "VPL";
   StudioSettings bAsA = b;

@@ -307,6 +307,9 @@ TEST(SlcSeam, ParametersStepsAndRefusals) {
   const EstimatorInfo* info = findEstimator("slc");
   ASSERT_TRUE(info);
   EXPECT_EQ(info->params.size(), 4u);
+  // A VSL-only change (the radius scale) changes the tree and with it VPL's
+  // draws: the studio must not keep VPL's light sets across it.
+  EXPECT_TRUE(info->methodsShareChoices);
   EstimatorSettings e = slc(2, 3);
   EXPECT_TRUE(e.validate());
   e.values["slc-samples"] = 0;

@@ -406,6 +406,8 @@ EstimatorInfo plugins::slc() {
       "Stochastic lightcuts (Yuksel 2019): per gather point, SAMPLES lights drawn from a light tree by bounds of "
       "their contribution, in STEPS progressive steps (unbiased after each step)";
   e.params = slcParams();
+  // VSL's radii shape the tree's bounds, and VPL's draws with them.
+  e.methodsShareChoices = true;
   e.validateWith = [](const ManyLightSettings& many) -> Result<void> {
     if (many.pairRoulette > 0) return Error("pair-roulette: brute force only, not with stochastic lightcuts");
     if (many.lobeGather > 0) return Error("lobe-gather: not with stochastic lightcuts");
