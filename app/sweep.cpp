@@ -60,11 +60,14 @@ struct SweepMethod {
   Method gather;  // Pt, Vsl or Vpl
   const char* estimator;
   bool progressiveRadius, passes, passesCappedByBatches;
+  // VSL with the closed-form cone integral (--vsl-integral sg, core/vsl_sg.h).
+  bool sg = false;
 };
 constexpr SweepMethod kSweepMethods[] = {
     {"pt", Method::Pt, "brute-force", false, false, false},
     {"vpl", Method::Vpl, "brute-force", false, false, false},
     {"vsl", Method::Vsl, "brute-force", false, false, false},
+    {"vsl-sg", Method::Vsl, "brute-force", false, false, false, true},
     {"vsl-progressive", Method::Vsl, "brute-force", true, true, false},
     {"vsl-mrcs", Method::Vsl, "mrcs", false, true, false},
     {"vpl-mrcs", Method::Vpl, "mrcs", false, true, false},
@@ -362,6 +365,7 @@ struct SweepContext {
     m.directSamples = 1;
     m.radiusScale = scale > 0 ? scale : 1.0f;
     m.computeVsl = sweepMethod(method).gather == Method::Vsl;
+    if (sweepMethod(method).sg) m.vslIntegral = VslIntegral::Sg;
     m.computeVpl = !m.computeVsl;
     return m;
   }
