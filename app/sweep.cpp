@@ -1105,7 +1105,8 @@ Subcommand addSweepCommand(CLI::App& app) {
   sweep->add_option("scene", sw.scene, "Scene file (not with --merge)");
   sweep
       ->add_option("--methods", sw.methods,
-                   "Methods: pt, vpl, vsl; vsl-progressive (independent light sets with shrinking radii); "
+                   "Methods: pt, vpl, vsl; vsl-sg (vsl with --vsl-integral sg); vsl-progressive (independent light "
+                   "sets with shrinking radii); "
                    "vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
                    "vsl-mrcs-progressive (both); vsl-sets, vpl-sets (the mean of --batches independent light "
                    "sets, one eye sample per pixel each; not capped by --time)")

@@ -66,7 +66,7 @@ double numericalIntegral(const std::vector<SphericalGaussian>& g, const Vec3& po
 // SG by SG). Tolerance 1e-3 relative: the rule's error at 1,200 x 96 nodes.
 TEST(VslSg, ProductIntegralMatchesNumericalIntegration) {
   Rng rng(51, 1);
-  for (int trial = 0; trial < 12; ++trial) {
+  for (int trial = 0; trial < 8; ++trial) {
     std::vector<SphericalGaussian> g(2 + rng.uniformInt(3));
     Vec3 v(0.0f);
     for (SphericalGaussian& s : g) {
@@ -173,13 +173,13 @@ struct Agreement {
   double sumSg = 0, sumQ = 0;
 };
 
-// The closed form against the quadrature at 1,024 samples per strategy on
+// The closed form against the quadrature at 512 samples per strategy on
 // random pairs of the given materials, half-angles from lo to hi degrees.
 Agreement agreement(int mx, int mp, int pairs, double lo, double hi, uint64_t seed) {
   Rng rng(seed, 3);
   Agreement a;
   VslOptions q;
-  q.samplesPerStrategy = 1024;
+  q.samplesPerStrategy = 512;
   for (int i = 0; i < pairs; ++i) {
     const double halfAngle = (lo + (hi - lo) * rng.uniform()) * M_PI / 180.0;
     const Pair pr = makePair(rng, mx, mp, 1.0f, std::sin(halfAngle));
@@ -208,8 +208,8 @@ void checkAgreement(double lo, double hi, double pooledMedian, double pooledSum,
   Agreement all;
   for (int mx = 0; mx < kMaterials; ++mx)
     for (int mp = 0; mp < kMaterials; ++mp) {
-      const Agreement a = agreement(mx, mp, 40, lo, hi, 1000 + 10 * mx + mp);
-      ASSERT_GT(a.relErr.size(), 20u);
+      const Agreement a = agreement(mx, mp, 30, lo, hi, 1000 + 10 * mx + mp);
+      ASSERT_GT(a.relErr.size(), 15u);
       const double med = quantileOf(a.relErr, 0.5);
       std::printf("%-18s %-18s %8.4f %8.4f %8.4f %9.4f\n", kMaterialNames[mx], kMaterialNames[mp], med,
                   quantileOf(a.relErr, 0.9), a.relErr.back(), a.sumSg / a.sumQ);
@@ -229,7 +229,7 @@ void checkAgreement(double lo, double hi, double pooledMedian, double pooledSum,
 }  // namespace
 
 // Narrow cones, 0.5-5 degrees: the cones of most pairs at 10,000 lights.
-// The quadrature's own relative noise at 1,024 samples per strategy is a few
+// The quadrature's own relative noise at 512 samples per strategy is a few
 // percent at most. Measured (printed): pooled median error 0.4%, sum ratios
 // 0.965-1.042. Tolerances: pooled median error 2%, mean sum ratio within 3%,
 // each kind pair's median under 3%.
