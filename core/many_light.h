@@ -175,7 +175,9 @@ struct ManyLightSettings {
   // already; the CLI and the studio refuse the pair). At most 100.
   float pairRoulette = 0;
   VslOptions vslOptions() const {
-    return {vslSamples, clippedDisk, vslCount, vslIntegral, 1.0 - std::cos(double(vslSgMaxAngle) * M_PI / 180.0)};
+    // 90 degrees takes every cone, the hemisphere of a receiver inside the sphere too.
+    const double omc = vslSgMaxAngle >= 90.0f ? 1.0 : 1.0 - std::cos(double(vslSgMaxAngle) * M_PI / 180.0);
+    return {vslSamples, clippedDisk, vslCount, vslIntegral, omc};
   }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
