@@ -221,9 +221,12 @@ GatherBench timeOneBatch(const Scene& scene, const Accel& accel, const LightSamp
 std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                       OcclusionBench& occlusion, double rawBefore, const BenchArgs& a) {
   std::vector<GatherBench> gathers;
-  auto gather = [&](const std::string& name, bool vsl, VslCount count, int samples, uint32_t n, int sz, int szY = 0) {
+  auto gather = [&](const std::string& name, bool vsl, VslCount count, int samples, VslIntegral integral,
+                    float sgMaxAngle, uint32_t n, int sz, int szY = 0) {
     ManyLightSettings m;
     m.vslCount = count;
+    m.vslIntegral = integral;
+    m.vslSgMaxAngle = sgMaxAngle;
     m.vslSamples = samples;
     m.lights = n;
     m.width = sz;
@@ -247,23 +250,29 @@ std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, co
   // (eight 16x16 tiles, so that two threads share the work evenly).
   // VPL, VSL with the default count, then VSL with each other automatic count,
   // and VSL at one sample per strategy ("VSL-1", --vsl-samples 1: what a pair
-  // costs besides its quadrature's count).
+  // costs besides its quadrature's count), and VSL in closed form ("VSL-SG",
+  // --vsl-integral sg, core/vsl_sg.h: cones wider than 5 degrees by the
+  // quadrature; "VSL-SG90", every pair in closed form).
   const VslCount dflt = ManyLightSettings().vslCount;
   struct Variant {
     std::string name;
     VslCount count;
     int samples;  // per strategy; 0: the automatic count
+    VslIntegral integral = VslIntegral::Quadrature;
+    float sgMaxAngle = ManyLightSettings::kDefaultVslSgMaxAngle;
   };
   std::vector<Variant> variants = {{"VPL", dflt, 0}, {"VSL", dflt, 0}};
   for (VslCount c : kVslCounts)
     if (c != dflt) variants.push_back({std::string("VSL-") + vslCountName(c), c, 0});
   variants.push_back({"VSL-1", dflt, 1});
+  variants.push_back({"VSL-SG", dflt, 0, VslIntegral::Sg});
+  variants.push_back({"VSL-SG90", dflt, 0, VslIntegral::Sg, 90.0f});
   for (const Variant& v : variants) {
     const bool vsl = v.name != "VPL";
-    gather(v.name, vsl, v.count, v.samples, 1000, a.size / 2);
-    gather(v.name, vsl, v.count, v.samples, 4000, a.size / 2);
-    gather(v.name, vsl, v.count, v.samples, 1000, a.size);
-    gather(v.name, vsl, v.count, v.samples, 100000, 64, 32);
+    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 1000, a.size / 2);
+    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 4000, a.size / 2);
+    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 1000, a.size);
+    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 100000, 64, 32);
   }
   return gathers;
 }

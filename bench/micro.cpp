@@ -9,6 +9,7 @@
 #include "core/sampling.h"
 #include "core/virtual_lights.h"
 #include "core/vsl_integral.h"
+#include "core/vsl_sg.h"
 
 using namespace vsl;
 
@@ -83,6 +84,87 @@ void BM_VslCone(benchmark::State& state) {
 }
 BENCHMARK(BM_VslCone<false>)->Arg(1)->Arg(2)->Arg(5)->Arg(10)->Arg(27)->Arg(50);
 BENCHMARK(BM_VslCone<true>)->Arg(1)->Arg(2)->Arg(5)->Arg(10)->Arg(27)->Arg(50);
+
+// One pair's transfer, three ways, over the same 1,024 random pairs
+// (receivers and lights of mixed materials, cone half-angles 0.5-10
+// degrees): the clamped VPL's (both BRDFs at the direction to the light, the
+// geometry term, the clamp on luminance; what Gatherer::addVpl computes), the
+// closed-form VSL's (vslTransferSg) and the quadrature's at the renderers'
+// default count (vslTransferBlock). Compare items/s within one run.
+struct PairSet {
+  std::vector<VslReceiver> x;
+  std::vector<VslEmitter> p;
+  std::vector<Vec3> toLight;
+  std::vector<double> radius;
+};
+const PairSet& benchPairs() {
+  static const PairSet set = [] {
+    PairSet s;
+    Rng r(21, 21);
+    const Brdf kinds[] = {Brdf::fromGltf(Vec3(0.7f), 0.0f, 1.0f, 0.0f), Brdf::fromGltf(Vec3(0.5f), 0.0f, 0.3f, 0.0f),
+                          Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.4f, 0.0f), Brdf::fromGltf(Vec3(0.9f), 1.0f, 0.3f, 0.7f)};
+    for (int i = 0; i < 1024; ++i) {
+      VslReceiver x;
+      x.frame = Frame(Vec3(0, 0, 1));
+      x.ng = Vec3(0, 0, 1);
+      x.f = BrdfAt(kinds[r.uniformInt(4)], sampleCosineHemisphere({r.uniform(), r.uniform()}));
+      VslEmitter p;
+      const Vec3 a = sampleCosineHemisphere({r.uniform(), r.uniform()});
+      p.frame = Frame(normalize(-a + Vec3(0.3f * r.uniform(), 0.3f * r.uniform(), 0)));
+      p.f = BrdfAt(kinds[r.uniformInt(4)], sampleCosineHemisphere({r.uniform(), r.uniform()}));
+      s.x.push_back(x);
+      s.p.push_back(p);
+      s.toLight.push_back(a * 2.0f);
+      s.radius.push_back(2.0 * std::sin((0.5 + 9.5 * r.uniform()) * M_PI / 180.0));
+    }
+    return s;
+  }();
+  return set;
+}
+
+void BM_PairVpl(benchmark::State& state) {
+  const PairSet& s = benchPairs();
+  const float clamp = 10.0f;
+  size_t i = 0;
+  for (auto _ : state) {
+    const size_t k = i++ & 1023;
+    const Vec3 d = s.toLight[k];
+    const float d2 = lengthSquared(d);
+    const Vec3 l = d / std::sqrt(d2);
+    const Vec3 lx = s.x[k].frame.toLocal(l), lp = s.p[k].frame.toLocal(-l);
+    Vec3 t = s.x[k].f.eval(lx) * s.p[k].f.evalParts(lp).total() * (lx.z * lp.z / d2);
+    const float y = luminance(t);
+    if (y > clamp) t *= clamp / y;
+    benchmark::DoNotOptimize(t);
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_PairVpl);
+
+void BM_PairSg(benchmark::State& state) {
+  const PairSet& s = benchPairs();
+  size_t i = 0;
+  for (auto _ : state) {
+    const size_t k = i++ & 1023;
+    benchmark::DoNotOptimize(vslTransferSg(s.x[k], s.p[k], s.toLight[k], s.radius[k], {}));
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_PairSg);
+
+void BM_PairQuadrature(benchmark::State& state) {
+  const PairSet& s = benchPairs();
+  VslOptions o;
+  o.count = VslCount::Lobe;
+  Rng r(3, 3);
+  size_t i = 0;
+  for (auto _ : state) {
+    const size_t k = i++ & 1023;
+    benchmark::DoNotOptimize(vslTransferBlock(s.x[k], s.p[k], s.toLight[k], s.radius[k], o, r));
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_PairQuadrature);
 
 // One lobe-gather estimate's BRDF evaluations: 31 map lights, each its own
 // BRDF (metals and dielectrics, rough to narrow) at its own direction: one

@@ -4,6 +4,7 @@
 #include "core/path.h"
 #include "core/sampling.h"
 #include "core/stopwatch.h"
+#include "core/vsl_sg.h"
 
 namespace vsl {
 
@@ -415,8 +416,13 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   if (!computeVsl_) return;
   VslPair pr;
   if (!vslPair(gp, L, g, pr)) return;
-  Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
-  VslResult r = vslTransferBlock(pr.rx, pr.em, g.d, pr.radius, vsl_, prng);
+  VslResult r;
+  if (vslUsesSg(vsl_, pr.radius, g.dist)) {
+    r = vslTransferSg(pr.rx, pr.em, g.d, pr.radius, vsl_);
+  } else {
+    Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
+    r = vslTransferBlock(pr.rx, pr.em, g.d, pr.radius, vsl_, prng);
+  }
   c.vslEvaluations += uint64_t(r.evaluations);
   const Vec3 v = gp.beta * L.Phi * r.transfer;
   addLayer(acc, kVslLayer, g.weight == 1 ? v : v * g.weight, c);

@@ -80,6 +80,16 @@ struct ManyLightSettings {
   int vslSamples = 0;                  // per strategy; 0 = auto (grows with the cone angle)
   bool clippedDisk = false;            // VSL normalised by the clipped disk's area (vsl_integral.h)
   VslCount vslCount = VslCount::Lobe;  // the automatic count (vsl_integral.h)
+  // The cone integral: the quadrature (the paper's) or the closed form by
+  // spherical Gaussians (core/vsl_sg.h).
+  VslIntegral vslIntegral = VslIntegral::Quadrature;
+  // With the closed form: pairs whose cone's half-angle exceeds this
+  // (degrees) use the quadrature, where the SG fits are weakest (wide cones,
+  // lobes as wide as the cone; core/vsl_sg.h). 5 by measurement: on kitchen
+  // at 10,000 lights the SG pairs of cones of 5-10 degrees cost 2.6% of the
+  // indirect mean (docs/RESULTS.md, "Closed-form VSL by spherical Gaussians").
+  float vslSgMaxAngle = kDefaultVslSgMaxAngle;
+  static constexpr float kDefaultVslSgMaxAngle = 5.0f;
   // Lobe-aware minimum radius (0 = off): for a receiver at distance d, the
   // radius is at least lobeRadius x d x alpha, alpha the narrower GGX axis of
   // the light's specular lobe, so that the cone is about as wide as the
@@ -164,7 +174,11 @@ struct ManyLightSettings {
   // that of both summed. Brute force only (MRCS samples its rows and columns
   // already; the CLI and the studio refuse the pair). At most 100.
   float pairRoulette = 0;
-  VslOptions vslOptions() const { return {vslSamples, clippedDisk, vslCount}; }
+  VslOptions vslOptions() const {
+    // 90 degrees takes every cone, the hemisphere of a receiver inside the sphere too.
+    const double omc = vslSgMaxAngle >= 90.0f ? 1.0 : 1.0 - std::cos(double(vslSgMaxAngle) * M_PI / 180.0);
+    return {vslSamples, clippedDisk, vslCount, vslIntegral, omc};
+  }
   // VPL
   float clamp = -1;          // bound on the luminance of T; < 0 auto, +inf off
   bool diffuseOnly = false;  // diffuse-only emission for "the" VPL image

@@ -257,6 +257,39 @@ std::vector<Param<M>> vslParams() {
   };
 }
 
+// The cone integral's form (core/vsl_sg.h).
+std::vector<Param<M>> vslIntegralParams() {
+  return {
+      bindField({.name = "vsl-integral",
+                 .key = "vslIntegral",
+                 .kind = ParamKind::Choice,
+                 .appliesTo = "VSL",
+                 .help = "VSL's cone integral: quadrature (Monte Carlo, the paper's) or sg (closed form by spherical "
+                         "Gaussians, no samples; biased)",
+                 .why = "quadrature: unbiased per pair; sg trades a measured bias for speed "
+                        "([results](RESULTS.md#closed-form-vsl-by-spherical-gaussians))",
+                 .words = {{"quadrature", double(VslIntegral::Quadrature)}, {"sg", double(VslIntegral::Sg)}},
+                 .quiet = 0,
+                 .preset = true},
+                &M::vslIntegral),
+      bindField({.name = "vsl-sg-max-angle",
+                 .key = "vslSgMaxAngle",
+                 .tier = ParamTier::Experimental,
+                 .min = 0,
+                 .max = 90,
+                 .unit = "degrees",
+                 .help = "Closed-form VSL: pairs whose cone's half-angle exceeds this use the quadrature",
+                 .why = "5: kitchen's mean within 1.5% of the quadrature's, 60% of its draws left "
+                        "([results](RESULTS.md#closed-form-vsl-by-spherical-gaussians))",
+                 .quiet = ManyLightSettings::kDefaultVslSgMaxAngle,
+                 .needs = "vsl-integral",
+                 .uiMin = 0,
+                 .uiMax = 90,
+                 .preset = true},
+                &M::vslSgMaxAngle),
+  };
+}
+
 std::vector<Param<M>> vplParams() {
   return {
       bindField({.name = "clamp",
@@ -437,7 +470,7 @@ std::vector<Param<M>> lobeGatherParams() {
 const ParamTable<ManyLightSettings>& manyLightParams() {
   static const ParamTable<ManyLightSettings> table = [] {
     std::vector<Param<M>> all;
-    for (auto part : {lightSetParams, vslParams, vplParams, heuristicParams, lobeGatherParams})
+    for (auto part : {lightSetParams, vslParams, vslIntegralParams, vplParams, heuristicParams, lobeGatherParams})
       for (Param<M>& p : part()) all.push_back(std::move(p));
     return ParamTable<ManyLightSettings>(std::move(all));
   }();

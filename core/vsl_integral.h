@@ -78,12 +78,21 @@ const char* vslCountName(VslCount c);  // "authors", "lobe", "shares"
 // The count of a name vslCountName gives; empty for any other name.
 std::optional<VslCount> parseVslCount(const std::string& name);
 
+// How the cone integral is evaluated: the paper's Monte Carlo quadrature
+// (this file), or in closed form by spherical Gaussians (core/vsl_sg.h;
+// biased, no samples).
+enum class VslIntegral { Quadrature, Sg };
+
 struct VslOptions {
   int samplesPerStrategy = 0;  // <= 0: automatic (count)
   bool clippedDisk = false;    // divide by the clipped disk's area instead of pi r^2
   // The authors' rule here, so that the bare quadrature is theirs; the
   // renderers choose their own default (ManyLightSettings::vslCount).
   VslCount count = VslCount::Authors;
+  VslIntegral integral = VslIntegral::Quadrature;  // the renderers' choice (ManyLightSettings::vslIntegral)
+  // With integral Sg: cones wider than this (1 - cos of the half-angle) use
+  // the quadrature (ManyLightSettings::vslSgMaxAngle).
+  double sgMaxOneMinusCos = 1.0;
 };
 
 // 1 - cos of the cone's half-angle for a sphere of radius r at distance d

@@ -256,6 +256,26 @@ static void expectNoStepStartedPastBudget(const std::string& sweepJson, double t
   }
 }
 
+// The sweep's vsl-sg is VSL with the closed-form cone integral on the same
+// light sets as vsl (core/vsl_sg.h): with every pair in closed form
+// (--vsl-sg-max-angle 90; at 300 lights most cones are wider than the default
+// 5 degrees and would take the quadrature) its indirect mean on each set is
+// within 10% of the quadrature's, and not the same image.
+TEST_F(Cli, SweepVslSgFollowsVslOnTheSameLightSets) {
+  std::string header;
+  std::map<std::string, double> mean;  // method and set -> the final mean
+  for (const std::vector<std::string>& f :
+       sweepCsv("--methods vsl,vsl-sg --lights 300 --time 100 --batches 1 --sets 2 --vsl-sg-max-angle 90", "sweep-sg",
+                &header))
+    if (f[10] == "1") mean[f[0] + " " + f[3]] = std::stod(f[8]);
+  ASSERT_EQ(mean.size(), 4u);
+  for (const char* set : {"0", "1"}) {
+    const double q = mean[std::string("vsl ") + set], sg = mean[std::string("vsl-sg ") + set];
+    EXPECT_NEAR(sg / q, 1.0, 0.10) << "set " << set;
+    EXPECT_NE(sg, q) << "set " << set;
+  }
+}
+
 // vsl-sets and vpl-sets average --batches independent light sets (the studio's
 // passes): every run records exactly that many steps, the last one final,
 // however short the time budget (--time caps the other methods).

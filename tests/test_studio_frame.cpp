@@ -1347,6 +1347,8 @@ TEST(StudioCli, EveryParameterRoundTrips) {
                                                      {"clamp", "0.5"},
                                                      {"diffuse-vpl", ""},
                                                      {"vsl-count", "shares"},
+                                                     {"vsl-integral", "sg"},
+                                                     {"vsl-sg-max-angle", "10"},
                                                      {"lobe-radius", "0.25"},
                                                      {"lobe-floor", "0.75"},
                                                      {"continue-alpha", "0.03"},
