@@ -27,6 +27,7 @@
 #include <string_view>
 #include <utility>
 
+#include "core/mesh_compression.h"
 #include "core/scene.h"
 #include "core/tangents.h"
 
@@ -1544,9 +1545,49 @@ void checkEmittedPower(const Scene& scene, const std::string& file) {
 
 namespace {
 
+// Whether the glTF JSON lists extension name in extensionsUsed (or in
+// extensionsRequired, when required).
+bool listsExtension(const nlohmann::json& doc, const char* name, bool required) {
+  const char* key = required ? "extensionsRequired" : "extensionsUsed";
+  if (!doc.contains(key) || !doc[key].is_array()) return false;
+  for (const nlohmann::json& e : doc[key])
+    if (e.is_string() && e.get<std::string>() == name) return true;
+  return false;
+}
+
+// EXT_meshopt_compression before tinygltf parses (core/mesh_compression.h):
+// refuses a file that requires it when this build has no decoder; gives
+// tinygltf what it can parse in place of what it cannot (fallback buffers
+// without data, Draco indices without a bufferView).
+TinygltfStubs prepareCompressed(const std::string& path, nlohmann::json& doc, bool isBinary) {
+  TinygltfStubs stubs = stubForTinygltf(doc, isBinary);
+  if (!meshoptAvailable() && (!stubs.fallbackBuffers.empty() || listsExtension(doc, kMeshoptExtension, true)))
+    throw LoadError{path + ": required extension " + kMeshoptExtension +
+                    " cannot be decoded: this build has no meshoptimizer; install " + kMeshoptPackage +
+                    " (scripts/setup.sh) and rebuild"};
+  return stubs;
+}
+
+// The scene file's bytes with its JSON replaced by doc's (a .glb keeps its
+// binary chunk).
+std::vector<unsigned char> withJson(const std::vector<unsigned char>& bytes, bool isBinary, const nlohmann::json& doc) {
+  std::string text = doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  if (!isBinary) return std::vector<unsigned char>(text.begin(), text.end());
+  while (text.size() % 4 != 0) text += ' ';  // GLB chunks are 4-byte aligned
+  const size_t oldEnd = 20 + jsonText(bytes, true).size();
+  std::vector<unsigned char> out(bytes.begin(), bytes.begin() + 20);
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), bytes.begin() + std::ptrdiff_t(oldEnd), bytes.end());
+  const uint32_t total = uint32_t(out.size()), jsonLength = uint32_t(text.size());
+  std::memcpy(out.data() + 8, &total, 4);
+  std::memcpy(out.data() + 12, &jsonLength, 4);
+  return out;
+}
+
 // The file's bytes (isBinary: a .glb), after the JSON checks that tinygltf
 // does not make (or makes with unbounded recursion).
-std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary, JsonFacts& facts) {
+std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary, JsonFacts& facts,
+                                         TinygltfStubs& stubs) {
   Result<std::vector<unsigned char>> read = readRegularFile(path);
   if (!read) throw LoadError{path + ": cannot be read (" + read.error() + ")"};
   std::vector<unsigned char> bytes = std::move(read).value();
@@ -1581,7 +1622,10 @@ std::vector<unsigned char> readSceneFile(const std::string& path, bool& isBinary
     throw LoadError{path + ": JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels (at byte " +
                     std::to_string(at + (isBinary ? 20 : 0)) + "); refusing to parse it"};
   nlohmann::json doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
-  if (!doc.is_discarded()) JsonChecker{path, facts}.check(doc);
+  if (doc.is_discarded()) return bytes;
+  JsonChecker{path, facts}.check(doc);
+  stubs = prepareCompressed(path, doc, isBinary);
+  if (!stubs.empty()) bytes = withJson(bytes, isBinary, doc);
   return bytes;
 }
 
@@ -1612,22 +1656,47 @@ std::string parseGltf(const std::string& path, const std::vector<unsigned char>&
 // Refuses required extensions we do not model; warns about used ones,
 // animations and skins.
 void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string& path) {
-  static const std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
-                                                   "KHR_materials_specular", "KHR_lights_punctual",
-                                                   "KHR_texture_transform"};
+  std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
+                                      "KHR_materials_specular", "KHR_lights_punctual", "KHR_texture_transform"};
+  // Compressed geometry: decoded when the decoder was built in; without it a
+  // file that requires the extension is refused with the package to install.
+  for (auto [name, available, library, package] :
+       {std::tuple{kMeshoptExtension, meshoptAvailable(), "meshoptimizer", kMeshoptPackage},
+        std::tuple{kDracoExtension, dracoAvailable(), "Draco", kDracoPackage}}) {
+    if (available) {
+      kSupported.insert(name);
+      continue;
+    }
+    for (const auto& e : model.extensionsRequired)
+      if (e == name)
+        throw LoadError{path + ": required extension " + e + " cannot be decoded: this build has no " + library +
+                        "; install " + package + " (scripts/setup.sh) and rebuild"};
+  }
   // A required extension changes what the file means (Draco-compressed
   // geometry, quantised attributes): loading without it would render
   // something else, so it is refused.
   for (const auto& e : model.extensionsRequired)
     if (!kSupported.count(e))
       throw LoadError{path + ": required extension " + e +
-                      " is not supported (supported: KHR_lights_punctual, KHR_materials_anisotropy, "
-                      "KHR_materials_emissive_strength, KHR_materials_specular, KHR_texture_transform)"};
+                      " is not supported (supported: EXT_meshopt_compression, KHR_draco_mesh_compression, "
+                      "KHR_lights_punctual, KHR_materials_anisotropy, KHR_materials_emissive_strength, "
+                      "KHR_materials_specular, KHR_texture_transform)"};
   for (const auto& e : model.extensionsUsed)
     if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
   if (!model.animations.empty())
     L.warn(path + ": " + std::to_string(model.animations.size()) + " animation(s) ignored");
   if (!model.skins.empty()) L.warn(path + ": " + std::to_string(model.skins.size()) + " skin(s) not modelled");
+}
+
+// Decodes EXT_meshopt_compression bufferViews and KHR_draco_mesh_compression
+// primitives in place (core/mesh_compression.h), before anything reads them.
+void decodeCompressedGeometry(tinygltf::Model& model, const TinygltfStubs& stubs, uint64_t inputBytes,
+                              const LoadOptions& options, const std::string& path) {
+  if (meshoptAvailable())
+    if (Result<void> ok = decodeMeshopt(model, stubs.fallbackBuffers, inputBytes); !ok)
+      throw LoadError{path + ": " + ok.error()};
+  if (Result<void> ok = decodeDraco(model, stubs.dracoIndices, options.maxTriangles); !ok)
+    throw LoadError{path + ": " + ok.error()};
 }
 
 // The root nodes: the default scene's, or without scenes every node that is
@@ -1696,7 +1765,8 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
   try {
     bool isBinary = false;
     JsonFacts facts;
-    std::vector<unsigned char> bytes = readSceneFile(path, isBinary, facts);
+    TinygltfStubs stubs;
+    std::vector<unsigned char> bytes = readSceneFile(path, isBinary, facts, stubs);
     tinygltf::Model model;
     std::string warn = parseGltf(path, bytes, isBinary, model);
 
@@ -1715,6 +1785,7 @@ SceneResult loadScene(const std::string& path, const LoadOptions& options) {
         if (!line.empty()) L.warn(path + ": " + line);
     }
     checkExtensions(model, L, path);
+    decodeCompressedGeometry(model, stubs, L.inputBytes, options, path);
 
     for (size_t i = 0; i < model.materials.size(); ++i) scene->materials.push_back(L.material(int(i)));
     // glTF's default material: white, metallic 1, roughness 1.

@@ -6,7 +6,9 @@
 // emissive textures; alphaMode MASK and BLEND (docs/REFERENCE.md, "Alpha:
 // MASK and BLEND"); KHR_texture_transform on every texture slot read;
 // KHR_materials_emissive_strength; KHR_materials_anisotropy;
-// KHR_lights_punctual point, spot and directional lights; perspective cameras.
+// KHR_lights_punctual point, spot and directional lights; perspective cameras;
+// EXT_meshopt_compression and KHR_draco_mesh_compression geometry, decoded
+// first (core/mesh_compression.h).
 // Everything else a file uses is reported in Scene::warnings by element name;
 // invalid data makes loadScene() fail with a message naming file and element.
 // Only glTF 2.0 is read (asset.version 2.x, minVersion at most 2.0, GLB

@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(
   build-essential cmake pkg-config git python3
   libembree-dev libtbb-dev libtinygltf-dev libopenexr-dev openexr libstb-dev
-  libnanoflann-dev libcli11-dev nlohmann-json3-dev libpng-dev
+  libnanoflann-dev libcli11-dev nlohmann-json3-dev libpng-dev libmeshoptimizer-dev libdraco-dev
   libglfw3-dev libimgui-dev libegl-dev libegl1-mesa-dev libgl-dev libosmesa6-dev
   libgtest-dev libbenchmark-dev xvfb xauth gnuplot-nox
 )

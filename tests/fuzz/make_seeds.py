@@ -3,7 +3,11 @@
 
 The bundled scenes are copied as they are; every other seed is one of the
 hostile files of issue 12, derived from the furnace scene (its buffers are
-data URIs, so each seed is self-contained). Run from anywhere:
+data URIs, so each seed is self-contained). The compressed-mesh seeds
+meshopt.glb and draco.glb are not written here: they need the libraries'
+encoders, so tests/test_compressed_meshes writes them (as
+/tmp/vsl_meshopt_glb_indices_exp/packed.glb and /tmp/vsl_draco_1/packed.glb)
+and they were copied in. Run from anywhere:
     python3 tests/fuzz/make_seeds.py
 """
 import copy
