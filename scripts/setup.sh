@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(
   build-essential cmake pkg-config git python3
   libembree-dev libtbb-dev libtinygltf-dev libopenexr-dev openexr libstb-dev
-  libnanoflann-dev libcli11-dev nlohmann-json3-dev libpng-dev libmeshoptimizer-dev libdraco-dev
+  libnanoflann-dev libcli11-dev nlohmann-json3-dev libpng-dev
   libglfw3-dev libimgui-dev libegl-dev libegl1-mesa-dev libgl-dev libosmesa6-dev
   libgtest-dev libbenchmark-dev xvfb xauth gnuplot-nox
 )
@@ -36,6 +36,27 @@ if [ ${#missing[@]} -gt 0 ]; then
   echo "setup: installing ${#missing[@]} Debian package(s): ${missing[*]}"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# The decoders of compressed glTF meshes (EXT_meshopt_compression,
+# KHR_draco_mesh_compression; docs/REFERENCE.md, "Loading: compressed
+# meshes"). Optional: without them the build still works and the loader
+# refuses such files naming the package, so a machine that cannot install
+# them only warns here.
+OPTIONAL=(libmeshoptimizer-dev libdraco-dev)
+optional_missing=()
+for p in "${OPTIONAL[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || optional_missing+=("$p")
+done
+if [ ${#optional_missing[@]} -gt 0 ]; then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  echo "setup: installing ${#optional_missing[@]} optional Debian package(s): ${optional_missing[*]}"
+  if ! { $SUDO apt-get update -qq &&
+         DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
+           "${optional_missing[@]}" >/dev/null; }; then
+    echo "setup: warning: could not install ${optional_missing[*]}: compressed glTF meshes will be refused" >&2
+  fi
 fi
 
 VALIDATOR_VERSION=2.0.0-dev.3.10
