@@ -517,11 +517,18 @@ ManyLightImages ManyLightRenderer::images() const {
     const Image lobe = lobeFilm_->image();
     for (size_t i = 0; i < lobe.rgb.size(); ++i) layer[kVslLayer].rgb[i] += lobe.rgb[i];
   }
-  const int u = settings_.diffuseOnly ? kVplDiffuse : kVplFull;
-  const int c = settings_.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
-  im.lostToClamping = Image(width_, height_);
-  im.lostToDiffuse = Image(width_, height_);
-  for (size_t i = 0; i < shared.rgb.size(); ++i) {
+  return imagesFromLayers(layer, std::move(im.direct), settings_.diffuseOnly);
+}
+
+ManyLightImages imagesFromLayers(Image (&layer)[kGatherLayers], Image direct, bool diffuseOnly) {
+  ManyLightImages im;
+  im.direct = std::move(direct);
+  const int u = diffuseOnly ? kVplDiffuse : kVplFull;
+  const int c = diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
+  const int w = layer[kVslLayer].width, h = layer[kVslLayer].height;
+  im.lostToClamping = Image(w, h);
+  im.lostToDiffuse = Image(w, h);
+  for (size_t i = 0; i < layer[kVslLayer].rgb.size(); ++i) {
     im.lostToClamping.rgb[i] = layer[u].rgb[i] - layer[c].rgb[i];
     im.lostToDiffuse.rgb[i] = layer[kVplFull].rgb[i] - layer[kVplDiffuse].rgb[i];
   }

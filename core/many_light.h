@@ -206,6 +206,12 @@ struct ManyLightImages {
   Image lostToDiffuse;   // full-BRDF unclamped - diffuse-only unclamped
 };
 
+// The images from a gather's indirect layers (each already holding the light
+// found on the eye paths): VSL's, "the" VPL (clamped, with diffuse-only
+// emission when diffuseOnly), the unclamped and diffuse-only VPLs, and the
+// lost layers as their differences. The layers are moved from.
+ManyLightImages imagesFromLayers(Image (&layer)[kGatherLayers], Image direct, bool diffuseOnly);
+
 struct ManyLightStats {
   std::atomic<uint64_t> pairs{0};  // (pixel, light) pairs considered (with the pair roulette: dropped ones too)
   std::atomic<uint64_t> shadowRays{0};

@@ -176,21 +176,6 @@ Result<void> decodeMeshoptView(tinygltf::Model& model, size_t index, const std::
 // ---- [3] KHR_draco_mesh_compression ---------------------------------------------
 
 #if VSL_HAVE_DRACO
-int componentsOf(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR:
-      return 1;
-    case TINYGLTF_TYPE_VEC2:
-      return 2;
-    case TINYGLTF_TYPE_VEC3:
-      return 3;
-    case TINYGLTF_TYPE_VEC4:
-      return 4;
-    default:
-      return 0;
-  }
-}
-
 // Appends bytes to the buffer that holds decoded Draco data, and a
 // bufferView and accessor (a copy of the original's type) over them;
 // returns the accessor's index.
@@ -234,8 +219,8 @@ Result<void> replaceAttribute(tinygltf::Model& model, tinygltf::Primitive& prim,
   const tinygltf::Accessor original = model.accessors[*ai];
   const draco::PointAttribute* att = id <= UINT32_MAX ? mesh.GetAttributeByUniqueId(uint32_t(id)) : nullptr;
   if (att == nullptr) return Error(what + ": the Draco data has no attribute with id " + std::to_string(id));
-  const int nc = componentsOf(original.type);
-  if (nc == 0 || att->num_components() != nc)
+  const int nc = tinygltf::GetNumComponentsInType(uint32_t(original.type));
+  if (nc <= 0 || att->num_components() != nc)
     return Error(what + ": the Draco attribute has " + std::to_string(att->num_components()) +
                  " components but the accessor's type needs " + std::to_string(nc));
   const size_t n = mesh.num_points();

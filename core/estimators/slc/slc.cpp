@@ -301,19 +301,7 @@ ManyLightImages SlcEstimator::images() const {
     layer[k] = gather_[size_t(k)].image();
     for (size_t i = 0; i < layer[k].rgb.size(); ++i) layer[k].rgb[i] += shared.rgb[i];
   }
-  const int u = many_.diffuseOnly ? kVplDiffuse : kVplFull;
-  const int cl = many_.diffuseOnly ? kVplDiffuseClamped : kVplFullClamped;
-  im.lostToClamping = Image(width_, height_);
-  im.lostToDiffuse = Image(width_, height_);
-  for (size_t i = 0; i < shared.rgb.size(); ++i) {
-    im.lostToClamping.rgb[i] = layer[u].rgb[i] - layer[cl].rgb[i];
-    im.lostToDiffuse.rgb[i] = layer[kVplFull].rgb[i] - layer[kVplDiffuse].rgb[i];
-  }
-  im.vsl = std::move(layer[kVslLayer]);
-  im.vpl = std::move(layer[cl]);
-  im.vplUnclamped = std::move(layer[kVplFull]);
-  im.vplDiffuse = std::move(layer[kVplDiffuse]);
-  return im;
+  return imagesFromLayers(layer, std::move(im.direct), many_.diffuseOnly);
 }
 
 StepReport SlcEstimator::stepReport(double stepSeconds) const {
