@@ -26,16 +26,23 @@ done
 command -v node >/dev/null 2>&1 || PACKAGES+=(nodejs)
 command -v npm >/dev/null 2>&1 || PACKAGES+=(npm)
 
-missing=()
-for p in "${PACKAGES[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+# The packages among "$@" that are not installed, one per line.
+missing_of() {
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || echo "$p"
+  done
+}
+apt_install() {
+  $SUDO apt-get update -qq &&
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
+mapfile -t missing < <(missing_of "${PACKAGES[@]}")
 if [ ${#missing[@]} -gt 0 ]; then
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
   echo "setup: installing ${#missing[@]} Debian package(s): ${missing[*]}"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  apt_install "${missing[@]}"
 fi
 
 # The decoders of compressed glTF meshes (EXT_meshopt_compression,
@@ -43,20 +50,11 @@ fi
 # meshes"). Optional: without them the build still works and the loader
 # refuses such files naming the package, so a machine that cannot install
 # them only warns here.
-OPTIONAL=(libmeshoptimizer-dev libdraco-dev)
-optional_missing=()
-for p in "${OPTIONAL[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || optional_missing+=("$p")
-done
+mapfile -t optional_missing < <(missing_of libmeshoptimizer-dev libdraco-dev)
 if [ ${#optional_missing[@]} -gt 0 ]; then
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
   echo "setup: installing ${#optional_missing[@]} optional Debian package(s): ${optional_missing[*]}"
-  if ! { $SUDO apt-get update -qq &&
-         DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-           "${optional_missing[@]}" >/dev/null; }; then
+  apt_install "${optional_missing[@]}" ||
     echo "setup: warning: could not install ${optional_missing[*]}: compressed glTF meshes will be refused" >&2
-  fi
 fi
 
 VALIDATOR_VERSION=2.0.0-dev.3.10
