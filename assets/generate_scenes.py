@@ -26,6 +26,10 @@ Scenes
                   pure metal (metallic 1, no diffuse component) washed by spots,
                   organ pipes, a stage and terraced seats (the walls carry most
                   of the indirect light; diffuse-only VPLs get none of it).
+  waterbottle     a real asset: two of Khronos's WaterBottle (CC0, Microsoft;
+                  normal-mapped, textured metal and plastic, kept unchanged in
+                  scenes/WaterBottle/ and referenced by URI) on a glossy table,
+                  lit by a spot aimed at the wall.
 The many-light fractions are asserted by tests/test_scenes.cpp.
 Only the Python standard library is used; output is deterministic.
 
@@ -315,6 +319,7 @@ class Gltf:
         }
         self.used = set()
         self.lights = []
+        self.external_buffers = []
 
     def material(self, name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=0.5, emission=None, strength=1.0,
                  anisotropy=None, rotation=0.0, specular=None):
@@ -394,7 +399,7 @@ class Gltf:
             self.doc["extensionsUsed"] = sorted(self.used)
         self.doc["buffers"] = [{"byteLength": len(self.blob),
                                 "uri": "data:application/octet-stream;base64," +
-                                       base64.b64encode(bytes(self.blob)).decode("ascii")}]
+                                       base64.b64encode(bytes(self.blob)).decode("ascii")}] + self.external_buffers
         with open(path, "w") as f:
             json.dump(self.doc, f, indent=1)
             f.write("\n")
@@ -661,8 +666,91 @@ def hall():
     return g
 
 
+def import_asset(g, folder, name, drop=("occlusionTexture",)):
+    """Adds the glTF asset folder/name.gltf (next to the written scene, in the
+    subfolder `folder`) to g by reference: its buffers, images, samplers,
+    textures, materials and meshes, with every URI prefixed by folder and every
+    index shifted past g's own. The material slots in `drop` are left out.
+    Returns the index of the asset's first mesh."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    with open(os.path.join(here, "scenes", folder, name + ".gltf")) as f:
+        a = json.load(f)
+    d = g.doc
+    nb, nv, na = 1 + len(g.external_buffers), len(d["bufferViews"]), len(d["accessors"])
+    nm, ni, ns, nt = len(d["materials"]), len(d.get("images", [])), len(d.get("samplers", [])), len(d.get("textures", []))
+    for b in a["buffers"]:
+        g.external_buffers.append({"byteLength": b["byteLength"], "uri": folder + "/" + b["uri"]})
+    for v in a["bufferViews"]:
+        d["bufferViews"].append(dict(v, buffer=v["buffer"] + nb))
+    for acc in a["accessors"]:
+        d["accessors"].append(dict(acc, bufferView=acc["bufferView"] + nv))
+    for im in a.get("images", []):
+        d.setdefault("images", []).append(dict(im, uri=folder + "/" + im["uri"]))
+    for sm in a.get("samplers", []):
+        d.setdefault("samplers", []).append(dict(sm))
+    for t in a.get("textures", []):
+        t2 = dict(t, source=t["source"] + ni)
+        if "sampler" in t:
+            t2["sampler"] = t["sampler"] + ns
+        d.setdefault("textures", []).append(t2)
+
+    def shift_textures(m):
+        for k, v in list(m.items()):
+            if isinstance(v, dict):
+                m[k] = shift_textures(dict(v))
+        if "index" in m and isinstance(m["index"], int):
+            m["index"] += nt
+        return m
+    for m in a["materials"]:
+        m = {k: v for k, v in m.items() if k not in drop}
+        d["materials"].append(shift_textures(m))
+    first = len(d["meshes"])
+    for mesh in a["meshes"]:
+        prims = []
+        for p in mesh["primitives"]:
+            p2 = dict(p, attributes={k: i + na for k, i in p["attributes"].items()})
+            if "indices" in p:
+                p2["indices"] = p["indices"] + na
+            if "material" in p:
+                p2["material"] = p["material"] + nm
+            prims.append(p2)
+        d["meshes"].append(dict(mesh, primitives=prims))
+    return first
+
+
+def quat_y(angle):
+    return [0.0, math.sin(angle / 2), 0.0, math.cos(angle / 2)]
+
+
+def waterbottle():
+    """A real asset bundled: Khronos's WaterBottle (CC0, Microsoft; its files
+    and LICENSE.md in scenes/WaterBottle/, unchanged), referenced, not copied:
+    two bottles on a glossy lacquered table in a corner of two diffuse walls,
+    with a brushed-steel reflector. One spot aimed at the back wall lights the
+    bottles mostly by what the walls, the table and the steel reflect. The
+    asset's occlusion texture is left out (a path tracer computes occlusion)."""
+    g = Gltf("waterbottle")
+    lacquer = g.material("table-lacquer", base=(0.06, 0.05, 0.045), roughness=0.12)
+    wall = g.material("wall-plaster", base=(0.75, 0.72, 0.66), roughness=1.0)
+    teal = g.material("teal-panel", base=(0.16, 0.42, 0.45), roughness=0.9)
+    steel = g.material("brushed-steel", base=(0.9, 0.9, 0.92), metallic=1.0, roughness=0.2, anisotropy=0.7,
+                       rotation=math.pi / 2)
+    g.mesh("table", box([0, -0.02, 0], [1.4, 0.04, 0.8]), lacquer)
+    g.mesh("back-wall", quad([-0.7, -0.04, -0.4], [1.4, 0, 0], [0, 0.94, 0]), wall)
+    g.mesh("left-wall", quad([-0.7, -0.04, 0.4], [0, 0, -0.8], [0, 0.94, 0]), teal)
+    g.mesh("reflector", box([0.5, 0.2, -0.18], [0.01, 0.4, 0.36], angle=-0.5), steel, tangents=True)
+    bottle = import_asset(g, "WaterBottle", "WaterBottle")
+    # The asset stands on y = -0.1302 (its bounds): lift it onto the table.
+    g.node({"name": "bottle-left", "mesh": bottle, "translation": [-0.12, 0.1303, -0.06], "rotation": quat_y(0.6)})
+    g.node({"name": "bottle-right", "mesh": bottle, "translation": [0.13, 0.1303, 0.07], "rotation": quat_y(-2.2)})
+    g.spot("key-light", [0.45, 0.75, 0.7], [-0.35, 0.3, -0.4], 6.0, color=(1.0, 0.92, 0.8), inner_deg=24,
+           outer_deg=34)
+    g.camera("main", [0.1, 0.3, 0.98], [0.0, 0.14, 0.0], 38, 4 / 3)
+    return g
+
+
 SCENES = {"furnace": furnace, "cornell-glossy": cornell_glossy, "tableau": tableau, "kitchen": kitchen,
-          "hall": hall}
+          "hall": hall, "waterbottle": waterbottle}
 
 
 # ---- dense scenes for the geometry-scale measurement -------------------------

@@ -153,7 +153,7 @@ std::string allWarnings(const Scene& s) {
 }  // namespace
 
 TEST(BundledScenes, LoadCleanlyWithLightsAndCameras) {
-  for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
+  for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall", "waterbottle"}) {
     std::string path = std::string(VSL_SOURCE_DIR) + "/assets/scenes/" + name + ".gltf";
     SceneResult r = loadScene(path);
     ASSERT_TRUE(r) << r.error();
@@ -173,6 +173,19 @@ TEST(BundledScenes, LoadCleanlyWithLightsAndCameras) {
     for (const Material& m : (*r)->materials) aniso |= m.anisotropyStrength > 0 && m.metallic == 1;
     EXPECT_TRUE(aniso) << name;
   }
+  // The bundled real asset (README, "Scenes") brings its textures and its
+  // normal map into the scene: two bottles of 4,510 triangles each.
+  SceneResult bottle = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/waterbottle.gltf");
+  ASSERT_TRUE(bottle) << bottle.error();
+  int bottleTriangles = 0;
+  for (uint32_t t = 0; t < (*bottle)->triangleCount(); ++t) {
+    const Material& m = (*bottle)->materials[(*bottle)->triMaterial[t]];
+    if (m.name != "BottleMat") continue;
+    ++bottleTriangles;
+    EXPECT_GE(m.normalTexture, 0);
+    EXPECT_GE(m.baseColorTexture, 0);
+  }
+  EXPECT_EQ(bottleTriangles, 2 * 4510);
   // The hall's walls are pure metal (no diffuse component).
   SceneResult hall = loadScene(std::string(VSL_SOURCE_DIR) + "/assets/scenes/hall.gltf");
   ASSERT_TRUE(hall);
