@@ -1447,6 +1447,43 @@ TEST_F(StudioFrame, ComparePresetsPinsTheVslPictureBesideTheOtherPreset) {
   EXPECT_FALSE(studio->hasPicture(ui::Source::Pinned, Component::Indirect));
 }
 
+// "Compare with the closed form": the quadrature's VSL picture is pinned
+// beside VSL in closed form (the same light sets), and back again.
+TEST_F(StudioFrame, CompareIntegralsPinsTheQuadratureBesideTheClosedForm) {
+  auto first = makeSnapshot();
+  first->settings = studio->acceptedSettings();
+  studio->setSnapshotForTesting(first);
+  renderFrames(1);
+  ASSERT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Quadrature);
+  const ManyLightSettings before = studio->acceptedSettings().many;
+  ASSERT_TRUE(studio->compareIntegrals());
+  const ManyLightSettings after = studio->acceptedSettings().many;
+  EXPECT_EQ(after.vslIntegral, VslIntegral::Sg);
+  EXPECT_EQ(after.lights, before.lights);
+  ManyLightSettings afterQuadrature = after;
+  afterQuadrature.vslIntegral = VslIntegral::Quadrature;
+  EXPECT_EQ(matchingPreset(afterQuadrature), matchingPreset(before)) << "the other parameters stay as they were";
+  EXPECT_EQ(studio->view().panels[1], ui::Source::Pinned);
+  auto second = makeSnapshot();
+  second->settings = studio->acceptedSettings();
+  studio->setSnapshotForTesting(second);
+  renderFrames(1);
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-compare-integrals";
+  std::filesystem::remove_all(dir);
+  std::string folder;
+  std::vector<std::string> written;
+  ASSERT_TRUE(studio->exportAll(dir, &written, &folder));
+  const nlohmann::json m = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
+  EXPECT_EQ(m["Pinned VSL"]["name"], "VSL");
+  // And back: the closed form's picture is pinned under its own name.
+  ASSERT_TRUE(studio->compareIntegrals());
+  EXPECT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Quadrature);
+  std::filesystem::remove_all(dir);
+  ASSERT_TRUE(studio->exportAll(dir, &written, &folder));
+  const nlohmann::json m2 = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
+  EXPECT_EQ(m2["Pinned VSL"]["name"], "VSL [closed form]");
+}
+
 // The pixel probe stays inside the window, even over the right edge of the
 // right-most image.
 TEST_F(StudioInput, ProbeStaysInsideTheWindow) {

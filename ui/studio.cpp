@@ -842,45 +842,87 @@ bool Studio::presetControl() {
   return changed;
 }
 
-// "Compare presets": keeps the VSL picture shown (Source::Pinned, its own
-// row in the table) and renders VSL with the other preset, the two side by
-// side with the reference (docs/REFERENCE.md, "Presets").
+// The VSL variant by its preset and cone integral: "VSL", "VSL [paper]",
+// "VSL [closed form]", "VSL [paper, closed form]" (core/presets.h,
+// core/vsl_sg.h).
+namespace {
+// The preset the parameters match, VSL's cone integral apart.
+std::string presetApartFromIntegral(const ManyLightSettings& m) {
+  ManyLightSettings quadrature = m;
+  quadrature.vslIntegral = VslIntegral::Quadrature;
+  return matchingPreset(quadrature);
+}
+
+std::string vslVariantName(const ManyLightSettings& m) {
+  std::string tags;
+  const std::string preset = presetApartFromIntegral(m);
+  if (preset != "default") tags = preset;
+  if (m.vslIntegral == VslIntegral::Sg) tags += (tags.empty() ? "" : ", ") + std::string("closed form");
+  return tags.empty() ? "VSL" : "VSL [" + tags + "]";
+}
+}  // namespace
+
+// "Compare presets" and "Compare the cone integrals": each keeps the VSL
+// picture shown (Source::Pinned, its own row in the table) and renders VSL
+// with the other preset, or the other cone integral, the two side by side
+// with the reference (docs/REFERENCE.md, "Presets"; docs/RESULTS.md,
+// "Closed-form VSL by spherical Gaussians"). VPL keeps its light sets
+// where only VSL's parameters changed (docs/USAGE.md, "One-method restarts").
 bool Studio::compareButton() {
   const std::string current = matchingPreset(settings_.many);
   const Preset other = current == presetName(Preset::Paper) ? Preset::Default : Preset::Paper;
   const std::string label = std::string("Compare with the ") + presetName(other) + " preset";
+  const bool sg = settings_.many.vslIntegral == VslIntegral::Sg;
+  const char* integralLabel = sg ? "Compare with the quadrature" : "Compare with the closed form";
   const bool can = vslPictureCurrent();
   if (!can) ImGui::BeginDisabled();
   const bool clicked = ImGui::Button(label.c_str());
-  if (!can) ImGui::EndDisabled();
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
     tip("Pins the VSL picture shown (as \"Pinned VSL\", with its own row in the table) and renders VSL with the %s "
         "preset beside it: VSL as published against this project's measured best, on the same scene and "
         "reference.",
         presetName(other));
+  const bool integralClicked = ImGui::Button(integralLabel);
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
+    tip("Pins the VSL picture shown and renders VSL again from the same light sets with the cone integral %s: the "
+        "quadrature (Monte Carlo, the paper's) against the closed form by spherical Gaussians (no samples per pair), "
+        "their bias against their speed. docs/RESULTS.md, \"Closed-form VSL by spherical Gaussians\"",
+        sg ? "by the quadrature" : "in closed form");
+  if (!can) ImGui::EndDisabled();
   if (pinned_) {
     ImGui::SameLine();
     if (ImGui::SmallButton("unpin")) pinned_.reset();
   }
-  if (clicked) comparePresets();  // it restarts: no settings change to report
+  // Each restarts: no settings change to report.
+  if (clicked) comparePresets();
+  if (integralClicked) compareIntegrals();
   return false;
 }
 
-bool Studio::comparePresets() {
+bool Studio::pinVslAndRestart(const char* control, const std::function<void(ManyLightSettings&)>& change) {
   if (!vslPictureCurrent()) return false;
-  const std::string current = matchingPreset(settings_.many);
-  const std::string name = current == "default" ? "VSL" : "VSL [" + current + "]";
-  pinned_ = PinnedVsl{name, snap_->many.direct, snap_->many.vsl, snap_->settings};
-  applyPreset(current == presetName(Preset::Paper) ? Preset::Default : Preset::Paper, settings_.many);
+  pinned_ = PinnedVsl{vslVariantName(settings_.many), snap_->many.direct, snap_->many.vsl, snap_->settings};
+  change(settings_.many);
   view_.mode = ViewMode::SideBySide3;
   view_.panels[0] = Source::Vsl;
   view_.panels[1] = Source::Pinned;
   view_.panels[2] = Source::Reference;
   texturesDirty_ = true;
   metricsFor_ = nullptr;
-  lastControl_ = "preset";
+  lastControl_ = control;
   restart();
   return true;
+}
+
+bool Studio::comparePresets() {
+  const Preset other = matchingPreset(settings_.many) == presetName(Preset::Paper) ? Preset::Default : Preset::Paper;
+  return pinVslAndRestart("preset", [other](ManyLightSettings& m) { applyPreset(other, m); });
+}
+
+bool Studio::compareIntegrals() {
+  return pinVslAndRestart("vsl-integral", [](ManyLightSettings& m) {
+    m.vslIntegral = m.vslIntegral == VslIntegral::Sg ? VslIntegral::Quadrature : VslIntegral::Sg;
+  });
 }
 
 // One control per registered parameter of the tier (core/params.h), each
@@ -2041,9 +2083,12 @@ void Studio::methodRow(const Snapshot& s, const TableState& t, int i) {
   const CompareResult& c = metrics_[i];
   ImGui::TableNextRow();
   ImGui::TableNextColumn();
-  // The variant by its preset: "VSL [paper]" against "VSL" (core/presets.h).
-  const std::string preset = matchingPreset(s.settings.many);
-  const std::string name = sourceName(kMetricSources[i]) + (preset == "default" ? "" : " [" + preset + "]");
+  // The variant by its preset and VSL's cone integral: "VSL [paper]" against
+  // "VSL" (vslVariantName).
+  const std::string preset = presetApartFromIntegral(s.settings.many);
+  const std::string name = kMetricSources[i] == Source::Vsl
+                               ? vslVariantName(s.settings.many)
+                               : sourceName(kMetricSources[i]) + (preset == "default" ? "" : " [" + preset + "]");
   ImGui::TextUnformatted(name.c_str());
   ImGui::TableNextColumn();
   ImGui::Text("%.5g", c.average.meanTest);

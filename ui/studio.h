@@ -7,6 +7,7 @@
 #include <imgui.h>
 
 #include <chrono>
+#include <functional>
 #include <future>
 #include <memory>
 #include <optional>
@@ -212,6 +213,9 @@ class Studio {
   // parameters, shows VSL, the pinned VSL and the reference side by side and
   // restarts. False, changing nothing, without an up-to-date VSL picture.
   bool comparePresets();
+  // The same with the other cone integral (quadrature or closed form,
+  // ManyLightSettings::vslIntegral), from the same light sets.
+  bool compareIntegrals();
 
   // One crop inset of one image, as shown in the Crops tab and exported:
   // the image itself, or (error) the per-pixel error map of the method
@@ -409,7 +413,12 @@ class Studio {
   CompareResult pinnedMetrics_;  // against the reference the other rows use
   bool pinnedFits() const;       // of the scene and size shown
   nlohmann::json sourceMetricsJson(Source src) const;
-  bool compareButton();  // comparePresets() as a button
+  bool compareButton();  // comparePresets() and compareIntegrals() as buttons
+  // Pins the VSL picture shown, applies change to the method parameters,
+  // shows VSL, the pinned VSL and the reference side by side and restarts
+  // (control names the change for the log). False without a current VSL
+  // picture.
+  bool pinVslAndRestart(const char* control, const std::function<void(ManyLightSettings&)>& change);
   void pinnedRow(const TableState& t);
   void headerRow(const TableState& t) const;
   std::string roughText() const;
