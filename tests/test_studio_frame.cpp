@@ -85,6 +85,17 @@ class StudioFrame : public ::testing::Test {
     return s;
   }
 
+  // Exports everything into a fresh folder under the build tree and returns
+  // its metrics.json's "metricsAgainstReference".
+  nlohmann::json exportedMetrics(const std::string& name) {
+    const std::string dir = std::string(VSL_BINARY_DIR) + "/" + name;
+    std::filesystem::remove_all(dir);
+    std::string folder;
+    std::vector<std::string> written;
+    EXPECT_TRUE(studio->exportAll(dir, &written, &folder));
+    return nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
+  }
+
   std::vector<uint8_t> renderFrames(int frames = 3) {
     for (int i = 0; i < frames; ++i) {
       ImGui::GetIO().DeltaTime = 1.0f / 30;
@@ -1427,12 +1438,7 @@ TEST_F(StudioFrame, ComparePresetsPinsTheVslPictureBesideTheOtherPreset) {
                 px, studio->drawnImages()[1], [&](int x, int y) { return srgb8(pinned.at(x, y)); }, 2),
             0)
       << "the pinned panel shows the first picture";
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-compare-presets";
-  std::filesystem::remove_all(dir);
-  std::string folder;
-  std::vector<std::string> written;
-  ASSERT_TRUE(studio->exportAll(dir, &written, &folder));
-  const nlohmann::json m = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
+  const nlohmann::json m = exportedMetrics("studio-compare-presets");
   EXPECT_EQ(m["Pinned VSL"]["name"], "VSL");
   EXPECT_EQ(m["Pinned VSL"]["preset"], "default");
   const double want = compareImages(pinned, second->refIndirect).average.relMse;
@@ -1468,20 +1474,11 @@ TEST_F(StudioFrame, CompareIntegralsPinsTheQuadratureBesideTheClosedForm) {
   second->settings = studio->acceptedSettings();
   studio->setSnapshotForTesting(second);
   renderFrames(1);
-  const std::string dir = std::string(VSL_BINARY_DIR) + "/studio-compare-integrals";
-  std::filesystem::remove_all(dir);
-  std::string folder;
-  std::vector<std::string> written;
-  ASSERT_TRUE(studio->exportAll(dir, &written, &folder));
-  const nlohmann::json m = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
-  EXPECT_EQ(m["Pinned VSL"]["name"], "VSL");
+  EXPECT_EQ(exportedMetrics("studio-compare-integrals")["Pinned VSL"]["name"], "VSL");
   // And back: the closed form's picture is pinned under its own name.
   ASSERT_TRUE(studio->compareIntegrals());
   EXPECT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Quadrature);
-  std::filesystem::remove_all(dir);
-  ASSERT_TRUE(studio->exportAll(dir, &written, &folder));
-  const nlohmann::json m2 = nlohmann::json::parse(std::ifstream(folder + "/metrics.json"))["metricsAgainstReference"];
-  EXPECT_EQ(m2["Pinned VSL"]["name"], "VSL [closed form]");
+  EXPECT_EQ(exportedMetrics("studio-compare-integrals")["Pinned VSL"]["name"], "VSL [closed form]");
 }
 
 // The pixel probe stays inside the window, even over the right edge of the
