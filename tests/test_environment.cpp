@@ -11,6 +11,7 @@
 #include "core/environment.h"
 #include "core/image_io.h"
 #include "core/many_light.h"
+#include "run_vsl.h"
 #include "support.h"
 
 namespace vsl {
@@ -365,6 +366,36 @@ TEST(EnvironmentRender, LightTracedVplsThroughAWindowAgreeWithThePathTracer) {
               ref.mean, ref.se, z);
   EXPECT_GT(ref.mean, 0.01);
   EXPECT_LT(std::abs(z), 4.0);
+}
+
+// ---- The command line ----------------------------------------------------------------
+
+TEST(EnvironmentCli, LightsASceneWithoutLightsAndSaysWhyItCannot) {
+  const auto dir = test::scratchDir("vsl_env_cli");
+  const std::string scene = (dir / "dark.gltf").string(), out = (dir / "out.exr").string();
+  test::writeNoEmitterTriangle(scene);
+  const std::string base = "render " + scene + " --width 8 --height 8 --spp 4 -o " + out;
+  // A constant sky: the triangle (albedo 0.8 x its Lambertian lobe) and the
+  // sky past it: the mean lies between a L and L.
+  test::Proc sky = test::runVsl(base + " --sky 0.5 --json " + (dir / "sky.json").string());
+  ASSERT_EQ(sky.code, 0) << sky.out;
+  Result<std::vector<Layer>> img = readExr(out);
+  ASSERT_TRUE(img) << img.error();
+  EXPECT_NEAR(test::channelMean(img->front().image), 0.45, 0.06);  // between a L = 0.4 and L = 0.5
+  EXPECT_NE(test::slurp(dir / "sky.json").find("\"environment\": \"sky 0.5,0.5,0.5\""), std::string::npos);
+  // Bad values are bad arguments (2), naming the option.
+  for (const char* bad : {"--sky 1,2", "--sky red", "--sun 0,0,0", "--sun 1,2", "--sun-diameter 0", "--env-scale -1"}) {
+    test::Proc p = test::runVsl(base + " " + bad);
+    EXPECT_EQ(p.code, 2) << bad << ": " << p.out;
+    EXPECT_NE(p.out.find(std::string(bad).substr(0, std::string(bad).find(' '))), std::string::npos) << p.out;
+  }
+  // A file that cannot be used is bad input (1), naming the file.
+  test::Proc missing = test::runVsl(base + " --env " + (dir / "nope.exr").string());
+  EXPECT_EQ(missing.code, 1) << missing.out;
+  EXPECT_NE(missing.out.find("nope.exr"), std::string::npos) << missing.out;
+  // The many-light methods trace their virtual lights from it.
+  test::Proc vpl = test::runVsl(base + " --method vpl --lights 200 --sun 0,1,0.2 --sun-diameter 5");
+  EXPECT_EQ(vpl.code, 0) << vpl.out;
 }
 
 }  // namespace vsl
