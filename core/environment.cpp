@@ -42,6 +42,25 @@ std::string EnvironmentSettings::describe() const {
   return o.str();
 }
 
+std::string EnvironmentSettings::options() const {
+  std::ostringstream o;
+  o.precision(9);
+  const EnvironmentSettings d;
+  if (hasMap()) {
+    std::string quoted = "'";
+    for (char c : map) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    o << " --env " << quoted << "'";
+    if (scale != d.scale) o << " --env-scale " << scale;
+  }
+  if (hasSky()) o << " --sky " << sky.x << "," << sky.y << "," << sky.z;
+  if (hasSun()) {
+    o << " --sun " << sunDirection.x << "," << sunDirection.y << "," << sunDirection.z;
+    if (sunDiameterDeg != d.sunDiameterDeg) o << " --sun-diameter " << sunDiameterDeg;
+    if (sunIrradiance != d.sunIrradiance) o << " --sun-irradiance " << sunIrradiance;
+  }
+  return o.str();
+}
+
 // ---- Construction ----------------------------------------------------------------
 
 namespace {

@@ -53,6 +53,10 @@ struct EnvironmentSettings {
   // (0, 90] degrees; sun irradiance in [0, 1e9]; all finite. The error names
   // the option and the range.
   Result<void> validate() const;
+  // The command-line options that give these settings (" --sky 0.5,0.5,0.5
+  // --sun 1,1,0"; "" for none), for replay commands. The map's path is
+  // quoted for a POSIX shell.
+  std::string options() const;
   // "none", or e.g. "map sky.exr x2, sky 0.5,0.5,0.5, sun (0,1,0) 0.53deg E=3".
   std::string describe() const;
   bool operator==(const EnvironmentSettings& o) const {

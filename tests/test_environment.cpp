@@ -179,6 +179,14 @@ TEST(EnvironmentFiles, BadFilesAndSettingsSayWhy) {
   sun.sunDiameterDeg = 120;
   EXPECT_FALSE(sun.validate());
   EXPECT_EQ(EnvironmentSettings().describe(), "none");
+  EXPECT_EQ(EnvironmentSettings().options(), "");
+  EnvironmentSettings all;
+  all.map = "it's.exr";
+  all.scale = 2;
+  all.sky = Vec3(0.5f);
+  all.sunDirection = Vec3(0, 1, 0);
+  all.sunDiameterDeg = 2;
+  EXPECT_EQ(all.options(), " --env 'it'\\''s.exr' --env-scale 2 --sky 0.5,0.5,0.5 --sun 0,1,0 --sun-diameter 2");
 }
 
 // ---- Rendering ----------------------------------------------------------------------
