@@ -66,7 +66,7 @@ TEST(EnvironmentSampling, MapAndSkySamplingMatchesThePdfChiSquare) {
   auto env = makeEnv(s, testMap(32, 16));
   ASSERT_TRUE(env);
   test::Chi2Config cfg;
-  cfg.samples = 300000;
+  cfg.samples = 150000;
   cfg.subdiv = 4;
   const test::Domain d = latLongDomain(*env, 64, 32);
   auto sample = [&](Rng& r) -> std::optional<Vec3> {
@@ -94,7 +94,7 @@ TEST(EnvironmentSampling, SunAndSkySamplingMatchesThePdfChiSquare) {
   auto env = makeEnv(s, Image());
   ASSERT_TRUE(env);
   test::Chi2Config cfg;
-  cfg.samples = 200000;
+  cfg.samples = 100000;
   auto sample = [&](Rng& r) -> std::optional<Vec3> {
     float uPart = r.uniform();
     auto es = env->sample(uPart, {r.uniform(), r.uniform()});
