@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "app/cli.h"
+#include "app/environment_options.h"
 #include "app/finite_options.h"
 #include "app/param_options.h"
 #include "core/log.h"
@@ -23,6 +24,7 @@ struct ReferenceArgs {
   double target = 0;        // stop once the indirect noise estimate is at most this
   bool sppGiven = false, noCache = false;
   bool half = false;  // 16-bit channels (the shipped references)
+  EnvironmentOptions envOptions;
 };
 
 std::string formatSeconds(double s) {
@@ -102,6 +104,8 @@ int cmdReference(ReferenceArgs& a) {
   // --spp is an upper bound only when given.
   const bool bySpp = s.timeLimit <= 0 && a.target <= 0;
   const int maxSpp = bySpp || a.sppGiven ? std::max(2, s.spp + (s.spp & 1)) : (1 << 20);
+  Result<EnvironmentSettings> env = resolveEnvironmentOptions(a.envOptions);
+  if (!env) return fail(kExitBadArguments, env.error());
   auto scene = loadOrReport(a.scene, a.camera);
   if (!scene) return kExitBadInput;
   int w = s.width, h = s.height;
@@ -113,9 +117,9 @@ int cmdReference(ReferenceArgs& a) {
                  a.scene.c_str(), w, h);
   s.width = w;
   s.height = h;
-  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene);
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene, 0, *env);
   if (!ctx) return fail(kExitBadInput, ctx.error());
-  const std::string key = referenceKey(*scene, w, h, s.maxDepth);
+  const std::string key = referenceKey(*scene, w, h, s.maxDepth, *env);
   ReferenceRenderer rr(*scene, (*ctx)->accel(), (*ctx)->lights(), s);
   std::fprintf(stderr, "reference: %s, %dx%d, max depth %d, cache key %s\n", a.scene.c_str(), w, h, s.maxDepth,
                key.c_str());
@@ -154,6 +158,7 @@ Subcommand addReferenceCommand(CLI::App& app) {
   reference->add_option("--camera", rfa.camera, "Camera name (default: the first perspective camera)");
   reference->add_option("-o,--output", rfa.out, "Output EXR (the cache gets a copy either way)");
   reference->add_flag("--no-cache", rfa.noCache, "Do not store the result in the reference cache");
+  addEnvironmentOptions(reference, rfa.envOptions);
   reference->add_flag("--half", rfa.half,
                       "Write 16-bit channels (half the size; relative precision 2^-11, far below a reference's noise)");
   return {reference, [args, spp] {

@@ -55,6 +55,7 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render->add_option("--png", ra.png, "Also write a tone-mapped sRGB PNG");
   render->add_option("--exposure", ra.exposure, "PNG exposure in stops")->default_str("0");
   render->add_option("--json", ra.jsonPath, "Write statistics as JSON");
+  addEnvironmentOptions(render, ra.envOptions);
 }
 
 // Fills a.many and a.estimator for the many-light methods from the command line.
@@ -116,6 +117,7 @@ int writePtImages(const RenderArgs& a, const PtImages& im, int passes) {
   std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
                                               {"vsl.scene", a.scene},
                                               {"vsl.settings", s.describe()},
+                                              {"vsl.environment", a.env.describe()},
                                               {"vsl.component", componentName(s.component)}};
   if (Result<void> written =
           writeExr(a.out, {{"", chosen}, {"full", im.full}, {"direct", im.direct}, {"indirect", im.indirect}}, attrs);
@@ -145,6 +147,7 @@ int writePtJson(const RenderArgs& a, const Scene& scene, const PtImages& im, con
             {"camera", scene.camera.name},
             {"method", s.method},
             {"settings", s.describe()},
+            {"environment", a.env.describe()},
             {"width", im.full.width},
             {"height", im.full.height},
             {"spp", st.passes},
@@ -204,6 +207,9 @@ int cmdRender(RenderArgs& a) {
     a.many.vslIntegral = VslIntegral::Sg;
   }
   if (Result<void> v = a.settings.validate(); !v) return fail(kExitBadArguments, v.error());
+  Result<EnvironmentSettings> env = resolveEnvironmentOptions(a.envOptions);
+  if (!env) return fail(kExitBadArguments, env.error());
+  a.env = *env;
   a.method = parseMethod(a.settings.method).value_or(Method::Pt);  // validated above
   const bool many = a.method != Method::Pt;
   if (!many && !a.manyLightOptionsGiven.empty()) {
@@ -229,9 +235,12 @@ int cmdRender(RenderArgs& a) {
                  "%s: the camera's aspect ratio %g turns the requested size into %dx%d, over the limit of %d "
                  "a side; give both --width and --height",
                  a.scene.c_str(), scene->camera.aspect, w0, h0, RenderSettings::kMaxResolution);
-  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene, loadSeconds);
+  Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene, loadSeconds, a.env);
   if (!ctx) return fail(kExitBadInput, ctx.error());
   if (many) return renderManyLights(a, **ctx);
+  if (!(*ctx)->hasEmitters())
+    std::fprintf(stderr, "warning: %s has no lights, so the image is black (light it with --env, --sky or --sun)\n",
+                 a.scene.c_str());
   return renderPathTraced(a, **ctx);
 }
 
@@ -249,8 +258,10 @@ Subcommand addRenderCommand(CLI::App& app) {
   return {render, [args, render] {
             // Everything but these belongs to the many-light methods.
             static const std::set<std::string> kAnyMethod = {
-                "scene",       "--method", "--spp",    "--time", "--width",    "--height", "--seed", "--max-depth",
-                "--component", "--camera", "--output", "--png",  "--exposure", "--json",   "--help"};
+                "scene",       "--method",       "--spp",           "--time",   "--width",  "--height",
+                "--seed",      "--max-depth",    "--component",     "--camera", "--output", "--png",
+                "--exposure",  "--json",         "--help",          "--env",    "--sky",    "--sun",
+                "--env-scale", "--sun-diameter", "--sun-irradiance"};
             for (const CLI::Option* o : render->get_options()) {
               const std::string name = o->get_lnames().empty() ? o->get_name() : "--" + o->get_lnames().front();
               if (o->count() > 0 && !kAnyMethod.count(name)) args->manyLightOptionsGiven.push_back(name);

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "app/environment_options.h"
 #include "app/estimator_options.h"
 #include "core/estimator.h"
 #include "core/render_context.h"
@@ -19,6 +20,8 @@ struct RenderArgs {
   RenderSettings settings;
   ManyLightSettings many;
   EstimatorOptions estimatorOptions;  // --estimator, its parameters, --mrcs
+  EnvironmentOptions envOptions;      // --env, --sky, --sun and their numbers
+  EnvironmentSettings env;            // resolved from envOptions
   Method method = Method::Pt;         // settings.method, parsed once
   EstimatorSettings estimator;        // resolved from estimatorOptions (its seed stays 0)
   float exposure = 0;

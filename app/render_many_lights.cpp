@@ -136,6 +136,7 @@ int writeManyLightImages(const RenderArgs& a, const Gathered& g) {
                                               {"vsl.method", s.method},
                                               {"vsl.settings", a.many.describe()},
                                               {"vsl.estimator", a.estimator.describe()},
+                                              {"vsl.environment", a.env.describe()},
                                               {"vsl.component", componentName(s.component)}};
   if (Result<void> written = writeExr(a.out, layers, attrs); !written) return fail(kExitBadInput, written.error());
   std::string names;
@@ -180,6 +181,7 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
             {"estimatorParameters", estimatorValuesJson(a.estimator)},
             {"estimatorStats", estimatorStatsJson(g.statistics)},
             {"settings", a.many.describe()},
+            {"environment", a.env.describe()},
             {"preset", matchingPreset(a.many)},
             {"width", g.w},
             {"height", g.h},
@@ -217,7 +219,9 @@ int writeManyLightJson(const RenderArgs& a, const Scene& scene, const ManyLightR
 
 int renderManyLights(RenderArgs& a, const RenderContext& ctx) {
   if (!ctx.hasEmitters())
-    return failf(kExitBadInput, "%s: the scene has no lights, so there is nothing to trace virtual lights from",
+    return failf(kExitBadInput,
+                 "%s: the scene has no lights, so there is nothing to trace virtual lights from (light it "
+                 "with --env, --sky or --sun)",
                  a.scene.c_str());
   // Trace the virtual lights and their radii.
   Stopwatch total;

@@ -16,6 +16,7 @@
 #include <imgui.h>
 #include <imgui_impl_glfw.h>
 #include <imgui_impl_opengl3.h>
+#include <cctype>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -26,6 +27,7 @@
 #include <set>
 #include <thread>
 
+#include "app/environment_options.h"
 #include "app/estimator_options.h"
 #include "app/finite_options.h"
 #include "app/param_options.h"
@@ -84,6 +86,8 @@ struct Args {
   float progressive = 0;              // > 0: the progressive radius with this alpha
   EstimatorSettings estimator;        // resolved from estimatorOptions and progressive
   bool estimatorGiven = false;
+  EnvironmentOptions envOptions;  // --env, --sky, --sun and their numbers
+  EnvironmentSettings env;        // resolved from envOptions
 };
 
 // What the studio starts with: options and the initial view.
@@ -220,6 +224,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.backgroundReferenceSpp = a.backgroundReference;
   o.settings.lightSets = a.lightSets;
   o.settings.estimator = a.estimator;
+  o.settings.env = a.env;
   return o;
 }
 
@@ -261,7 +266,8 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (a.lightSetsGiven) s.lightSets = a.lightSets;
   applyGiven(a, s.many);
   if (a.estimatorGiven) s.estimator = a.estimator;
-  s.referencePath = a.reference;  // the reference is this run's, never the last session's
+  if (!(a.env == EnvironmentSettings())) s.env = a.env;  // environment options given win
+  s.referencePath = a.reference;                         // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
   v.crop = launch->view.crop;  // --crop applies to this run only
   launch->options.settings = s;
@@ -355,7 +361,15 @@ void holdShortKeyPresses() {
 }
 void onDrop(GLFWwindow*, int count, const char** paths) {
   gInput = true;
-  if (gStudio && count > 0) gStudio->openScene(paths[0]);
+  // An .exr sets the environment light; anything else opens as a scene.
+  if (gStudio && count > 0) {
+    std::string ext = std::filesystem::path(paths[0]).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (ext == ".exr")
+      gStudio->openEnvironment(paths[0]);
+    else
+      gStudio->openScene(paths[0]);
+  }
 }
 // Installed before the ImGui backend, which chains to them. Ctrl+Q quits.
 void onKey(GLFWwindow* win, int key, int, int action, int mods) {
@@ -565,6 +579,7 @@ void addOptions(CLI::App& app, Args& a) {
       ->default_str("default");
   addParamOptions(&app, manyLightParams(), a.many, &a.given);
   app.add_flag("--headless", a.headless, "Render the UI off-screen through EGL (no window)");
+  addEnvironmentOptions(&app, a.envOptions);
   app.add_option("--frames", a.frames, "Exit after this many frames")->check(CLI::Range(1, 10000000));
   app.add_option("--screenshot", a.screenshot, "Save the last frame as PNG");
   app.add_option("--export", a.exportDir, "Export EXR, JSON and PNG to this directory, then exit");
@@ -630,6 +645,12 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "error: %s%s\n\n%s", e.what(), nearestOptionHint(app, e.what()).c_str(), app.help().c_str());
+    return 2;
+  }
+  if (Result<EnvironmentSettings> env = resolveEnvironmentOptions(a.envOptions); env)
+    a.env = *env;
+  else {
+    std::fprintf(stderr, "error: %s\n", env.error().c_str());
     return 2;
   }
   int w = 1280, h = 800;

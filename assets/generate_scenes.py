@@ -33,6 +33,13 @@ Scenes
 The many-light fractions are asserted by tests/test_scenes.cpp.
 Only the Python standard library is used; output is deterministic.
 
+    python3 assets/generate_scenes.py --sunroom OUT.gltf
+
+writes a room with one window and no light of its own (not bundled), as
+interiors from other tools come: it renders black until an environment light
+lights it through the window (`vsl render OUT.gltf --sky 0.5 --sun 1,0.6,0.3`;
+docs/REFERENCE.md, "Environment light").
+
     python3 assets/generate_scenes.py --dense TRIANGLES OUT.gltf [BASE] [--textured]
 
 writes a dense version of a bundled scene (BASE, default cornell-glossy) for
@@ -749,6 +756,29 @@ def waterbottle():
     return g
 
 
+def sunroom():
+    """A room with one window and no light of its own (not bundled: an
+    interior as other tools ship them, lit by `--sky`, `--sun` or `--env`;
+    docs/REFERENCE.md, "Environment light"). The window is in the +x wall."""
+    g = Gltf("sunroom")
+    wall = g.material("wall", base=(0.7, 0.68, 0.64), roughness=1.0)
+    floor = g.material("floor-boards", base=(0.45, 0.3, 0.18), roughness=0.25)
+    sofa = g.material("sofa", base=(0.2, 0.35, 0.5), roughness=0.9)
+    steel = g.material("polished-steel", base=(0.85, 0.85, 0.87), metallic=1.0, roughness=0.1)
+    # Room 4 x 2.7 x 4; the window, z in [-0.8, 0.8] and y in [0.8, 2.2], faces -x.
+    g.mesh("walls", box([0, 1.35, 0], [4, 2.7, 4], inward=True, skip=("+x", "-y")), wall)
+    g.mesh("floor", quad([-2, 0, 2], [4, 0, 0], [0, 0, -4]), floor)
+    window_wall = quad([2, 0, -2], [0, 0, 4], [0, 0.8, 0])
+    window_wall.extend(quad([2, 2.2, -2], [0, 0, 4], [0, 0.5, 0]))
+    window_wall.extend(quad([2, 0.8, -2], [0, 0, 1.2], [0, 1.4, 0]))
+    window_wall.extend(quad([2, 0.8, 0.8], [0, 0, 1.2], [0, 1.4, 0]))
+    g.mesh("window-wall", window_wall, wall)
+    g.mesh("sofa", box([-1.4, 0.3, -0.5], [0.9, 0.6, 2.2]), sofa)
+    g.mesh("sphere", sphere([0.2, 0.45, -1.2], 0.45), steel)
+    g.camera("room", [-1.7, 1.5, 1.8], [0.6, 0.5, -0.8], 60, 1.5)
+    return g
+
+
 SCENES = {"furnace": furnace, "cornell-glossy": cornell_glossy, "tableau": tableau, "kitchen": kitchen,
           "hall": hall, "waterbottle": waterbottle}
 
@@ -934,6 +964,10 @@ def main():
         g.write(sys.argv[3])
         tris = sum(len(_read_accessor(g, m["primitives"][0]["indices"])) // 3 for m in g.doc["meshes"])
         print("wrote %s (%d triangles)" % (sys.argv[3], tris))
+        return
+    if len(sys.argv) == 3 and sys.argv[1] == "--sunroom":
+        sunroom().write(sys.argv[2])
+        print("wrote", sys.argv[2])
         return
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes")
     os.makedirs(out, exist_ok=True)

@@ -73,10 +73,14 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     GatherPoint& gp = es.points[cur];
     ++c.rays;
     std::optional<Hit> hit = accel_.intersect(ray);
-    if (!hit) return es;
+    // Emission after two or more scattering events is indirect; so is the
+    // environment seen after them (found by hitting only, as emission is).
+    if (!hit) {
+      if (const Environment* env = lights_.environment(); env && j >= 2) gp.shared += beta * env->radiance(ray.d);
+      return es;
+    }
     SurfaceHit sh = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
     Vec3 wo = -ray.d;
-    // Emission after two or more scattering events is indirect.
     if (j >= 2) gp.shared += beta * scene_.emitted(sh, wo);
     Brdf brdf = scene_.brdf(sh);
     Vec3 woL = sh.shading.toLocal(wo);
@@ -165,7 +169,16 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rn
       ray.d = wi;
       ++c.rays;
       std::optional<Hit> hit = accel_.intersect(ray);
-      if (!hit) break;
+      if (!hit) {
+        // The environment, past the receiver's own direct light.
+        if (const Environment* env = lights_.environment(); env && bounce >= 1) {
+          if (const Vec3 e = t * env->radiance(wi); isFinite(e))
+            sum += e;
+          else
+            ++c.nonFinite;
+        }
+        break;
+      }
       const SurfaceHit z = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
       const Vec3 wOut = -wi;
       // Emission reached straight from the receiver is its direct light.

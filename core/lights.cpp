@@ -2,7 +2,8 @@
 
 namespace vsl {
 
-LightSampler::LightSampler(const Scene& scene) : scene_(scene) {
+LightSampler::LightSampler(const Scene& scene, std::shared_ptr<const Environment> env)
+    : scene_(scene), env_(std::move(env)) {
   std::vector<double> power;
   lightOfTriangle_.assign(scene.triangleCount(), -1);
   for (uint32_t t = 0; t < scene.triangleCount(); ++t) {
@@ -16,6 +17,9 @@ LightSampler::LightSampler(const Scene& scene) : scene_(scene) {
     power.push_back(double(luminance(m.emission)) * area * kPi * (m.doubleSided ? 2 : 1));
   }
   for (const PunctualLight& L : scene.punctualLights) power.push_back(L.power(sceneRadius()));
+  // The environment's power: what crosses the disk of the bounding sphere
+  // facing each direction, as for a directional light.
+  if (env_) power.push_back(kPi * sqr(double(sceneRadius())) * env_->powerPerArea());
   dist_ = DiscreteDistribution(power);
 }
 
@@ -32,7 +36,7 @@ TrianglePoint sampleTrianglePoint(const Scene& scene, uint32_t tri, Vec2 u) {
 std::optional<SampledLight> LightSampler::sample(float uLight) const {
   if (empty()) return std::nullopt;
   SampledLight l;
-  l.light = dist_.sample(uLight, &l.pmf);
+  l.light = dist_.sample(uLight, &l.pmf, &l.uRemapped);
   if (!(l.pmf > 0)) return std::nullopt;
   return l;
 }
@@ -42,6 +46,7 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
   if (!picked) return std::nullopt;
   const size_t i = picked->light;
   const float pmf = picked->pmf;
+  if (env_ && i == environmentIndex()) return environmentLi(p, *picked, u);
   LightSample s;
   if (i < emissiveTris_.size()) {
     uint32_t tri = emissiveTris_[i];
@@ -85,6 +90,7 @@ std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Ve
   if (!picked) return std::nullopt;
   const size_t i = picked->light;
   const float pmf = picked->pmf;
+  if (env_ && i == environmentIndex()) return environmentLe(*picked, uDir, uPos);
   EmissionSample e;
   if (i < emissiveTris_.size()) {
     uint32_t tri = emissiveTris_[i];
@@ -147,6 +153,48 @@ std::optional<LightSample> LightSampler::directionalLi(const PunctualLight& L, c
   s.delta = true;
   if (isBlack(s.Li)) return std::nullopt;
   return s;
+}
+
+// The environment seen from p: a direction by the environment's own
+// sampling (its part chosen with the remapped uLight), the shadow ray ending
+// outside the bounding sphere as a directional light's does.
+std::optional<LightSample> LightSampler::environmentLi(const Vec3& p, const SampledLight& picked, Vec2 u) const {
+  std::optional<EnvironmentSample> es = env_->sample(picked.uRemapped, u);
+  if (!es || isBlack(es->L)) return std::nullopt;
+  LightSample s;
+  s.wi = es->w;
+  s.dist = length(p - scene_.center()) + 2 * sceneRadius();
+  s.pLight = p + s.wi * s.dist;
+  s.nLight = Vec3(0.0f);
+  s.Li = es->L;
+  s.pdf = picked.pmf * es->pdf;
+  s.delta = false;
+  return s;
+}
+
+// Light entering from the environment: a direction w toward the sky by the
+// environment's sampling, then a point on the disk of the bounding sphere
+// perpendicular to w, outside the sphere on w's side; the ray travels along
+// -w (pbrt-v4's ImageInfiniteLight::SampleLe has this structure). Its
+// throughput is L(w) pi R^2 / (pmf pdf(w)).
+std::optional<EmissionSample> LightSampler::environmentLe(const SampledLight& picked, Vec2 uDir, Vec2 uPos) const {
+  std::optional<EnvironmentSample> es = env_->sample(picked.uRemapped, uDir);
+  if (!es || isBlack(es->L)) return std::nullopt;
+  const float R = sceneRadius();
+  const Vec2 d = sampleUniformDiskConcentric(uPos);
+  const Frame f(es->w);
+  EmissionSample e;
+  e.p = scene_.center() + es->w * (1.01f * R) + f.toWorld(Vec3(d.x * R, d.y * R, 0));
+  e.n = Vec3(0.0f);
+  e.w = -es->w;
+  e.beta = es->L * (kPi * R * R / (picked.pmf * es->pdf));
+  if (!isFinite(e.beta)) return std::nullopt;
+  return e;
+}
+
+float LightSampler::pdfEnvironment(const Vec3& w) const {
+  if (!env_) return 0;
+  return dist_.pmf(environmentIndex()) * env_->pdf(w);
 }
 
 float LightSampler::pdfLi(const Vec3& p, uint32_t tri, const Vec3& y) const {

@@ -1,10 +1,13 @@
-// Emitter sampling for next-event estimation: emissive triangles and punctual
-// lights, chosen in proportion to their power.
+// Emitter sampling for next-event estimation: emissive triangles, punctual
+// lights and an environment (core/environment.h), chosen in proportion to
+// their power.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <vector>
 
+#include "core/environment.h"
 #include "core/sampling.h"
 #include "core/scene.h"
 
@@ -34,6 +37,7 @@ TrianglePoint sampleTrianglePoint(const Scene& scene, uint32_t tri, Vec2 u);
 struct SampledLight {
   size_t light = 0;
   float pmf = 0;
+  float uRemapped = 0;  // uLight rescaled to [0,1) within the chosen light's bucket
 };
 
 // A ray leaving an emitter, for light tracing.
@@ -47,12 +51,19 @@ struct EmissionSample {
 // Immutable after construction; safe to share between threads.
 class LightSampler {
  public:
-  explicit LightSampler(const Scene& scene);
+  // env (optional) lights the scene from infinitely far; it is the last
+  // light, its power pi R^2 times its powerPerArea() (R = the bounding radius).
+  explicit LightSampler(const Scene& scene, std::shared_ptr<const Environment> env = nullptr);
   bool empty() const { return dist_.size() == 0; }
   double totalPower() const { return dist_.total(); }
   size_t emissiveTriangleCount() const { return emissiveTris_.size(); }
-  // Lights in sampler order: emissive triangles, then punctual lights.
-  size_t lightCount() const { return emissiveTris_.size() + scene_.punctualLights.size(); }
+  // Lights in sampler order: emissive triangles, then punctual lights, then
+  // the environment if there is one.
+  size_t lightCount() const { return emissiveTris_.size() + scene_.punctualLights.size() + (env_ ? 1 : 0); }
+  const Environment* environment() const { return env_.get(); }
+  // The solid-angle pdf with which sampleLi picks direction w (unit, toward
+  // the sky) on the environment; zero without one.
+  float pdfEnvironment(const Vec3& w) const;
 
   // Picks a light in proportion to its power. Empty when the scene has no
   // lights. pmf(light) is the probability of picking it (zero past the end).
@@ -71,11 +82,15 @@ class LightSampler {
 
  private:
   const Scene& scene_;
+  std::shared_ptr<const Environment> env_;
   std::vector<uint32_t> emissiveTris_;
   std::vector<int32_t> lightOfTriangle_;  // -1 for non-emissive triangles
   DiscreteDistribution dist_;             // over emissive triangles, then punctual lights
   float sceneRadius() const;              // the bounding radius, at least 1e-6
   std::optional<LightSample> directionalLi(const PunctualLight& L, const Vec3& p, float pmf) const;
+  std::optional<LightSample> environmentLi(const Vec3& p, const SampledLight& picked, Vec2 u) const;
+  std::optional<EmissionSample> environmentLe(const SampledLight& picked, Vec2 uDir, Vec2 uPos) const;
+  size_t environmentIndex() const { return emissiveTris_.size() + scene_.punctualLights.size(); }
 };
 
 }  // namespace vsl

@@ -1750,7 +1750,10 @@ void finishScene(Scene& scene, Loader& L, const std::string& path, const LoadOpt
   bool anyEmitter = !scene.punctualLights.empty();
   for (uint32_t t = 0; t < scene.triangleCount() && !anyEmitter; ++t)
     anyEmitter = scene.materials[scene.triMaterial[t]].isEmissive();
-  if (!anyEmitter) L.warn(path + ": the scene has no emissive triangles and no punctual lights; it renders black");
+  if (!anyEmitter)
+    L.warn(path +
+           ": the scene has no emissive triangles and no punctual lights; it renders black "
+           "unless an environment light is given (--env, --sky, --sun)");
   if (!options.cameraName.empty() && !scene.cameraFromFile)
     throw LoadError{path + ": no perspective camera named '" + options.cameraName + "'"};
   if (!scene.cameraFromFile) {

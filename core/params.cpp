@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "core/environment.h"
 #include "core/many_light.h"
 #include "core/session.h"
 #include "core/settings.h"
@@ -502,6 +503,39 @@ const ParamTable<RenderSettings>& pathTracerParams() {
                  .help = "Maximum scattering events per path",
                  .why = "Russian roulette ends paths long before 64 in the bundled scenes"},
                 &RenderSettings::maxDepth),
+  });
+  return table;
+}
+
+const ParamTable<EnvironmentSettings>& environmentParams() {
+  static const ParamTable<EnvironmentSettings> table({
+      bindField({.name = "env-scale",
+                 .key = "envScale",
+                 .appliesTo = "all",
+                 .min = 0,
+                 .max = 1e6,
+                 .help = "Multiplies the --env map's radiance",
+                 .why = "1: the map's values as they are"},
+                &EnvironmentSettings::scale),
+      bindField({.name = "sun-diameter",
+                 .key = "sunDiameter",
+                 .appliesTo = "all",
+                 .min = 0,
+                 .max = 90,
+                 .minOpen = true,
+                 .unit = "degrees",
+                 .help = "The --sun's angular diameter: a cone of directions of uniform radiance",
+                 .why = "0.53: the real sun's; wider suns give softer shadows"},
+                &EnvironmentSettings::sunDiameterDeg),
+      bindField({.name = "sun-irradiance",
+                 .key = "sunIrradiance",
+                 .appliesTo = "all",
+                 .min = 0,
+                 .max = 1e9,
+                 .unit = "W/m^2",
+                 .help = "The --sun's irradiance on a surface facing it (as a glTF directional light's lux)",
+                 .why = "3: a white Lambertian surface facing it has radiance 3/pi, about display white"},
+                &EnvironmentSettings::sunIrradiance),
   });
   return table;
 }

@@ -215,6 +215,12 @@ struct RenderSettings;
 // `vsl render` and `vsl reference`.
 const ParamTable<RenderSettings>& pathTracerParams();
 
+struct EnvironmentSettings;
+// The environment light's numbers (core/environment.h: --env-scale,
+// --sun-diameter, --sun-irradiance); its map, sky and sun direction are a
+// file and vectors, options of their own (app/environment_options.h).
+const ParamTable<EnvironmentSettings>& environmentParams();
+
 // How long and how often the methods run, declared once and bound by each
 // command to its own field (app/param_options.h, addParamOption): the light
 // sets averaged, the progressive radius, the reference's stopping rule and

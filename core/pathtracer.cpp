@@ -55,7 +55,15 @@ void PathTracer::samplePixel(int x, int y, int s, Vec3& Ld, Vec3& Lind, uint64_t
     // `depth` scattering events happened before this vertex.
     ++rays;
     std::optional<Hit> hit = accel_.intersect(ray);
-    if (!hit) break;
+    if (!hit) {
+      // The ray leaves the scene: the environment, weighted against its
+      // next-event sampling as emission is (power heuristic).
+      if (const Environment* env = lights_.environment()) {
+        float w = depth > 0 ? powerHeuristic(prevPdf, lights_.pdfEnvironment(ray.d)) : 1.0f;
+        deposit(depth, beta * env->radiance(ray.d) * w);
+      }
+      break;
+    }
     SurfaceHit sh = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
     Vec3 wo = -ray.d;
 

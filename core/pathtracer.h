@@ -1,8 +1,10 @@
 // Reference path tracer.
 //
 // Method: unidirectional path tracing with next-event estimation (emitters
-// chosen in proportion to power, uniform area sampling on triangles) and
-// multiple importance sampling (power heuristic) against BRDF sampling;
+// chosen in proportion to power, uniform area sampling on triangles, the
+// environment by its own importance sampling) and multiple importance
+// sampling (power heuristic) against BRDF sampling, for emitters hit and for
+// rays that leave the scene into the environment;
 // Russian roulette after RenderSettings::rrDepth bounces. Unbiased up to
 // maxDepth scattering events.
 // Components: "direct" = emission seen by the camera plus light that reached

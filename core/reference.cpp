@@ -127,13 +127,21 @@ Reference ReferenceRenderer::result() const {
 
 // ---- Keys and the cache ---------------------------------------------------------------
 
-std::string referenceKey(const Scene& scene, int width, int height, int maxDepth) {
+std::string referenceKey(const Scene& scene, int width, int height, int maxDepth, const EnvironmentSettings& env) {
   Fnv h;
+  auto fileBytes = [&h](const std::string& path) {
+    if (std::ifstream in(path, std::ios::binary); in) {
+      std::vector<char> buf(1 << 16);
+      while (in.read(buf.data(), std::streamsize(buf.size())) || in.gcount() > 0)
+        h.bytes(buf.data(), size_t(in.gcount()));
+    }
+  };
   // The scene file's bytes (materials, lights and cameras live there) ...
-  if (std::ifstream in(scene.path, std::ios::binary); in) {
-    std::vector<char> buf(1 << 16);
-    while (in.read(buf.data(), std::streamsize(buf.size())) || in.gcount() > 0)
-      h.bytes(buf.data(), size_t(in.gcount()));
+  fileBytes(scene.path);
+  // ... the environment light, if any ...
+  if (env.any()) {
+    h.str(env.describe());
+    if (env.hasMap()) fileBytes(env.map);
   }
   // ... and what it loaded from other files (buffers, images).
   h.vec(scene.positions);
@@ -177,9 +185,10 @@ std::string keySceneHash(const std::string& key) {
 
 }  // namespace
 
-Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const std::string& path) {
+Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const std::string& path,
+                                 const EnvironmentSettings& env) {
   if (ref.key.empty()) return {};
-  const std::string want = referenceKey(scene, ref.width, ref.height, RenderSettings().maxDepth);
+  const std::string want = referenceKey(scene, ref.width, ref.height, RenderSettings().maxDepth, env);
   if (keySceneHash(ref.key) == keySceneHash(want)) return {};
   return Error(path + ": rendered from another scene or camera than " + scene.path + " (its key " + ref.key +
                ", this scene's " + want + "); render one of this scene with `vsl reference " + scene.path + "`");

@@ -26,6 +26,8 @@
 // $XDG_CACHE_HOME/vsl-studio/references, else ~/.cache/vsl-studio/references.
 #pragma once
 
+#include "core/environment.h"
+
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -109,11 +111,16 @@ class ReferenceRenderer {
 // The cache key: scene file name, a 64-bit FNV-1a hash over the scene file's
 // bytes and the loaded geometry and textures (which covers external buffers
 // and images), the camera's name and pose, the resolution and the path depth.
-std::string referenceKey(const Scene& scene, int width, int height, int maxDepth);
+// An environment light (core/environment.h) other than none adds its
+// description and its map file's bytes to the hash; without one the key is
+// what it always was.
+std::string referenceKey(const Scene& scene, int width, int height, int maxDepth, const EnvironmentSettings& env = {});
 // Success unless ref carries a key (vsl reference writes one) whose scene
 // hash differs from scene's: then an error naming path, both keys and the
 // fix. A reference without a key (another renderer's EXR) cannot be checked.
-Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const std::string& path);
+// env: the environment the scene is lit by (none by default), as referenceKey.
+Result<void> checkReferenceScene(const Reference& ref, const Scene& scene, const std::string& path,
+                                 const EnvironmentSettings& env = {});
 std::string referenceCacheDir();
 std::string referenceCachePath(const std::string& key);
 

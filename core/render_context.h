@@ -15,6 +15,7 @@
 #include <string>
 
 #include "core/accel.h"
+#include "core/environment.h"
 #include "core/lights.h"
 #include "core/loader.h"
 #include "core/lobe_gather.h"
@@ -24,12 +25,16 @@ namespace vsl {
 
 class RenderContext {
  public:
-  // Loads the scene file, then builds the BVH and the light sampler. Fails
-  // with the loader's message (file, element, valid range) or the BVH's.
-  static Result<std::unique_ptr<RenderContext>> load(const std::string& path, const LoadOptions& options = {});
+  // Loads the scene file, then builds the BVH and the light sampler (with
+  // the environment env describes, if any: core/environment.h). Fails with
+  // the loader's message (file, element, valid range), the BVH's, or the
+  // environment's ("FILE: reason").
+  static Result<std::unique_ptr<RenderContext>> load(const std::string& path, const LoadOptions& options = {},
+                                                     const EnvironmentSettings& env = {});
   // Builds the BVH and the light sampler over a scene already loaded (its
   // load time, if known, goes into loadSeconds()).
-  static Result<std::unique_ptr<RenderContext>> create(std::shared_ptr<const Scene> scene, double loadSeconds = 0);
+  static Result<std::unique_ptr<RenderContext>> create(std::shared_ptr<const Scene> scene, double loadSeconds = 0,
+                                                       const EnvironmentSettings& env = {});
 
   RenderContext(const RenderContext&) = delete;
   RenderContext& operator=(const RenderContext&) = delete;
@@ -38,7 +43,10 @@ class RenderContext {
   const std::shared_ptr<const Scene>& sharedScene() const { return scene_; }
   const Accel& accel() const { return *accel_; }
   const LightSampler& lights() const { return *lights_; }
-  // False for a scene with no emissive triangle and no punctual light: every
+  // The environment light, or null.
+  const Environment* environment() const { return lights_->environment(); }
+  // False for a scene with no emissive triangle, no punctual light and no
+  // environment: every
   // method renders black, and light tracing has nothing to start from.
   bool hasEmitters() const { return !lights_->empty(); }
 

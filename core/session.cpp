@@ -35,9 +35,9 @@ std::string secondsText(double s) {
 // describe() covers the user-facing settings; the rest are compared by hand.
 bool sameImageSettings(const StudioSettings& a, const StudioSettings& b) {
   const bool sameEstimator = a.estimator.sameEstimate(b.estimator);
-  return a.scene == b.scene && a.maxReferenceSpp == b.maxReferenceSpp && a.many.describe() == b.many.describe() &&
-         a.many.lightMaxDepth == b.many.lightMaxDepth && a.many.computeVsl == b.many.computeVsl &&
-         a.many.computeVpl == b.many.computeVpl && sameEstimator;
+  return a.scene == b.scene && a.env == b.env && a.maxReferenceSpp == b.maxReferenceSpp &&
+         a.many.describe() == b.many.describe() && a.many.lightMaxDepth == b.many.lightMaxDepth &&
+         a.many.computeVsl == b.many.computeVsl && a.many.computeVpl == b.many.computeVpl && sameEstimator;
 }
 
 namespace {
@@ -167,6 +167,7 @@ bool unchangedFor(StudioMethod m, const StudioSettings& a, const StudioSettings&
 struct Session::Worker {
   std::unique_ptr<RenderContext> ctx;  // scene, BVH and light sampler
   std::string scenePath;
+  EnvironmentSettings env;  // the environment ctx was built with
   // The live path tracer (seed 0): pass p goes to half p % 2 (reference.h).
   struct Reference {
     std::string key;  // scene and resolution
@@ -242,6 +243,7 @@ Result<void> StudioSettings::validate() const {
   if (backgroundReferenceSpp < 0 || backgroundReferenceSpp > (1 << 20))
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
+  if (Result<void> e = env.validate(); !e) return e;
   if (Result<void> e = estimator.validate(); !e) return e;
   // The replay command would be refused by `vsl render` too.
   if (Result<void> e = estimator.validateWith(many); !e) return Error(e.error() + " (set it to off first)");
@@ -473,20 +475,23 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
 // without emitters) the previous scene stays and s.scene is set back to it;
 // returns false only when there is no scene at all.
 bool Session::ensureScene(Worker& w, StudioSettings& s) {
-  if (w.ctx && s.scene == w.scenePath) return true;
+  if (w.ctx && s.scene == w.scenePath && s.env == w.env) return true;
+  // Only the environment changed: a bad file keeps the scene and the previous environment.
+  const bool envOnly = w.ctx && s.scene == w.scenePath;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     status_.loading = s.scene;
   }
   setStage("loading");
-  Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(s.scene);
+  Result<std::unique_ptr<RenderContext>> loaded = RenderContext::load(s.scene, {}, s.env);
   std::unique_ptr<RenderContext> ctx = loaded ? std::move(loaded).value() : nullptr;
   std::string err = loaded.error();
   bool noEmitters = false;
   if (ctx && !ctx->hasEmitters()) {
     noEmitters = true;
     err = s.scene +
-          ": the scene has no emitters (no emissive material and no punctual light), so every method renders black";
+          ": the scene has no emitters (no emissive material and no punctual light), so every method renders black; "
+          "set an environment light (a sky, a sun or a map) first";
     for (const std::string& warning : ctx->scene().warnings) err += "\n" + warning;  // e.g. an unsupported extension
   }
   if (!ctx || noEmitters) {
@@ -495,23 +500,27 @@ bool Session::ensureScene(Worker& w, StudioSettings& s) {
       std::lock_guard<std::mutex> lock(mutex_);
       status_.loadError = err;
       status_.noEmitters = noEmitters;
+      status_.environmentFailed = envOnly;
       ++status_.loadErrorSerial;
     }
     ++version_;
     if (!w.ctx) return false;
     s.scene = w.scenePath;  // keep rendering the previous scene with the other new settings
+    s.env = w.env;
     return true;
   }
   w.job.reset();  // it and the live path tracer point into the old scene
   w.ref = {};
   w.ctx = std::move(ctx);
   w.scenePath = s.scene;
+  w.env = s.env;
   const Scene& scene = w.ctx->scene();
   for (const std::string& warning : scene.warnings) log::warning(warning);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     status_.loadError.clear();
     status_.scene = w.scenePath;
+    status_.env = w.env;
     status_.sceneAspect = scene.camera.aspect > 0 ? scene.camera.aspect : 1.0f;
     status_.sceneWarnings = scene.warnings;
   }
@@ -537,7 +546,8 @@ std::unique_ptr<Session::Job> Session::prepare(Worker& w, const StudioSettings& 
 
   // The reference depends only on the scene and the resolution: it keeps
   // converging across restarts that change the many-light settings.
-  std::string refKey = w.scenePath + "|" + std::to_string(job->width) + "x" + std::to_string(job->height);
+  std::string refKey =
+      w.scenePath + "|" + w.env.describe() + "|" + std::to_string(job->width) + "x" + std::to_string(job->height);
   if (w.ref.key != refKey || !w.ref.pt) {
     RenderSettings rs;
     rs.width = job->width;
@@ -808,9 +818,9 @@ void Session::logStep(const Job& job, double stepSeconds) const {
 void Session::chooseReference(Worker& w, Job& job) {
   const int width = job.width, height = job.height;
   const std::string size = std::to_string(width) + "x" + std::to_string(height);
-  if (w.cacheKeyFor != w.scenePath + "|" + size) {
-    w.cacheKey = referenceKey(w.ctx->scene(), width, height, kReferenceDepth);
-    w.cacheKeyFor = w.scenePath + "|" + size;
+  if (w.cacheKeyFor != w.scenePath + "|" + w.env.describe() + "|" + size) {
+    w.cacheKey = referenceKey(w.ctx->scene(), width, height, kReferenceDepth, w.env);
+    w.cacheKeyFor = w.scenePath + "|" + w.env.describe() + "|" + size;
   }
   const std::string& file = job.settings.referencePath;
   std::string want = file.empty() ? "cache:" + w.cacheKey : "file:" + file + "|" + size;
@@ -820,7 +830,7 @@ void Session::chooseReference(Worker& w, Job& job) {
   std::string refused;
   if (!file.empty()) {
     Result<vsl::Reference> r = readReference(file, width, height);
-    Result<void> same = r ? checkReferenceScene(*r, w.ctx->scene(), file) : Result<void>{};
+    Result<void> same = r ? checkReferenceScene(*r, w.ctx->scene(), file, w.env) : Result<void>{};
     if (r && same)
       chosen = std::make_shared<vsl::Reference>(std::move(r).value());
     else

@@ -35,6 +35,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/environment.h"
 #include "core/estimator.h"
 #include "core/many_light.h"
 #include "core/reference.h"
@@ -43,8 +44,9 @@
 namespace vsl {
 
 struct StudioSettings {
-  std::string scene;       // path of a .gltf or .glb
-  ManyLightSettings many;  // lights, radii, clamp, seed, resolution, batches
+  std::string scene;        // path of a .gltf or .glb
+  EnvironmentSettings env;  // light from far away (core/environment.h); none by default
+  ManyLightSettings many;   // lights, radii, clamp, seed, resolution, batches
   int maxReferenceSpp = 4096;
   // A converged reference (reference.h): an EXR of the render's size with an
   // `indirect` layer. Empty: a matching entry of the reference cache, if any.
@@ -256,8 +258,12 @@ class Session {
     std::string loadError;         // the last failed load ("" if none); cleared by a successful load
     uint64_t loadErrorSerial = 0;  // increases with every failed load
     bool noEmitters = false;       // the last failed load was a scene without emitters
-    std::string runError;          // the last refused or failed render ("out of memory ...")
-    uint64_t runErrorSerial = 0;   // increases with every refused or failed render
+    // The environment in use, and whether the last failed load was the
+    // environment's alone (its file; the scene and the previous environment stay).
+    EnvironmentSettings env;
+    bool environmentFailed = false;
+    std::string runError;         // the last refused or failed render ("out of memory ...")
+    uint64_t runErrorSerial = 0;  // increases with every refused or failed render
     // Why the settings' reference file was refused (it names the file and the
     // reason: another size, no indirect layer, unreadable); "" when it is in
     // use or none was given. Errors are then measured against the live path tracer.

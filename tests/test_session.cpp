@@ -353,6 +353,29 @@ TEST(Session, SceneWithoutEmittersIsReportedAndKeepsThePreviousScene) {
   EXPECT_EQ(st.scene, asset("furnace"));
 }
 
+TEST(Session, EnvironmentLightsADarkSceneAndABadMapKeepsThePreviousOne) {
+  // The grey triangle without lights renders once a sky lights it; a map
+  // that cannot be read is reported (naming the file) and the sky stays.
+  std::string path = std::string(VSL_BINARY_DIR) + "/no-emitters-env.gltf";
+  test::writeNoEmitterTriangle(path);
+  Session session;
+  StudioSettings lit = small("furnace", 50, 8);
+  lit.scene = path;
+  lit.env.sky = Vec3(0.5f);
+  uint64_t g1 = session.restart(lit).value();
+  ASSERT_TRUE(waitFor(session, g1, [](const Snapshot& s) { return s.batchesDone > 0; }));
+  EXPECT_EQ(session.status().scene, path);
+  StudioSettings bad = lit;
+  bad.env.map = std::string(VSL_BINARY_DIR) + "/no-such-map.exr";
+  uint64_t g2 = session.restart(bad).value();
+  ASSERT_TRUE(waitFor(session, g2, [](const Snapshot& s) { return s.batchesDone > 0; }));
+  Session::Status st = session.status();
+  EXPECT_TRUE(st.environmentFailed);
+  EXPECT_NE(st.loadError.find("no-such-map.exr"), std::string::npos) << st.loadError;
+  EXPECT_EQ(st.scene, path);
+  EXPECT_TRUE(st.env == lit.env) << st.env.describe();
+}
+
 // A scene that cannot load with nothing before it: no render, and the UI can
 // tell (the headless studio exits with the reason).
 TEST(Session, FirstSceneMissingIsReported) {

@@ -1216,6 +1216,35 @@ TEST(StudioText, TimeLeftCountsDownBetweenSnapshots) {
 // The estimator comes back by name with its parameters under their keys
 // (the registry's, estimator_registry.h), and a file written before the
 // registry (version 2: "estimator", "mrcsRows", "mrcsClusters") still loads.
+// The environment light comes back as it was saved; a file written before
+// it was saved has none.
+TEST(LastSession, KeepsTheEnvironment) {
+  const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-environment-test";
+  std::filesystem::remove_all(dir);
+  const std::string path = dir + "/last-session.json";
+  StudioSettings s;
+  s.scene = "/some/scene.gltf";
+  s.env.map = "/some/sky.exr";
+  s.env.scale = 2.5f;
+  s.env.sky = Vec3(0.1f, 0.2f, 0.3f);
+  s.env.sunDirection = Vec3(1, 2, 3);
+  s.env.sunDiameterDeg = 4;
+  s.env.sunIrradiance = 7;
+  ui::ViewState v;
+  ASSERT_TRUE(ui::saveLastSession(path, s, v));
+  StudioSettings r;
+  ui::ViewState rv;
+  std::string warning;
+  ASSERT_TRUE(ui::loadLastSession(path, &r, &rv, &warning)) << warning;
+  EXPECT_TRUE(r.env == s.env) << r.env.describe();
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(path));
+  j["settings"].erase("environment");
+  std::ofstream(path) << j.dump();
+  StudioSettings old;
+  ASSERT_TRUE(ui::loadLastSession(path, &old, &rv, &warning)) << warning;
+  EXPECT_FALSE(old.env.any());
+}
+
 TEST(LastSession, KeepsTheEstimatorAndItsParameters) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-estimator-test";
   std::filesystem::remove_all(dir);
@@ -1536,6 +1565,34 @@ TEST_F(StudioFrame, FailedLoadKeepsTheTypedPath) {
   EXPECT_NE(studio->errorDialog().find("furnce.gltf"), std::string::npos) << studio->errorDialog();
   EXPECT_EQ(studio->sceneField(), typo) << "the typed path stays for correction";
   EXPECT_EQ(studio->acceptedSettings().scene, o.scene) << "the open scene goes on";
+}
+
+// A dropped .exr that cannot be used (Studio::openEnvironment, as the
+// window's drop callback calls it) is shown in the error dialog, naming the
+// file; the previous environment (a sky here) stays in use.
+TEST_F(StudioFrame, BadEnvironmentMapKeepsThePreviousEnvironment) {
+  ui::StudioOptions o;
+  o.scene = std::string(VSL_SOURCE_DIR) + "/assets/scenes/furnace.gltf";
+  o.settings.scene = o.scene;
+  o.settings.many.lights = 20;
+  o.settings.many.width = 8;
+  o.settings.lightSets = 1;
+  o.settings.env.sky = Vec3(0.25f);
+  studio = std::make_unique<ui::Studio>(o);
+  for (int i = 0; i < 600 && !studio->snapshot(); ++i) {
+    renderFrames(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(studio->snapshot());
+  const std::string bad = std::string(VSL_BINARY_DIR) + "/no-such-dir/sky.exr";
+  studio->openEnvironment(bad);
+  for (int i = 0; i < 600 && studio->errorDialog().empty(); ++i) {
+    renderFrames(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_NE(studio->errorDialog().find("sky.exr"), std::string::npos) << studio->errorDialog();
+  EXPECT_NE(studio->errorDialog().find("environment"), std::string::npos) << studio->errorDialog();
+  EXPECT_TRUE(studio->acceptedSettings().env == o.settings.env) << studio->acceptedSettings().env.describe();
 }
 
 // A scene loaded with warnings says so under the scene field (the count and

@@ -6,6 +6,7 @@
 #include <imgui_stdlib.h>
 
 #include <algorithm>
+#include <array>
 #include <cfloat>
 #include <chrono>
 #include <cmath>
@@ -265,6 +266,7 @@ Studio::Studio(const StudioOptions& options) : options_(options), settings_(opti
   scenePath_ = options.scene;
   exportDir_ = options.exportDir;
   referencePathInput_ = settings_.referencePath;  // --reference FILE shows in its field
+  envPathInput_ = settings_.env.map;
   if (options.startSession) session_ = std::make_unique<Session>();
   restart();
 }
@@ -315,12 +317,19 @@ void Studio::applySettings(const StudioSettings& settings) {
   settings_ = settings;
   scenePath_ = settings.scene;
   referencePathInput_ = settings.referencePath;
+  envPathInput_ = settings.env.map;
   restart();
 }
 
 void Studio::openScene(const std::string& path) {
   scenePath_ = path;
   settings_.scene = path;
+  restart();
+}
+
+void Studio::openEnvironment(const std::string& path) {
+  envPathInput_ = path;
+  settings_.env.map = path;
   restart();
 }
 
@@ -367,7 +376,9 @@ void Studio::pullSnapshot() {
     seenLoadErrors_ = st.loadErrorSerial;
     // The loader's message is shown as it is (it names the file, the element
     // and the reason, e.g. an unsupported required extension).
-    if (st.scene.empty())
+    if (st.environmentFailed)
+      errorDialog_ = "Could not set the environment light; the previous one stays.\n\n" + st.loadError;
+    else if (st.scene.empty())
       errorDialog_ = "Could not load the scene.\n\n" + st.loadError;
     else if (st.noEmitters)
       errorDialog_ = "This scene has no emitters, so there is nothing to compare; " +
@@ -378,7 +389,10 @@ void Studio::pullSnapshot() {
                      " stays open and keeps rendering.\n\n" + st.loadError;
     // The scene still open goes on; the field keeps the path typed, so that
     // a typo can be corrected in place.
-    if (!st.scene.empty()) settings_.scene = accepted_.scene = st.scene;
+    if (!st.scene.empty()) {
+      settings_.scene = accepted_.scene = st.scene;
+      settings_.env = accepted_.env = st.env;
+    }
   }
   if (st.runErrorSerial > seenRunErrors_) {
     seenRunErrors_ = st.runErrorSerial;
@@ -1235,7 +1249,8 @@ void Studio::controlsPanel() {
   // every control.
   ImGui::PushItemWidth(-128);
   sceneControls();
-  bool changed = methodControls();
+  bool changed = environmentControls();
+  changed |= methodControls();
   changed |= estimatorControls();
   changed |= renderControls();
   changed |= referenceControls();
@@ -2627,6 +2642,13 @@ Result<void> saveLastSession(const std::string& path, const StudioSettings& s, c
   // Every registered estimator's parameters under their keys, the chosen
   // one's and the others' (the studio keeps them while another is chosen).
   j["settings"].update(paramsToJson(estimatorParams(), s.estimator));
+  const EnvironmentSettings& e = s.env;
+  j["settings"]["environment"] = {{"map", e.map},
+                                  {"scale", e.scale},
+                                  {"sky", {e.sky.x, e.sky.y, e.sky.z}},
+                                  {"sun", {e.sunDirection.x, e.sunDirection.y, e.sunDirection.z}},
+                                  {"sunDiameter", e.sunDiameterDeg},
+                                  {"sunIrradiance", e.sunIrradiance}};
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
   if (ec)
@@ -2676,6 +2698,20 @@ void readSettings(const nlohmann::json& j, StudioSettings& s) {
   if (Result<void> r = paramsFromJson(estimatorParams(), js, s.estimator); !r) throw std::out_of_range(r.error());
   readField(js, "progressiveRadius", &s.estimator.progressiveRadius);
   readField(js, "progressiveAlpha", &s.estimator.alpha);
+  if (js.contains("environment")) {  // the environment light (none before it was saved)
+    const nlohmann::json& je = js.at("environment");
+    EnvironmentSettings& e = s.env;
+    readField(je, "map", &e.map);
+    readField(je, "scale", &e.scale);
+    std::array<float, 3> sky{e.sky.x, e.sky.y, e.sky.z}, sun{e.sunDirection.x, e.sunDirection.y, e.sunDirection.z};
+    readField(je, "sky", &sky);
+    readField(je, "sun", &sun);
+    e.sky = Vec3(sky[0], sky[1], sky[2]);
+    e.sunDirection = Vec3(sun[0], sun[1], sun[2]);
+    readField(je, "sunDiameter", &e.sunDiameterDeg);
+    readField(je, "sunIrradiance", &e.sunIrradiance);
+    if (Result<void> r = e.validate(); !r) throw std::out_of_range(r.error());
+  }
 }
 
 // The "view" object of a last-session file into v. A value of the wrong type

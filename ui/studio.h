@@ -131,6 +131,9 @@ class Studio {
   void afterRender(int framebufferWidth, int framebufferHeight);
 
   void openScene(const std::string& path);
+  // Sets the environment light's map (an .exr, as a dropped file does); a
+  // file that cannot be used is reported and the previous environment stays.
+  void openEnvironment(const std::string& path);
   // Writes one new folder under dir, named <scene>-<UTC timestamp> (with a
   // counter if that exists: nothing is ever overwritten), holding the EXR
   // (every image and error map), a PNG of every image at the render's native
@@ -379,6 +382,8 @@ class Studio {
   std::string scenePath_, exportDir_;
   float mapEps_ = 1e-2f;            // the error maps' eps, from the reference (metricError)
   std::string referencePathInput_;  // the reference control's text
+  std::string envPathInput_;        // the environment map control's text
+  bool environmentControls();       // ui/studio_environment.cpp
   int backgroundSpp_ = 4096;        // samples for "render reference in background"
   void takeSnapshot(std::shared_ptr<const Snapshot> s);
   void noteSceneWarnings(const std::string& scene, const std::vector<std::string>& warnings);

@@ -568,7 +568,8 @@ nlohmann::json Studio::exportMetricsJson(float errorMapMax, const nlohmann::json
           {"exportedUtc", utcStamp()},
           {"replay", "vsl render " + shellWord(s.settings.scene) + " --method all " + firstSet.describe() +
                          " --estimator " + s.settings.estimator.name + s.settings.estimator.describeParams() +
-                         " -o first-light-set.exr"},
+                         s.settings.env.options() + " -o first-light-set.exr"},
+          {"environment", s.settings.env.describe()},
           {"replayRenders", "the first of the " + std::to_string(s.lightSets) + " light sets (seeds " +
                                 std::to_string(s.settings.many.seed) + " to " +
                                 std::to_string(s.settings.many.seed + uint64_t(std::max(s.lightSets, 1)) - 1) +
