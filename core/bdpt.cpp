@@ -42,6 +42,7 @@ BdptRenderer::BdptRenderer(const Scene& scene, const Accel& accel, const LightSa
   aspect_ = float(width_) / float(height_);
   filmArea_ = 4 * tanHalf_ * tanHalf_ * aspect_;
   sceneRadius_ = std::max(scene.boundingRadius(), 1e-6f);  // as LightSampler's directional beam
+  VSL_CHECK(bdptSupports(lights));
 }
 
 // ---- [1] The pinhole camera -------------------------------------------------------------

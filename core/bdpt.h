@@ -67,6 +67,11 @@ struct BdptOptions {
   bool unweighted = false;
 };
 
+// Whether BdptRenderer handles every light of the sampler: not yet an
+// environment light (core/environment.h); references fall back to the path
+// tracer there.
+inline bool bdptSupports(const LightSampler& lights) { return lights.environment() == nullptr; }
+
 class BdptRenderer {
  public:
   static constexpr uint64_t kBdptStream = 0xbd;

@@ -7,6 +7,7 @@
 
 #include "core/bdpt.h"
 #include "core/pathtracer.h"
+#include "core/reference.h"
 #include "support.h"
 
 using namespace vsl;
@@ -304,4 +305,47 @@ TEST(Bdpt, SameSeedSameImageRegardlessOfThreads) {
   const std::vector<float> one = render(1), four = render(4);
   setThreadCount(0);
   EXPECT_EQ(one, four);
+}
+
+// The reference cache keeps the methods apart (core/reference.h): a BDPT
+// reference's key is the path tracer's with "-bdpt", its file says
+// vsl.method = bdpt, it is accepted for its scene, and a lookup for either
+// method takes whichever cached entry has the lower own noise.
+TEST(Bdpt, ReferenceCacheRecordsTheMethod) {
+  Loaded l = loadAsset("cornell-glossy", 8);
+  const Scene& scene = *l.scene;
+  const std::string pt = referenceKey(scene, 8, 8, 64), bd = referenceKey(scene, 8, 8, 64, {}, ReferenceMethod::Bdpt);
+  EXPECT_EQ(bd, pt + "-bdpt");
+  RenderSettings rs;
+  rs.width = rs.height = 8;
+  auto render = [&](ReferenceMethod m, int steps) {
+    ReferenceRenderer rr(scene, *l.accel, *l.lights, rs, m);
+    EXPECT_EQ(rr.method(), m);
+    for (int i = 0; i < steps; ++i) EXPECT_TRUE(rr.step());
+    Reference r = rr.result();
+    r.key = referenceKey(scene, 8, 8, 64, {}, m);
+    return r;
+  };
+  const Reference a = render(ReferenceMethod::Bdpt, 8), b = render(ReferenceMethod::PathTracer, 1);
+  EXPECT_EQ(a.method, "bdpt");
+  EXPECT_EQ(b.method, "pt");
+  EXPECT_TRUE(checkReferenceScene(a, scene, "a.exr"));
+  ASSERT_GT(b.indirectNoise(), a.indirectNoise()) << "16 BDPT passes against 2 path-traced ones";
+
+  const std::filesystem::path dir = vsl::test::scratchDir("vsl_bdpt_cache");
+  setenv("VSL_REFERENCE_CACHE", dir.c_str(), 1);
+  setenv("VSL_SHIPPED_REFERENCES", "", 1);
+  ASSERT_TRUE(storeCachedReference(b, scene.path));
+  std::unique_ptr<Reference> found = findCachedReferenceAnyMethod(scene, 8, 8, 64, {}, ReferenceMethod::Bdpt);
+  ASSERT_TRUE(found) << "the path tracer's entry serves a BDPT lookup when it is the only one";
+  EXPECT_EQ(found->method, "pt");
+  ASSERT_TRUE(storeCachedReference(a, scene.path));
+  Result<Reference> read = readReference(referenceCachePath(bd), 8, 8);
+  ASSERT_TRUE(read) << read.error();
+  EXPECT_EQ(read->method, "bdpt");
+  found = findCachedReferenceAnyMethod(scene, 8, 8, 64, {}, ReferenceMethod::PathTracer);
+  ASSERT_TRUE(found);
+  EXPECT_EQ(found->key, bd) << "the lower-noise entry wins";
+  unsetenv("VSL_REFERENCE_CACHE");
+  unsetenv("VSL_SHIPPED_REFERENCES");
 }
