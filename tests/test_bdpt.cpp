@@ -154,7 +154,7 @@ void checkMisWeights(const Loaded& l, MisHeuristic h, int& checked) {
   std::vector<BdptVertex> cam(size_t(r.maxCameraVertices())), light(size_t(r.maxLightVertices()));
   std::vector<BdptVertex> x, L, C;
   uint64_t rays = 0;
-  for (int k = 0; k < 400; ++k) {
+  for (int k = 0; k < 250; ++k) {
     Rng rng = Rng::forItem(uint64_t(k), 1, 2, 3);
     const int nC = r.cameraSubpath(k % 16, (k / 16) % 16, rng, cam.data(), rays);
     const int nL = r.lightSubpath(rng, light.data(), rays);
@@ -287,14 +287,14 @@ TEST(Bdpt, MatchesThePathTracerWithEveryLightType) {
   }
 }
 
-// The bundled paper scenes, small (16 px wide, 1,024 path-traced and 256
+// The bundled scenes, small (16 px wide, 1,024 path-traced and 256
 // BDPT passes). Not spot-panel: there the path tracer's estimate rests on
 // rare paths, and its per-pass spread understates its error (its indirect
 // regions differ from BDPT's by 20-50 of its standard errors; docs/RESULTS.md,
 // "Bidirectional path tracing as the reference", checks it at equal means
 // with a long path-traced run).
 TEST(Bdpt, MatchesThePathTracerOnBundledScenes) {
-  for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall"}) {
+  for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall", "waterbottle"}) {
     Loaded l = loadAsset(name, 16);
     if (!l.scene) continue;
     RenderSettings rs;
