@@ -1,4 +1,5 @@
-// `vsl reference SCENE`: a converged path-traced reference rendered as two
+// `vsl reference SCENE`: a converged reference (the path tracer, or BDPT with
+// --method bdpt) rendered as two
 // independent halves (core/reference.h), written to -o and to the reference
 // cache, with its own noise (relMSE(A, B) / 4) reported. It stops at --spp
 // (default 1024), at --time, or once the noise reaches --target-relmse.
@@ -25,6 +26,7 @@ struct ReferenceArgs {
   bool sppGiven = false, noCache = false;
   bool half = false;  // 16-bit channels (the shipped references)
   EnvironmentOptions envOptions;
+  int method = 0;  // ReferenceMethod: 0 the path tracer, 1 BDPT
 };
 
 std::string formatSeconds(double s) {
@@ -119,10 +121,15 @@ int cmdReference(ReferenceArgs& a) {
   s.height = h;
   Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene, 0, *env);
   if (!ctx) return fail(kExitBadInput, ctx.error());
-  const std::string key = referenceKey(*scene, w, h, s.maxDepth, *env);
-  ReferenceRenderer rr(*scene, (*ctx)->accel(), (*ctx)->lights(), s);
-  std::fprintf(stderr, "reference: %s, %dx%d, max depth %d, cache key %s\n", a.scene.c_str(), w, h, s.maxDepth,
-               key.c_str());
+  const ReferenceMethod method = ReferenceMethod(a.method);
+  if (method == ReferenceMethod::Bdpt && !bdptSupports((*ctx)->lights()))
+    return fail(kExitBadArguments,
+                "--method bdpt: bidirectional path tracing does not handle environment lights yet; "
+                "use --method pt");
+  const std::string key = referenceKey(*scene, w, h, s.maxDepth, *env, method);
+  ReferenceRenderer rr(*scene, (*ctx)->accel(), (*ctx)->lights(), s, method);
+  std::fprintf(stderr, "reference: %s, %s, %dx%d, max depth %d, cache key %s\n", a.scene.c_str(),
+               referenceMethodName(method), w, h, s.maxDepth, key.c_str());
   renderUntilDone(rr, a, maxSpp);
   Reference ref = rr.result();
   ref.key = key;
@@ -140,12 +147,15 @@ Subcommand addReferenceCommand(CLI::App& app) {
   rfa.settings.spp = 1024;
   rfa.settings.seed = kReferenceSeed;
   CLI::App* reference = app.add_subcommand(
-      "reference", "Render a converged path-traced reference in two independent halves, to a file and the cache");
+      "reference",
+      "Render a converged reference (path tracing, or BDPT with --method bdpt) in two independent halves, to a file "
+      "and the cache");
   reference->add_option("scene", rfa.scene, "Scene file (.gltf or .glb)")->required();
   addParamOptions(reference, pathTracerParams(), rfa.settings);  // --spp is rounded up to even
   CLI::Option* spp = reference->get_option("--spp");
   reference->add_option("--time", rfa.settings.timeLimit, "Stop after this many seconds")->check(positiveSeconds());
   addParamOption(reference, runParam("target-relmse"), rfa.target);
+  addParamOption(reference, runParam("reference-method"), rfa.method);
   reference->add_option("--width", rfa.settings.width, "Image width (default: from the scene, or 512)")
       ->check(CLI::Range(1, RenderSettings::kMaxResolution));
   reference->add_option("--height", rfa.settings.height, "Image height (default: from the scene, or 512)")

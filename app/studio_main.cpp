@@ -77,6 +77,7 @@ struct Args {
   bool verbose = false;                        // echo the log's info lines to stderr
   std::string crop;                            // X,Y,W,H in image pixels
   std::string reference;                       // a converged reference EXR
+  int referenceMethod = 0;                     // ReferenceMethod of the background reference
   int backgroundReference = 0;                 // spp of a reference rendered into the cache
   int lightSets = StudioSettings().lightSets;  // independent light sets
   bool lightSetsGiven = false;
@@ -222,6 +223,7 @@ ui::StudioOptions studioOptions(const Args& a) {
   o.settings.maxReferenceSpp = 1024;
   o.settings.referencePath = a.reference;
   o.settings.backgroundReferenceSpp = a.backgroundReference;
+  o.settings.referenceMethod = a.referenceMethod;
   o.settings.lightSets = a.lightSets;
   o.settings.estimator = a.estimator;
   o.settings.env = a.env;
@@ -269,6 +271,7 @@ void restoreLastSession(const Args& a, Launch* launch) {
   if (!(a.env == EnvironmentSettings())) s.env = a.env;  // environment options given win
   s.referencePath = a.reference;                         // the reference is this run's, never the last session's
   s.backgroundReferenceSpp = a.backgroundReference;
+  s.referenceMethod = a.referenceMethod;
   v.crop = launch->view.crop;  // --crop applies to this run only
   launch->options.settings = s;
   launch->options.scene = s.scene;
@@ -598,6 +601,7 @@ void addOptions(CLI::App& app, Args& a) {
       ->check(CLI::ExistingFile);
   addParamOption(&app, runParam("light-sets"), a.lightSets);
   addParamOption(&app, runParam("background-reference"), a.backgroundReference);
+  addParamOption(&app, runParam("reference-method"), a.referenceMethod);
   // Start with this estimator (default: brute-force batches); with MRCS,
   // each light set is one MRCS render and the sets are averaged.
   addEstimatorOptions(&app, a.estimatorOptions);

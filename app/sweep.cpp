@@ -546,7 +546,7 @@ int loadSweepReference(const SweepArgs& a, const Scene& scene, SweepReference& o
     int w = a.width, h = 0;
     resolveResolution(scene, w, h);
     const std::string key = referenceKey(scene, w, h, RenderSettings().maxDepth);
-    auto cached = findCachedReference(key, w, h);
+    auto cached = findCachedReferenceAnyMethod(scene, w, h, RenderSettings().maxDepth, {}, ReferenceMethod::PathTracer);
     if (!cached)
       return failf(kExitBadInput,
                    "%s: no --reference given and no cached reference at %dx%d (%s); render one with\n"

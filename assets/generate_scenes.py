@@ -22,6 +22,10 @@ Scenes
                   counter, tiled splashback and floor, lacquered cabinets,
                   brushed-steel range hood and fridge (clamped VPL loses about a
                   quarter of the indirect light).
+  spot-panel      a path tracer's hard case: a narrow spot lights only a glossy
+                  metal panel (roughness 0.15), whose reflection lights a diffuse
+                  room; the light reaches the floor and walls almost only after
+                  the glossy bounce (docs/RESULTS.md, "Bidirectional reference").
   hall            the paper's concert hall: curved walls and ceiling sails of
                   pure metal (metallic 1, no diffuse component) washed by spots,
                   organ pipes, a stage and terraced seats (the walls carry most
@@ -779,8 +783,33 @@ def sunroom():
     return g
 
 
+def spot_panel():
+    """A narrow spot aimed at a glossy metal panel on the back wall of a diffuse
+    room: the panel's blurred mirror image of the spot lands on the floor, and
+    the room is lit almost only by that reflection. A path tracer finds the
+    light only through a BRDF-sampled bounce onto the panel followed by a
+    next-event connection through its narrow lobe; a light subpath finds the
+    floor directly."""
+    g = Gltf("spot-panel")
+    wall = g.material("wall", base=(0.7, 0.7, 0.68), roughness=1.0)
+    blue = g.material("blue-wall", base=(0.2, 0.3, 0.6), roughness=1.0)
+    floor = g.material("floor", base=(0.6, 0.55, 0.5), roughness=1.0)
+    panel = g.material("glossy-metal", base=(0.95, 0.93, 0.9), metallic=1.0, roughness=0.15)
+    crate = g.material("crate", base=(0.7, 0.4, 0.2), roughness=1.0)
+    # Room 4 x 2.6 x 4 (x, z in [-2, 2]); the panel hangs 1 cm off the back wall.
+    g.mesh("walls", box([0, 1.3, 0], [4, 2.6, 4], inward=True, skip=("-y", "-x")), wall)
+    g.mesh("left-wall", quad([-2, 0, 2], [0, 0, -4], [0, 2.6, 0]), blue)
+    g.mesh("floor", quad([-2, 0, 2], [4, 0, 0], [0, 0, -4]), floor)
+    g.mesh("panel", quad([-0.45, 0.85, -1.99], [0.9, 0, 0], [0, 0.9, 0]), panel)
+    g.mesh("crate", box([0.9, 0.25, 0.2], [0.5, 0.5, 0.5], angle=0.4, skip=("-y",)), crate)
+    # Aimed at the panel's centre from 2.1 m; its 8-degree cone stays on the panel.
+    g.spot("spot", [0.0, 2.5, -0.3], [0.0, 1.3, -1.99], 200.0, color=(1.0, 0.95, 0.85), inner_deg=5, outer_deg=8)
+    g.camera("main", [0.0, 1.5, 1.95], [0.0, 0.5, -1.0], 60, 4 / 3)
+    return g
+
+
 SCENES = {"furnace": furnace, "cornell-glossy": cornell_glossy, "tableau": tableau, "kitchen": kitchen,
-          "hall": hall, "waterbottle": waterbottle}
+          "hall": hall, "waterbottle": waterbottle, "spot-panel": spot_panel}
 
 
 # ---- dense scenes for the geometry-scale measurement -------------------------

@@ -69,7 +69,11 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
     s.delta = false;
   } else {
     const PunctualLight& L = scene_.punctualLights[i - emissiveTris_.size()];
-    if (L.type == PunctualLight::Type::Directional) return directionalLi(L, p, pmf);
+    if (L.type == PunctualLight::Type::Directional) {
+      std::optional<LightSample> d = directionalLi(L, p, pmf);
+      if (d) d->light = i;
+      return d;
+    }
     Vec3 d = L.position - p;
     float d2 = lengthSquared(d);
     if (!(d2 > 0)) return std::nullopt;
@@ -82,6 +86,7 @@ std::optional<LightSample> LightSampler::sampleLi(const Vec3& p, float uLight, V
     s.delta = true;
   }
   if (isBlack(s.Li)) return std::nullopt;
+  s.light = i;
   return s;
 }
 
@@ -135,6 +140,7 @@ std::optional<EmissionSample> LightSampler::sampleLe(float uLight, Vec2 uPos, Ve
     }
   }
   if (isBlack(e.beta) || !isFinite(e.beta)) return std::nullopt;
+  e.light = i;
   return e;
 }
 
@@ -169,6 +175,7 @@ std::optional<LightSample> LightSampler::environmentLi(const Vec3& p, const Samp
   s.Li = es->L;
   s.pdf = picked.pmf * es->pdf;
   s.delta = false;
+  s.light = picked.light;
   return s;
 }
 
@@ -189,6 +196,7 @@ std::optional<EmissionSample> LightSampler::environmentLe(const SampledLight& pi
   e.w = -es->w;
   e.beta = es->L * (kPi * R * R / (picked.pmf * es->pdf));
   if (!isFinite(e.beta)) return std::nullopt;
+  e.light = picked.light;
   return e;
 }
 

@@ -21,6 +21,7 @@ struct LightSample {
   Vec3 nLight;         // its geometric normal facing the shading point (zero for punctual)
   float pdf = 0;       // solid angle at the shading point; for punctual lights the pmf alone
   bool delta = false;  // punctual: no MIS with BRDF sampling
+  size_t light = 0;    // the light's index in sampler order (bidirectional MIS needs it)
 };
 
 // A uniformly sampled point on a triangle: pdf = 1/Scene::triangleArea(tri)
@@ -46,6 +47,8 @@ struct EmissionSample {
   Vec3 n;     // emitter's geometric normal on the emitting side (zero for punctual lights)
   Vec3 w;     // unit direction of emission
   Vec3 beta;  // Le cos / (pmf pdf_area pdf_dir): the path's initial throughput (W)
+  // The light's index in sampler order (bidirectional MIS needs it).
+  size_t light = 0;
 };
 
 // Immutable after construction; safe to share between threads.
@@ -64,6 +67,10 @@ class LightSampler {
   // The solid-angle pdf with which sampleLi picks direction w (unit, toward
   // the sky) on the environment; zero without one.
   float pdfEnvironment(const Vec3& w) const;
+  // The triangle of light `light` < emissiveTriangleCount().
+  uint32_t emissiveTriangle(size_t light) const { return emissiveTris_[light]; }
+  // The light index of an emissive triangle; -1 for any other triangle.
+  int32_t lightOfTriangle(uint32_t tri) const { return tri < lightOfTriangle_.size() ? lightOfTriangle_[tri] : -1; }
 
   // Picks a light in proportion to its power. Empty when the scene has no
   // lights. pmf(light) is the probability of picking it (zero past the end).

@@ -573,6 +573,17 @@ const std::vector<ParamSpec>& runParams() {
        .help = "Stop once the reference's own indirect relMSE, from its two halves, is at most this (0: no target)",
        .why = "a fifth of the smallest method error the comparison shows ([references](../assets/references/"
               "README.md))"},
+      {.name = "reference-method",
+       .key = "referenceMethod",
+       .kind = ParamKind::Choice,
+       .appliesTo = "reference",
+       .help = "Renderer of converged references: the path tracer (pt) or bidirectional path tracing (bdpt); "
+               "the cache keeps them apart",
+       .why = "pt: the shipped references' method; bdpt has 3-75x less equal-time noise on every bundled scene "
+              "but the furnace, 57,000x on spot-panel ([RESULTS](RESULTS.md#bidirectional-path-tracing-as-the-"
+              "reference))",
+       .words = {{"pt", 0}, {"bdpt", 1}},
+       .alias = "method"},
       {.name = "background-reference",
        .key = "backgroundReferenceSpp",
        .kind = ParamKind::Int,

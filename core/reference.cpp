@@ -62,9 +62,13 @@ double Reference::fullNoise() const { return noiseOf(fullA, fullB); }
 
 // ---- Rendering ------------------------------------------------------------------------
 
+const char* referenceMethodName(ReferenceMethod m) { return m == ReferenceMethod::Bdpt ? "bdpt" : "pt"; }
+
 ReferenceRenderer::ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights,
-                                     const RenderSettings& settings)
+                                     const RenderSettings& settings, ReferenceMethod method)
     : pt_(scene, accel, lights, settings) {
+  if (method == ReferenceMethod::Bdpt && bdptSupports(lights))
+    bdpt_ = std::make_unique<BdptRenderer>(scene, accel, lights, settings);
   for (int h = 0; h < 2; ++h) {
     direct_[h] = Film(pt_.width(), pt_.height());
     indirect_[h] = Film(pt_.width(), pt_.height());
@@ -82,7 +86,9 @@ bool ReferenceRenderer::renderPasses(int count, const std::atomic<bool>* stop) {
     const int h = p % 2;
     scratchDirect_[h] = direct_[h];  // copy-assignment reuses the scratch's storage
     scratchIndirect_[h] = indirect_[h];
-    if (!pt_.renderPass(p, scratchDirect_[h], scratchIndirect_[h], counters_, stop)) return false;
+    const bool done = bdpt_ ? bdpt_->renderPass(p, scratchDirect_[h], scratchIndirect_[h], counters_, stop)
+                            : pt_.renderPass(p, scratchDirect_[h], scratchIndirect_[h], counters_, stop);
+    if (!done) return false;
   }
   for (int p = first; p < first + count; ++p) {
     direct_[p % 2].swap(scratchDirect_[p % 2]);
@@ -122,12 +128,14 @@ Reference ReferenceRenderer::result() const {
   r.full = average(r.fullA, r.fullB);
   r.spp = spp();
   r.seconds = seconds_;
+  r.method = referenceMethodName(method());
   return r;
 }
 
 // ---- Keys and the cache ---------------------------------------------------------------
 
-std::string referenceKey(const Scene& scene, int width, int height, int maxDepth, const EnvironmentSettings& env) {
+std::string referenceKey(const Scene& scene, int width, int height, int maxDepth, const EnvironmentSettings& env,
+                         ReferenceMethod method) {
   Fnv h;
   auto fileBytes = [&h](const std::string& path) {
     if (std::ifstream in(path, std::ios::binary); in) {
@@ -157,8 +165,8 @@ std::string referenceKey(const Scene& scene, int width, int height, int maxDepth
   h.v3(c.up);
   h.f(c.yfov);
   char key[160];
-  std::snprintf(key, sizeof key, "%s-%016llx-%dx%d-d%d", safeName(scene.path).c_str(), (unsigned long long)h.h, width,
-                height, maxDepth);
+  std::snprintf(key, sizeof key, "%s-%016llx-%dx%d-d%d%s", safeName(scene.path).c_str(), (unsigned long long)h.h, width,
+                height, maxDepth, method == ReferenceMethod::Bdpt ? "-bdpt" : "");
   return key;
 }
 
@@ -171,9 +179,10 @@ std::string referenceCacheDir() {
 
 namespace {
 
-// The scene hash of a key "NAME-HASH-WxH-dD" (NAME may hold '-'); "" when the
-// key has no such form.
-std::string keySceneHash(const std::string& key) {
+// The scene hash of a key "NAME-HASH-WxH-dD" or "NAME-HASH-WxH-dD-bdpt"
+// (NAME may hold '-'); "" when the key has no such form.
+std::string keySceneHash(std::string key) {
+  if (key.size() > 5 && key.compare(key.size() - 5, 5, "-bdpt") == 0) key.resize(key.size() - 5);
   size_t depth = key.rfind('-');
   if (depth == std::string::npos || depth == 0) return {};
   size_t size = key.rfind('-', depth - 1);
@@ -212,7 +221,7 @@ Result<void> writeReference(const std::string& path, const Reference& ref, const
   std::snprintf(noise, sizeof noise, "%.6g", ref.indirectNoise());
   std::map<std::string, std::string> attrs = {{"vsl.version", VSL_VERSION},
                                               {"vsl.scene", scenePath},
-                                              {"vsl.method", "pt"},
+                                              {"vsl.method", ref.method},
                                               {"vsl.reference.spp", std::to_string(ref.spp)},
                                               {"vsl.reference.seconds", std::to_string(ref.seconds)},
                                               {"vsl.reference.key", ref.key},
@@ -303,6 +312,7 @@ Result<Reference> readReference(const std::string& path, int width, int height, 
   if (auto it = attrs.find("vsl.reference.spp"); it != attrs.end()) r.spp = std::atoi(it->second.c_str());
   if (auto it = attrs.find("vsl.reference.seconds"); it != attrs.end()) r.seconds = std::atof(it->second.c_str());
   if (auto it = attrs.find("vsl.reference.key"); it != attrs.end()) r.key = it->second;
+  if (auto it = attrs.find("vsl.method"); it != attrs.end()) r.method = it->second;
   return r;
 }
 
@@ -331,6 +341,19 @@ std::unique_ptr<Reference> findCachedReference(const std::string& key, int width
       shippedDir.empty() ? nullptr : readCandidate(shippedDir + "/" + key + ".exr", key, width, height);
   if (shipped && (!cached || shipped->spp > cached->spp)) return shipped;
   return cached;
+}
+
+std::unique_ptr<Reference> findCachedReferenceAnyMethod(const Scene& scene, int width, int height, int maxDepth,
+                                                        const EnvironmentSettings& env, ReferenceMethod preferred) {
+  const ReferenceMethod other =
+      preferred == ReferenceMethod::Bdpt ? ReferenceMethod::PathTracer : ReferenceMethod::Bdpt;
+  std::unique_ptr<Reference> mine =
+      findCachedReference(referenceKey(scene, width, height, maxDepth, env, preferred), width, height);
+  std::unique_ptr<Reference> theirs =
+      findCachedReference(referenceKey(scene, width, height, maxDepth, env, other), width, height);
+  if (!mine || !theirs) return mine ? std::move(mine) : std::move(theirs);
+  const double a = mine->comparedNoise(), b = theirs->comparedNoise();
+  return (b >= 0 && (a < 0 || b < a)) ? std::move(theirs) : std::move(mine);
 }
 
 Result<std::string> storeCachedReference(const Reference& ref, const std::string& scenePath, bool half) {

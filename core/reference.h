@@ -20,9 +20,13 @@
 // unnamed one), which is then the component compared (fullOnly); without
 // halves its noise is unknown.
 //
+// Method: the path tracer (core/pathtracer.h, the default) or bidirectional
+// path tracing (core/bdpt.h), which converges where light reaches the view
+// through glossy reflections of small lights; the file's vsl.method says which.
+//
 // Cache: references are stored as CACHE/<key>.exr, the key naming the scene
-// file's content, the camera, the resolution and the path depth (see
-// referenceKey). CACHE is $VSL_REFERENCE_CACHE, else
+// file's content, the camera, the resolution, the path depth and, for BDPT,
+// the method (see referenceKey). CACHE is $VSL_REFERENCE_CACHE, else
 // $XDG_CACHE_HOME/vsl-studio/references, else ~/.cache/vsl-studio/references.
 #pragma once
 
@@ -33,6 +37,7 @@
 #include <memory>
 #include <string>
 
+#include "core/bdpt.h"
 #include "core/film.h"
 #include "core/pathtracer.h"
 #include "core/result.h"
@@ -44,15 +49,20 @@ namespace vsl {
 // sweep` 1 onwards, so a reference is independent of both.
 constexpr uint64_t kReferenceSeed = 7777;
 
+// The renderer of a reference (the run parameter `reference-method`).
+enum class ReferenceMethod { PathTracer = 0, Bdpt = 1 };
+const char* referenceMethodName(ReferenceMethod m);  // "pt", "bdpt"
+
 struct Reference {
   int width = 0, height = 0;
   Image full, direct, indirect;  // the mean of the halves
   // Independent halves (empty for another renderer's image).
   Image fullA, directA, indirectA, fullB, directB, indirectB;
-  int spp = 0;         // samples per pixel in both halves together (0: unknown)
-  double seconds = 0;  // compute time (0: unknown)
-  std::string source;  // the file it came from ("" for one rendered in memory)
-  std::string key;     // its cache key, when it has one
+  int spp = 0;                // samples per pixel in both halves together (0: unknown)
+  double seconds = 0;         // compute time (0: unknown)
+  std::string source;         // the file it came from ("" for one rendered in memory)
+  std::string key;            // its cache key, when it has one
+  std::string method = "pt";  // the renderer: "pt" or "bdpt" (vsl.method)
   bool hasHalves() const { return !indirectA.rgb.empty() && !indirectB.rgb.empty(); }
   // Only a full image (another renderer's): methods are compared on the full
   // component against it, not the indirect one.
@@ -66,7 +76,7 @@ struct Reference {
 };
 
 // Renders a reference progressively: pass p (one sample per pixel, the path
-// tracer's sample index p) goes to half p % 2. step() adds one pass to each
+// tracer's or BDPT's sample index p) goes to half p % 2. step() adds one pass to each
 // half, stepPass() one pass to the next half in turn (the studio's live path
 // tracer). A stopped step changes nothing visible: the pass renders into
 // scratch films (reused, never reallocated) that replace the halves' films
@@ -74,9 +84,11 @@ struct Reference {
 // reused. Not thread-safe: one thread steps it and reads it.
 class ReferenceRenderer {
  public:
-  ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const RenderSettings& settings);
+  ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights, const RenderSettings& settings,
+                    ReferenceMethod method = ReferenceMethod::PathTracer);
   int width() const { return pt_.width(); }
   int height() const { return pt_.height(); }
+  ReferenceMethod method() const { return bdpt_ ? ReferenceMethod::Bdpt : ReferenceMethod::PathTracer; }
   // Adds two samples per pixel (one per half). Returns false, changing
   // nothing visible, if *stop became true.
   bool step(const std::atomic<bool>* stop = nullptr);
@@ -101,6 +113,7 @@ class ReferenceRenderer {
  private:
   bool renderPasses(int count, const std::atomic<bool>* stop);
   PathTracer pt_;
+  std::unique_ptr<BdptRenderer> bdpt_;  // set for ReferenceMethod::Bdpt
   Film direct_[2], indirect_[2];
   Film scratchDirect_[2], scratchIndirect_[2];  // a step in progress, by its half
   PtCounters counters_;
@@ -110,11 +123,12 @@ class ReferenceRenderer {
 
 // The cache key: scene file name, a 64-bit FNV-1a hash over the scene file's
 // bytes and the loaded geometry and textures (which covers external buffers
-// and images), the camera's name and pose, the resolution and the path depth.
-// An environment light (core/environment.h) other than none adds its
-// description and its map file's bytes to the hash; without one the key is
-// what it always was.
-std::string referenceKey(const Scene& scene, int width, int height, int maxDepth, const EnvironmentSettings& env = {});
+// and images), the camera's name and pose, the resolution and the path depth:
+// "NAME-HASH-WxH-dD"; a BDPT reference's key ends in "-bdpt". An environment
+// light (core/environment.h) other than none adds its description and its
+// map file's bytes to the hash; without one the key is what it always was.
+std::string referenceKey(const Scene& scene, int width, int height, int maxDepth, const EnvironmentSettings& env = {},
+                         ReferenceMethod method = ReferenceMethod::PathTracer);
 // Success unless ref carries a key (vsl reference writes one) whose scene
 // hash differs from scene's: then an error naming path, both keys and the
 // fix. A reference without a key (another renderer's EXR) cannot be checked.
@@ -144,6 +158,13 @@ std::string shippedReferenceDir();
 // shipped one (source says which file), if either exists and reads; null
 // otherwise.
 std::unique_ptr<Reference> findCachedReference(const std::string& key, int width, int height);
+// The reference of this scene and size under either method's key
+// (findCachedReference for each): the one with the lower own noise, the
+// preferred method's when only it has halves or on a tie; null when neither
+// exists. A BDPT reference found for a path-traced key's user (or the
+// reverse) is as good a reference: both converge to the same image.
+std::unique_ptr<Reference> findCachedReferenceAnyMethod(const Scene& scene, int width, int height, int maxDepth,
+                                                        const EnvironmentSettings& env, ReferenceMethod preferred);
 // Stores ref in the cache unless an entry with at least as many samples is
 // already there. Returns the path written ("" if kept the existing one); an
 // error on I/O failure.

@@ -240,6 +240,7 @@ Result<void> StudioSettings::validate() const {
   if (lightSets < 1 || lightSets > kMaxLightSets)
     return Error("light sets: must be in [1," + std::to_string(kMaxLightSets) + "] (got " + std::to_string(lightSets) +
                  ")");
+  if (Result<void> m = checkParamValue(runParam("reference-method"), referenceMethod); !m) return Error(m.error());
   if (backgroundReferenceSpp < 0 || backgroundReferenceSpp > (1 << 20))
     return Error("background reference spp: must be in [0,1048576] (got " + std::to_string(backgroundReferenceSpp) +
                  ")");
@@ -463,6 +464,7 @@ void Session::step(Worker& w, StudioSettings s, uint64_t gen, bool fromScratch) 
   // Settings that change no image (the reference, the set count) apply to a resumed job.
   w.job->settings.referencePath = s.referencePath;
   w.job->settings.backgroundReferenceSpp = s.backgroundReferenceSpp;
+  w.job->settings.referenceMethod = s.referenceMethod;
   w.job->settings.lightSets = s.lightSets;
   if (w.job->ml && w.job->setsDone >= s.lightSets) retireSet(*w.job, false);  // beyond the new count
   chooseReference(w, *w.job);
@@ -818,9 +820,13 @@ void Session::logStep(const Job& job, double stepSeconds) const {
 void Session::chooseReference(Worker& w, Job& job) {
   const int width = job.width, height = job.height;
   const std::string size = std::to_string(width) + "x" + std::to_string(height);
-  if (w.cacheKeyFor != w.scenePath + "|" + w.env.describe() + "|" + size) {
-    w.cacheKey = referenceKey(w.ctx->scene(), width, height, kReferenceDepth, w.env);
-    w.cacheKeyFor = w.scenePath + "|" + w.env.describe() + "|" + size;
+  // BDPT does not handle an environment light yet: the path tracer's key then.
+  const auto method =
+      bdptSupports(w.ctx->lights()) ? ReferenceMethod(job.settings.referenceMethod) : ReferenceMethod::PathTracer;
+  const std::string keyFor = w.scenePath + "|" + w.env.describe() + "|" + size + "|" + referenceMethodName(method);
+  if (w.cacheKeyFor != keyFor) {
+    w.cacheKey = referenceKey(w.ctx->scene(), width, height, kReferenceDepth, w.env, method);
+    w.cacheKeyFor = keyFor;
   }
   const std::string& file = job.settings.referencePath;
   std::string want = file.empty() ? "cache:" + w.cacheKey : "file:" + file + "|" + size;
@@ -836,7 +842,7 @@ void Session::chooseReference(Worker& w, Job& job) {
     else
       refused = "reference not used: " + (r ? same.error() : r.error());
   } else {
-    chosen = findCachedReference(w.cacheKey, width, height);
+    chosen = findCachedReferenceAnyMethod(w.ctx->scene(), width, height, kReferenceDepth, w.env, method);
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -865,7 +871,8 @@ bool Session::renderBackgroundReference(Worker& w, Job& job, uint64_t gen) {
     rs.width = job.width;
     rs.height = job.height;
     rs.seed = kReferenceSeed;
-    w.background = std::make_unique<ReferenceRenderer>(w.ctx->scene(), w.ctx->accel(), w.ctx->lights(), rs);
+    w.background = std::make_unique<ReferenceRenderer>(w.ctx->scene(), w.ctx->accel(), w.ctx->lights(), rs,
+                                                       ReferenceMethod(job.settings.referenceMethod));
     w.backgroundKey = w.cacheKey;
   }
   setStage("reference");

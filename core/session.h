@@ -56,6 +56,10 @@ struct StudioSettings {
   // many samples per pixel into the cache (saved as it doubles), then measure
   // every error against it.
   int backgroundReferenceSpp = 0;
+  // The renderer of that reference, and of the cache entry looked up
+  // (ReferenceMethod: 0 the path tracer, 1 BDPT; run parameter
+  // `reference-method`).
+  int referenceMethod = 0;
   // Independent light sets (seeds many.seed, many.seed + 1, ...), rendered
   // one after another: the many-light images are the mean over the
   // completed sets, and from two on each method's bias and noise are

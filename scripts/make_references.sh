@@ -7,7 +7,8 @@
 # own noise, seconds) for the table in assets/references/README.md.
 #   bash scripts/make_references.sh [SCENE...]     (default: every bundled scene)
 # Environment: WIDTHS (default "256 64"), NOISE (default 0.002), SPP_MAX
-# (default 65536), TIME (seconds per reference, default 3600).
+# (default 65536), TIME (seconds per reference, default 3600), METHOD (pt or
+# bdpt, default pt: `vsl reference --method`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 vsl=build/bin/vsl
@@ -18,9 +19,9 @@ scenes=("$@")
 [ ${#scenes[@]} -gt 0 ] || scenes=(assets/scenes/*.gltf)
 for scene in "${scenes[@]}"; do
   for width in ${WIDTHS:-256 64}; do
-    cmd="VSL_REFERENCE_CACHE=$out vsl reference $scene --width $width --target-relmse ${NOISE:-0.002} --spp ${SPP_MAX:-65536} --time ${TIME:-3600} --half"
+    cmd="VSL_REFERENCE_CACHE=$out vsl reference $scene --width $width --target-relmse ${NOISE:-0.002} --spp ${SPP_MAX:-65536} --time ${TIME:-3600} --method ${METHOD:-pt} --half"
     echo "== $cmd"
     VSL_REFERENCE_CACHE=$out "$vsl" reference "$scene" --width "$width" --target-relmse "${NOISE:-0.002}" \
-      --spp "${SPP_MAX:-65536}" --time "${TIME:-3600}" --half
+      --spp "${SPP_MAX:-65536}" --time "${TIME:-3600}" --method "${METHOD:-pt}" --half
   done
 done

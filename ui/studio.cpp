@@ -1107,6 +1107,11 @@ bool Studio::referenceControls() {
     settings_.backgroundReferenceSpp = backgroundSpp_;
     changed |= track("reference", true);
   }
+  double method = settings_.referenceMethod;
+  if (paramWidget(runParam("reference-method"), &method, StudioSettings().referenceMethod, paramMemory_)) {
+    settings_.referenceMethod = int(method);
+    changed |= track("reference", true);
+  }
   errorField("reference");
   return changed;
 }
