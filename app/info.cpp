@@ -25,6 +25,7 @@ void printMaterials(const Scene& s) {
     std::printf("  %-20s base (%.3g %.3g %.3g) metallic %.3g roughness %.3g", m.name.c_str(), m.baseColor.x,
                 m.baseColor.y, m.baseColor.z, m.metallic, m.roughness);
     if (m.anisotropyStrength > 0) std::printf(" anisotropy %.3g rot %.3g", m.anisotropyStrength, m.anisotropyRotation);
+    if (m.clearcoat > 0) std::printf(" clearcoat %.3g roughness %.3g", m.clearcoat, m.clearcoatRoughness);
     if (m.isEmissive()) std::printf(" emission (%.4g %.4g %.4g)", m.emission.x, m.emission.y, m.emission.z);
     if (m.alphaMode == AlphaMode::Mask) std::printf(" alpha MASK %.3g cutoff %.3g", m.alpha, m.alphaCutoff);
     if (m.alphaMode == AlphaMode::Blend) std::printf(" alpha BLEND %.3g", m.alpha);

@@ -25,7 +25,7 @@ GatherLight decodeGatherLight(const VirtualLight& v, float radius) {
     g.em.ngLocal = g.em.frame.toLocal(g.ng);
   }
   g.radius = radius;
-  g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
+  g.alpha = g.em.f.brdf().minAlpha();
   return g;
 }
 
@@ -85,7 +85,8 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     Brdf brdf = scene_.brdf(sh);
     Vec3 woL = sh.shading.toLocal(wo);
     if (woL.z <= 0) return es;
-    const bool narrow = std::max(brdf.ggx.ax, brdf.ggx.ay) < splitAlpha_;
+    // A narrow clear coat splits the point as a narrow base lobe does.
+    const bool narrow = brdf.hasNarrowLobe(splitAlpha_);
     const bool last = j + 1 >= kMaxSpecularChain;
     const bool continues = !last && (brdf.isNarrowMetal(continueAlpha_) || (narrow && brdf.metallic >= 1.0f));
     // Where the path does not continue, the gather point: the whole BRDF,
@@ -112,7 +113,7 @@ EyeSample Gatherer::eyePath(int x, int y, int width, int height, Rng& rng, Gathe
     gp.rx.frame = sh.shading;
     gp.rx.ng = sh.ng;
     gp.pOff = offsetToLitSide(gp.p, gp.rx.ng);
-    if (o.lobeGather && !split && lobeMap_ && std::min(brdf.ggx.ax, brdf.ggx.ay) < lobeAlpha_) {
+    if (o.lobeGather && !split && lobeMap_ && brdf.minAlpha() < lobeAlpha_) {
       Stopwatch own;
       gp.lobe = true;
       gp.vslLobe = beta * lobeGather(full.specularLobe(), sh, o.lobeRays > 0 ? o.lobeRays : lobeRays_, rng, c);
@@ -189,7 +190,7 @@ Vec3 Gatherer::lobeGather(const BrdfAt& spec, const SurfaceHit& sh, int rays, Rn
       const Brdf zb = scene_.brdf(z);
       const Vec3 woZ = z.shading.toLocal(wOut);
       if (woZ.z <= 0) break;
-      const bool narrow = std::max(zb.ggx.ax, zb.ggx.ay) < ManyLightSettings::kLobeGatherAlpha;
+      const bool narrow = zb.hasNarrowLobe(ManyLightSettings::kLobeGatherAlpha);
       const float minAlpha = bounce >= 1 ? ManyLightSettings::kLobeGatherChainAlpha : 0.0f;
       const Vec3 add = t * lobeMap_->radiance(z.p, dot(z.ng, wOut) >= 0 ? z.ng : -z.ng, wOut, narrow, minAlpha);
       if (isFinite(add))
@@ -430,7 +431,9 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   VslPair pr;
   if (!vslPair(gp, L, g, pr)) return;
   VslResult r;
-  if (vslUsesSg(vsl_, pr.radius, g.dist)) {
+  // The closed form models the base's lobes alone: a pair with a clear coat
+  // at either end takes the quadrature (core/vsl_sg.h).
+  if (vslUsesSg(vsl_, pr.radius, g.dist) && !pr.rx.f.coated() && !pr.em.f.coated()) {
     r = vslTransferSg(pr.rx, pr.em, g.d, pr.radius, vsl_);
   } else {
     Rng prng = Rng::forItem(pixel, lightId, 3, seed_);

@@ -607,6 +607,8 @@ struct Loader {
         if (ext.IsObject() &&
             (ext.Has("specularColorFactor") || ext.Has("specularTexture") || ext.Has("specularColorTexture")))
           warn(ew + ": only specularFactor is modelled (specular colour and textures ignored)");
+      } else if (name == "KHR_materials_clearcoat") {
+        clearcoat(ext, ew, m);
       } else {
         warn(where + ": extension " + name + " is not modelled (ignored)");
       }
@@ -616,6 +618,32 @@ struct Loader {
     if (gm.occlusionTexture.index >= 0)
       warn(where + ": occlusionTexture is not used (a path tracer computes occlusion itself)");
     return m;
+  }
+
+  // KHR_materials_clearcoat (its README, "Properties"): factors in [0,1],
+  // the coat's weight in clearcoatTexture's R channel, its roughness in
+  // clearcoatRoughnessTexture's G channel, and its own normal map with a
+  // scale, each texture with its UV set and KHR_texture_transform.
+  void clearcoat(const tinygltf::Value& ext, const std::string& ew, Material& m) {
+    m.clearcoat = float(numberOr(ext, "clearcoatFactor", 0.0, ew));
+    checkRange(m.clearcoat, 0, 1, ew, "clearcoatFactor");
+    m.clearcoatRoughness = float(numberOr(ext, "clearcoatRoughnessFactor", 0.0, ew));
+    checkRange(m.clearcoatRoughness, 0, 1, ew, "clearcoatRoughnessFactor");
+    m.clearcoatTexture = texture(textureIndexOf(ext, "clearcoatTexture", ew), ew + " clearcoatTexture");
+    if (m.clearcoatTexture >= 0) m.clearcoatTransform = textureInfo(ext, "clearcoatTexture", ew);
+    m.clearcoatRoughnessTexture =
+        texture(textureIndexOf(ext, "clearcoatRoughnessTexture", ew), ew + " clearcoatRoughnessTexture");
+    if (m.clearcoatRoughnessTexture >= 0)
+      m.clearcoatRoughnessTransform = textureInfo(ext, "clearcoatRoughnessTexture", ew);
+    m.clearcoatNormalTexture =
+        texture(textureIndexOf(ext, "clearcoatNormalTexture", ew), ew + " clearcoatNormalTexture");
+    if (m.clearcoatNormalTexture < 0) return;
+    const std::string nw = ew + " clearcoatNormalTexture";
+    const double scale = numberOr(ext.Get("clearcoatNormalTexture"), "scale", 1.0, nw);
+    if (!std::isfinite(scale) || std::abs(scale) > 1e6)
+      throw LoadError{nw + ": scale must be finite, at most 1e6 in magnitude (got " + formatNumber(scale) + ")"};
+    m.clearcoatNormalScale = float(scale);
+    m.clearcoatNormalTransform = textureInfo(ext, "clearcoatNormalTexture", ew);
   }
 
   // The material's normalTexture and its scale (glTF 2.0, 3.9.3). A scale
@@ -706,7 +734,7 @@ struct Loader {
     uint32_t base = appendVertices(at, xf, flip, where);
     // Generate tangents from UV derivatives where the file has none.
     const Material& mat = scene.materials[matIndex];
-    if (!at.hasT && at.hasUV && mat.normalTexture >= 0)
+    if (!at.hasT && at.hasUV && (mat.normalTexture >= 0 || mat.clearcoatNormalTexture >= 0))
       generateMikkTangents(scene.positions, scene.normals, scene.uvs, absoluteIndices(base, tris, flip), base,
                            scene.tangents, scene.tangentSigns);
     else if (!at.hasT && at.hasUV && mat.anisotropyStrength > 0)
@@ -825,13 +853,14 @@ struct Loader {
     }
     const Material& mat = scene.materials[matIndex];
     for (const TextureTransform* t :
-         {&mat.baseColorTransform, &mat.metallicRoughnessTransform, &mat.emissiveTransform, &mat.anisotropyTransform})
+         {&mat.baseColorTransform, &mat.metallicRoughnessTransform, &mat.emissiveTransform, &mat.anisotropyTransform,
+          &mat.clearcoatTransform, &mat.clearcoatRoughnessTransform, &mat.clearcoatNormalTransform})
       if (t->texCoord() == 1 && !at.hasUV1)
         warn(where + ": material '" + mat.name + "' reads TEXCOORD_1, which the primitive lacks (TEXCOORD_0 used)");
     if (mat.anisotropyStrength > 0 && !at.hasT && !at.hasUV)
       warn(where + ": anisotropic material '" + mat.name +
            "' on a mesh with neither TANGENT nor TEXCOORD_0; the anisotropy direction is arbitrary");
-    if (mat.normalTexture >= 0 && !at.hasT && !at.hasUV)
+    if ((mat.normalTexture >= 0 || mat.clearcoatNormalTexture >= 0) && !at.hasT && !at.hasUV)
       warn(where + ": normal-mapped material '" + mat.name +
            "' on a mesh with neither TANGENT nor TEXCOORD_0; its normal map is not applied");
     return matIndex;
@@ -1656,8 +1685,9 @@ std::string parseGltf(const std::string& path, const std::vector<unsigned char>&
 // Refuses required extensions we do not model; warns about used ones,
 // animations and skins.
 void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string& path) {
-  std::set<std::string> kSupported = {"KHR_materials_emissive_strength", "KHR_materials_anisotropy",
-                                      "KHR_materials_specular", "KHR_lights_punctual", "KHR_texture_transform"};
+  std::set<std::string> kSupported = {
+      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_specular",
+      "KHR_materials_clearcoat",         "KHR_lights_punctual",      "KHR_texture_transform"};
   // Compressed geometry: decoded when the decoder was built in; without it a
   // file that requires the extension is refused with the package to install.
   for (auto [name, available, library, package] :
@@ -1679,8 +1709,8 @@ void checkExtensions(const tinygltf::Model& model, Loader& L, const std::string&
     if (!kSupported.count(e))
       throw LoadError{path + ": required extension " + e +
                       " is not supported (supported: EXT_meshopt_compression, KHR_draco_mesh_compression, "
-                      "KHR_lights_punctual, KHR_materials_anisotropy, KHR_materials_emissive_strength, "
-                      "KHR_materials_specular, KHR_texture_transform)"};
+                      "KHR_lights_punctual, KHR_materials_anisotropy, KHR_materials_clearcoat, "
+                      "KHR_materials_emissive_strength, KHR_materials_specular, KHR_texture_transform)"};
   for (const auto& e : model.extensionsUsed)
     if (!kSupported.count(e)) L.warn(path + ": extension " + e + " is used but not modelled");
   if (!model.animations.empty())

@@ -21,8 +21,7 @@ LobeGatherMap::LobeGatherMap(const VirtualLightSet& set, int k) : k_(std::max(k,
   for (uint32_t i : order) {
     GatherLight g = decodeGatherLight(set.lights[i], 0.0f);
     // The indirect lights' lobes at least kIndirectAlphaFloor wide (header).
-    if (set.lights[i].depth >= 2 && widenLobeTo(g.em, kIndirectAlphaFloor, g.em))
-      g.alpha = std::min(g.em.f.brdf().ggx.ax, g.em.f.brdf().ggx.ay);
+    if (set.lights[i].depth >= 2 && widenLobeTo(g.em, kIndirectAlphaFloor, g.em)) g.alpha = g.em.f.brdf().minAlpha();
     lights_.push_back(g);
   }
   // Each light's record for the estimates (its BRDF packed, then its

@@ -153,6 +153,14 @@ Brdf Brdf::fromGltf(const Vec3& baseColor, float metallic, float roughness, floa
   return b;
 }
 
+Brdf Brdf::withClearcoat(float weight, float roughness, const Vec3& n) const {
+  Brdf b = *this;
+  b.clearcoat = clamp(weight, 0, 1);
+  b.coat.ax = b.coat.ay = std::max(sqr(clamp(roughness, 0, 1)), kMinAlpha);
+  b.coatNormal = isFinite(n) && n.z > 0 && std::abs(lengthSquared(n) - 1) < 1e-3f ? n : Vec3(0, 0, 1);
+  return b;
+}
+
 Vec3 Brdf::evalDiffuse(const Vec3& wo, const Vec3& wi) const { return BrdfAt(*this, wo).evalParts(wi).diffuse; }
 
 Vec3 Brdf::eval(const Vec3& wo, const Vec3& wi) const { return BrdfAt(*this, wo).eval(wi); }
@@ -168,6 +176,7 @@ std::optional<BrdfSample> Brdf::sample(const Vec3& wo, float u1, Vec2 u2) const 
 // ---- BrdfAt ---------------------------------------------------------------
 
 BrdfAt::BrdfAt(const Brdf& brdf, const Vec3& w) : b_(brdf), w_(w), above_(w.z > 0) {
+  coat_ = b_.clearcoat > 0;
   if (!above_) return;
   const float s = b_.specularWeight, m = b_.metallic;
   lambdaW_ = b_.ggx.lambda(w);
@@ -182,10 +191,15 @@ BrdfAt::BrdfAt(const Brdf& brdf, const Vec3& w) : b_(brdf), w_(w), above_(w.z > 
     float spec = m + (1 - m) * E;
     float diff = (1 - m) * (1 - E) * std::max(luminance(b_.baseColor), 0.0f);
     ps_ = !(spec > 0) ? 0.0f : !(diff > 0) ? 1.0f : clamp(spec / (spec + diff), 0.1f, 0.9f);
+    baseSpecW_ = spec;
+    baseDiffW_ = diff;
+  } else {
+    baseSpecW_ = 1;
   }
   // Visible-normal sampling: pdf(wi) = G1(w) D(h) / (4 w.z).
   specPdfScale_ = ps_ / ((1 + lambdaW_) * 4 * w.z);
   pdfBound_ = (1 - ps_) * kInvPi + specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay);
+  if (coat_) initCoat();
 }
 
 BrdfAt BrdfAt::diffuseLobe() const {
@@ -194,6 +208,10 @@ BrdfAt BrdfAt::diffuseLobe() const {
   d.ps_ = 0;
   d.specPdfScale_ = 0;
   d.pdfBound_ = kInvPi;
+  if (coat_) {
+    d.restricted_ = 1;
+    d.setLobeProbabilities();
+  }
   return d;
 }
 
@@ -204,16 +222,22 @@ BrdfAt BrdfAt::specularLobe() const {
   s.ps_ = 1;
   s.specPdfScale_ = 1.0f / ((1 + lambdaW_) * 4 * w_.z);
   s.pdfBound_ = s.specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay);
+  if (coat_) {
+    s.restricted_ = 2;
+    s.setLobeProbabilities();
+  }
   return s;
 }
 
 BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
+  if (coat_) return evalPartsCoated(wi, pdfOut);
   Parts p{Vec3(0.0f), Vec3(0.0f)};
   if (pdfOut) *pdfOut = 0;
   if (!above_ || !(wi.z > 0)) return p;  // (NaN too: zero, as the block forms give)
   const float s = b_.specularWeight, m = b_.metallic;
   if (m < 1) p.diffuse = kd_ * (1 - s * albedoAt(row_, wi.z));
-  if (pdfOut) *pdfOut = (1 - ps_) * cosineHemispherePdf(wi.z);
+  // (1 - pc_) is 1 without a coat: the product then rounds to 1 - ps_.
+  if (pdfOut) *pdfOut = (1 - pc_) * (1 - ps_) * cosineHemispherePdf(wi.z);
   if (!specularOn_) return p;
   Vec3 h = w_ + wi;
   float hl = length(h);
@@ -232,6 +256,11 @@ BrdfAt::Parts BrdfAt::evalParts(const Vec3& wi, float* pdfOut) const {
 }
 
 float BrdfAt::pdf(const Vec3& wi) const {
+  if (coat_) {
+    float p = 0;
+    evalPartsCoated(wi, &p);
+    return p;
+  }
   if (!above_ || wi.z <= 0) return 0;
   float pdf = (1 - ps_) * cosineHemispherePdf(wi.z);
   if (!specularOn_) return pdf;
@@ -242,6 +271,7 @@ float BrdfAt::pdf(const Vec3& wi) const {
 
 bool BrdfAt::sampleDirection(float u1, Vec2 u2, Vec3& wi, bool& specular) const {
   if (!above_) return false;
+  if (coat_) return sampleDirectionCoated(u1, u2, wi, specular);
   return sampleDirectionIn(b_.ggx.visibleNormalFrame(w_), u1, u2, wi, specular);
 }
 
@@ -257,7 +287,7 @@ bool BrdfAt::sampleDirectionIn(const GGX::VisibleFrame& v, float u1, Vec2 u2, Ve
 }
 
 void BrdfAt::sampleDirections(int n, const float* const u[3], float* const wi[3], int32_t* ok) const {
-  if (n >= 4 && simdAvailable())
+  if (n >= 4 && simdAvailable() && !coat_)
     sampleDirectionsAvx2(n, u, wi, ok);
   else
     sampleDirectionsScalar(n, u, wi, ok);
@@ -268,7 +298,10 @@ void BrdfAt::sampleDirectionsScalar(int n, const float* const u[3], float* const
   for (int i = 0; i < n; ++i) {
     Vec3 w(0.0f);
     bool specular;
-    ok[i] = above_ && sampleDirectionIn(v, u[0][i], {u[1][i], u[2][i]}, w, specular) ? -1 : 0;
+    const Vec2 u2{u[1][i], u[2][i]};
+    const bool drawn =
+        coat_ ? sampleDirection(u[0][i], u2, w, specular) : above_ && sampleDirectionIn(v, u[0][i], u2, w, specular);
+    ok[i] = drawn ? -1 : 0;
     for (int c = 0; c < 3; ++c) wi[c][i] = w[c];
   }
 }
@@ -281,6 +314,92 @@ std::optional<BrdfSample> BrdfAt::sample(float u1, Vec2 u2) const {
   Vec3 f = evalParts(wi, &p).total();
   if (!(p > 0) || !std::isfinite(p)) return std::nullopt;
   return BrdfSample{wi, f, p, spec};
+}
+
+// ---- [Clear coat] ---------------------------------------------------------
+// KHR_materials_clearcoat as layered in core/material.h: the coat's lobe
+// cc F D G2 / (4 cos cos) in the coat's frame, the base times the
+// transmissions (1 - cc E_c) at both directions. sample() picks the coat
+// with probability pc_ (its share of the albedo at w, kept in [0.1, 0.9]
+// when the base reflects too, as the base's own lobes are), the base's lobes
+// otherwise, and pdf() is the mixture's.
+
+void BrdfAt::initCoat() {
+  const Vec3& n = b_.coatNormal;
+  coatTilted_ = n.x != 0 || n.y != 0;
+  if (coatTilted_) coatFrame_ = Frame(n);  // the coat is isotropic: any tangent will do
+  wc_ = toCoat(w_);
+  rowC_ = albedoRow(b_.coat.ax);
+  const float cc = b_.clearcoat, Ec = albedoAt(rowC_, wc_.z);
+  coatT_ = 1 - cc * Ec;
+  coatW_ = wc_.z > 0 ? cc * Ec : 0.0f;
+  lambdaWc_ = wc_.z > 0 ? b_.coat.lambda(wc_) : 0.0f;
+  kd_ *= coatT_;
+  setLobeProbabilities();
+}
+
+void BrdfAt::setLobeProbabilities() {
+  if (!above_) return;
+  const float coatW = restricted_ == 1 ? 0.0f : coatW_;
+  const float baseW = coatT_ * ((restricted_ == 1 ? 0.0f : baseSpecW_) + (restricted_ == 2 ? 0.0f : baseDiffW_));
+  pc_ = !(coatW > 0) ? 0.0f : !(baseW > 0) ? 1.0f : clamp(coatW / (coatW + baseW), 0.1f, 0.9f);
+  specPdfScale_ = (1 - pc_) * ps_ / ((1 + lambdaW_) * 4 * w_.z);
+  coatPdfScale_ = wc_.z > 0 ? pc_ / ((1 + lambdaWc_) * 4 * wc_.z) : 0.0f;
+  pdfBound_ = (1 - pc_) * (1 - ps_) * kInvPi + specPdfScale_ / (kPi * b_.ggx.ax * b_.ggx.ay) +
+              coatPdfScale_ / (kPi * b_.coat.ax * b_.coat.ay);
+}
+
+BrdfAt::Parts BrdfAt::evalPartsCoated(const Vec3& wi, float* pdfOut) const {
+  Parts p{Vec3(0.0f), Vec3(0.0f)};
+  if (pdfOut) *pdfOut = 0;
+  if (!above_ || !(wi.z > 0)) return p;
+  // The base's lobes (kd_ holds the transmission at w; its specular lobe
+  // takes both here) and their pdfs, already scaled by 1 - pc_.
+  const float s = b_.specularWeight, m = b_.metallic;
+  const Vec3 wic = toCoat(wi);
+  const float ti = 1 - b_.clearcoat * albedoAt(rowC_, wic.z);
+  if (m < 1) p.diffuse = kd_ * ((1 - s * albedoAt(row_, wi.z)) * ti);
+  if (pdfOut) *pdfOut = (1 - pc_) * (1 - ps_) * cosineHemispherePdf(wi.z);
+  if (!specularOn_) return p;
+  Vec3 h = w_ + wi;
+  float hl = length(h);
+  if (hl > 0) {
+    h /= hl;
+    const float D = b_.ggx.D(h), voh = dot(w_, h);
+    if (pdfOut && voh > 0) *pdfOut += specPdfScale_ * D;
+    const float w = schlickWeight(std::max(voh, 0.0f));
+    const Vec3 Fm = b_.baseColor + (Vec3(1.0f) - b_.baseColor) * w;
+    const float Fd = s * (kDielectricF0 + (1 - kDielectricF0) * w);
+    const Vec3 F = Vec3(Fd * (1 - m)) + Fm * m;
+    const float G2 = 1.0f / (1.0f + lambdaW_ + b_.ggx.lambda(wi));
+    p.specular = F * (D * G2 / (4 * w_.z * wi.z) * coatT_ * ti);
+  }
+  // The coat's lobe, in its frame (zero where either direction is below it).
+  if (!(wc_.z > 0)) return p;
+  Vec3 hc = wc_ + wic;
+  const float hcl = length(hc);
+  if (!(hcl > 0)) return p;
+  hc /= hcl;
+  const float Dc = b_.coat.D(hc), vohc = dot(wc_, hc);
+  if (pdfOut && vohc > 0) *pdfOut += coatPdfScale_ * Dc;
+  if (!(wic.z > 0)) return p;
+  const float Fc = kDielectricF0 + (1 - kDielectricF0) * schlickWeight(std::max(vohc, 0.0f));
+  const float G2c = 1.0f / (1.0f + lambdaWc_ + b_.coat.lambda(wic));
+  p.specular += Vec3(b_.clearcoat * Fc * Dc * G2c / (4 * wc_.z * wic.z));
+  return p;
+}
+
+bool BrdfAt::sampleDirectionCoated(float u1, Vec2 u2, Vec3& wi, bool& specular) const {
+  if (u1 < pc_) {
+    // The coat: a visible normal of its GGX seen from w (Heitz 2018), mirrored.
+    specular = true;
+    const Vec3 wic = reflect(wc_, b_.coat.sampleVisibleNormal(wc_, u2));
+    wi = coatTilted_ ? coatFrame_.toWorld(wic) : wic;
+    return wi.z > 0;
+  }
+  // The base's lobes, u1 rescaled to [0, 1).
+  const float ub = std::min((u1 - pc_) / (1 - pc_), 0x1.fffffep-1f);
+  return sampleDirectionIn(b_.ggx.visibleNormalFrame(w_), ub, u2, wi, specular);
 }
 
 // ---- BrdfAt, blocks of directions ------------------------------------------
@@ -296,7 +415,7 @@ bool useSimd(int n) { return n >= 4 && simdAvailable(); }
 }  // namespace
 
 void BrdfAt::evalTotals(int n, const float* wx, const float* wy, const float* wz, float* const f[3], float* pdf) const {
-  if (useSimd(n))
+  if (useSimd(n) && !coat_)
     evalTotalsAvx2(n, wx, wy, wz, f, pdf);
   else
     evalTotalsScalar(n, wx, wy, wz, f, pdf);
@@ -321,8 +440,18 @@ enum PackedTerm {
   kAbove,
   kDiffuse,
   kSpecular,  // masks: all bits set or none
+  // The clear coat (the AVX2 form reads none of it: a group with a coat
+  // takes the scalar form): its weight (0: none), its alpha, and the bits
+  // of a uint32 holding the restriction (bits 0-1) and the coat normal's x
+  // and y as 15-bit snorms (bits 2-16, 17-31; z > 0 follows).
+  kClearcoat,
+  kCoatAlpha,
+  kCoatBits,
 };
-static_assert(kSpecular < BrdfAt::kPackedFloats, "the packed terms fit");
+static_assert(kCoatBits < BrdfAt::kPackedFloats, "the packed terms fit");
+constexpr float kSnorm15 = 16383.0f;
+uint32_t toSnorm15(float v) { return uint32_t(std::lround(clamp(v, -1.0f, 1.0f) * kSnorm15) + 16384) & 0x7fffu; }
+float fromSnorm15(uint32_t b) { return (float(b & 0x7fffu) - 16384) / kSnorm15; }
 float bitsOf(int32_t v) {
   float f;
   std::memcpy(&f, &v, sizeof f);
@@ -354,10 +483,33 @@ void BrdfAt::pack(float* out) const {
   out[kAbove] = bitsOf(above_ ? -1 : 0);
   out[kDiffuse] = bitsOf(b_.metallic < 1 ? -1 : 0);
   out[kSpecular] = bitsOf(specularOn_ ? -1 : 0);
+  if (!coat_) return;
+  out[kClearcoat] = b_.clearcoat;
+  out[kCoatAlpha] = b_.coat.ax;
+  const uint32_t bits = uint32_t(restricted_) | (toSnorm15(b_.coatNormal.x) << 2) | (toSnorm15(b_.coatNormal.y) << 17);
+  out[kCoatBits] = bitsOf(int32_t(bits));
 }
 
 BrdfAt BrdfAt::unpack(const float* in) {
   BrdfAt b;
+  if (in[kClearcoat] > 0) {
+    // A coated BRDF is rebuilt from its parameters and its restriction.
+    Brdf c;
+    for (int k = 0; k < 3; ++k) c.baseColor[k] = in[kBase + k];
+    c.specularWeight = in[kS];
+    c.metallic = in[kM];
+    c.ggx.ax = in[kAx];
+    c.ggx.ay = in[kAy];
+    c.clearcoat = in[kClearcoat];
+    c.coat.ax = c.coat.ay = in[kCoatAlpha];
+    const uint32_t bits = uint32_t(intOf(in[kCoatBits]));
+    const float nx = fromSnorm15(bits >> 2), ny = fromSnorm15(bits >> 17);
+    c.coatNormal = Vec3(nx, ny, safeSqrt(1 - nx * nx - ny * ny));
+    if (nx != 0 || ny != 0) c.coatNormal = normalize(c.coatNormal);
+    const BrdfAt full(c, Vec3(in[kW], in[kW + 1], in[kW + 2]));
+    const int r = int(bits & 3u);
+    return r == 1 ? full.diffuseLobe() : r == 2 ? full.specularLobe() : full;
+  }
   for (int c = 0; c < 3; ++c) {
     b.b_.baseColor[c] = in[kBase + c];
     b.kd_[c] = in[kKd + c];
@@ -380,6 +532,11 @@ BrdfAt BrdfAt::unpack(const float* in) {
 void BrdfAt::evalTotalsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
                               bool diffuseOnly, float* const f[3]) {
   if (useSimd(n)) return evalTotalsPackedAvx2(n, packed, wx, wy, wz, diffuseOnly, f);
+  evalTotalsPackedScalar(n, packed, wx, wy, wz, diffuseOnly, f);
+}
+
+void BrdfAt::evalTotalsPackedScalar(int n, const float* const* packed, const float* wx, const float* wy,
+                                    const float* wz, bool diffuseOnly, float* const f[3]) {
   for (int i = 0; i < n; ++i) {
     const Parts p = unpack(packed[i]).evalParts(Vec3(wx[i], wy[i], wz[i]));
     const Vec3 v = diffuseOnly ? p.diffuse : p.total();
@@ -539,6 +696,7 @@ VSL_AVX2 BrdfLanes lanesOfOne(const BrdfAt& f) {
 
 VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, const float* wz, float* const f[3],
                                      float* pdf) const {
+  if (coat_) return evalTotalsScalar(n, wx, wy, wz, f, pdf);
   if (!above_) {
     for (int i = 0; i < n; ++i) {
       f[0][i] = f[1][i] = f[2][i] = 0;
@@ -559,7 +717,7 @@ VSL_AVX2 void BrdfAt::evalTotalsAvx2(int n, const float* wx, const float* wy, co
 
 void BrdfAt::evalPartsMany(int n, const float* wx, const float* wy, const float* wz, float* const diffuse[3],
                            float* const specular[3]) const {
-  if (useSimd(n)) return evalPartsManyAvx2(n, wx, wy, wz, diffuse, specular);
+  if (useSimd(n) && !coat_) return evalPartsManyAvx2(n, wx, wy, wz, diffuse, specular);
   for (int i = 0; i < n; ++i) {
     const Parts p = evalParts(Vec3(wx[i], wy[i], wz[i]));
     for (int c = 0; c < 3; ++c) {
@@ -571,6 +729,16 @@ void BrdfAt::evalPartsMany(int n, const float* wx, const float* wy, const float*
 
 VSL_AVX2 void BrdfAt::evalPartsManyAvx2(int n, const float* wx, const float* wy, const float* wz,
                                         float* const diffuse[3], float* const specular[3]) const {
+  if (coat_) {
+    for (int i = 0; i < n; ++i) {
+      const Parts p = evalParts(Vec3(wx[i], wy[i], wz[i]));
+      for (int c = 0; c < 3; ++c) {
+        diffuse[c][i] = p.diffuse[c];
+        specular[c][i] = p.specular[c];
+      }
+    }
+    return;
+  }
   const BrdfLanes k = lanesOfOne(*this);
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
@@ -611,6 +779,14 @@ VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, co
   static const float kZero[kPackedFloats] = {};
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
+    // A group with a coated BRDF takes the scalar form (the lanes model the base alone).
+    bool coated = false;
+    for (int j = 0; j < m; ++j) coated = coated || packed[i0 + j][kClearcoat] > 0;
+    if (coated) {
+      float* const fi[3] = {f[0] + i0, f[1] + i0, f[2] + i0};
+      evalTotalsPackedScalar(m, packed + i0, wx + i0, wy + i0, wz + i0, diffuseOnly, fi);
+      continue;
+    }
     __m256 v[kPackedFloats];
     for (int g = 0; g < kPackedFloats / 8; ++g) {
       __m256 rows[8];
@@ -670,6 +846,7 @@ void Texture::lookup(Vec2 uv, bool srgb, float out[4]) const {
 // per lane, with the scalar operations in their order (sampleCosineHemisphere,
 // GGX::sampleVisibleNormal and reflect, as written in math.h and sampling.cpp).
 VSL_AVX2 void BrdfAt::sampleDirectionsAvx2(int n, const float* const u[3], float* const wi[3], int32_t* ok) const {
+  if (coat_) return sampleDirectionsScalar(n, u, wi, ok);
   if (!above_) {
     for (int i = 0; i < n; ++i) {
       wi[0][i] = wi[1][i] = wi[2][i] = 0;

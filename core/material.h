@@ -20,9 +20,25 @@
 // where E is the directional albedo of the dielectric specular lobe (F0 = 0.04),
 // tabulated once. Then albedo = E(wo) + c (1 - E(wo)) <= 1 and reciprocity
 // holds. For anisotropic dielectrics E is looked up at alpha = sqrt(ax*ay).
+//
+// Clear coat (KHR_materials_clearcoat, its README's "Implementation" and
+// the glTF BRDF appendix's fresnel_coat): an isotropic dielectric GGX lobe
+// (F0 = 0.04, alpha_c = clearcoatRoughness^2, its own normal) over the base,
+//   f = cc f_coat(wo, wi) + (1 - cc E_c(wo)) (1 - cc E_c(wi)) f_base(wo, wi),
+// cc the clearcoat factor. The coat lobe is the specular lobe above with
+// F0 = 0.04 and specularWeight 1. The README attenuates the base once, by
+// (1 - cc F_coat(n.v)). We attenuate it on the way in and on the way out,
+// by the coat's directional albedo E_c (its Fresnel averaged over the
+// microfacets, the table above at alpha_c), in the same spirit as the
+// diffuse lobe's albedo scaling (Weidlich & Wilkie 2007, "Arbitrarily
+// layered micro-facet surfaces", take transmission at both interfaces).
+// This keeps the BRDF reciprocal, which light tracing needs (Veach 1997,
+// section 5.3), and the albedo cc E_c(wo) + (1 - cc E_c(wo)) a_base <= 1
+// (docs/REFERENCE.md, "Clear coat").
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -82,11 +98,23 @@ struct Brdf {
   // (0 = a pure Lambertian dielectric, as the furnace scene uses).
   float specularWeight = 1;
   GGX ggx;
+  // KHR_materials_clearcoat: the coat's weight cc in [0,1] (0: no coat),
+  // its isotropic GGX (alpha_c = clearcoatRoughness^2) and its normal in
+  // this BRDF's local frame (+z unless clearcoatNormalTexture or a base
+  // normal map bends one of the two).
+  float clearcoat = 0;
+  GGX coat;
+  Vec3 coatNormal{0, 0, 1};
 
   // Builds the BRDF from glTF parameters. roughness in [0,1]; anisotropy
   // strength in [0,1] stretches alpha along +x: at = mix(a, 1, s^2), ab = a.
   static Brdf fromGltf(const Vec3& baseColor, float metallic, float roughness, float anisotropy,
                        float specularWeight = 1.0f);
+  // This BRDF under a clear coat of weight `clearcoat` and roughness
+  // `roughness` (both clamped to [0,1]) with unit normal n (local frame,
+  // n.z > 0; anything else means +z).
+  Brdf withClearcoat(float weight, float roughness, const Vec3& n = Vec3(0, 0, 1)) const;
+  bool hasCoat() const { return clearcoat > 0; }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const;
   // The diffuse lobe alone (used by diffuse-only VPL emission).
@@ -99,12 +127,20 @@ struct Brdf {
   float specularProbability(const Vec3& wo) const;
   bool isNearSpecular() const { return isNarrowMetal(kNearSpecularAlpha); }
   // A pure metal whose lobe is narrower than alpha along both axes.
-  bool isNarrowMetal(float alpha) const { return ggx.ax < alpha && ggx.ay < alpha && metallic >= 1.0f; }
-  // This BRDF with its GGX lobe at least alpha wide on each axis.
+  // A coat counts as narrow too when it is narrower than alpha.
+  bool isNarrowMetal(float alpha) const {
+    return ggx.ax < alpha && ggx.ay < alpha && metallic >= 1.0f && (!hasCoat() || coat.ax < alpha);
+  }
+  // The base's specular lobe or the coat is narrower than alpha on both axes.
+  bool hasNarrowLobe(float alpha) const { return std::max(ggx.ax, ggx.ay) < alpha || (hasCoat() && coat.ax < alpha); }
+  // The narrowest GGX alpha of the specular lobes (base and coat).
+  float minAlpha() const { return hasCoat() ? std::min({ggx.ax, ggx.ay, coat.ax}) : std::min(ggx.ax, ggx.ay); }
+  // This BRDF with its GGX lobes (base and coat) at least alpha wide on each axis.
   Brdf widened(float alpha) const {
     Brdf b = *this;
     b.ggx.ax = std::max(b.ggx.ax, alpha);
     b.ggx.ay = std::max(b.ggx.ay, alpha);
+    b.coat.ax = b.coat.ay = std::max(b.coat.ax, alpha);
     return b;
   }
   // Diffuse reflectance rho_d (the Lambertian part's albedo before the
@@ -173,11 +209,16 @@ class BrdfAt {
   // .diffuse), the BRDFs kept packed (pack(): kPackedFloats floats each). The
   // AVX2 form reads eight at a time by transposing rows of eight floats, and
   // agrees with the scalar one bit for bit, as evalTotals does.
+  // The block forms (evalTotals, evalPartsMany, sampleDirections and the
+  // packed ones) run the scalar code for a coated BRDF: the AVX2 forms model
+  // the base alone (docs/REFERENCE.md, "Clear coat").
   static constexpr int kPackedFloats = 24;
   void pack(float* out) const;
   static BrdfAt unpack(const float* packed);
   static void evalTotalsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
                                bool diffuseOnly, float* const f[3]);
+  static void evalTotalsPackedScalar(int n, const float* const* packed, const float* wx, const float* wy,
+                                     const float* wz, bool diffuseOnly, float* const f[3]);
   static void evalTotalsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
                                    bool diffuseOnly, float* const f[3]);
   float pdf(const Vec3& wi) const;
@@ -193,9 +234,14 @@ class BrdfAt {
   void sampleDirections(int n, const float* const u[3], float* const wi[3], int32_t* ok) const;
   void sampleDirectionsScalar(int n, const float* const u[3], float* const wi[3], int32_t* ok) const;
   void sampleDirectionsAvx2(int n, const float* const u[3], float* const wi[3], int32_t* ok) const;
-  float specularProbability() const { return ps_; }
+  // The probability that sample() picks a specular lobe (base or coat).
+  float specularProbability() const { return coat_ ? pc_ + (1 - pc_) * ps_ : ps_; }
+  // The probability that sample() picks the coat's lobe (0 without one).
+  float coatProbability() const { return coat_ && specularOn_ ? pc_ : 0.0f; }
   // False for a BRDF restricted to its diffuse lobe (diffuseLobe()).
   bool specularOn() const { return specularOn_; }
+  // The BRDF has a clear coat (its lobe is part of the specular lobe).
+  bool coated() const { return coat_; }
   // The diffuse lobe's largest value: evalParts(wi).diffuse <= kd() for every
   // wi (the lobe is kd (1 - s E(wi)), core/material.cpp).
   const Vec3& kd() const { return kd_; }
@@ -210,9 +256,26 @@ class BrdfAt {
   AlbedoRow row_;
   bool above_ = false;      // w.z > 0
   bool specularOn_ = true;  // false: restricted to the diffuse lobe
+  // The clear coat (Brdf::clearcoat > 0): w in the coat's frame, its lambda,
+  // the albedo row at alpha_c, the base's transmission 1 - cc E_c(w), the
+  // lobe weights (the coat's albedo cc E_c(w) and the base's, times the
+  // transmission) and pc_, the probability that sample() picks the coat.
+  bool coat_ = false, coatTilted_ = false;
+  Frame coatFrame_;
+  Vec3 wc_{0, 0, 1};
+  float lambdaWc_ = 0, coatT_ = 1, coatW_ = 0, baseSpecW_ = 0, baseDiffW_ = 0, pc_ = 0, coatPdfScale_ = 0;
+  AlbedoRow rowC_;
+  // Which restriction made this (pack() keeps it for a coated BRDF).
+  int8_t restricted_ = 0;  // 0 whole, 1 diffuseLobe(), 2 specularLobe()
 
   // sampleDirection past its w.z > 0 test, the visible-normal frame given.
   bool sampleDirectionIn(const GGX::VisibleFrame& v, float u1, Vec2 u2, Vec3& wi, bool& specular) const;
+  // The coated BRDF's forms of the above (core/material.cpp, "[Clear coat]").
+  void initCoat();
+  void setLobeProbabilities();
+  Parts evalPartsCoated(const Vec3& wi, float* pdfOut) const;
+  bool sampleDirectionCoated(float u1, Vec2 u2, Vec3& wi, bool& specular) const;
+  Vec3 toCoat(const Vec3& v) const { return coatTilted_ ? coatFrame_.toLocal(v) : v; }
 };
 
 // An RGBA image in [0,1] (as stored, not yet linearised).
@@ -281,9 +344,17 @@ struct Material {
   // applied there.
   int normalTexture = -1;
   float normalScale = 1;
+  // KHR_materials_clearcoat (its README): the coat's weight (factor x the
+  // R channel of clearcoatTexture), its roughness (factor x the G channel of
+  // clearcoatRoughnessTexture) and its own normal map (clearcoatNormalTexture
+  // with its scale; without one the coat follows the interpolated normal,
+  // not the base's normal map).
+  float clearcoat = 0, clearcoatRoughness = 0;
+  int clearcoatTexture = -1, clearcoatRoughnessTexture = -1, clearcoatNormalTexture = -1;
+  float clearcoatNormalScale = 1;
   // Per texture slot: which UV set it reads and its KHR_texture_transform.
   TextureTransform baseColorTransform, metallicRoughnessTransform, emissiveTransform, anisotropyTransform,
-      normalTransform;
+      normalTransform, clearcoatTransform, clearcoatRoughnessTransform, clearcoatNormalTransform;
 
   bool isEmissive() const { return maxComponent(emission) > 0; }
   // Mask or Blend: rays may pass through the surface (Accel's filter).

@@ -88,10 +88,12 @@ Vec2 uvAt(const Scene& s, const std::vector<Vec2>& set, uint32_t tri, float u, f
 
 }  // namespace
 
-Vec3 Scene::normalMapTexel(const Material& m, Vec2 uv) const {
+Vec3 Scene::normalMapTexel(const Material& m, Vec2 uv) const { return normalTexel(m.normalTexture, m.normalScale, uv); }
+
+Vec3 Scene::normalTexel(int texture, float scale, Vec2 uv) const {
   float texel[4];
-  textures[m.normalTexture].lookup(uv, false, texel);
-  const Vec3 n((texel[0] * 2 - 1) * m.normalScale, (texel[1] * 2 - 1) * m.normalScale, texel[2] * 2 - 1);
+  textures[texture].lookup(uv, false, texel);
+  const Vec3 n((texel[0] * 2 - 1) * scale, (texel[1] * 2 - 1) * scale, texel[2] * 2 - 1);
   const Vec3 unit = normalize(n);
   return isFinite(unit) ? unit : Vec3(0, 0, 1);
 }
@@ -113,6 +115,15 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
   Vec3 t = tangents[i0] * w + tangents[i1] * u + tangents[i2] * v;
   float sign = tangentSigns[i0] < 0 ? -1.0f : 1.0f;
   const Material& m = materials[h.material];
+  // The clear coat's normal: its own map, or the interpolated normal
+  // (KHR_materials_clearcoat: the base's normal map does not bend it).
+  if (m.clearcoat > 0) {
+    h.coatNormal = ns;
+    if (m.clearcoatNormalTexture >= 0 && lengthSquared(t) > 1e-12f)
+      h.coatNormal = normalMapped(
+          ns, t, sign, h.ng,
+          normalTexel(m.clearcoatNormalTexture, m.clearcoatNormalScale, texCoord(h, m.clearcoatNormalTransform)));
+  }
   if (m.normalTexture >= 0 && lengthSquared(t) > 1e-12f) {
     ns = normalMapped(ns, t, sign, h.ng, normalMapTexel(m, texCoord(h, m.normalTransform)));
     h.normalMapped = true;
@@ -122,6 +133,7 @@ SurfaceHit Scene::surfaceHit(uint32_t tri, float u, float v, const Vec3& d) cons
     // Shade the back side as a mirror image: flip the normals.
     h.ng = -h.ng;
     ns = -ns;
+    h.coatNormal = -h.coatNormal;
     sign = -sign;
   }
   // Anisotropy direction: the tangent rotated by the material's rotation in
@@ -164,7 +176,24 @@ Brdf Scene::brdf(const SurfaceHit& hit) const {
     textures[m.anisotropyTexture].lookup(texCoord(hit, m.anisotropyTransform), false, texel);
     aniso *= texel[2];
   }
-  return Brdf::fromGltf(base, metallic, roughness, aniso, m.specularWeight);
+  const Brdf b = Brdf::fromGltf(base, metallic, roughness, aniso, m.specularWeight);
+  return m.clearcoat > 0 ? withCoat(m, hit, b) : b;
+}
+
+Brdf Scene::withCoat(const Material& m, const SurfaceHit& hit, const Brdf& b) const {
+  float weight = m.clearcoat, roughness = m.clearcoatRoughness, texel[4];
+  if (m.clearcoatTexture >= 0) {
+    textures[m.clearcoatTexture].lookup(texCoord(hit, m.clearcoatTransform), false, texel);
+    weight *= texel[0];
+  }
+  if (m.clearcoatRoughnessTexture >= 0) {
+    textures[m.clearcoatRoughnessTexture].lookup(texCoord(hit, m.clearcoatRoughnessTransform), false, texel);
+    roughness *= texel[1];
+  }
+  // The coat's normal in the shading frame (+z where the two agree).
+  Vec3 n = lengthSquared(hit.coatNormal) > 0 ? hit.shading.toLocal(hit.coatNormal) : Vec3(0, 0, 1);
+  if (std::abs(n.x) < 1e-6f && std::abs(n.y) < 1e-6f) n = Vec3(0, 0, 1);
+  return b.withClearcoat(weight, roughness, n.z > 0 ? normalize(n) : Vec3(0, 0, 1));
 }
 
 Vec3 Scene::emission(uint32_t tri, Vec2 bary) const {

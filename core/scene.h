@@ -68,6 +68,10 @@ struct SurfaceHit {
   // Light tracing then applies the adjoint correction for shading normals
   // (docs/REFERENCE.md, "Normal maps and shading normals").
   bool normalMapped = false;
+  // The clear coat's normal (world, unit, on the shading normal's side):
+  // the interpolated normal, bent by clearcoatNormalTexture where there is
+  // one (KHR_materials_clearcoat). Zero on a material without a coat.
+  Vec3 coatNormal{0.0f};
 };
 
 struct Scene {
@@ -102,8 +106,12 @@ struct Scene {
   // interpolated normal), with the material's scale applied to x and y. The
   // one place a normal map is read (a texture transform hooks in here).
   Vec3 normalMapTexel(const Material& m, Vec2 uv) const;
+  // The same for any normal texture (the clear coat's) and its scale.
+  Vec3 normalTexel(int texture, float scale, Vec2 uv) const;
   // The BRDF at a hit, with textures applied.
   Brdf brdf(const SurfaceHit& hit) const;
+  // b under the material's clear coat at the hit (its textures applied).
+  Brdf withCoat(const Material& m, const SurfaceHit& hit, const Brdf& b) const;
   // Emitted radiance leaving the hit toward direction w (zero from the back
   // face unless the material is double-sided).
   Vec3 emitted(const SurfaceHit& hit, const Vec3& w) const;

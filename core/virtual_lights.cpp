@@ -53,7 +53,9 @@ Brdf VirtualLight::brdf() const {
   b.specularWeight = fromUnorm16(specular);
   b.ggx.ax = std::max(sqr(fromUnorm16(roughX)), kMinAlpha);
   b.ggx.ay = std::max(sqr(fromUnorm16(roughY)), kMinAlpha);
-  return b;
+  if (clearcoat == 0) return b;
+  const Vec3 cn = coatN == 0 ? Vec3(0, 0, 1) : frame().toLocal(decodeUnit(coatN));
+  return b.withClearcoat(fromUnorm16(clearcoat), fromUnorm16(coatRough), cn);
 }
 
 Result<void> LightTracingSettings::validate() const {
@@ -138,6 +140,12 @@ void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& li
     v.roughX = toUnorm16(std::sqrt(brdf.ggx.ax));
     v.roughY = toUnorm16(std::sqrt(brdf.ggx.ay));
     v.specular = toUnorm16(brdf.specularWeight);
+    if (brdf.hasCoat()) {
+      v.clearcoat = toUnorm16(brdf.clearcoat);
+      v.coatRough = toUnorm16(std::sqrt(brdf.coat.ax));
+      const Vec3& cn = brdf.coatNormal;
+      v.coatN = cn.x == 0 && cn.y == 0 ? 0 : encodeUnit(sh.shading.toWorld(cn));
+    }
     v.depth = uint16_t(std::min(depth, 32767));
     out.lights.push_back(v);
 

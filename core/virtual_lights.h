@@ -28,7 +28,7 @@ namespace vsl {
 uint32_t encodeUnit(const Vec3& v);
 Vec3 decodeUnit(uint32_t e);
 
-// One virtual light, 56 bytes. The BRDF at the light is stored resolved
+// One virtual light, 64 bytes. The BRDF at the light is stored resolved
 // (textures applied) so that gathering never touches the scene's materials.
 struct VirtualLight {
   Vec3 p;               // position
@@ -48,11 +48,16 @@ struct VirtualLight {
   // cosine |l.ng| (Veach 1997, section 5.3; docs/REFERENCE.md, "Normal maps
   // and shading normals").
   uint16_t normalMapped : 1;
+  // KHR_materials_clearcoat: the coat's weight (0: none) and sqrt(alpha_c),
+  // unorm16, and its normal (encodeUnit), or 0 where it is n.
+  uint16_t clearcoat = 0;
+  uint16_t coatRough = 0;
+  uint32_t coatN = 0;
 
   Brdf brdf() const;
   Frame frame() const { return Frame(decodeUnit(n), decodeUnit(s)); }
 };
-static_assert(sizeof(VirtualLight) == 56, "VirtualLight should stay 56 bytes");
+static_assert(sizeof(VirtualLight) == 64, "VirtualLight should stay 64 bytes");
 
 struct LightTracingSettings {
   uint32_t count = 10000;  // target number of virtual lights (whole paths are kept)

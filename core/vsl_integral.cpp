@@ -68,8 +68,8 @@ bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p) {
   // The cheap test first: this runs for every pair that reaches the VSL.
   if (p.f.brdf().metallic < kVslLobeFloorMinLightMetallic) return false;
   const Brdf& xb = x.f.brdf();
-  const bool xHasSpecular = x.f.specularOn() && (xb.metallic > 0 || xb.specularWeight > 0);
-  return !(xHasSpecular && std::min(xb.ggx.ax, xb.ggx.ay) < kVslLobeFloorMinReceiverAlpha);
+  const bool xHasSpecular = x.f.specularOn() && (xb.metallic > 0 || xb.specularWeight > 0 || xb.hasCoat());
+  return !(xHasSpecular && xb.minAlpha() < kVslLobeFloorMinReceiverAlpha);
 }
 
 bool vslLobeFloor(const VslReceiver& x, const VslEmitter& p, double radius, double d, double factor, VslEmitter& out) {
@@ -84,7 +84,7 @@ bool vslWidenLobe(const VslEmitter& p, double radius, double d, double factor, V
 
 bool widenLobeTo(const VslEmitter& p, float alpha, VslEmitter& out) {
   const Brdf b = p.f.brdf();
-  if (!(b.ggx.ax < alpha || b.ggx.ay < alpha)) return false;
+  if (!(b.ggx.ax < alpha || b.ggx.ay < alpha || (b.hasCoat() && b.coat.ax < alpha))) return false;
   out = p;
   out.f = BrdfAt(b.widened(alpha), p.f.w());
   return true;

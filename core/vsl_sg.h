@@ -70,6 +70,10 @@
 // in the log domain, so the result is finite (non-finite results become 0,
 // as the quadrature's do).
 //
+// A clear coat (KHR_materials_clearcoat, core/material.h) is not fitted: a
+// pair with a coated BRDF at either end takes the quadrature instead
+// (Gatherer::addVsl), so the closed form never sees one.
+//
 // Thread-safe (pure functions).
 #pragma once
 

@@ -116,7 +116,7 @@ TEST(VirtualLights, FirstBounceFluxEqualsEmittedPowerInAClosedScene) {
     if (v.depth == 2) flux2 += luminance(v.Phi);
   EXPECT_NEAR(flux2 / flux, 0.5, 0.03);
   EXPECT_EQ(set.nonFiniteRejected, 0u);
-  EXPECT_EQ(sizeof(VirtualLight), 56u);
+  EXPECT_EQ(sizeof(VirtualLight), 64u);
 }
 
 TEST(VirtualLights, DeterministicAcrossThreadCounts) {

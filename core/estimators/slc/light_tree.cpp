@@ -51,6 +51,15 @@ LightTreeReceiver LightTreeReceiver::make(const GatherPoint& gp, bool vsl, float
   // correlated Smith).
   r.specular = std::max(1.0f, b.specularWeight) * b.ggx.G1(wo) / (4 * wo.z);
   r.albedo = std::max(1.0f, b.specularWeight);
+  if (f.coated() && r.specularOn) {
+    // A clear coat (core/material.h): its lobe bounded as a dielectric one
+    // (F <= 1) added, the shape taken as the narrower of the two lobes'
+    // about the shading normal's mirror (a coat normal's tilt is not bounded).
+    r.ax = std::min(r.ax, std::max(b.coat.ax, 1e-4f));
+    r.ay = std::min(r.ay, std::max(b.coat.ay, 1e-4f));
+    r.specular += b.clearcoat * b.coat.G1(wo) / (4 * wo.z);
+    r.albedo += b.clearcoat;
+  }
   // The lobes' albedos, roughly: the dielectric layer's E(cos_o, alpha) and
   // the metal's colour; the diffuse lobe's at most pi kd.
   if (!r.specularOn) return r;
