@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -17,6 +18,7 @@
 
 #include "core/accel.h"
 #include "core/lights.h"
+#include "core/many_light.h"
 #include "core/parallel.h"
 #include "core/pathtracer.h"
 #include "core/render_context.h"
@@ -199,6 +201,33 @@ inline Reference ptIndirect(const Loaded& l, int w, int h, int spp, uint64_t see
   }
   ref.se = std::sqrt(varSum) / double(n);
   return ref;
+}
+
+// The z-score of the unclamped VPLs' indirect mean over 12 independent light
+// sets (base's lights and direct samples; seeds firstSeed, firstSeed + 1,
+// ...; VSL off) against the path tracer's indirect mean ref; prints both
+// with the label. Each set renders without a non-finite value.
+inline double unclampedVplZ(const Loaded& l, const Reference& ref, ManyLightSettings base, uint64_t firstSeed,
+                            const char* label) {
+  MeanAccumulator sets;
+  for (int k = 0; k < 12; ++k) {
+    ManyLightSettings s = base;
+    s.width = l.width;
+    s.height = l.height;
+    s.batches = 1;
+    s.seed = firstSeed + uint64_t(k);
+    s.computeVsl = false;
+    ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
+    ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
+    for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
+    EXPECT_EQ(r.stats().nonFinite.load(), 0u);
+    sets.add(channelMean(r.images().vplUnclamped));
+  }
+  const double se = sets.standardError() * std::sqrt(double(sets.n) / double(sets.n - 1));
+  const double z = (sets.mean() - ref.mean) / std::hypot(se, ref.se);
+  std::printf("%s, indirect: VPL %.5f +- %.5f, path tracer %.5f +- %.5f (z = %.2f)\n", label, sets.mean(), se, ref.mean,
+              ref.se, z);
+  return z;
 }
 
 }  // namespace vsl::test

@@ -352,26 +352,10 @@ TEST(EnvironmentRender, LightTracedVplsThroughAWindowAgreeWithThePathTracer) {
   const Loaded l = test::loadedFrom(RenderContext::create(windowRoom(), 0, env), 8);
   ASSERT_TRUE(l.context);
   const test::Reference ref = test::ptIndirect(l, l.width, l.height, 512, 61);
-  MeanAccumulator sets;
-  for (int k = 0; k < 12; ++k) {
-    ManyLightSettings s;
-    s.lights = 2000;
-    s.width = l.width;
-    s.height = l.height;
-    s.batches = 1;
-    s.directSamples = 1;
-    s.seed = 800 + uint64_t(k);
-    s.computeVsl = false;
-    ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
-    ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
-    for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
-    EXPECT_EQ(r.stats().nonFinite.load(), 0u);
-    sets.add(test::channelMean(r.images().vplUnclamped));
-  }
-  const double se = sets.standardError() * std::sqrt(double(sets.n) / double(sets.n - 1));
-  const double z = (sets.mean() - ref.mean) / std::hypot(se, ref.se);
-  std::printf("window room, indirect: VPL %.5f +- %.5f, path tracer %.5f +- %.5f (z = %.2f)\n", sets.mean(), se,
-              ref.mean, ref.se, z);
+  ManyLightSettings base;
+  base.lights = 2000;
+  base.directSamples = 1;
+  const double z = test::unclampedVplZ(l, ref, base, 800, "window room");
   EXPECT_GT(ref.mean, 0.01);
   EXPECT_LT(std::abs(z), 4.0);
 }

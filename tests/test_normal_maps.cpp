@@ -356,27 +356,9 @@ namespace {
 // sets of 1,500 lights, seeds firstSeed...) against the path tracer's
 // indirect image (512 spp, seed ptSeed); prints both with the label.
 double vplAgainstPathTracer(const Loaded& l, uint64_t ptSeed, uint64_t firstSeed, const char* label) {
-  const Reference ref = ptIndirect(l, l.width, l.height, 512, ptSeed);
-  MeanAccumulator sets;
-  for (int k = 0; k < 12; ++k) {
-    ManyLightSettings s;
-    s.lights = 1500;
-    s.width = l.width;
-    s.height = l.height;
-    s.batches = 1;
-    s.seed = firstSeed + uint64_t(k);
-    s.computeVsl = false;
-    ManyLightRun run = prepareManyLights(*l.scene, *l.accel, *l.lights, s);
-    ManyLightRenderer r(*l.scene, *l.accel, *l.lights, run.set, run.radii, s);
-    for (int b = 0; b < r.batchCount(); ++b) EXPECT_TRUE(r.renderBatch(b));
-    EXPECT_EQ(r.stats().nonFinite.load(), 0u);
-    sets.add(channelMean(r.images().vplUnclamped));
-  }
-  const double se = sets.standardError() * std::sqrt(double(sets.n) / double(sets.n - 1));
-  const double z = (sets.mean() - ref.mean) / std::hypot(se, ref.se);
-  std::printf("%s, indirect: VPL %.5f +- %.5f, path tracer %.5f +- %.5f (z = %.2f)\n", label, sets.mean(), se, ref.mean,
-              ref.se, z);
-  return z;
+  ManyLightSettings base;
+  base.lights = 1500;
+  return unclampedVplZ(l, ptIndirect(l, l.width, l.height, 512, ptSeed), base, firstSeed, label);
 }
 
 }  // namespace

@@ -1213,9 +1213,6 @@ TEST(StudioText, TimeLeftCountsDownBetweenSnapshots) {
   EXPECT_EQ(ui::timeLeftText(std::nan(""), 0.0), "time left not known yet");
 }
 
-// The estimator comes back by name with its parameters under their keys
-// (the registry's, estimator_registry.h), and a file written before the
-// registry (version 2: "estimator", "mrcsRows", "mrcsClusters") still loads.
 // The environment light comes back as it was saved; a file written before
 // it was saved has none.
 TEST(LastSession, KeepsTheEnvironment) {
@@ -1245,6 +1242,9 @@ TEST(LastSession, KeepsTheEnvironment) {
   EXPECT_FALSE(old.env.any());
 }
 
+// The estimator comes back by name with its parameters under their keys
+// (the registry's, estimator_registry.h), and a file written before the
+// registry (version 2: "estimator", "mrcsRows", "mrcsClusters") still loads.
 TEST(LastSession, KeepsTheEstimatorAndItsParameters) {
   const std::string dir = std::string(VSL_BINARY_DIR) + "/last-session-estimator-test";
   std::filesystem::remove_all(dir);
