@@ -122,10 +122,6 @@ int cmdReference(ReferenceArgs& a) {
   Result<std::unique_ptr<RenderContext>> ctx = RenderContext::create(scene, 0, *env);
   if (!ctx) return fail(kExitBadInput, ctx.error());
   const ReferenceMethod method = ReferenceMethod(a.method);
-  if (method == ReferenceMethod::Bdpt && !bdptSupports((*ctx)->lights()))
-    return fail(kExitBadArguments,
-                "--method bdpt: bidirectional path tracing does not handle environment lights yet; "
-                "use --method pt");
   const std::string key = referenceKey(*scene, w, h, s.maxDepth, *env, method);
   ReferenceRenderer rr(*scene, (*ctx)->accel(), (*ctx)->lights(), s, method);
   std::fprintf(stderr, "reference: %s, %s, %dx%d, max depth %d, cache key %s\n", a.scene.c_str(),

@@ -42,7 +42,6 @@ BdptRenderer::BdptRenderer(const Scene& scene, const Accel& accel, const LightSa
   aspect_ = float(width_) / float(height_);
   filmArea_ = 4 * tanHalf_ * tanHalf_ * aspect_;
   sceneRadius_ = std::max(scene.boundingRadius(), 1e-6f);  // as LightSampler's directional beam
-  VSL_CHECK(bdptSupports(lights));
 }
 
 // ---- [1] The pinhole camera -------------------------------------------------------------
@@ -74,8 +73,10 @@ double BdptRenderer::cameraPdfDir(const Vec3& w) const {
 namespace {
 // A solid-angle density at `from` turned into an area density at `to`:
 // pdf |cos_to| / d^2. Zero at the camera and at punctual lights (no
-// direction reaches a point).
+// direction reaches a point); unchanged toward the environment, whose
+// vertices are directions (core/bdpt.h).
 double toArea(double pdf, const Vec3& from, const BdptVertex& to, bool toPunctual) {
+  if (to.infinite) return pdf;
   if (to.kind == BdptVertex::Kind::Camera || toPunctual) return 0;
   const Vec3 d = to.p - from;
   const double d2 = lengthSquared(d);
@@ -85,6 +86,7 @@ double toArea(double pdf, const Vec3& from, const BdptVertex& to, bool toPunctua
 }  // namespace
 
 double BdptRenderer::originDensity(const BdptVertex& v) const {
+  if (v.infinite) return lights_.pdfEnvironment(-v.ng);
   if (v.kind == BdptVertex::Kind::Light && isPunctual(v.light)) return lights_.pmf(v.light);
   const uint32_t tri = v.kind == BdptVertex::Kind::Light ? lights_.emissiveTriangle(v.light) : v.hit.triangle;
   const int32_t light = lights_.lightOfTriangle(tri);
@@ -96,6 +98,13 @@ double BdptRenderer::originDensity(const BdptVertex& v) const {
 // (a light, or a surface on an emitter) toward `to`, as area density at `to`.
 double BdptRenderer::emissionDensity(const BdptVertex& v, const BdptVertex& to) const {
   const Vec3 w = normalize(to.p - v.p);
+  if (v.infinite) {
+    // A beam through the disk of the bounding sphere (LightSampler's
+    // environmentLe), as a directional light's.
+    const bool toPunctual = to.kind == BdptVertex::Kind::Light && isPunctual(to.light);
+    if (to.kind == BdptVertex::Kind::Camera || toPunctual || to.infinite) return 0;
+    return std::abs(dot(to.ng, v.ng)) / (kPi * sceneRadius_ * sceneRadius_);
+  }
   if (v.kind == BdptVertex::Kind::Light && isPunctual(v.light)) {
     const PunctualLight& L = punctual(v.light);
     const bool toPunctual = to.kind == BdptVertex::Kind::Light && isPunctual(to.light);
@@ -160,9 +169,11 @@ int BdptRenderer::lightSubpath(Rng& rng, BdptVertex* path, uint64_t& rays) const
   l.p = e->p;
   l.ng = e->n;
   l.light = e->light;
+  l.infinite = isEnvironment(l.light);
+  if (l.infinite) l.ng = e->w;
   l.pdfFwd = originDensity(l);
   l.beta = e->beta;
-  if (!isPunctual(l.light)) {
+  if (!isPunctual(l.light) && !l.infinite) {
     // Le / pL(x0), for joining the origin to the camera (s = 1, t = 1):
     // sampleLe's beta is Le pi A sides / pmf.
     const uint32_t tri = lights_.emissiveTriangle(l.light);
@@ -185,11 +196,14 @@ int BdptRenderer::walk(Ray ray, Vec3 beta, bool fromLight, Rng& rng, BdptVertex*
   while (count < maxCount) {
     ++rays;
     std::optional<Hit> hit = accel_.intersect(ray);
-    // Hook: an environment light would add an escaped vertex here.
-    if (!hit) break;
+    if (!hit) {
+      if (!fromLight && lights_.environment()) escape(ray, beta, path, count++);
+      break;
+    }
     BdptVertex& prev = path[count - 1];
     BdptVertex& v = path[count];
     v.kind = BdptVertex::Kind::Surface;
+    v.infinite = false;  // the slot may have held an escaped vertex
     v.hit = scene_.surfaceHit(hit->triangle, hit->u, hit->v, ray.d);
     v.p = v.hit.p;
     v.ng = v.hit.ng;
@@ -219,6 +233,22 @@ int BdptRenderer::walk(Ray ray, Vec3 beta, bool fromLight, Rng& rng, BdptVertex*
   return count;
 }
 
+void BdptRenderer::escape(const Ray& ray, const Vec3& beta, BdptVertex* path, int count) const {
+  const BdptVertex& prev = path[count - 1];
+  BdptVertex& v = path[count];
+  v = BdptVertex{};
+  v.kind = BdptVertex::Kind::Light;
+  v.infinite = true;
+  v.light = lights_.lightCount() - 1;
+  // A point along the ray beyond the bounding sphere: only its direction
+  // from prev is read.
+  v.p = prev.p + ray.d * (length(prev.p - scene_.center()) + 2 * sceneRadius_);
+  v.ng = -ray.d;
+  v.beta = beta;
+  v.pdfFwd = density(prev, count >= 2 ? &path[count - 2] : nullptr, v);
+  if (count >= 2) path[count - 2].pdfRev = density(prev, &v, path[count - 2]);
+}
+
 // ---- [4] Connections ----------------------------------------------------------------------
 
 Vec3 BdptRenderer::scatter(const BdptVertex& v, const Vec3& w, bool lightSide) const {
@@ -232,6 +262,7 @@ Vec3 BdptRenderer::scatter(const BdptVertex& v, const Vec3& w, bool lightSide) c
 // s = 0: the camera subpath's last vertex lies on an emitter.
 Vec3 BdptRenderer::connectEmitterHit(const BdptVertex* camera, int t) const {
   const BdptVertex& c = camera[t - 1];
+  if (c.infinite) return c.beta * lights_.environment()->radiance(-c.ng);
   if (c.kind != BdptVertex::Kind::Surface) return Vec3(0.0f);
   return c.beta * scene_.emitted(c.hit, normalize(camera[t - 2].p - c.p));
 }
@@ -254,6 +285,8 @@ Vec3 BdptRenderer::connectSampledLight(const BdptVertex& c, Rng& rng, BdptVertex
   sampled.p = ls->pLight;
   sampled.ng = ls->nLight;
   sampled.light = ls->light;
+  sampled.infinite = isEnvironment(ls->light);
+  if (sampled.infinite) sampled.ng = -ls->wi;
   sampled.pdfFwd = originDensity(sampled);
   return c.beta * f * ls->Li / ls->pdf;
 }
@@ -270,7 +303,7 @@ Vec3 BdptRenderer::connectCamera(const BdptVertex& q, bool origin, float& px, fl
   if (!raster(-w, px, py)) return Vec3(0.0f);
   Vec3 value, nLit = q.ng;
   if (origin) {
-    if (isPunctual(q.light)) return Vec3(0.0f);  // a point the pinhole cannot see
+    if (isPunctual(q.light) || q.infinite) return Vec3(0.0f);  // a point or a direction: the pinhole cannot see it
     const uint32_t tri = lights_.emissiveTriangle(q.light);
     const Vec3 n = scene_.triangleNormal(tri);
     const float c = dot(n, w);
@@ -323,6 +356,9 @@ double BdptRenderer::misWeight(const BdptVertex* light, int s, const BdptVertex*
     if (i < s) return (i == 0 && sampled) ? *sampled : light[i];
     return camera[n - 1 - i];
   };
+  // The environment seen by the camera has one strategy, s = 0 (it cannot
+  // be joined to the pinhole).
+  if (n == 2 && X(0).infinite) return 1;
   for (int i = 0; i < n; ++i) {
     const BdptVertex& v = X(i);
     pL[i] = i < s ? v.pdfFwd : v.pdfRev;

@@ -14,6 +14,15 @@
 // the pixel it lands in), and every other (s, t).
 // Parameters: maxDepth (64) and rrDepth (3) as the path tracer
 // (RenderSettings), seed; the heuristic (power, or balance).
+// The environment light (core/environment.h) is a light at infinity, as in
+// pbrt-v3 (section 16.3.1): a camera subpath that leaves the scene ends in an
+// escaped vertex on it (strategy s = 0); its light subpaths start on the disk
+// of the bounding sphere like a directional light's beam. An infinite
+// vertex's own density is the solid-angle pdf of its direction
+// (LightSampler::pdfEnvironment), the density of the vertex it lights is
+// per area across the beam (1 / (pi R^2) times the cosine there), and a
+// direction sampled toward it is not converted to area. It cannot be joined
+// to the pinhole (s = 1, t = 1).
 // Known bias: none up to maxDepth scattering events, the path tracer's
 // truncation. Punctual lights seen directly by the camera (s = 1, t = 1) are
 // left out, as the path tracer cannot see them either (zero area).
@@ -56,6 +65,9 @@ struct BdptVertex {
   SurfaceHit hit;    // Surface only
   BrdfAt f;          // Surface only: the BRDF with w() toward the previous vertex (local)
   size_t light = 0;  // Light only: the light's index in sampler order
+  // Light only: the environment, at infinity; ng is then the direction its
+  // light travels (toward the scene).
+  bool infinite = false;
 };
 
 // Settings of a BdptRenderer beyond RenderSettings. onlyS/onlyT (>= 0)
@@ -66,11 +78,6 @@ struct BdptOptions {
   int onlyS = -1, onlyT = -1;
   bool unweighted = false;
 };
-
-// Whether BdptRenderer handles every light of the sampler: not yet an
-// environment light (core/environment.h); references fall back to the path
-// tracer there.
-inline bool bdptSupports(const LightSampler& lights) { return lights.environment() == nullptr; }
 
 class BdptRenderer {
  public:
@@ -133,7 +140,12 @@ class BdptRenderer {
   // (Veach 1997, section 5.3).
   Vec3 scatter(const BdptVertex& v, const Vec3& w, bool lightSide) const;
   double emissionDensity(const BdptVertex& v, const BdptVertex& to) const;
-  bool isPunctual(size_t light) const { return light >= lights_.emissiveTriangleCount(); }
+  bool isEnvironment(size_t light) const {
+    return lights_.environment() != nullptr && light + 1 == lights_.lightCount();
+  }
+  bool isPunctual(size_t light) const { return light >= lights_.emissiveTriangleCount() && !isEnvironment(light); }
+  // The escaped vertex ending a camera subpath that left the scene along ray.
+  void escape(const Ray& ray, const Vec3& beta, BdptVertex* path, int count) const;
   const PunctualLight& punctual(size_t light) const {
     return scene_.punctualLights[light - lights_.emissiveTriangleCount()];
   }

@@ -67,8 +67,7 @@ const char* referenceMethodName(ReferenceMethod m) { return m == ReferenceMethod
 ReferenceRenderer::ReferenceRenderer(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                      const RenderSettings& settings, ReferenceMethod method)
     : pt_(scene, accel, lights, settings) {
-  if (method == ReferenceMethod::Bdpt && bdptSupports(lights))
-    bdpt_ = std::make_unique<BdptRenderer>(scene, accel, lights, settings);
+  if (method == ReferenceMethod::Bdpt) bdpt_ = std::make_unique<BdptRenderer>(scene, accel, lights, settings);
   for (int h = 0; h < 2; ++h) {
     direct_[h] = Film(pt_.width(), pt_.height());
     indirect_[h] = Film(pt_.width(), pt_.height());

@@ -820,9 +820,7 @@ void Session::logStep(const Job& job, double stepSeconds) const {
 void Session::chooseReference(Worker& w, Job& job) {
   const int width = job.width, height = job.height;
   const std::string size = std::to_string(width) + "x" + std::to_string(height);
-  // BDPT does not handle an environment light yet: the path tracer's key then.
-  const auto method =
-      bdptSupports(w.ctx->lights()) ? ReferenceMethod(job.settings.referenceMethod) : ReferenceMethod::PathTracer;
+  const auto method = ReferenceMethod(job.settings.referenceMethod);
   const std::string keyFor = w.scenePath + "|" + w.env.describe() + "|" + size + "|" + referenceMethodName(method);
   if (w.cacheKeyFor != keyFor) {
     w.cacheKey = referenceKey(w.ctx->scene(), width, height, kReferenceDepth, w.env, method);

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "core/bdpt.h"
+#include "core/environment.h"
 #include "core/pathtracer.h"
 #include "core/reference.h"
 #include "support.h"
@@ -160,6 +161,8 @@ void checkMisWeights(const Loaded& l, MisHeuristic h, int& checked) {
     const int nL = r.lightSubpath(rng, light.data(), rays);
     for (int s = 2; s <= nL; ++s)
       for (int t = 2; t <= nC; ++t) {
+        // An escaped vertex (the environment) ends a path; it joins nothing.
+        if (cam[size_t(t - 1)].infinite) continue;
         const int n = s + t;
         x.assign(light.begin(), light.begin() + s);
         for (int j = t - 1; j >= 0; --j) x.push_back(cam[size_t(j)]);
@@ -195,6 +198,17 @@ void checkMisWeights(const Loaded& l, MisHeuristic h, int& checked) {
   }
 }
 
+// everyLightScene under a sky and a sun (core/environment.h): the
+// environment as a light at infinity in every strategy.
+Loaded everyLightUnderTheSky() {
+  EnvironmentSettings env;
+  env.sky = Vec3(0.3f, 0.35f, 0.45f);
+  env.sunDirection = Vec3(-0.5f, 1, 0.6f);
+  env.sunDiameterDeg = 3;
+  env.sunIrradiance = 2;
+  return loadedFrom(RenderContext::create(std::shared_ptr<const Scene>(everyLightScene()), 0, env), 16);
+}
+
 }  // namespace
 
 // Veach 1997, section 10.2: with p_k the density of strategy k, the weights
@@ -204,10 +218,12 @@ void checkMisWeights(const Loaded& l, MisHeuristic h, int& checked) {
 TEST(Bdpt, MisWeightsOfEveryStrategySumToOne) {
   Loaded every = loadedFrom(std::shared_ptr<const Scene>(everyLightScene()), 16);
   Loaded cornell = loadAsset("cornell-glossy", 16);
+  Loaded sky = everyLightUnderTheSky();
   int checked = 0;
   for (MisHeuristic h : {MisHeuristic::Power, MisHeuristic::Balance}) {
     checkMisWeights(every, h, checked);
     checkMisWeights(cornell, h, checked);
+    checkMisWeights(sky, h, checked);
   }
   std::printf("checked %d joined paths\n", checked);
   EXPECT_GT(checked, 150);
@@ -285,6 +301,26 @@ TEST(Bdpt, MatchesThePathTracerWithEveryLightType) {
     }
     EXPECT_GT(sum, 10 * std::sqrt(se2)) << (c ? "indirect" : "direct");
   }
+}
+
+// The environment (a sky and a sun) beside every other light, against the
+// path tracer as above: escaped camera paths (s = 0), the sky sampled from
+// a surface (s = 1) and light subpaths entering from the bounding disk.
+TEST(Bdpt, MatchesThePathTracerUnderAnEnvironment) {
+  Loaded l = everyLightUnderTheSky();
+  ASSERT_TRUE(l.scene);
+  ASSERT_NE(l.lights->environment(), nullptr);
+  RenderSettings rs;
+  rs.width = rs.height = 16;
+  rs.seed = 9;
+  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
+  BdptRenderer bd(*l.scene, *l.accel, *l.lights, rs);
+  RegionStats a = regionStats(pt, 256, 4), b = regionStats(bd, 64, 4);
+  EXPECT_EQ(regionOutliers(a, b, 4.0, "under the sky"), 0);
+  // The sky seen directly: the camera looks past the wall's top edge.
+  double direct = 0;
+  for (size_t k = 0; k < b.sum[0].size(); ++k) direct += b.mean(0, int(k));
+  EXPECT_GT(direct, 0);
 }
 
 // The bundled scenes, small (16 px wide, 1,024 path-traced and 256
