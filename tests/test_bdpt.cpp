@@ -267,31 +267,36 @@ TEST(Bdpt, FurnaceMatchesAnalyticRadiance) {
   EXPECT_NEAR(st.mean(0, 0) + st.mean(1, 0), 2.0, 0.01 * 2.0) << "within 1%";
 }
 
-// BDPT against the path tracer on a glossy scene, region by region: 4x4
-// regions of a 16x16 image, both layers, z-test at 4 standard errors (with
-// 32 regions a Sidak-corrected 1% level needs 3.6).
-TEST(Bdpt, MatchesThePathTracerOnCornellGlossy) {
-  Loaded l = loadAsset("cornell-glossy", 16);
+// BDPT against the path tracer region by region (4x4-pixel regions, both
+// layers, z-test at 4 standard errors; with 32 regions of a 16x16 image a
+// Sidak-corrected 1% level needs 3.6): the regions that differ. bdOut, when
+// given, receives BDPT's region statistics.
+int bdptOutliersAgainstPathTracer(const Loaded& l, int width, int height, uint32_t seed, int ptPasses, int bdPasses,
+                                  const std::string& what, RegionStats* bdOut = nullptr) {
   RenderSettings rs;
-  rs.width = rs.height = 16;
-  rs.seed = 5;
+  rs.width = width;
+  rs.height = height;
+  rs.seed = seed;
   PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
   BdptRenderer bd(*l.scene, *l.accel, *l.lights, rs);
-  RegionStats a = regionStats(pt, 256, 4), b = regionStats(bd, 64, 4);
-  EXPECT_EQ(regionOutliers(a, b, 4.0, "cornell-glossy"), 0);
+  RegionStats a = regionStats(pt, ptPasses, 4), b = regionStats(bd, bdPasses, 4);
+  const int outliers = regionOutliers(a, b, 4.0, what);
+  if (bdOut) *bdOut = std::move(b);
+  return outliers;
+}
+
+// BDPT against the path tracer on a glossy scene, region by region.
+TEST(Bdpt, MatchesThePathTracerOnCornellGlossy) {
+  Loaded l = loadAsset("cornell-glossy", 16);
+  EXPECT_EQ(bdptOutliersAgainstPathTracer(l, 16, 16, 5, 256, 64, "cornell-glossy"), 0);
 }
 
 // Area, point, spot and directional lights on glossy and anisotropic
 // surfaces, against the path tracer as above.
 TEST(Bdpt, MatchesThePathTracerWithEveryLightType) {
   Loaded l = loadedFrom(std::shared_ptr<const Scene>(everyLightScene()), 16);
-  RenderSettings rs;
-  rs.width = rs.height = 16;
-  rs.seed = 3;
-  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
-  BdptRenderer bd(*l.scene, *l.accel, *l.lights, rs);
-  RegionStats a = regionStats(pt, 256, 4), b = regionStats(bd, 64, 4);
-  EXPECT_EQ(regionOutliers(a, b, 4.0, "every light"), 0);
+  RegionStats b;
+  EXPECT_EQ(bdptOutliersAgainstPathTracer(l, 16, 16, 3, 256, 64, "every light", &b), 0);
   // Not vacuous: every light reaches the image, directly and after a bounce.
   for (int c = 0; c < 2; ++c) {
     double sum = 0, se2 = 0;
@@ -310,13 +315,8 @@ TEST(Bdpt, MatchesThePathTracerUnderAnEnvironment) {
   Loaded l = everyLightUnderTheSky();
   ASSERT_TRUE(l.scene);
   ASSERT_NE(l.lights->environment(), nullptr);
-  RenderSettings rs;
-  rs.width = rs.height = 16;
-  rs.seed = 9;
-  PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
-  BdptRenderer bd(*l.scene, *l.accel, *l.lights, rs);
-  RegionStats a = regionStats(pt, 256, 4), b = regionStats(bd, 64, 4);
-  EXPECT_EQ(regionOutliers(a, b, 4.0, "under the sky"), 0);
+  RegionStats b;
+  EXPECT_EQ(bdptOutliersAgainstPathTracer(l, 16, 16, 9, 256, 64, "under the sky", &b), 0);
   // The sky seen directly: the camera looks past the wall's top edge.
   double direct = 0;
   for (size_t k = 0; k < b.sum[0].size(); ++k) direct += b.mean(0, int(k));
@@ -333,14 +333,7 @@ TEST(Bdpt, MatchesThePathTracerOnBundledScenes) {
   for (const char* name : {"furnace", "cornell-glossy", "tableau", "kitchen", "hall", "waterbottle"}) {
     Loaded l = loadAsset(name, 16);
     if (!l.scene) continue;
-    RenderSettings rs;
-    rs.width = l.width;
-    rs.height = l.height;
-    rs.seed = 9;
-    PathTracer pt(*l.scene, *l.accel, *l.lights, rs);
-    BdptRenderer bd(*l.scene, *l.accel, *l.lights, rs);
-    RegionStats a = regionStats(pt, 1024, 4), b = regionStats(bd, 256, 4);
-    EXPECT_EQ(regionOutliers(a, b, 4.0, name), 0) << name;
+    EXPECT_EQ(bdptOutliersAgainstPathTracer(l, l.width, l.height, 9, 1024, 256, name), 0) << name;
   }
 }
 
