@@ -152,6 +152,37 @@ void BM_PairSg(benchmark::State& state) {
 }
 BENCHMARK(BM_PairSg);
 
+// The closed form on eight AVX2 lanes (vslTransferSgMany, core/vsl_sg_avx2.cpp),
+// eight of the same pairs per call; items are pairs. Arg 1: the BRDFs packed
+// beforehand (the gather packs a receiver once per tile and a light once per
+// tile pass); 0: packed in the call.
+void BM_PairSg8(benchmark::State& state) {
+  const PairSet& s = benchPairs();
+  if (!simdAvailable()) {
+    state.SkipWithError("this CPU has no AVX2");
+    return;
+  }
+  std::vector<float> packed(2 * 1024 * BrdfAt::kPackedFloats);
+  std::vector<VslSgPair> pairs(1024);
+  for (size_t k = 0; k < 1024; ++k) {
+    float* px = &packed[(2 * k) * BrdfAt::kPackedFloats];
+    float* pp = &packed[(2 * k + 1) * BrdfAt::kPackedFloats];
+    s.x[k].f.pack(px);
+    s.p[k].f.pack(pp);
+    const bool pre = state.range(0) == 1;
+    pairs[k] = {&s.x[k], &s.p[k], pre ? px : nullptr, pre ? pp : nullptr, s.toLight[k], float(s.radius[k])};
+  }
+  Vec3 out[8];
+  size_t i = 0;
+  for (auto _ : state) {
+    vslTransferSgMany(8, &pairs[i], {}, out);
+    i = (i + 8) & 1023;
+    benchmark::DoNotOptimize(out[7]);
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * 8);
+}
+BENCHMARK(BM_PairSg8)->Arg(0)->Arg(1);
+
 void BM_PairQuadrature(benchmark::State& state) {
   const PairSet& s = benchPairs();
   VslOptions o;

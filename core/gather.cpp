@@ -409,20 +409,30 @@ void Gatherer::vplBrdfs(std::span<const GatherPoint* const> pts, const float* pa
 bool Gatherer::vslPair(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, VslPair& out) const {
   // At a lobe-gathered point the light set lights the diffuse lobe only
   // (none on a metal).
-  out.rx = gp.rx;
+  out.rx = &gp.rx;
   if (gp.lobe) {
     if (gp.rx.f.brdf().metallic >= 1.0f) return false;
-    out.rx.f = gp.rx.f.diffuseLobe();
+    out.ownRx.frame = gp.rx.frame;
+    out.ownRx.ng = gp.rx.ng;
+    out.ownRx.f = gp.rx.f.diffuseLobe();
+    out.rx = &out.ownRx;
   }
   // Where the lobe floor applies, the light's sphere is wider too
   // (kVslLobeFloorRadiusScale).
-  const bool floorApplies = lobeFloor_ > 0 && vslLobeFloorApplies(out.rx, L.em);
+  const bool floorApplies = lobeFloor_ > 0 && vslLobeFloorApplies(*out.rx, L.em);
   const float lightRadius = floorApplies ? L.radius * kVslLobeFloorRadiusScale : L.radius;
   out.radius = lobeRadius_ > 0 ? std::max(lightRadius, lobeRadius_ * g.dist * L.alpha) : lightRadius;
   // The floor follows the light's own radius, not the lobe-aware one (which
   // does not shrink with the light count), so that it vanishes as r does.
-  if (!(floorApplies && vslWidenLobe(L.em, lightRadius, g.dist, lobeFloor_, out.em))) out.em = L.em;
+  const bool widened = floorApplies && vslWidenLobe(L.em, lightRadius, g.dist, lobeFloor_, out.ownEm);
+  out.em = widened ? &out.ownEm : &L.em;
   return true;
+}
+
+bool Gatherer::vslTakesSg(const VslPair& pr, const PairGeometry& g) const {
+  // The closed form models the base's lobes alone: a pair with a clear coat
+  // at either end takes the quadrature (core/vsl_sg.h).
+  return vslUsesSg(vsl_, pr.radius, g.dist) && !pr.rx->f.coated() && !pr.em->f.coated();
 }
 
 void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId,
@@ -431,17 +441,71 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
   VslPair pr;
   if (!vslPair(gp, L, g, pr)) return;
   VslResult r;
-  // The closed form models the base's lobes alone: a pair with a clear coat
-  // at either end takes the quadrature (core/vsl_sg.h).
-  if (vslUsesSg(vsl_, pr.radius, g.dist) && !pr.rx.f.coated() && !pr.em.f.coated()) {
-    r = vslTransferSg(pr.rx, pr.em, g.d, pr.radius, vsl_);
+  if (vslTakesSg(pr, g)) {
+    r = vslTransferSg(*pr.rx, *pr.em, g.d, pr.radius, vsl_);
   } else {
     Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
-    r = vslTransferBlock(pr.rx, pr.em, g.d, pr.radius, vsl_, prng);
+    r = vslTransferBlock(*pr.rx, *pr.em, g.d, pr.radius, vsl_, prng);
   }
+  addVslResult(gp, L, g, r, acc, c);
+}
+
+void Gatherer::addVslResult(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, const VslResult& r,
+                            double acc[kGatherLayers][3], GatherCounters& c) const {
   c.vslEvaluations += uint64_t(r.evaluations);
   const Vec3 v = gp.beta * L.Phi * r.transfer;
   addLayer(acc, kVslLayer, g.weight == 1 ? v : v * g.weight, c);
+}
+
+void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const uint32_t* list, size_t n, const GatherLight& L,
+                          const PairGeometry* geo, VslBlock& b) const {
+  if (!computeVsl_) return;
+  constexpr size_t kP = BrdfAt::kPackedFloats;
+  b.pairs_.resize(n);
+  b.kind_.assign(n, 0);
+  b.sgOf_.resize(n);
+  b.sg_.resize(n);
+  // Record 0: the light's BRDF; then two per closed-form pair (the receiver
+  // and, where the floor widened it, the light).
+  b.packed_.resize((2 * n + 1) * kP);
+  L.em.f.pack(b.packed_.data());
+  size_t nsg = 0;
+  for (size_t v = 0; v < n; ++v) {
+    const uint32_t i = list[v];
+    VslPair& pr = b.pairs_[v];
+    if (!vslPair(*pts[i], L, geo[i], pr)) continue;
+    if (!vslTakesSg(pr, geo[i])) {
+      b.kind_[v] = 2;
+      continue;
+    }
+    b.kind_[v] = 1;
+    b.sgOf_[v] = uint32_t(nsg);
+    float* rec = b.packed_.data() + (2 * nsg + 1) * kP;
+    pr.rx->f.pack(rec);
+    const float* em = b.packed_.data();
+    if (pr.em != &L.em) {
+      pr.em->f.pack(rec + kP);
+      em = rec + kP;
+    }
+    b.sg_[nsg++] = {pr.rx, pr.em, rec, em, geo[i].d, pr.radius};
+  }
+  b.transfer_.resize(nsg);
+  vslTransferSgMany(int(nsg), b.sg_.data(), vsl_, b.transfer_.data());
+}
+
+void Gatherer::addVslPrepared(const VslBlock& b, size_t v, const GatherPoint& gp, const GatherLight& L,
+                              const PairGeometry& g, uint64_t lightId, uint64_t pixel, double acc[kGatherLayers][3],
+                              GatherCounters& c) const {
+  if (!computeVsl_ || b.kind_[v] == 0) return;
+  VslResult r;
+  if (b.kind_[v] == 1) {
+    r.transfer = b.transfer_[b.sgOf_[v]];
+  } else {
+    const VslPair& pr = b.pairs_[v];
+    Rng prng = Rng::forItem(pixel, lightId, 3, seed_);
+    r = vslTransferBlock(*pr.rx, *pr.em, g.d, pr.radius, vsl_, prng);
+  }
+  addVslResult(gp, L, g, r, acc, c);
 }
 
 namespace {
@@ -483,11 +547,11 @@ float Gatherer::vslBound(const GatherPoint& gp, const GatherLight& L, const Pair
   const float cosT = float(1.0 - omc), sinT = float(std::sqrt(std::max(0.0, omc * (2.0 - omc))));
   // Each lobe's peak: the receiver's mirror direction of wo; the light's
   // mirror direction of its incoming light, seen from x along its reverse.
-  const Vec3 wo = pr.rx.f.w(), we = pr.em.f.w();
-  const Vec3 peakX = pr.rx.frame.toWorld(Vec3(-wo.x, -wo.y, wo.z));
-  const Vec3 peakP = -pr.em.frame.toWorld(Vec3(-we.x, -we.y, we.z));
+  const Vec3 wo = pr.rx->f.w(), we = pr.em->f.w();
+  const Vec3 peakX = pr.rx->frame.toWorld(Vec3(-wo.x, -wo.y, wo.z));
+  const Vec3 peakP = -pr.em->frame.toWorld(Vec3(-we.x, -we.y, we.z));
   const Vec3 lx = closestInCone(g.l, cosT, sinT, peakX), lp = closestInCone(g.l, cosT, sinT, peakP);
-  const Vec3 lxL = pr.rx.frame.toLocal(lx), lpL = pr.em.frame.toLocal(-lp);
+  const Vec3 lxL = pr.rx->frame.toLocal(lx), lpL = pr.em->frame.toLocal(-lp);
   // Below a side's surface the BRDF is zero: take it at the cone's axis,
   // and at the hemisphere's edge if that is below too (a grazing cone).
   auto evalUp = [](const BrdfAt& f, Vec3 wl, const Vec3& axisL) {
@@ -504,11 +568,11 @@ float Gatherer::vslBound(const GatherPoint& gp, const GatherLight& L, const Pair
     const GGX& a = f.brdf().ggx;
     return f.specularOn() ? std::max(a.ax, a.ay) / std::max(std::min(a.ax, a.ay), 1e-6f) : 1.0f;
   };
-  const Vec3 fx = evalUp(pr.rx.f, lxL, pr.rx.frame.toLocal(g.l)) * anisotropy(pr.rx.f);
-  const Vec3 fp = evalUp(pr.em.f, lpL, pr.em.frame.toLocal(-g.l)) * anisotropy(pr.em.f);
+  const Vec3 fx = evalUp(pr.rx->f, lxL, pr.rx->frame.toLocal(g.l)) * anisotropy(pr.rx->f);
+  const Vec3 fp = evalUp(pr.em->f, lpL, pr.em->frame.toLocal(-g.l)) * anisotropy(pr.em->f);
   const float cx = largestCosine(g.cosX, cosT, sinT), cp = largestCosine(g.cosP, cosT, sinT);
   const double area =
-      vsl_.clippedDisk ? vslClippedDiskArea(pr.radius, dot(g.d, pr.rx.ng)) : M_PI * double(pr.radius) * pr.radius;
+      vsl_.clippedDisk ? vslClippedDiskArea(pr.radius, dot(g.d, pr.rx->ng)) : M_PI * double(pr.radius) * pr.radius;
   if (!(area > 0)) return std::numeric_limits<float>::infinity();
   const double solid = 2.0 * M_PI * omc;
   const double b = double(luminance(gp.beta * L.Phi * fx * fp)) * cx * cp * solid / area;

@@ -11,6 +11,7 @@
 #include "core/accel.h"
 #include "core/lights.h"
 #include "core/many_light.h"
+#include "core/vsl_sg.h"
 
 namespace vsl {
 
@@ -251,16 +252,49 @@ class Gatherer {
   void addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId, uint64_t pixel,
               double acc[kGatherLayers][3], GatherCounters& c) const;
 
- private:
   // The VSL pair as addVsl gathers it: the receiver (its diffuse lobe at a
   // lobe-gathered point), the light (its lobe widened by the floor) and the
-  // sphere's radius. False: VSL gathers nothing from the pair.
+  // sphere's radius. rx and em point at the gather point's and the light's
+  // own, or at ownRx and ownEm where the pair changes them (no copy
+  // otherwise: the gather makes one per pair). Not to be copied.
   struct VslPair {
-    VslReceiver rx;
-    VslEmitter em;
-    float radius;
+    const VslReceiver* rx = nullptr;
+    const VslEmitter* em = nullptr;
+    float radius = 0;
+    VslReceiver ownRx;
+    VslEmitter ownEm;
   };
+  // addVsl for the pairs list[0..n) of one light against pts (connectMany's
+  // visible ones) in two steps: vslPrepare decides each pair's integral and
+  // evaluates the closed-form ones together, eight to a call
+  // (vslTransferSgMany: AVX2 lanes in float), then addVslPrepared(v) adds
+  // pair list[v]'s contribution, as addVsl would: the quadrature's pairs
+  // bit for bit (same stream), the closed form's to the lanes' rounding
+  // (about 1e-4 relative against the scalar form; core/vsl_sg.h). A
+  // pixel's sums then add in the order they always have. Any thread's own.
+  class VslBlock {
+   private:
+    friend class Gatherer;
+    std::vector<VslPair> pairs_;
+    std::vector<uint8_t> kind_;  // 0: nothing gathered; 1: closed form (transfer_[sgOf_]); 2: quadrature
+    std::vector<uint32_t> sgOf_;
+    std::vector<VslSgPair> sg_;
+    std::vector<Vec3> transfer_;
+    std::vector<float> packed_;  // the closed form's BRDFs, packed (BrdfAt::pack)
+  };
+  void vslPrepare(std::span<const GatherPoint* const> pts, const uint32_t* list, size_t n, const GatherLight& L,
+                  const PairGeometry* geo, VslBlock& b) const;
+  void addVslPrepared(const VslBlock& b, size_t v, const GatherPoint& gp, const GatherLight& L, const PairGeometry& g,
+                      uint64_t lightId, uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const;
+
+ private:
+  // False: VSL gathers nothing from the pair.
   bool vslPair(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, VslPair& out) const;
+  // The pair takes the closed form (vslUsesSg, and no clear coat at either end).
+  bool vslTakesSg(const VslPair& pr, const PairGeometry& g) const;
+  // addVsl's last step: the transfer r of the pair into acc's VSL layer.
+  void addVslResult(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, const VslResult& r,
+                    double acc[kGatherLayers][3], GatherCounters& c) const;
   // Next-event light at sh reflected by f toward the viewer, from `samples`
   // lights sampled by power; deltaOnly: punctual lights only (zero for area
   // lights, whose light a continued ray finds by hitting them).

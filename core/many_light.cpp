@@ -297,6 +297,7 @@ bool ManyLightRenderer::gatherTileLights(Batch& batch, const Gatherer& gatherer,
   constexpr size_t kOrderBlock = 256;
   const size_t nb = batch.lights.size(), tilePoints = size_t(tile.n);
   Gatherer::VplBrdfs vplBrdfs;
+  Gatherer::VslBlock vslBlock;
   std::vector<PairGeometry> geo(tilePoints);
   std::vector<uint8_t> visible(tilePoints);
   std::vector<uint32_t> list(tilePoints);
@@ -335,10 +336,11 @@ bool ManyLightRenderer::gatherTileLights(Batch& batch, const Gatherer& gatherer,
           tile.vplOwn += own.lap();
         }
         if (settings_.computeVsl) {
+          gatherer.vslPrepare(tile.pts[k], list.data(), nv, L, geo.data(), vslBlock);
           for (size_t v = 0; v < nv; ++v) {
             const size_t i = list[v];
-            gatherer.addVsl(*tile.pts[k][i], L, geo[i], order_[batch.begin + l], gatherStream(tile.pixelOf(int(i)), k),
-                            tile.acc[i].v, c);
+            gatherer.addVslPrepared(vslBlock, v, *tile.pts[k][i], L, geo[i], order_[batch.begin + l],
+                                    gatherStream(tile.pixelOf(int(i)), k), tile.acc[i].v, c);
           }
           tile.vslOwn += own.seconds();
         }

@@ -800,6 +800,53 @@ VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, co
   }
 }
 
+void BrdfAt::evalPartsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                             float* const diffuse[3], float* const specular[3]) {
+  if (useSimd(n)) return evalPartsPackedAvx2(n, packed, wx, wy, wz, diffuse, specular);
+  evalPartsPackedScalar(n, packed, wx, wy, wz, diffuse, specular);
+}
+
+void BrdfAt::evalPartsPackedScalar(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                                   float* const diffuse[3], float* const specular[3]) {
+  for (int i = 0; i < n; ++i) {
+    const Parts p = unpack(packed[i]).evalParts(Vec3(wx[i], wy[i], wz[i]));
+    for (int c = 0; c < 3; ++c) {
+      diffuse[c][i] = p.diffuse[c];
+      specular[c][i] = p.specular[c];
+    }
+  }
+}
+
+// As evalTotalsPackedAvx2, the lobes kept apart.
+VSL_AVX2 void BrdfAt::evalPartsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy,
+                                          const float* wz, float* const diffuse[3], float* const specular[3]) {
+  static const float kZero[kPackedFloats] = {};
+  for (int i0 = 0; i0 < n; i0 += 8) {
+    const int m = std::min(8, n - i0);
+    bool coated = false;
+    for (int j = 0; j < m; ++j) coated = coated || packed[i0 + j][kClearcoat] > 0;
+    if (coated) {
+      float* const di[3] = {diffuse[0] + i0, diffuse[1] + i0, diffuse[2] + i0};
+      float* const si[3] = {specular[0] + i0, specular[1] + i0, specular[2] + i0};
+      evalPartsPackedScalar(m, packed + i0, wx + i0, wy + i0, wz + i0, di, si);
+      continue;
+    }
+    __m256 v[kPackedFloats];
+    for (int g = 0; g < kPackedFloats / 8; ++g) {
+      __m256 rows[8];
+      for (int j = 0; j < 8; ++j) rows[j] = _mm256_loadu_ps((j < m ? packed[i0 + j] : kZero) + 8 * g);
+      transpose8(rows, v + 8 * g);
+    }
+    const BrdfLanes k = lanesOf(v, false);
+    __m256 dv[3], sv[3], pv;
+    evalParts8(k, loadFirst(wx + i0, m), loadFirst(wy + i0, m), loadFirst(wz + i0, m), dv, sv, pv);
+    for (int c = 0; c < 3; ++c) {
+      storeFirst(diffuse[c] + i0, dv[c], m);
+      storeFirst(specular[c] + i0, sv[c], m);
+    }
+  }
+}
+
 // ---- Texture --------------------------------------------------------------
 
 TextureTransform TextureTransform::make(Vec2 offset, float rotation, Vec2 scale, int texCoord) {

@@ -221,6 +221,15 @@ class BrdfAt {
                                      const float* wz, bool diffuseOnly, float* const f[3]);
   static void evalTotalsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
                                    bool diffuseOnly, float* const f[3]);
+  // evalTotalsPacked with the lobes kept apart: diffuse[c][i] and
+  // specular[c][i] are the packed BRDF i's evalParts(w_i), bit for bit (the
+  // AVX2 form, where simdAvailable(), as evalTotalsPackedAvx2).
+  static void evalPartsPacked(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                              float* const diffuse[3], float* const specular[3]);
+  static void evalPartsPackedScalar(int n, const float* const* packed, const float* wx, const float* wy,
+                                    const float* wz, float* const diffuse[3], float* const specular[3]);
+  static void evalPartsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy, const float* wz,
+                                  float* const diffuse[3], float* const specular[3]);
   float pdf(const Vec3& wi) const;
   std::optional<BrdfSample> sample(float u1, Vec2 u2) const;
   // The direction half of sample(): false when wi would be below the surface.

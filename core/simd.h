@@ -96,4 +96,67 @@ VSL_AVX2 inline void sinCosTwoPi8(__m256 u, __m256& s, __m256& c) {
   c = _mm256_xor_ps(b, cSign);
 }
 
+// exp(x) on eight lanes, for the closed-form VSL (core/vsl_sg_avx2.cpp).
+// Range reduction x = n ln2 + r, |r| <= ln2 / 2 (ln2 split in two so that
+// n ln2 is exact to float), e^r by its Taylor polynomial of degree 7
+// (truncation below 2e-9 relative on that range), times 2^n through the
+// exponent bits. Relative error about 2e-7 (a few float ulps) over
+// [-87, 88] (tests/test_vsl_sg.cpp, VslSg.LaneExpAndLog). Below -87.3 it
+// returns 0 (the result would be denormal), above 88.7 +inf; NaN stays NaN.
+VSL_AVX2 inline __m256 exp8(__m256 x) {
+  const __m256 lo = splat(-87.3f), hi = splat(88.7f);
+  const __m256 xc = _mm256_max_ps(lo, _mm256_min_ps(hi, x));  // NaN passes through min, then max keeps it
+  const __m256 n = _mm256_round_ps(mul(xc, splat(1.44269504088896341f)), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+  const __m256 r = sub(sub(xc, mul(n, splat(0.693359375f))), mul(n, splat(-2.12194440e-4f)));
+  __m256 p = splat(1.0f / 5040.0f);
+  p = add(splat(1.0f / 720.0f), mul(r, p));
+  p = add(splat(1.0f / 120.0f), mul(r, p));
+  p = add(splat(1.0f / 24.0f), mul(r, p));
+  p = add(splat(1.0f / 6.0f), mul(r, p));
+  p = add(splat(0.5f), mul(r, p));
+  p = add(splat(1.0f), mul(r, p));
+  p = add(splat(1.0f), mul(r, p));
+  // 2^n: n in [-126, 128]; 2^128 is split as 2^127 x 2 so the bits stay normal.
+  const __m256i ni = _mm256_cvtps_epi32(n);
+  const __m256i half = _mm256_srai_epi32(ni, 1);
+  const __m256 s1 = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(half, _mm256_set1_epi32(127)), 23));
+  const __m256 s2 =
+      _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(_mm256_sub_epi32(ni, half), _mm256_set1_epi32(127)), 23));
+  __m256 e = mul(mul(p, s1), s2);
+  e = select(less(x, lo), _mm256_setzero_ps(), e);
+  e = select(greater(x, hi), splat(kInf), e);
+  return select(_mm256_cmp_ps(x, x, _CMP_UNORD_Q), x, e);
+}
+
+// log(x) on eight lanes for finite x > 0 (denormals included): x = 2^k m,
+// m in [sqrt(1/2), sqrt(2)), log m = 2 atanh(s), s = (m - 1) / (m + 1),
+// |s| <= 0.172, by its series to s^11 (truncation below 1e-9). Absolute
+// error about 1e-7 near x = 1, relative about 1e-7 elsewhere
+// (VslSg.LaneExpAndLog). x = 0 gives -inf; x < 0 and NaN give NaN; +inf gives +inf.
+VSL_AVX2 inline __m256 log8(__m256 x) {
+  // Denormals: scaled by 2^23 first (k corrected below).
+  const __m256 tiny = less(x, splat(1.17549435e-38f));
+  const __m256 xs = select(tiny, mul(x, splat(8388608.0f)), x);
+  const __m256i bits = _mm256_castps_si256(xs);
+  __m256i k = _mm256_sub_epi32(_mm256_srli_epi32(bits, 23), _mm256_set1_epi32(127));
+  __m256 m = _mm256_castsi256_ps(
+      _mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi32(0x007fffff)), _mm256_set1_epi32(0x3f800000)));
+  const __m256 big = greater(m, splat(1.41421356f));
+  m = select(big, mul(m, splat(0.5f)), m);
+  k = _mm256_sub_epi32(k, _mm256_castps_si256(big));  // big lanes are -1: k + 1
+  const __m256 s = div(sub(m, splat(1.0f)), add(m, splat(1.0f))), s2 = mul(s, s);
+  __m256 p = splat(2.0f / 11.0f);
+  p = add(splat(2.0f / 9.0f), mul(s2, p));
+  p = add(splat(2.0f / 7.0f), mul(s2, p));
+  p = add(splat(2.0f / 5.0f), mul(s2, p));
+  p = add(splat(2.0f / 3.0f), mul(s2, p));
+  p = add(splat(2.0f), mul(s2, p));
+  const __m256 kf = sub(_mm256_cvtepi32_ps(k), where(tiny, splat(23.0f)));
+  // k ln2 in two parts (the first exact in float for |k| < 2^9).
+  __m256 r = add(mul(kf, splat(0.693359375f)), add(mul(s, p), mul(kf, splat(-2.12194440e-4f))));
+  r = select(_mm256_cmp_ps(x, _mm256_setzero_ps(), _CMP_EQ_OQ), splat(-kInf), r);
+  r = select(_mm256_cmp_ps(x, splat(kInf), _CMP_EQ_OQ), splat(kInf), r);
+  return select(_mm256_cmp_ps(x, _mm256_setzero_ps(), _CMP_NGE_UQ), splat(std::numeric_limits<float>::quiet_NaN()), r);
+}
+
 }  // namespace vsl::simd

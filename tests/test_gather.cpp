@@ -165,6 +165,54 @@ TEST(GatherSimd, ManyBrdfsBlockEqualsScalar) {
   EXPECT_GT(nonZero, 4000);  // most lanes evaluate to something
 }
 
+// BrdfAt::evalPartsPacked (the closed-form VSL's BRDFs at the cone's axis,
+// core/vsl_sg_avx2.cpp): each lobe of each packed BRDF, bit for bit
+// evalParts's, AVX2 and scalar forms, block lengths that are not a multiple
+// of eight; no output past n is written.
+TEST(GatherSimd, ManyBrdfPartsBlockEqualsScalar) {
+  if (!simdAvailable()) GTEST_SKIP() << "this CPU has no AVX2";
+  Rng rng(10, 16);
+  constexpr int kMax = 21;
+  int nonZero = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = 1 + int(rng.uniformInt(kMax));
+    std::vector<BrdfAt> brdfs;
+    std::vector<float> packed(size_t(n) * BrdfAt::kPackedFloats);
+    const float* rec[kMax];
+    float wx[kMax], wy[kMax], wz[kMax];
+    for (int i = 0; i < n; ++i) {
+      brdfs.push_back(randomBrdfAt(rng));
+      brdfs.back().pack(&packed[size_t(i) * BrdfAt::kPackedFloats]);
+      rec[i] = &packed[size_t(i) * BrdfAt::kPackedFloats];
+      const Vec3 w = randomDirection(rng, -0.3f);
+      wx[i] = w.x;
+      wy[i] = w.y;
+      wz[i] = w.z;
+    }
+    for (int form = 0; form < 2; ++form) {
+      constexpr float kUntouched = -12345.0f;
+      float d[3][kMax + 1], sp[3][kMax + 1];
+      for (int c = 0; c < 3; ++c) d[c][n] = sp[c][n] = kUntouched;
+      float* const dRows[3] = {d[0], d[1], d[2]};
+      float* const sRows[3] = {sp[0], sp[1], sp[2]};
+      if (form == 0)
+        BrdfAt::evalPartsPackedAvx2(n, rec, wx, wy, wz, dRows, sRows);
+      else
+        BrdfAt::evalPartsPackedScalar(n, rec, wx, wy, wz, dRows, sRows);
+      for (int i = 0; i < n; ++i) {
+        const BrdfAt::Parts p = brdfs[size_t(i)].evalParts(Vec3(wx[i], wy[i], wz[i]));
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_TRUE(sameBits(d[c][i], p.diffuse[c])) << "trial " << trial << " lane " << i << " form " << form;
+          ASSERT_TRUE(sameBits(sp[c][i], p.specular[c])) << "trial " << trial << " lane " << i << " form " << form;
+        }
+        nonZero += p.specular.y > 0 && p.diffuse.y > 0;
+      }
+      for (int c = 0; c < 3; ++c) ASSERT_TRUE(d[c][n] == kUntouched && sp[c][n] == kUntouched) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(nonZero, 300);  // both lobes lit on many lanes
+}
+
 // BrdfAt::sampleDirections' AVX2 form gives sampleDirection's bits: random
 // BRDFs (both lobes, one lobe alone, w below the surface), uniforms including
 // 0 and the concentric map's centre, every count up to three registers; the
