@@ -457,8 +457,16 @@ void Gatherer::addVslResult(const GatherPoint& gp, const GatherLight& L, const P
   addLayer(acc, kVslLayer, g.weight == 1 ? v : v * g.weight, c);
 }
 
-void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const uint32_t* list, size_t n, const GatherLight& L,
-                          const PairGeometry* geo, VslBlock& b) const {
+void Gatherer::packVslReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) const {
+  packed.clear();
+  if (!computeVsl_ || vsl_.integral != VslIntegral::Sg) return;
+  packed.assign(pts.size() * BrdfAt::kPackedFloats, 0.0f);
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (pts[i]) (pts[i]->lobe ? pts[i]->rx.f.diffuseLobe() : pts[i]->rx.f).pack(&packed[i * BrdfAt::kPackedFloats]);
+}
+
+void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const float* packedRx, const uint32_t* list,
+                          size_t n, const GatherLight& L, const PairGeometry* geo, VslBlock& b) const {
   if (!computeVsl_) return;
   constexpr size_t kP = BrdfAt::kPackedFloats;
   b.pairs_.resize(n);
@@ -481,13 +489,14 @@ void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const uint32_
     b.kind_[v] = 1;
     b.sgOf_[v] = uint32_t(nsg);
     float* rec = b.packed_.data() + (2 * nsg + 1) * kP;
-    pr.rx->f.pack(rec);
+    const float* rx = packedRx ? packedRx + size_t(i) * kP : rec;
+    if (!packedRx) pr.rx->f.pack(rec);
     const float* em = b.packed_.data();
     if (pr.em != &L.em) {
       pr.em->f.pack(rec + kP);
       em = rec + kP;
     }
-    b.sg_[nsg++] = {pr.rx, pr.em, rec, em, geo[i].d, pr.radius};
+    b.sg_[nsg++] = {pr.rx, pr.em, rx, em, geo[i].d, pr.radius};
   }
   b.transfer_.resize(nsg);
   vslTransferSgMany(int(nsg), b.sg_.data(), vsl_, b.transfer_.data());

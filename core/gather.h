@@ -282,8 +282,14 @@ class Gatherer {
     std::vector<Vec3> transfer_;
     std::vector<float> packed_;  // the closed form's BRDFs, packed (BrdfAt::pack)
   };
-  void vslPrepare(std::span<const GatherPoint* const> pts, const uint32_t* list, size_t n, const GatherLight& L,
-                  const PairGeometry* geo, VslBlock& b) const;
+  // packedRx (or null: packed per pair): packVslReceivers's records of pts.
+  void vslPrepare(std::span<const GatherPoint* const> pts, const float* packedRx, const uint32_t* list, size_t n,
+                  const GatherLight& L, const PairGeometry* geo, VslBlock& b) const;
+  // The receivers' BRDFs as the closed form sees them (a lobe-gathered
+  // point's diffuse lobe), packed once per gather point for vslPrepare where
+  // this gatherer computes VSL in closed form (else packed is left empty;
+  // null points get a record of zeros).
+  void packVslReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) const;
   void addVslPrepared(const VslBlock& b, size_t v, const GatherPoint& gp, const GatherLight& L, const PairGeometry& g,
                       uint64_t lightId, uint64_t pixel, double acc[kGatherLayers][3], GatherCounters& c) const;
 

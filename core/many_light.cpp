@@ -224,7 +224,8 @@ struct ManyLightRenderer::Tile {
 
   // The gather points by index (first, split-off: ManyLightSettings::
   // splitAlpha), whether any pixel has one, their BRDFs packed once for the
-  // VPL transfers in blocks, and with the pair roulette, its seeds: each
+  // VPL transfers in blocks and for the closed-form VSL (its receivers:
+  // packVslReceivers), and with the pair roulette, its seeds: each
   // point's quadrature stream.
   void prepareReceivers(const Gatherer& gatherer, bool roulette) {
     for (int k = 0; k < kMaxGatherPoints; ++k) {
@@ -235,7 +236,10 @@ struct ManyLightRenderer::Tile {
       }
     }
     for (int k = 0; k < kMaxGatherPoints; ++k)
-      if (any[k]) gatherer.packReceivers(pts[k], packedRx[k]);
+      if (any[k]) {
+        gatherer.packReceivers(pts[k], packedRx[k]);
+        gatherer.packVslReceivers(pts[k], packedVslRx[k]);
+      }
     for (int k = 0; k < kMaxGatherPoints; ++k)
       if (any[k] && roulette)
         for (int i = 0; i < n; ++i) streams[k].push_back(gatherStream(pixelOf(i), k));
@@ -247,7 +251,7 @@ struct ManyLightRenderer::Tile {
   GatherCounters c;
   std::vector<const GatherPoint*> pts[kMaxGatherPoints];
   bool any[kMaxGatherPoints] = {};
-  std::vector<float> packedRx[kMaxGatherPoints];
+  std::vector<float> packedRx[kMaxGatherPoints], packedVslRx[kMaxGatherPoints];
   std::vector<uint64_t> streams[kMaxGatherPoints];
   // VPL's and VSL's own transfer times, and the loop over the lights' time.
   double vplOwn = 0, vslOwn = 0, lightSeconds = 0;
@@ -336,7 +340,8 @@ bool ManyLightRenderer::gatherTileLights(Batch& batch, const Gatherer& gatherer,
           tile.vplOwn += own.lap();
         }
         if (settings_.computeVsl) {
-          gatherer.vslPrepare(tile.pts[k], list.data(), nv, L, geo.data(), vslBlock);
+          const float* packedVslRx = tile.packedVslRx[k].empty() ? nullptr : tile.packedVslRx[k].data();
+          gatherer.vslPrepare(tile.pts[k], packedVslRx, list.data(), nv, L, geo.data(), vslBlock);
           for (size_t v = 0; v < nv; ++v) {
             const size_t i = list[v];
             gatherer.addVslPrepared(vslBlock, v, *tile.pts[k][i], L, geo[i], order_[batch.begin + l],

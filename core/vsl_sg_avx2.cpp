@@ -178,13 +178,14 @@ VSL_AVX2 void cone8(const LaneInputs& in, Cone8& c) {
   const __m256 omc = div(s2, add(splat(1), safeSqrt8(sub(splat(1), s2))));
   c.omc = select(greater(d, r), omc, splat(1));
   // sgSharpnessForSolidAngle: 1/omc below 0.05, else Newton's steps from
-  // there (monotone, quadratic: six reach float precision from omc = 1).
+  // there (monotone, quadratic: the fourth is within 1e-7 of the root from
+  // omc = 1, the farthest start).
   __m256 lambda = div(splat(1), c.omc);
   const __m256 wide = _mm256_cmp_ps(c.omc, splat(0.05f), _CMP_GE_OQ);
   if (!none(wide)) {
     __m256 l = select(wide, lambda, splat(1));
     const __m256 o = select(wide, c.omc, splat(1));
-    for (int i = 0; i < 6; ++i) {
+    for (int i = 0; i < 4; ++i) {
       const __m256 e = exp8(mul(splat(-2), l));
       const __m256 h = sub(sub(splat(1), e), mul(o, l)), dh = sub(mul(splat(2), e), o);
       l = sub(l, div(h, dh));
@@ -241,7 +242,8 @@ VSL_AVX2 void lobe8(const LaneInputs& in, int side, const Vec3x8 frame[3], const
   Vec3x8 u = toWorld3(frame, mLocal);
   if (side == 1) u = {neg(u.x), neg(u.y), neg(u.z)};
   __m256 e, slopePerSin, sinPsi;
-  ndf8(normalize3(w), normalize3(l), normalize3(mLocal), ax, ay, e, slopePerSin, sinPsi);
+  const Vec3x8 wn = normalize3(w);
+  ndf8(wn, normalize3(l), {neg(wn.x), neg(wn.y), wn.z}, ax, ay, e, slopePerSin, sinPsi);
   // The local fit's sharpness, within [0, lambda] and below the lobe's peak at u.
   __m256 lambdaLocal = select(greater(sinPsi, splat(1e-7f)),
                               _mm256_min_ps(lambda, _mm256_max_ps(_mm256_setzero_ps(), slopePerSin)), lambda);
@@ -391,7 +393,7 @@ VSL_AVX2 void vslTransferSgManyAvx2(int n, const VslSgPair* pairs, const VslOpti
   static const VslSgPair kNone{};
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
-    std::memset(in.v, 0, sizeof in.v);
+    if (m < 8) std::memset(in.v, 0, sizeof in.v);  // lanes past the pairs read zeros
     for (int j = 0; j < 8; ++j) fillLane(j < m ? pairs[i0 + j] : kNone, j, options, in);
     alignas(32) float t[3][8];
     block8(in, t);

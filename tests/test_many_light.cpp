@@ -1106,6 +1106,9 @@ TEST(ManyLight, VslTransfersPreparedEqualOneByOne) {
   for (int k = 0; k < kMaxGatherPoints; ++k) {
     std::vector<const GatherPoint*> pts;
     for (const EyeSample& es : eyes) pts.push_back(es.point(k));
+    std::vector<float> packedRx;  // every other light: the receivers packed once
+    g.packVslReceivers(pts, packedRx);
+    ASSERT_EQ(packedRx.size(), pts.size() * BrdfAt::kPackedFloats);
     for (size_t j = 0; j < run.set.lights.size(); j += 29) {
       const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
       std::vector<PairGeometry> geo(pts.size());
@@ -1115,7 +1118,7 @@ TEST(ManyLight, VslTransfersPreparedEqualOneByOne) {
       std::vector<uint32_t> list;
       for (size_t i = 0; i < pts.size(); ++i)
         if (visible[i]) list.push_back(uint32_t(i));
-      g.vslPrepare(pts, list.data(), list.size(), L, geo.data(), block);
+      g.vslPrepare(pts, j % 2 ? packedRx.data() : nullptr, list.data(), list.size(), L, geo.data(), block);
       for (size_t v = 0; v < list.size(); ++v) {
         const uint32_t i = list[v];
         double one[kGatherLayers][3] = {}, prepared[kGatherLayers][3] = {};
