@@ -771,27 +771,33 @@ VSL_AVX2 void transpose8(const __m256 r[8], __m256 out[8]) {
   out[6] = _mm256_permute2f128_ps(u2, u6, 0x31);
   out[7] = _mm256_permute2f128_ps(u3, u7, 0x31);
 }
+
+// The m (<= 8) packed records of a group transposed to lanes, field by field
+// (lanes past m read a record of zeros: below its surface). False, with
+// nothing loaded, where a record has a clear coat: the group then takes the
+// scalar form (the lanes model the base alone).
+VSL_AVX2 bool loadPackedGroup(const float* const* packed, int m, __m256 v[BrdfAt::kPackedFloats]) {
+  static const float kZero[BrdfAt::kPackedFloats] = {};
+  for (int j = 0; j < m; ++j)
+    if (packed[j][kClearcoat] > 0) return false;
+  for (int g = 0; g < BrdfAt::kPackedFloats / 8; ++g) {
+    __m256 rows[8];
+    for (int j = 0; j < 8; ++j) rows[j] = _mm256_loadu_ps((j < m ? packed[j] : kZero) + 8 * g);
+    transpose8(rows, v + 8 * g);
+  }
+  return true;
+}
 }  // namespace
 
 VSL_AVX2 void BrdfAt::evalTotalsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy,
                                            const float* wz, bool diffuseOnly, float* const f[3]) {
-  // Lanes past n read a record of zeros: below its surface (above 0).
-  static const float kZero[kPackedFloats] = {};
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
-    // A group with a coated BRDF takes the scalar form (the lanes model the base alone).
-    bool coated = false;
-    for (int j = 0; j < m; ++j) coated = coated || packed[i0 + j][kClearcoat] > 0;
-    if (coated) {
+    __m256 v[kPackedFloats];
+    if (!loadPackedGroup(packed + i0, m, v)) {
       float* const fi[3] = {f[0] + i0, f[1] + i0, f[2] + i0};
       evalTotalsPackedScalar(m, packed + i0, wx + i0, wy + i0, wz + i0, diffuseOnly, fi);
       continue;
-    }
-    __m256 v[kPackedFloats];
-    for (int g = 0; g < kPackedFloats / 8; ++g) {
-      __m256 rows[8];
-      for (int j = 0; j < 8; ++j) rows[j] = _mm256_loadu_ps((j < m ? packed[i0 + j] : kZero) + 8 * g);
-      transpose8(rows, v + 8 * g);
     }
     const BrdfLanes k = lanesOf(v, diffuseOnly);
     __m256 fv[3], pv;
@@ -820,22 +826,14 @@ void BrdfAt::evalPartsPackedScalar(int n, const float* const* packed, const floa
 // As evalTotalsPackedAvx2, the lobes kept apart.
 VSL_AVX2 void BrdfAt::evalPartsPackedAvx2(int n, const float* const* packed, const float* wx, const float* wy,
                                           const float* wz, float* const diffuse[3], float* const specular[3]) {
-  static const float kZero[kPackedFloats] = {};
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
-    bool coated = false;
-    for (int j = 0; j < m; ++j) coated = coated || packed[i0 + j][kClearcoat] > 0;
-    if (coated) {
+    __m256 v[kPackedFloats];
+    if (!loadPackedGroup(packed + i0, m, v)) {
       float* const di[3] = {diffuse[0] + i0, diffuse[1] + i0, diffuse[2] + i0};
       float* const si[3] = {specular[0] + i0, specular[1] + i0, specular[2] + i0};
       evalPartsPackedScalar(m, packed + i0, wx + i0, wy + i0, wz + i0, di, si);
       continue;
-    }
-    __m256 v[kPackedFloats];
-    for (int g = 0; g < kPackedFloats / 8; ++g) {
-      __m256 rows[8];
-      for (int j = 0; j < 8; ++j) rows[j] = _mm256_loadu_ps((j < m ? packed[i0 + j] : kZero) + 8 * g);
-      transpose8(rows, v + 8 * g);
     }
     const BrdfLanes k = lanesOf(v, false);
     __m256 dv[3], sv[3], pv;
