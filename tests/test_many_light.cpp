@@ -65,6 +65,32 @@ std::vector<EyeSample> eyeSamples(const Loaded& l, const Gatherer& g) {
   return eyes;
 }
 
+// Every step-th light of the run against the gather points of each index k:
+// perPoints(pts) once per k (returns the receivers packed for it, or an
+// empty vector), then perLight(pts, packed, j, L, geo, list, c) with the
+// batched connection's geometry and the points that see light j.
+template <class PerPoints, class PerLight>
+void forEachLightAndVisiblePoints(const Gatherer& g, const ManyLightRun& run, const std::vector<EyeSample>& eyes,
+                                  size_t step, PerPoints&& perPoints, PerLight&& perLight) {
+  Gatherer::ConnectScratch scratch;
+  for (int k = 0; k < kMaxGatherPoints; ++k) {
+    std::vector<const GatherPoint*> pts;
+    for (const EyeSample& es : eyes) pts.push_back(es.point(k));
+    const std::vector<float> packed = perPoints(pts);
+    for (size_t j = 0; j < run.set.lights.size(); j += step) {
+      const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
+      std::vector<PairGeometry> geo(pts.size());
+      std::vector<uint8_t> visible(pts.size());
+      GatherCounters c;
+      g.connectMany(pts, L, geo.data(), visible.data(), scratch, c);
+      std::vector<uint32_t> list;
+      for (size_t i = 0; i < pts.size(); ++i)
+        if (visible[i]) list.push_back(uint32_t(i));
+      perLight(pts, packed, j, L, geo, list, c);
+    }
+  }
+}
+
 // A small VPL-only render of one light set in one batch.
 ManyLightSettings vplOnly(int width, int height, uint32_t lights, uint64_t seed) {
   ManyLightSettings s;
@@ -1042,38 +1068,31 @@ TEST(ManyLight, VplTransfersInBlocksEqualOneByOne) {
   Gatherer g(*l.scene, *l.accel, *l.lights, s, 0.05f, false, true);
   const std::vector<EyeSample> eyes = eyeSamples(l, g);
   size_t pairs = 0, clampedPairs = 0;
-  Gatherer::ConnectScratch scratch;
   Gatherer::VplBrdfs blocks;
-  for (int k = 0; k < kMaxGatherPoints; ++k) {
-    std::vector<const GatherPoint*> pts;
-    for (const EyeSample& es : eyes) pts.push_back(es.point(k));
+  auto pack = [&](const std::vector<const GatherPoint*>& pts) {
     std::vector<float> packed;
     g.packReceivers(pts, packed);
-    for (size_t j = 0; j < run.set.lights.size(); j += 13) {
-      const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
-      std::vector<PairGeometry> geo(pts.size());
-      std::vector<uint8_t> visible(pts.size());
-      GatherCounters c;
-      g.connectMany(pts, L, geo.data(), visible.data(), scratch, c);
-      std::vector<uint32_t> list;
-      for (size_t i = 0; i < pts.size(); ++i)
-        if (visible[i]) list.push_back(uint32_t(i));
-      g.vplBrdfs(pts, packed.data(), list.data(), list.size(), L, geo.data(), blocks);
-      for (size_t v = 0; v < list.size(); ++v) {
-        const uint32_t i = list[v];
-        double one[kGatherLayers][3] = {}, block[kGatherLayers][3] = {};
-        g.addVpl(*pts[i], L, geo[i], one, c);
-        g.addVpl(*pts[i], L, geo[i], blocks.fx(v), blocks.fp(v), block, c);
-        for (int layer = 0; layer < kGatherLayers; ++layer)
-          for (int ch = 0; ch < 3; ++ch)
-            ASSERT_EQ(std::memcmp(&one[layer][ch], &block[layer][ch], sizeof(double)), 0)
-                << "light " << j << ", point " << i << ", layer " << layer << ": " << one[layer][ch] << " against "
-                << block[layer][ch];
-        ++pairs;
-        clampedPairs += one[kVplFullClamped][1] < one[kVplFull][1];
-      }
-    }
-  }
+    return packed;
+  };
+  forEachLightAndVisiblePoints(
+      g, run, eyes, 13, pack,
+      [&](const std::vector<const GatherPoint*>& pts, const std::vector<float>& packed, size_t j, const GatherLight& L,
+          const std::vector<PairGeometry>& geo, const std::vector<uint32_t>& list, GatherCounters& c) {
+        g.vplBrdfs(pts, packed.data(), list.data(), list.size(), L, geo.data(), blocks);
+        for (size_t v = 0; v < list.size(); ++v) {
+          const uint32_t i = list[v];
+          double one[kGatherLayers][3] = {}, block[kGatherLayers][3] = {};
+          g.addVpl(*pts[i], L, geo[i], one, c);
+          g.addVpl(*pts[i], L, geo[i], blocks.fx(v), blocks.fp(v), block, c);
+          for (int layer = 0; layer < kGatherLayers; ++layer)
+            for (int ch = 0; ch < 3; ++ch)
+              ASSERT_EQ(std::memcmp(&one[layer][ch], &block[layer][ch], sizeof(double)), 0)
+                  << "light " << j << ", point " << i << ", layer " << layer << ": " << one[layer][ch] << " against "
+                  << block[layer][ch];
+          ++pairs;
+          clampedPairs += one[kVplFullClamped][1] < one[kVplFull][1];
+        }
+      });
   std::printf("%zu pairs (%zu clamped) agree\n", pairs, clampedPairs);
   EXPECT_GT(pairs, 50000u);
   EXPECT_GT(clampedPairs, 10u);  // the clamp is exercised too
@@ -1101,44 +1120,38 @@ TEST(ManyLight, VslTransfersPreparedEqualOneByOne) {
   const std::vector<EyeSample> eyes = eyeSamples(l, g);
   size_t quadrature = 0;
   std::vector<double> rel;
-  Gatherer::ConnectScratch scratch;
   Gatherer::VslBlock block;
-  for (int k = 0; k < kMaxGatherPoints; ++k) {
-    std::vector<const GatherPoint*> pts;
-    for (const EyeSample& es : eyes) pts.push_back(es.point(k));
+  auto pack = [&](const std::vector<const GatherPoint*>& pts) {
     std::vector<float> packedRx;  // every other light: the receivers packed once
     g.packVslReceivers(pts, packedRx);
-    ASSERT_EQ(packedRx.size(), pts.size() * BrdfAt::kPackedFloats);
-    for (size_t j = 0; j < run.set.lights.size(); j += 29) {
-      const GatherLight L = decodeGatherLight(run.set.lights[j], run.radii[j]);
-      std::vector<PairGeometry> geo(pts.size());
-      std::vector<uint8_t> visible(pts.size());
-      GatherCounters c;
-      g.connectMany(pts, L, geo.data(), visible.data(), scratch, c);
-      std::vector<uint32_t> list;
-      for (size_t i = 0; i < pts.size(); ++i)
-        if (visible[i]) list.push_back(uint32_t(i));
-      g.vslPrepare(pts, j % 2 ? packedRx.data() : nullptr, list.data(), list.size(), L, geo.data(), block);
-      for (size_t v = 0; v < list.size(); ++v) {
-        const uint32_t i = list[v];
-        double one[kGatherLayers][3] = {}, prepared[kGatherLayers][3] = {};
-        GatherCounters c1, c2;
-        g.addVsl(*pts[i], L, geo[i], j, i, one, c1);
-        g.addVslPrepared(block, v, *pts[i], L, geo[i], j, i, prepared, c2);
-        ASSERT_EQ(c1.vslEvaluations, c2.vslEvaluations) << "light " << j << ", point " << i;
-        const double a = one[kVslLayer][1], b = prepared[kVslLayer][1];
-        if (c1.vslEvaluations > 0) {  // the quadrature
-          ++quadrature;
-          ASSERT_EQ(std::memcmp(&one[kVslLayer], &prepared[kVslLayer], sizeof one[kVslLayer]), 0)
-              << "light " << j << ", point " << i;
-        } else if (a > 1e-30) {
-          rel.push_back(std::abs(b - a) / a);
-        } else {
-          ASSERT_LE(b, 1e-30) << "light " << j << ", point " << i;
+    return packedRx;
+  };
+  forEachLightAndVisiblePoints(
+      g, run, eyes, 29, pack,
+      [&](const std::vector<const GatherPoint*>& pts, const std::vector<float>& packedRx, size_t j,
+          const GatherLight& L, const std::vector<PairGeometry>& geo, const std::vector<uint32_t>& list,
+          GatherCounters&) {
+        ASSERT_EQ(packedRx.size(), pts.size() * BrdfAt::kPackedFloats);
+        g.vslPrepare(pts, j % 2 ? packedRx.data() : nullptr, list.data(), list.size(), L, geo.data(), block);
+        for (size_t v = 0; v < list.size(); ++v) {
+          const uint32_t i = list[v];
+          double one[kGatherLayers][3] = {}, prepared[kGatherLayers][3] = {};
+          GatherCounters c1, c2;
+          g.addVsl(*pts[i], L, geo[i], j, i, one, c1);
+          g.addVslPrepared(block, v, *pts[i], L, geo[i], j, i, prepared, c2);
+          ASSERT_EQ(c1.vslEvaluations, c2.vslEvaluations) << "light " << j << ", point " << i;
+          const double a = one[kVslLayer][1], b = prepared[kVslLayer][1];
+          if (c1.vslEvaluations > 0) {  // the quadrature
+            ++quadrature;
+            ASSERT_EQ(std::memcmp(&one[kVslLayer], &prepared[kVslLayer], sizeof one[kVslLayer]), 0)
+                << "light " << j << ", point " << i;
+          } else if (a > 1e-30) {
+            rel.push_back(std::abs(b - a) / a);
+          } else {
+            ASSERT_LE(b, 1e-30) << "light " << j << ", point " << i;
+          }
         }
-      }
-    }
-  }
+      });
   std::sort(rel.begin(), rel.end());
   ASSERT_GT(rel.size(), 5000u);
   const double median = rel[rel.size() / 2], worst = rel.back();
