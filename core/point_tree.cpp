@@ -2,7 +2,12 @@
 
 #include <nanoflann.hpp>
 
+#include "core/check.h"
+#include "core/memory_budget.h"
+#include "core/parallel.h"
+
 #include <algorithm>
+#include <bit>
 #include <limits>
 #include <utility>
 
@@ -92,15 +97,203 @@ uint32_t MortonBox::code(const float* p) const {
   return code;
 }
 
-std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz) {
+namespace {
+
+// kthNearestSquared's tree over points in Morton order: a node holds the
+// points [b, e) and its children are child and child + 1, split where the
+// highest differing bit of its points' Morton codes changes (so that the
+// halves lie on either side of a plane and their boxes do not overlap), in
+// the middle where the codes are equal; ranges of at most kLeafPoints are
+// leaves.
+constexpr uint32_t kLeafPoints = 32;
+
+struct RangeNode {
+  float lo[3], hi[3];
+  uint32_t b = 0, e = 0, child = 0;
+};
+
+class RangeTree {
+ public:
+  explicit RangeTree(const MortonSorted& m) : xyz_(m.xyz.data()), codes_(m.codes) {
+    const size_t n = m.codes.size();
+    nodes_.reserve(2 * (n / kLeafPoints + 1));
+    nodes_.emplace_back();
+    build(0, 0, uint32_t(n));
+  }
+  static bool leaf(const RangeNode& nd) { return nd.e - nd.b <= kLeafPoints; }
+  const RangeNode& node(size_t i) const { return nodes_[i]; }
+  const float* point(size_t i) const { return xyz_ + 3 * i; }
+  // Squared distance from q to node i's box (0 inside), never above a
+  // point's in it: float subtraction and squares are monotone.
+  float boxDistance2(const float* q, size_t i) const {
+    const RangeNode& nd = nodes_[i];
+    float d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const float d = q[a] < nd.lo[a] ? nd.lo[a] - q[a] : q[a] > nd.hi[a] ? q[a] - nd.hi[a] : 0.0f;
+      d2 += d * d;
+    }
+    return d2;
+  }
+
+ private:
+  uint32_t split(uint32_t b, uint32_t e) const {
+    const uint32_t cb = codes_[b], ce = codes_[e - 1];
+    if (cb == ce) return b + (e - b) / 2;
+    const int bit = 31 - std::countl_zero(cb ^ ce);
+    return uint32_t(
+        std::partition_point(codes_.begin() + b, codes_.begin() + e, [&](uint32_t c) { return (c >> bit & 1u) == 0; }) -
+        codes_.begin());
+  }
+  void build(size_t i, uint32_t b, uint32_t e) {
+    nodes_[i].b = b;
+    nodes_[i].e = e;
+    if (e - b <= kLeafPoints) {
+      RangeNode& nd = nodes_[i];
+      for (int a = 0; a < 3; ++a) nd.lo[a] = nd.hi[a] = point(b)[a];
+      for (uint32_t j = b + 1; j < e; ++j)
+        for (int a = 0; a < 3; ++a) {
+          nd.lo[a] = std::min(nd.lo[a], point(j)[a]);
+          nd.hi[a] = std::max(nd.hi[a], point(j)[a]);
+        }
+      return;
+    }
+    const uint32_t m = split(b, e), c = uint32_t(nodes_.size());
+    nodes_[i].child = c;
+    nodes_.emplace_back();
+    nodes_.emplace_back();
+    build(c, b, m);
+    build(c + 1, m, e);
+    RangeNode& nd = nodes_[i];
+    const RangeNode &l = nodes_[c], &r = nodes_[c + 1];
+    for (int a = 0; a < 3; ++a) {
+      nd.lo[a] = std::min(l.lo[a], r.lo[a]);
+      nd.hi[a] = std::max(l.hi[a], r.hi[a]);
+    }
+  }
+
+  const float* xyz_;
+  const std::vector<uint32_t>& codes_;
+  std::vector<RangeNode> nodes_;
+};
+
+float distance2(const float* a, const float* b) {
+  const float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// The want smallest squared distances offered, ascending in best[0, count);
+// once there are want, bound is the largest of them.
+struct Smallest {
+  float* best;
+  size_t want, count = 0;
+  float bound = std::numeric_limits<float>::infinity();
+  void offer(float d2) {
+    if (!(d2 < bound)) return;  // NaN too: a point without a position is no neighbour
+    size_t i = count < want ? count++ : want - 1;
+    for (; i > 0 && best[i - 1] > d2; --i) best[i] = best[i - 1];
+    best[i] = d2;
+    if (count == want) bound = best[want - 1];
+  }
+  void offerRange(const RangeTree& t, const float* q, uint32_t b, uint32_t e) {
+    for (uint32_t j = b; j < e; ++j) offer(distance2(q, t.point(j)));
+  }
+};
+
+// Point o's want-th squared distance: first every point of its smallest
+// enclosing range of at least 2 x want points (a tight bound), then each
+// sibling range up to the root whose box comes within the bound, nearer
+// halves first.
+float kthFrom(const RangeTree& t, uint32_t o, size_t want, float* best, std::vector<uint32_t>& stack) {
+  uint32_t path[64];
+  int depth = 0;
+  for (uint32_t i = 0;; ++depth) {
+    path[depth] = i;
+    const RangeNode& nd = t.node(i);
+    if (RangeTree::leaf(nd) || depth == 63) break;
+    i = o < t.node(nd.child).e ? nd.child : nd.child + 1;
+  }
+  int top = depth;
+  while (top > 0 && t.node(path[top]).e - t.node(path[top]).b < 2 * want) --top;
+  const float* q = t.point(o);
+  Smallest s{best, want};
+  s.offerRange(t, q, t.node(path[top]).b, t.node(path[top]).e);
+  for (int level = top; level > 0; --level) {
+    const uint32_t parentChild = t.node(path[level - 1]).child;
+    stack.assign(1, path[level] == parentChild ? parentChild + 1 : parentChild);
+    while (!stack.empty()) {
+      const uint32_t i = stack.back();
+      stack.pop_back();
+      if (t.boxDistance2(q, i) >= s.bound) continue;
+      const RangeNode& nd = t.node(i);
+      if (RangeTree::leaf(nd)) {
+        s.offerRange(t, q, nd.b, nd.e);
+        continue;
+      }
+      const bool firstNearer = t.boxDistance2(q, nd.child) <= t.boxDistance2(q, nd.child + 1);
+      stack.push_back(firstNearer ? nd.child + 1 : nd.child);
+      stack.push_back(firstNearer ? nd.child : nd.child + 1);
+    }
+  }
+  return s.count > 0 ? best[std::min(want, s.count) - 1] : std::numeric_limits<float>::infinity();
+}
+
+}  // namespace
+
+std::vector<float> kthNearestSquared(const MortonSorted& m, size_t want, const std::atomic<bool>* stop) {
+  const size_t n = m.codes.size();
+  std::vector<float> out = hugePageVector<float>(n);
+  want = std::min(want, n);
+  if (want == 0) return out;
+  VSL_CHECK(n < (size_t(1) << 31));
+  const RangeTree tree(m);
+  parallelForChunks(n, 1024, [&](size_t o0, size_t o1) {
+    if (stop && stop->load(std::memory_order_relaxed)) return;
+    std::vector<float> best(want);
+    std::vector<uint32_t> stack;
+    for (size_t o = o0; o < o1; ++o) out[o] = kthFrom(tree, uint32_t(o), want, best.data(), stack);
+  });
+  return out;
+}
+
+void sortMortonKeys(std::vector<uint64_t>& keys) {
+  constexpr int kBits = 10;
+  constexpr size_t kBuckets = size_t(1) << kBits;
+  std::vector<uint64_t> other = hugePageVector<uint64_t>(keys.size());
+  std::vector<size_t> start(kBuckets);
+  for (int pass = 0; pass < 3; ++pass) {
+    const int shift = 32 + kBits * pass;
+    std::fill(start.begin(), start.end(), 0);
+    for (uint64_t k : keys) ++start[(k >> shift) & (kBuckets - 1)];
+    size_t sum = 0;
+    for (size_t& s : start) sum += std::exchange(s, sum);
+    for (uint64_t k : keys) other[start[(k >> shift) & (kBuckets - 1)]++] = k;
+    keys.swap(other);
+  }
+}
+
+MortonSorted mortonSorted(const std::vector<float>& xyz) {
   const size_t n = xyz.size() / 3;
   const MortonBox box(xyz);
-  std::vector<std::pair<uint32_t, uint32_t>> keyed(n);
-  for (size_t i = 0; i < n; ++i) keyed[i] = {box.code(&xyz[3 * i]), uint32_t(i)};
-  std::sort(keyed.begin(), keyed.end());
-  std::vector<uint32_t> order(n);
-  for (size_t i = 0; i < n; ++i) order[i] = keyed[i].second;
-  return order;
+  std::vector<uint64_t> keys = hugePageVector<uint64_t>(n);
+  parallelForChunks(n, 1 << 16, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) keys[i] = uint64_t(box.code(&xyz[3 * i])) << 32 | uint64_t(i);
+  });
+  sortMortonKeys(keys);
+  MortonSorted m;
+  m.xyz = hugePageVector<float>(3 * n);
+  m.codes = hugePageVector<uint32_t>(n);
+  m.order = hugePageVector<uint32_t>(n);
+  parallelForChunks(n, 1 << 16, [&](size_t b, size_t e) {
+    for (size_t o = b; o < e; ++o) {
+      const uint32_t i = uint32_t(keys[o]);
+      m.order[o] = i;
+      m.codes[o] = uint32_t(keys[o] >> 32);
+      for (int a = 0; a < 3; ++a) m.xyz[3 * o + a] = xyz[3 * size_t(i) + a];
+    }
+  });
+  return m;
 }
+
+std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz) { return mortonSorted(xyz).order; }
 
 }  // namespace vsl

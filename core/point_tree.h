@@ -10,6 +10,7 @@
 // safe to query from many threads.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -60,6 +61,30 @@ std::vector<float> packedPositions(const std::vector<T>& items) {
 // close in that order lie close in space, so a sequence of nearby queries, or
 // the points one query finds, stay close in memory.
 std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz);
+
+// Points (3 floats each) in Morton order: their coordinates, Morton codes
+// (MortonBox, 10 bits per axis) and indices in the set given.
+struct MortonSorted {
+  std::vector<float> xyz;
+  std::vector<uint32_t> codes, order;
+};
+MortonSorted mortonSorted(const std::vector<float>& xyz);
+
+// For every point of m, the squared distance to its want-th nearest point
+// of the set, itself the first at 0 (fewer points: the farthest), in m's
+// order: PointTree::nearest's last distance, the same values, searched
+// sooner (docs/RESULTS.md, "Scale and MRCS"). A binary tree over m's order,
+// split as the codes' highest differing bit changes (its halves' boxes do
+// not overlap), is searched from each point's own range outward, so that
+// the bound is tight from the start. Incomplete if *stop becomes true (the
+// caller discards them then).
+std::vector<float> kthNearestSquared(const MortonSorted& m, size_t want, const std::atomic<bool>* stop = nullptr);
+
+// Sorts keys of the form (code << 32) | index, with code < 2^30, that come
+// in increasing order of index: afterwards they are in increasing order, as
+// std::sort leaves them, by a stable radix sort of the codes (three passes
+// of 10 bits; about 5x std::sort's speed on a million keys).
+void sortMortonKeys(std::vector<uint64_t>& keys);
 
 // The Morton code (10 bits per axis) of a point within the bounding box of a
 // set of points (3 floats each), as mortonOrder orders them; points outside

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <utility>
 
+#include "core/memory_budget.h"
 #include "core/parallel.h"
 #include "core/point_tree.h"
 #include "core/rng.h"
@@ -100,10 +101,12 @@ inline float shadingOutFactor(const SurfaceHit& sh, const Vec3& wi) {
   return std::abs(dot(wi, sh.ng)) / std::abs(dot(wi, sh.shading.n));
 }
 
-// Traces light path `index` and appends its virtual lights (flux not yet
+// Traces light path `index` into out: its virtual lights (flux not yet
 // divided by the path count).
 void traceOnePath(const Scene& scene, const Accel& accel, const LightSampler& lights,
                   const LightTracingSettings& settings, uint64_t index, PathResult& out) {
+  out.lights.clear();
+  out.rays = out.nonFinite = 0;
   Rng rng = Rng::forItem(index, 0, 1, settings.seed);
   float uLight = rng.uniform();
   Vec2 uPos{rng.uniform(), rng.uniform()}, uDir{rng.uniform(), rng.uniform()};
@@ -170,8 +173,13 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
   if (lights.empty()) return set;
   // Trace chunks of paths in parallel; append whole paths in path order until
   // the target count is reached, so the set does not depend on threads.
-  const uint64_t chunk = 4096;
+  const uint64_t chunk = 16384;
   uint64_t next = 0;
+  // Room for the whole set at once (a path's lights can pass the count by up
+  // to its depth): growing by doubling copied every light once or twice more.
+  reserveHugePages(set.lights, size_t(settings.count) + size_t(settings.maxDepth));
+  // Kept across chunks, so that each path's list keeps its capacity.
+  std::vector<PathResult> results(chunk);
   // Paths that deposit nothing (they escape) still count; stop if nothing
   // deposits at all (an open scene seen by no light).
   uint64_t emptyChunks = 0;
@@ -180,7 +188,6 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
       set.stopped = true;
       break;
     }
-    std::vector<PathResult> results(chunk);
     parallelFor(size_t(chunk), [&](size_t i) { traceOnePath(scene, accel, lights, settings, next + i, results[i]); });
     size_t before = set.lights.size();
     for (uint64_t i = 0; i < chunk && set.lights.size() < settings.count; ++i) {
@@ -202,24 +209,22 @@ VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const
 
 std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, float scale, float fallback,
                             float minRadius, const std::atomic<bool>* stop) {
-  std::vector<float> radii(lights.size(), std::max(scale * fallback, minRadius));
+  std::vector<float> radii = hugePageVector<float>(lights.size());
+  std::fill(radii.begin(), radii.end(), std::max(scale * fallback, minRadius));
   if (lights.size() < 2 || k < 1) return radii;
-  std::vector<float> xyz = packedPositions(lights);
-  // Queried in Morton order: consecutive queries walk the same branches.
-  const std::vector<uint32_t> order = mortonOrder(xyz);
-  const PointTree tree(std::move(xyz));
-  const size_t want = std::min<size_t>(size_t(k) + 1, lights.size());  // the light itself is its own 0th neighbour
-  parallelForChunks(lights.size(), 1024, [&](size_t i0, size_t i1) {
-    if (stop && stop->load(std::memory_order_relaxed)) return;
-    std::vector<uint32_t> idx(want);
-    std::vector<float> d2(want);
-    for (size_t o = i0; o < i1; ++o) {
-      const size_t i = order[o];
-      const size_t found = tree.nearest(lights[i].p, want, idx.data(), d2.data());
-      float r = found > 0 ? scale * std::sqrt(d2[found - 1]) : scale * fallback;
-      radii[i] = std::isfinite(r) && r > minRadius ? r : minRadius;
-    }
+  const size_t n = lights.size();
+  std::vector<float> xyz = hugePageVector<float>(3 * n);
+  parallelForChunks(n, 1 << 16, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i)
+      for (int a = 0; a < 3; ++a) xyz[3 * i + a] = lights[i].p[a];
   });
+  const MortonSorted sorted = mortonSorted(xyz);
+  const size_t want = std::min<size_t>(size_t(k) + 1, n);  // the light itself is its own 0th neighbour
+  const std::vector<float> d2 = kthNearestSquared(sorted, want, stop);
+  for (size_t o = 0; o < n; ++o) {
+    const float r = scale * std::sqrt(d2[o]);
+    radii[sorted.order[o]] = std::isfinite(r) && r > minRadius ? r : minRadius;
+  }
   return radii;
 }
 

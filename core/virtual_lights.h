@@ -85,7 +85,8 @@ struct VirtualLightSet {
 VirtualLightSet traceVirtualLights(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                    const LightTracingSettings& settings, const std::atomic<bool>* stop = nullptr);
 
-// r_i = scale x (distance to the k-th nearest other light), via a k-d tree.
+// r_i = scale x (distance to the k-th nearest other light), by
+// kthNearestSquared (core/point_tree.h).
 // With fewer than k+1 lights, k shrinks to what exists; a single light gets
 // scale x fallback. Non-finite or zero distances give the smallest positive
 // radius `minRadius`.

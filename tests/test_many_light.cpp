@@ -184,6 +184,38 @@ TEST(VirtualLights, KnnRadiiMatchBruteForce) {
   for (float r : knnRadii(same, 2, 1.0f, 1.0f, 1e-6f)) EXPECT_FLOAT_EQ(r, 1e-6f);
 }
 
+// kthNearestSquared (the k-NN radii's search) gives the k-d tree's values
+// exactly, on clusters of very different densities, coincident points and
+// far outliers, for k from 1 to past a leaf.
+TEST(VirtualLights, KthNearestEqualsTheTrees) {
+  Rng rng(17, 4);
+  std::vector<VirtualLight> pts(30000);
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const float spread = i % 3 == 0 ? 1e-4f : i % 3 == 1 ? 0.05f : 2.0f;
+    const Vec3 centre(float(i % 7), float(i % 5) * 0.5f, 0.0f);
+    pts[i].p = centre + spread * Vec3(rng.uniform(), rng.uniform(), rng.uniform() * 0.01f);
+  }
+  for (size_t i = 0; i < 200; ++i) pts[i].p = pts[i + 200].p;                        // coincident pairs
+  for (size_t i = 400; i < 410; ++i) pts[i].p = Vec3(1e4f * float(i), -3e3f, 7.0f);  // far outliers
+  const MortonSorted m = mortonSorted(packedPositions(pts));
+  const PointTree tree(m.xyz);
+  for (size_t want : {size_t(1), size_t(2), size_t(11), size_t(40), size_t(100)}) {
+    const std::vector<float> d2 = kthNearestSquared(m, want);
+    std::vector<uint32_t> idx(want);
+    std::vector<float> ref(want);
+    size_t differ = 0;
+    for (size_t o = 0; o < pts.size(); ++o) {
+      const float* q = tree.point(o);
+      const size_t found = tree.nearest(Vec3(q[0], q[1], q[2]), want, idx.data(), ref.data());
+      differ += d2[o] != ref[found - 1];
+    }
+    EXPECT_EQ(differ, 0u) << "want " << want;
+  }
+  // Fewer points than asked: the farthest.
+  const MortonSorted three = mortonSorted({0, 0, 0, 1, 0, 0, 3, 0, 0});
+  EXPECT_EQ(kthNearestSquared(three, 10), (std::vector<float>{9, 4, 9}));
+}
+
 TEST(VirtualLights, PointTreeFindsTheNearestInOrder) {
   Rng rng(5, 1);
   std::vector<VirtualLight> pts(300);

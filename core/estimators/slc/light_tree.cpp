@@ -7,6 +7,8 @@
 #include <limits>
 
 #include "core/check.h"
+#include "core/memory_budget.h"
+#include "core/point_tree.h"
 #include "core/stopwatch.h"
 
 namespace vsl {
@@ -237,7 +239,7 @@ void mergeCones(const Vec3& a, float cosA, const Vec3& b, float cosB, Vec3& axis
 }  // namespace
 
 LightTree LightTree::build(const std::vector<GatherLight>& lights) {
-  std::vector<Prim> prims(lights.size());
+  std::vector<Prim> prims = hugePageVector<Prim>(lights.size());
   for (size_t i = 0; i < lights.size(); ++i) {
     prims[i] = {lights[i].p, lights[i].n, std::max(0.0f, luminance(lights[i].Phi)), lights[i].radius};
   }
@@ -246,7 +248,7 @@ LightTree LightTree::build(const std::vector<GatherLight>& lights) {
 
 LightTree LightTree::build(const VirtualLightSet& set, const std::vector<float>& radii) {
   VSL_CHECK_EQ(set.lights.size(), radii.size());
-  std::vector<Prim> prims(set.lights.size());
+  std::vector<Prim> prims = hugePageVector<Prim>(set.lights.size());
   for (size_t i = 0; i < prims.size(); ++i) {
     const VirtualLight& v = set.lights[i];
     // The emission cosine's normal (decodeGatherLight: the geometric one
@@ -257,27 +259,36 @@ LightTree LightTree::build(const VirtualLightSet& set, const std::vector<float>&
   return fromPrims(std::move(prims));
 }
 
-LightTree LightTree::fromPrims(std::vector<Prim> prims) {
-  Stopwatch clock;
-  LightTree t;
-  const size_t n = prims.size();
-  if (n == 0) return t;
-  VSL_CHECK(n < size_t(1) << 30);
+// The prims' Morton codes (10 bits per axis in their box) above their
+// indices, sorted.
+std::vector<uint64_t> LightTree::sortedKeys(const std::vector<Prim>& prims) {
   Vec3 lo(kInf), hi(-kInf);
   for (const Prim& p : prims) {
     lo = min(lo, p.p);
     hi = max(hi, p.p);
   }
   const Vec3 ext = max(hi - lo, Vec3(1e-20f));
-  std::vector<uint64_t> keys(n);
-  for (size_t i = 0; i < n; ++i) {
+  std::vector<uint64_t> keys = hugePageVector<uint64_t>(prims.size());
+  for (size_t i = 0; i < prims.size(); ++i) {
     const Vec3 u = (prims[i].p - lo) / ext;
     auto q = [](float v) { return uint32_t(clamp(v * 1024.0f, 0.0f, 1023.0f)); };
     const uint32_t code = (spread10(q(u.x)) << 2) | (spread10(q(u.y)) << 1) | spread10(q(u.z));
     keys[i] = (uint64_t(code) << 32) | uint64_t(i);
   }
-  std::sort(keys.begin(), keys.end());
+  sortMortonKeys(keys);
+  return keys;
+}
+
+LightTree LightTree::fromPrims(std::vector<Prim> prims) {
+  Stopwatch clock;
+  LightTree t;
+  const size_t n = prims.size();
+  if (n == 0) return t;
+  VSL_CHECK(n < size_t(1) << 30);
+  const std::vector<uint64_t> keys = sortedKeys(prims);
+  reserveHugePages(t.nodes_, 2 * n - 1);
   t.nodes_.resize(2 * n - 1);
+  reserveHugePages(t.parent_, 2 * n - 1);
   t.parent_.assign(2 * n - 1, -1);
   t.leafOf_.assign(n, -1);
   int32_t next = 1;

@@ -160,6 +160,7 @@ class LightTree {
     float flux, radius;
   };
   static LightTree fromPrims(std::vector<Prim> prims);
+  static std::vector<uint64_t> sortedKeys(const std::vector<Prim>& prims);
   // floor x p[2] (flux) + (1 - floor) x (share x p[1] (specular) +
   // (1 - share) x p[0] (diffuse)).
   static double mix(const double p[3], float floor, float share);

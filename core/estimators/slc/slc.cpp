@@ -9,7 +9,8 @@
 // shadow rays and the transfers are brute force's (core/gather.h).
 //
 // Parameters (docs/REFERENCE.md, "Stochastic lightcuts"):
-//   slc-samples  4     lights drawn per gather point per step
+//   slc-samples  4     lights drawn per gather point per step (the first
+//                      step of a light set draws one: its first picture)
 //   slc-steps    16    steps per light set (the picture refines per step)
 //   slc-floor    0.05  share of descents by flux alone
 //   slc-leaf-estimate off  the last choice (two lights) by each pair's
@@ -17,7 +18,7 @@
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
 // unbiased estimate of brute force's all-lights image and the images are
-// the running mean. It refuses the pair roulette and the lobe gather.
+// their mean weighted by each step's draws (the mean over all draws). It refuses the pair roulette and the lobe gather.
 #include "core/estimators/slc/slc.h"
 
 #include <cstdio>
@@ -67,12 +68,10 @@ RenderSettings directSettings(const ManyLightSettings& s) {
   return r;
 }
 
-// The VSL quadrature stream of draw j of step s at gather point k: draw 0
-// of step 0 is brute force's (gatherStream), so that a tree of one light
-// gives brute force's picture.
-uint64_t drawStream(size_t pix, int k, int s, int K, int j) {
-  return gatherStream(pix, k) ^ (uint64_t(uint32_t(s * K + j)) << 24);
-}
+// The VSL quadrature stream of a light set's draw `draw` (counted over its
+// steps) at gather point k: draw 0 is brute force's (gatherStream), so that
+// a tree of one light gives brute force's picture.
+uint64_t drawStream(size_t pix, int k, int draw) { return gatherStream(pix, k) ^ (uint64_t(uint32_t(draw)) << 24); }
 
 class SlcEstimator final : public ManyLightEstimator {
  public:
@@ -94,15 +93,15 @@ class SlcEstimator final : public ManyLightEstimator {
     if (done_ == 0) return std::nullopt;
     return stepSeconds_ / done_ * (slc_.steps - done_);
   }
-  // The light set's share gathered: lights x steps done / steps.
+  // The light set's share gathered: lights x draws done / draws in all.
   size_t lightsProcessed() const override {
-    return size_t(double(run_.set.lights.size()) * done_ / std::max(slc_.steps, 1));
+    return size_t(double(run_.set.lights.size()) * drawsBefore(done_) / std::max(drawsBefore(slc_.steps), 1));
   }
   const ManyLightStats& stats() const override { return stats_; }
   std::vector<std::pair<std::string, double>> statistics() const override {
     return {{"treeSeconds", tree_.buildSeconds()},
             {"treeMegabytes", double(tree_.bytes()) / 1e6},
-            {"samplesPerGatherPoint", double(done_) * slc_.samples}};
+            {"samplesPerGatherPoint", double(drawsBefore(done_))}};
   }
   StepReport stepReport(double stepSeconds) const override;
   int width() const override { return width_; }
@@ -115,6 +114,12 @@ class SlcEstimator final : public ManyLightEstimator {
   void gatherPoint(Step& st, const Gatherer& gatherer, const GatherPoint& gp, size_t pix, int k, Rng& pick,
                    double acc[kGatherLayers][3], GatherCounters& c, double& vplOwn, double& vslOwn) const;
   void merge(const Step& st);
+  // Draws per gather point in step s: one in the first step of a light set,
+  // so that its first picture costs about a quarter of a step of four
+  // (docs/RESULTS.md, "Stochastic lightcuts"); then slc-samples. And the
+  // draws in the steps before step s.
+  int drawsIn(int s) const { return s == 0 ? 1 : slc_.samples; }
+  int drawsBefore(int s) const { return s <= 0 ? 0 : 1 + (s - 1) * slc_.samples; }
   int sharedEyes(int s) const {
     return Gatherer::sharedEyePaths(sharedEnd_[size_t(s)] - (s > 0 ? sharedEnd_[size_t(s) - 1] : 0));
   }
@@ -256,7 +261,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   const LightTreeReceiver r = LightTreeReceiver::make(gp, many_.computeVsl, many_.computeVsl ? kInf : clamp_);
   const PairImportance leaf(gatherer, gp, run_.set, run_.radii);
   const LeafImportance* leafOrNull = slc_.leafEstimate ? &leaf : nullptr;
-  const int K = slc_.samples;
+  const int K = drawsIn(st.s);
   const bool both = many_.computeVpl && many_.computeVsl;
   for (int j = 0; j < K; ++j) {
     const LightTree::Sample smp = tree_.sample(r, pick, slc_.floor, leafOrNull);
@@ -268,7 +273,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
     Stopwatch own;
     gatherer.addVpl(gp, L, g, one, c);
     if (both) vplOwn += own.lap();
-    gatherer.addVsl(gp, L, g, smp.light, drawStream(pix, k, st.s, K, j), one, c);
+    gatherer.addVsl(gp, L, g, smp.light, drawStream(pix, k, drawsBefore(st.s) + j), one, c);
     if (both) vslOwn += own.seconds();
     const double w = 1.0 / (double(K) * smp.pdf);
     for (int l = 0; l < kGatherLayers; ++l)
@@ -276,16 +281,18 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   }
 }
 
-// Each step is an unbiased estimate of the all-lights image: weight 1.
+// Each step is an unbiased estimate of the all-lights image, the mean of
+// its draws: weighted by them.
 void SlcEstimator::merge(const Step& st) {
   const int dCount = st.dEnd - st.dBegin;
+  const double draws = drawsIn(st.s);
   parallelForChunks(size_t(height_), 16, [&](size_t y0, size_t y1) {
     for (int y = int(y0); y < int(y1); ++y)
       for (int x = 0; x < width_; ++x) {
         const size_t pix = size_t(y) * width_ + x;
         if (dCount > 0) directFilm_.add(x, y, stepDirect_[pix], double(dCount));
         sharedFilm_.add(x, y, stepShared_[pix], double(st.eyes));
-        for (int k = 0; k < kGatherLayers; ++k) gather_[size_t(k)].add(x, y, stepLayers_[k][pix], 1.0);
+        for (int k = 0; k < kGatherLayers; ++k) gather_[size_t(k)].add(x, y, stepLayers_[k][pix], draws);
       }
   });
 }
@@ -313,7 +320,7 @@ StepReport SlcEstimator::stepReport(double stepSeconds) const {
     out.info.push_back(text);
   }
   std::snprintf(text, sizeof text, "SLC step %d/%d: %.2f s, %d lights per gather point", done_, slc_.steps, stepSeconds,
-                done_ * slc_.samples);
+                drawsBefore(done_));
   out.info.push_back(text);
   return out;
 }
@@ -329,7 +336,8 @@ std::vector<EstimatorParam> slcParams() {
         .min = 1,
         .max = 4096,
         .unit = "lights",
-        .help = "Stochastic lightcuts: lights drawn from the light tree per gather point per step",
+        .help = "Stochastic lightcuts: lights drawn from the light tree per gather point per step (the first step of "
+                "a light set draws one, for a quick first picture)",
         .why = "4 keeps a step at 256 px near a second for the progressive picture; 16 did a little better at "
                "equal time (kitchen, 100,000 VSLs, 20 s: 2.82 against 3.28, one set; "
                "[RESULTS](RESULTS.md#stochastic-lightcuts))",
@@ -344,8 +352,9 @@ std::vector<EstimatorParam> slcParams() {
         .min = 1,
         .max = 100000,
         .unit = "steps",
-        .help = "Stochastic lightcuts: steps per light set, each adding slc-samples draws per gather point",
-        .why = "16 steps of 4 draws: 64 draws per gather point per light set (the sweep sets more, to fill its time)",
+        .help = "Stochastic lightcuts: steps per light set, each adding slc-samples draws per gather point (the "
+                "first one)",
+        .why = "16 steps of 4 draws: 61 draws per gather point per light set (the sweep sets more, to fill its time)",
         .uiMin = 1,
         .uiMax = 1024,
         .uiLog = true},
