@@ -338,10 +338,22 @@ TEST(SlcSeam, ParametersStepsAndRefusals) {
   EXPECT_FALSE(est->step(&stop));
   EXPECT_EQ(est->stepsDone(), 0);
   EXPECT_FALSE(est->remainingSeconds());
+  // The draws per gather point so far: the first of several steps draws
+  // one (a quick first picture), each later one slc-samples.
+  auto draws = [&] {
+    double d = -1;
+    for (const auto& [k, v] : est->statistics())
+      if (k == "samplesPerGatherPoint") d = v;
+    return d;
+  };
   ASSERT_TRUE(est->step());
   EXPECT_TRUE(est->remainingSeconds());
+  EXPECT_EQ(draws(), 1);
+  EXPECT_EQ(est->lightsProcessed(), est->run().set.lights.size() / 5);
   ASSERT_TRUE(est->step());
+  EXPECT_EQ(draws(), 3);
   ASSERT_TRUE(est->step());
+  EXPECT_EQ(draws(), 5);
   EXPECT_FALSE(est->step());
   EXPECT_TRUE(est->done());
   EXPECT_EQ(est->lightsProcessed(), est->run().set.lights.size());
@@ -353,6 +365,13 @@ TEST(SlcSeam, ParametersStepsAndRefusals) {
   EXPECT_TRUE(tree);
   EXPECT_EQ(est->images().vsl.width, 8);
   EXPECT_EQ(est->stats().nonFinite.load(), 0u);
+  // A light set of one step draws slc-samples in it.
+  auto one = makeEstimator(*ctx, prepareManyLights(*ctx, s), s, slc(2, 1));
+  ASSERT_TRUE(one->step());
+  double oneDraws = -1;
+  for (const auto& [k, v] : one->statistics())
+    if (k == "samplesPerGatherPoint") oneDraws = v;
+  EXPECT_EQ(oneDraws, 2);
 }
 
 // A million lights are in the tree within a few seconds (issue 52), and a

@@ -10,7 +10,7 @@
 //
 // Parameters (docs/REFERENCE.md, "Stochastic lightcuts"):
 //   slc-samples  4     lights drawn per gather point per step (the first
-//                      step of a light set draws one: its first picture)
+//                      of several steps draws one: its first picture)
 //   slc-steps    16    steps per light set (the picture refines per step)
 //   slc-floor    0.05  share of descents by flux alone
 //   slc-leaf-estimate off  the last choice (two lights) by each pair's
@@ -114,12 +114,12 @@ class SlcEstimator final : public ManyLightEstimator {
   void gatherPoint(Step& st, const Gatherer& gatherer, const GatherPoint& gp, size_t pix, int k, Rng& pick,
                    double acc[kGatherLayers][3], GatherCounters& c, double& vplOwn, double& vslOwn) const;
   void merge(const Step& st);
-  // Draws per gather point in step s: one in the first step of a light set,
-  // so that its first picture costs about a quarter of a step of four
-  // (docs/RESULTS.md, "Stochastic lightcuts"); then slc-samples. And the
-  // draws in the steps before step s.
-  int drawsIn(int s) const { return s == 0 ? 1 : slc_.samples; }
-  int drawsBefore(int s) const { return s <= 0 ? 0 : 1 + (s - 1) * slc_.samples; }
+  // Draws per gather point in step s: slc-samples, but one in the first
+  // step of a light set of several, so that its first picture costs about
+  // a quarter of a step of four (docs/RESULTS.md, "Stochastic lightcuts").
+  // And the draws in the steps before step s.
+  int drawsIn(int s) const { return s == 0 && slc_.steps > 1 ? 1 : slc_.samples; }
+  int drawsBefore(int s) const { return s <= 0 ? 0 : drawsIn(0) + (s - 1) * slc_.samples; }
   int sharedEyes(int s) const {
     return Gatherer::sharedEyePaths(sharedEnd_[size_t(s)] - (s > 0 ? sharedEnd_[size_t(s) - 1] : 0));
   }
@@ -336,8 +336,8 @@ std::vector<EstimatorParam> slcParams() {
         .min = 1,
         .max = 4096,
         .unit = "lights",
-        .help = "Stochastic lightcuts: lights drawn from the light tree per gather point per step (the first step of "
-                "a light set draws one, for a quick first picture)",
+        .help = "Stochastic lightcuts: lights drawn from the light tree per gather point per step (the first of "
+                "several steps of a light set draws one, for a quick first picture)",
         .why = "4 keeps a step at 256 px near a second for the progressive picture; 16 did a little better at "
                "equal time (kitchen, 100,000 VSLs, 20 s: 2.82 against 3.28, one set; "
                "[RESULTS](RESULTS.md#stochastic-lightcuts))",
@@ -353,7 +353,7 @@ std::vector<EstimatorParam> slcParams() {
         .max = 100000,
         .unit = "steps",
         .help = "Stochastic lightcuts: steps per light set, each adding slc-samples draws per gather point (the "
-                "first one)",
+                "first of several, one)",
         .why = "16 steps of 4 draws: 61 draws per gather point per light set (the sweep sets more, to fill its time)",
         .uiMin = 1,
         .uiMax = 1024,
