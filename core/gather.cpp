@@ -474,9 +474,11 @@ void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const float* 
   b.sgOf_.resize(n);
   b.sg_.resize(n);
   // Record 0: the light's BRDF; then two per closed-form pair (the receiver
-  // and, where the floor widened it, the light).
-  b.packed_.resize((2 * n + 1) * kP);
-  L.em.f.pack(b.packed_.data());
+  // and, where the floor widened it, the light). Under the quadrature no
+  // pair is in closed form: nothing to pack.
+  const bool sg = vsl_.integral == VslIntegral::Sg;
+  b.packed_.resize(sg ? (2 * n + 1) * kP : 0);
+  if (sg) L.em.f.pack(b.packed_.data());
   size_t nsg = 0;
   for (size_t v = 0; v < n; ++v) {
     const uint32_t i = list[v];
