@@ -86,12 +86,12 @@ class SlcEstimator final : public ManyLightEstimator {
   int stepCount() const override { return slc_.steps; }
   std::optional<double> nextStepSeconds() const override {
     if (done() || done_ == 0) return std::nullopt;
-    return stepSeconds_ / done_;
+    return laterStepSeconds();
   }
   std::optional<double> remainingSeconds() const override {
     if (done()) return 0.0;
     if (done_ == 0) return std::nullopt;
-    return stepSeconds_ / done_ * (slc_.steps - done_);
+    return laterStepSeconds() * (slc_.steps - done_);
   }
   // The light set's share gathered: lights x draws done / draws in all.
   size_t lightsProcessed() const override {
@@ -120,6 +120,13 @@ class SlcEstimator final : public ManyLightEstimator {
   // And the draws in the steps before step s.
   int drawsIn(int s) const { return s == 0 && slc_.steps > 1 ? 1 : slc_.samples; }
   int drawsBefore(int s) const { return s <= 0 ? 0 : drawsIn(0) + (s - 1) * slc_.samples; }
+  // A step after the first: the mean of those done, or after the first
+  // alone its time scaled by the draws (an upper bound: the eye paths and
+  // direct light do not grow with the draws).
+  double laterStepSeconds() const {
+    if (done_ >= 2) return (stepSeconds_ - firstStepSeconds_) / (done_ - 1);
+    return firstStepSeconds_ * drawsIn(1) / drawsIn(0);
+  }
   int sharedEyes(int s) const {
     return Gatherer::sharedEyePaths(sharedEnd_[size_t(s)] - (s > 0 ? sharedEnd_[size_t(s) - 1] : 0));
   }
@@ -132,7 +139,7 @@ class SlcEstimator final : public ManyLightEstimator {
   int width_ = 0, height_ = 0;
   float clamp_ = 0;
   int done_ = 0;
-  double stepSeconds_ = 0;
+  double stepSeconds_ = 0, firstStepSeconds_ = 0;
   std::vector<int> directEnd_, sharedEnd_;  // cumulative per step, as brute force's batches
   Film directFilm_, sharedFilm_;
   std::vector<Film> gather_;  // kGatherLayers films, one unbiased estimate per step
@@ -200,6 +207,7 @@ bool SlcEstimator::step(const std::atomic<bool>* stop) {
   merge(st);
   const double seconds = wall.seconds();
   stepSeconds_ += seconds;
+  if (done_ == 0) firstStepSeconds_ = seconds;
   stats_.gatherSeconds += seconds;
   if (st.threadTime > 0) {
     stats_.vslSeconds += seconds * std::max(0.0, 1.0 - st.vplTime / st.threadTime);
