@@ -100,11 +100,16 @@ uint32_t MortonBox::code(const float* p) const {
 namespace {
 
 // kthNearestSquared's tree over points in Morton order: a node holds the
-// points [b, e) and its children are child and child + 1, split where the
-// highest differing bit of its points' Morton codes changes (so that the
-// halves lie on either side of a plane and their boxes do not overlap), in
-// the middle where the codes are equal; ranges of at most kLeafPoints are
-// leaves.
+// points at positions [b, e) and its children are child and child + 1,
+// split where the highest differing bit of its points' Morton codes changes
+// (the halves lie on either side of a plane). Where the codes are equal (a
+// cell of the 10-bit grid: points in index order, spread over the cell), at
+// the median of the box's widest axis, the points reordered within the
+// range (so again on either side of a plane: an index-order split there
+// left both halves the whole cell, and a dense cell, behind one far light
+// that made the grid coarse, cost its size per query). Ranges of at most
+// kLeafPoints are leaves. The tree keeps its own copy of the points; perm
+// maps its positions to m's.
 constexpr uint32_t kLeafPoints = 32;
 
 struct RangeNode {
@@ -114,15 +119,20 @@ struct RangeNode {
 
 class RangeTree {
  public:
-  explicit RangeTree(const MortonSorted& m) : xyz_(m.xyz.data()), codes_(m.codes) {
+  explicit RangeTree(const MortonSorted& m) : codes_(m.codes) {
     const size_t n = m.codes.size();
+    xyz_ = hugePageVector<float>(3 * n);
+    std::copy(m.xyz.begin(), m.xyz.end(), xyz_.begin());
+    perm_.resize(n);
+    for (size_t i = 0; i < n; ++i) perm_[i] = uint32_t(i);
     nodes_.reserve(2 * (n / kLeafPoints + 1));
     nodes_.emplace_back();
     build(0, 0, uint32_t(n));
   }
   static bool leaf(const RangeNode& nd) { return nd.e - nd.b <= kLeafPoints; }
   const RangeNode& node(size_t i) const { return nodes_[i]; }
-  const float* point(size_t i) const { return xyz_ + 3 * i; }
+  const float* point(size_t i) const { return xyz_.data() + 3 * i; }
+  uint32_t original(size_t i) const { return perm_[i]; }
   // Squared distance from q to node i's box (0 inside), never above a
   // point's in it: float subtraction and squares are monotone.
   float boxDistance2(const float* q, size_t i) const {
@@ -136,9 +146,42 @@ class RangeTree {
   }
 
  private:
-  uint32_t split(uint32_t b, uint32_t e) const {
+  void boxOf(uint32_t b, uint32_t e, RangeNode& nd) const {
+    for (int a = 0; a < 3; ++a) nd.lo[a] = nd.hi[a] = point(b)[a];
+    for (uint32_t j = b + 1; j < e; ++j)
+      for (int a = 0; a < 3; ++a) {
+        nd.lo[a] = std::min(nd.lo[a], point(j)[a]);
+        nd.hi[a] = std::max(nd.hi[a], point(j)[a]);
+      }
+  }
+  // A coordinate as an order (NaN last: nth_element needs a strict weak order).
+  static float key(float v) { return std::isnan(v) ? std::numeric_limits<float>::infinity() : v; }
+  // Equal codes: the points of [b, e) reordered about the median of the
+  // box's widest axis; returns the middle.
+  uint32_t medianSplit(uint32_t b, uint32_t e) {
+    RangeNode box;
+    boxOf(b, e, box);
+    int axis = 0;
+    for (int a = 1; a < 3; ++a)
+      if (box.hi[a] - box.lo[a] > box.hi[axis] - box.lo[axis]) axis = a;
+    std::vector<uint32_t> at(e - b);
+    for (uint32_t j = b; j < e; ++j) at[j - b] = j;
+    const uint32_t m = (e - b) / 2;
+    std::nth_element(at.begin(), at.begin() + m, at.end(),
+                     [&](uint32_t x, uint32_t y) { return key(point(x)[axis]) < key(point(y)[axis]); });
+    std::vector<float> xyz(3 * at.size());
+    std::vector<uint32_t> perm(at.size());
+    for (size_t k = 0; k < at.size(); ++k) {
+      std::copy(point(at[k]), point(at[k]) + 3, &xyz[3 * k]);
+      perm[k] = perm_[at[k]];
+    }
+    std::copy(xyz.begin(), xyz.end(), xyz_.begin() + 3 * size_t(b));
+    std::copy(perm.begin(), perm.end(), perm_.begin() + b);
+    return b + m;
+  }
+  uint32_t split(uint32_t b, uint32_t e) {
     const uint32_t cb = codes_[b], ce = codes_[e - 1];
-    if (cb == ce) return b + (e - b) / 2;
+    if (cb == ce) return medianSplit(b, e);
     const int bit = 31 - std::countl_zero(cb ^ ce);
     return uint32_t(
         std::partition_point(codes_.begin() + b, codes_.begin() + e, [&](uint32_t c) { return (c >> bit & 1u) == 0; }) -
@@ -148,13 +191,7 @@ class RangeTree {
     nodes_[i].b = b;
     nodes_[i].e = e;
     if (e - b <= kLeafPoints) {
-      RangeNode& nd = nodes_[i];
-      for (int a = 0; a < 3; ++a) nd.lo[a] = nd.hi[a] = point(b)[a];
-      for (uint32_t j = b + 1; j < e; ++j)
-        for (int a = 0; a < 3; ++a) {
-          nd.lo[a] = std::min(nd.lo[a], point(j)[a]);
-          nd.hi[a] = std::max(nd.hi[a], point(j)[a]);
-        }
+      boxOf(b, e, nodes_[i]);
       return;
     }
     const uint32_t m = split(b, e), c = uint32_t(nodes_.size());
@@ -171,8 +208,9 @@ class RangeTree {
     }
   }
 
-  const float* xyz_;
-  const std::vector<uint32_t>& codes_;
+  std::vector<float> xyz_;
+  const std::vector<uint32_t>& codes_;  // equal within a range reordered
+  std::vector<uint32_t> perm_;
   std::vector<RangeNode> nodes_;
 };
 
@@ -194,8 +232,10 @@ struct Smallest {
     best[i] = d2;
     if (count == want) bound = best[want - 1];
   }
+  uint64_t offered = 0;
   void offerRange(const RangeTree& t, const float* q, uint32_t b, uint32_t e) {
     for (uint32_t j = b; j < e; ++j) offer(distance2(q, t.point(j)));
+    offered += e - b;
   }
 };
 
@@ -203,7 +243,8 @@ struct Smallest {
 // enclosing range of at least 2 x want points (a tight bound), then each
 // sibling range up to the root whose box comes within the bound, nearer
 // halves first.
-float kthFrom(const RangeTree& t, uint32_t o, size_t want, float* best, std::vector<uint32_t>& stack) {
+float kthFrom(const RangeTree& t, uint32_t o, size_t want, float* best, std::vector<uint32_t>& stack,
+              uint64_t& distances) {
   uint32_t path[64];
   int depth = 0;
   for (uint32_t i = 0;; ++depth) {
@@ -234,24 +275,30 @@ float kthFrom(const RangeTree& t, uint32_t o, size_t want, float* best, std::vec
       stack.push_back(firstNearer ? nd.child : nd.child + 1);
     }
   }
+  distances += s.offered;
   return s.count > 0 ? best[std::min(want, s.count) - 1] : std::numeric_limits<float>::infinity();
 }
 
 }  // namespace
 
-std::vector<float> kthNearestSquared(const MortonSorted& m, size_t want, const std::atomic<bool>* stop) {
+std::vector<float> kthNearestSquared(const MortonSorted& m, size_t want, const std::atomic<bool>* stop,
+                                     uint64_t* distances) {
   const size_t n = m.codes.size();
   std::vector<float> out = hugePageVector<float>(n);
   want = std::min(want, n);
   if (want == 0) return out;
   VSL_CHECK(n < (size_t(1) << 31));
   const RangeTree tree(m);
+  std::atomic<uint64_t> offered{0};
   parallelForChunks(n, 1024, [&](size_t o0, size_t o1) {
     if (stop && stop->load(std::memory_order_relaxed)) return;
     std::vector<float> best(want);
     std::vector<uint32_t> stack;
-    for (size_t o = o0; o < o1; ++o) out[o] = kthFrom(tree, uint32_t(o), want, best.data(), stack);
+    uint64_t mine = 0;
+    for (size_t o = o0; o < o1; ++o) out[tree.original(o)] = kthFrom(tree, uint32_t(o), want, best.data(), stack, mine);
+    offered.fetch_add(mine, std::memory_order_relaxed);
   });
+  if (distances) *distances = offered.load();
   return out;
 }
 

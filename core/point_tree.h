@@ -72,13 +72,17 @@ MortonSorted mortonSorted(const std::vector<float>& xyz);
 
 // For every point of m, the squared distance to its want-th nearest point
 // of the set, itself the first at 0 (fewer points: the farthest), in m's
-// order: PointTree::nearest's last distance, the same values, searched
-// sooner (docs/RESULTS.md, "Scale and MRCS"). A binary tree over m's order,
-// split as the codes' highest differing bit changes (its halves' boxes do
-// not overlap), is searched from each point's own range outward, so that
-// the bound is tight from the start. Incomplete if *stop becomes true (the
+// order: for finite points, PointTree::nearest's last distance, the same
+// values, searched sooner (docs/RESULTS.md, "Scale and MRCS"); a point
+// with a non-finite coordinate is no one's neighbour (its own: infinity).
+// A binary tree over m's order, split on planes (the codes' highest
+// differing bit; in a cell of equal codes, the median of its widest axis),
+// is searched from each point's own range outward, so that the bound is
+// tight from the start. *distances (if given): the distances computed, for
+// tests of the work per point. Incomplete if *stop becomes true (the
 // caller discards them then).
-std::vector<float> kthNearestSquared(const MortonSorted& m, size_t want, const std::atomic<bool>* stop = nullptr);
+std::vector<float> kthNearestSquared(const MortonSorted& m, size_t want, const std::atomic<bool>* stop = nullptr,
+                                     uint64_t* distances = nullptr);
 
 // Sorts keys of the form (code << 32) | index, with code < 2^30, that come
 // in increasing order of index: afterwards they are in increasing order, as
