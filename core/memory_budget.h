@@ -60,7 +60,7 @@ void returnFreeMemory();
 // range; nothing elsewhere or below 4 MB). Call it on a large buffer before
 // its first write: with 4 KB pages a first write of 64 MB takes 16,000
 // page faults, a fifth of the light tracing of a million lights
-// (docs/RESULTS.md, "Scale and MRCS"). The contents do not change.
+// (docs/RESULTS.md, "Stochastic lightcuts", the first picture). The contents do not change.
 void adviseHugePages(void* data, size_t bytes);
 
 // v.reserve(n), the new storage advised as adviseHugePages says: for a

@@ -318,7 +318,9 @@ void sortMortonKeys(std::vector<uint64_t>& keys) {
   }
 }
 
-MortonSorted mortonSorted(const std::vector<float>& xyz) {
+namespace {
+// (code << 32) | index for every point, sorted (sortMortonKeys).
+std::vector<uint64_t> sortedMortonKeys(const std::vector<float>& xyz) {
   const size_t n = xyz.size() / 3;
   const MortonBox box(xyz);
   std::vector<uint64_t> keys = hugePageVector<uint64_t>(n);
@@ -326,6 +328,13 @@ MortonSorted mortonSorted(const std::vector<float>& xyz) {
     for (size_t i = b; i < e; ++i) keys[i] = uint64_t(box.code(&xyz[3 * i])) << 32 | uint64_t(i);
   });
   sortMortonKeys(keys);
+  return keys;
+}
+}  // namespace
+
+MortonSorted mortonSorted(const std::vector<float>& xyz) {
+  const size_t n = xyz.size() / 3;
+  const std::vector<uint64_t> keys = sortedMortonKeys(xyz);
   MortonSorted m;
   m.xyz = hugePageVector<float>(3 * n);
   m.codes = hugePageVector<uint32_t>(n);
@@ -341,6 +350,11 @@ MortonSorted mortonSorted(const std::vector<float>& xyz) {
   return m;
 }
 
-std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz) { return mortonSorted(xyz).order; }
+std::vector<uint32_t> mortonOrder(const std::vector<float>& xyz) {
+  const std::vector<uint64_t> keys = sortedMortonKeys(xyz);
+  std::vector<uint32_t> order(keys.size());
+  for (size_t o = 0; o < keys.size(); ++o) order[o] = uint32_t(keys[o]);
+  return order;
+}
 
 }  // namespace vsl

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/math.h"
+#include "core/memory_budget.h"
 
 namespace vsl {
 
@@ -51,7 +52,7 @@ class PointTree {
 template <class T>
 std::vector<float> packedPositions(const std::vector<T>& items) {
   std::vector<float> xyz;
-  xyz.reserve(3 * items.size());
+  reserveHugePages(xyz, 3 * items.size());
   for (const T& t : items) xyz.insert(xyz.end(), {t.p.x, t.p.y, t.p.z});
   return xyz;
 }

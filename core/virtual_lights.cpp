@@ -213,12 +213,7 @@ std::vector<float> knnRadii(const std::vector<VirtualLight>& lights, int k, floa
   std::fill(radii.begin(), radii.end(), std::max(scale * fallback, minRadius));
   if (lights.size() < 2 || k < 1) return radii;
   const size_t n = lights.size();
-  std::vector<float> xyz = hugePageVector<float>(3 * n);
-  parallelForChunks(n, 1 << 16, [&](size_t b, size_t e) {
-    for (size_t i = b; i < e; ++i)
-      for (int a = 0; a < 3; ++a) xyz[3 * i + a] = lights[i].p[a];
-  });
-  const MortonSorted sorted = mortonSorted(xyz);
+  const MortonSorted sorted = mortonSorted(packedPositions(lights));
   const size_t want = std::min<size_t>(size_t(k) + 1, n);  // the light itself is its own 0th neighbour
   const std::vector<float> d2 = kthNearestSquared(sorted, want, stop);
   for (size_t o = 0; o < n; ++o) {

@@ -18,7 +18,8 @@
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
 // unbiased estimate of brute force's all-lights image and the images are
-// their mean weighted by each step's draws (the mean over all draws). It refuses the pair roulette and the lobe gather.
+// their mean weighted by each step's draws (the mean over all draws). It
+// refuses the pair roulette and the lobe gather.
 #include "core/estimators/slc/slc.h"
 
 #include <cstdio>
