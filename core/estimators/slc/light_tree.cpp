@@ -2,9 +2,12 @@
 // Sections: [1] bounds at a receiver  [2] build  [3] sampling and pdf
 #include "core/estimators/slc/light_tree.h"
 
+#include <emmintrin.h>
+#include <xmmintrin.h>
 #include <algorithm>
 #include <bit>
 #include <limits>
+#include <utility>
 
 #include "core/check.h"
 #include "core/memory_budget.h"
@@ -91,7 +94,7 @@ void LightTreeReceiver::brdfCosBounds(float thetaRCos, float cosX, float out[2])
   }
 }
 
-void LightTree::importance(const LightTreeNode& nd, const LightTreeReceiver& r, float out[2], bool withDistance) const {
+void LightTree::importance(const LightTreeNode& nd, const LightTreeReceiver& r, float out[2], bool withDistance) {
   out[0] = out[1] = 0;
   if (!(nd.flux > 0)) return;
   const Vec3 c = 0.5f * (nd.lo + nd.hi);
@@ -141,51 +144,112 @@ void LightTree::importance(const LightTreeNode& nd, const LightTreeReceiver& r, 
   }
 }
 
-float PairImportance::operator()(uint32_t i) const {
-  const GatherLight L = decodeGatherLight(set_.lights[i], radii_[i]);
-  PairGeometry pg;
-  pg.d = L.p - gp_.p;
-  pg.d2 = lengthSquared(pg.d);
-  pg.dist = std::sqrt(pg.d2);
-  if (!(pg.dist > 0)) return 0;
-  pg.l = pg.d / pg.dist;
-  pg.cosX = dot(gp_.rx.frame.n, pg.l);
-  pg.cosP = -dot(L.n, pg.l);
-  if (!(pg.cosX > 0 && dot(gp_.rx.ng, pg.l) > 0 && pg.cosP > 0 && -dot(L.ng, pg.l) > 0)) return 0;
-  const float e = g_.pairEstimate(gp_, L, pg);
-  return std::isfinite(e) ? std::max(e, 0.0f) : std::numeric_limits<float>::max();
+void LightTreeWide::set(int lane, const LightTreeNode& nd) {
+  const Vec3 c = 0.5f * (nd.lo + nd.hi);
+  cx[lane] = c.x;
+  cy[lane] = c.y;
+  cz[lane] = c.z;
+  halfDiag[lane] = 0.5f * length(nd.hi - nd.lo);
+  nx[lane] = nd.axis.x;
+  ny[lane] = nd.axis.y;
+  nz[lane] = nd.axis.z;
+  const CosSin cone = fromCos(nd.cosTheta);
+  cosTheta[lane] = cone.c;
+  sinTheta[lane] = cone.s;
+  flux[lane] = nd.flux;
+  radius[lane] = nd.radius;
+  invArea[lane] = 1 / (kPi * sqr(std::max(nd.radiusMin, 1e-20f)));
 }
 
-double LightTree::fluxProbability(const LightTreeNode& nd) const {
-  const double f0 = nodes_[size_t(nd.child)].flux, f1 = nodes_[size_t(nd.child) + 1].flux;
-  return f0 + f1 > 0 ? f0 / (f0 + f1) : 0.5;
+namespace {
+
+// Four lanes of floats (SSE2) and of (cos, sin) pairs, as CosSin above.
+using F4 = __m128;
+inline F4 splat4(float v) { return _mm_set1_ps(v); }
+inline F4 sel4(F4 mask, F4 a, F4 b) { return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b)); }
+// std::max(0, v): a NaN gives 0, as std::max's.
+inline F4 max0(F4 v) { return _mm_max_ps(v, _mm_setzero_ps()); }
+inline F4 dot4(F4 x, F4 y, F4 z, const Vec3& v) {
+  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, splat4(v.x)), _mm_mul_ps(y, splat4(v.y))), _mm_mul_ps(z, splat4(v.z)));
+}
+struct CosSin4 {
+  F4 c, s;
+};
+CosSin4 fromCos4(F4 c) {
+  c = _mm_min_ps(splat4(1), _mm_max_ps(splat4(-1), c));
+  return {c, _mm_sqrt_ps(max0(_mm_sub_ps(splat4(1), _mm_mul_ps(c, c))))};
+}
+CosSin4 narrowed4(CosSin4 a, CosSin4 b) {
+  const F4 within = _mm_cmpge_ps(a.c, b.c);
+  const F4 c = _mm_add_ps(_mm_mul_ps(a.c, b.c), _mm_mul_ps(a.s, b.s));
+  const F4 s = max0(_mm_sub_ps(_mm_mul_ps(a.s, b.c), _mm_mul_ps(a.c, b.s)));
+  return {sel4(within, splat4(1), c), sel4(within, _mm_setzero_ps(), s)};
 }
 
-void LightTree::childProbabilities(const LightTreeNode& nd, const LightTreeReceiver& r, const LeafImportance* leaf,
-                                   double p0[2]) const {
-  const LightTreeNode& c0 = nodes_[size_t(nd.child)];
-  const LightTreeNode& c1 = nodes_[size_t(nd.child) + 1];
-  if (leaf && c0.leaf() && c1.leaf()) {
-    const double e0 = (*leaf)(c0.light()), e1 = (*leaf)(c1.light());
-    if (e0 + e1 > 0 && std::isfinite(e0 + e1)) {
-      p0[0] = p0[1] = e0 / (e0 + e1);
-      return;
-    }
-  }
-  float w0[2], w1[2];
-  importance(c0, r, w0);
-  importance(c1, r, w1);
+// The receiver's lobe bounds of LightTreeReceiver::brdfCosBounds, lane by
+// lane, for cosX > 0.
+void brdfCosBounds4(const LightTreeReceiver& r, F4 cosR, F4 cosX, F4 out[2]) {
+  out[0] = _mm_mul_ps(splat4(r.diffuse), cosX);
+  out[1] = _mm_setzero_ps();
+  if (!r.specularOn) return;
+  const F4 c2 = max0(_mm_mul_ps(splat4(0.5f), _mm_add_ps(splat4(1), cosR)));
+  const F4 s2 = max0(_mm_sub_ps(splat4(1), c2));
+  const float am = std::max(r.ax, r.ay), am2 = am * am;
+  const F4 den = _mm_add_ps(_mm_mul_ps(splat4(am2), c2), s2);
+  out[1] = _mm_div_ps(splat4(r.specular * am2 * am2), _mm_mul_ps(splat4(kPi * r.ax * r.ay), _mm_mul_ps(den, den)));
+}
+
+}  // namespace
+
+// LightTree::importance on the four entries, operation for operation but
+// for the reciprocals of the squared distance and of the cap's area (kept
+// per entry).
+void LightTree::importance4(const LightTreeWide& nd, const LightTreeReceiver& r, float out[2][4], bool withDistance) {
+  const F4 zero = _mm_setzero_ps(), one = splat4(1);
+  const F4 dx = _mm_sub_ps(_mm_load_ps(nd.cx), splat4(r.p.x));
+  const F4 dy = _mm_sub_ps(_mm_load_ps(nd.cy), splat4(r.p.y));
+  const F4 dz = _mm_sub_ps(_mm_load_ps(nd.cz), splat4(r.p.z));
+  const F4 dist = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz)));
+  const F4 R = _mm_load_ps(nd.halfDiag);
+  // Outside the box's sphere: the directions to it; inside, every
+  // direction (the bounds' cosines all one).
+  const F4 outside = _mm_cmpgt_ps(dist, R);
+  // As the scalar form's, to its bits: a narrow lobe's bound magnifies a
+  // direction's rounding (sin = sqrt(1 - cos^2) near cos = 1, and the lobe's
+  // 1 / (alpha^2 cos^2 + sin^2)^2).
+  const F4 inv = _mm_div_ps(one, dist);
+  const F4 ux = sel4(outside, _mm_mul_ps(dx, inv), splat4(r.n.x));
+  const F4 uy = sel4(outside, _mm_mul_ps(dy, inv), splat4(r.n.y));
+  const F4 uz = sel4(outside, _mm_mul_ps(dz, inv), splat4(r.n.z));
+  const F4 sb = _mm_and_ps(outside, _mm_div_ps(R, dist));
+  const F4 rs = _mm_and_ps(outside, _mm_min_ps(one, _mm_div_ps(_mm_add_ps(R, _mm_load_ps(nd.radius)), dist)));
+  const F4 minus1 = splat4(-1);
+  const CosSin4 box{sel4(outside, _mm_sqrt_ps(max0(_mm_sub_ps(one, _mm_mul_ps(sb, sb)))), minus1), sb};
+  const CosSin4 sphere{sel4(outside, _mm_sqrt_ps(max0(_mm_sub_ps(one, _mm_mul_ps(rs, rs)))), minus1), rs};
+  const CosSin4 toX = fromCos4(dot4(ux, uy, uz, r.n));
+  F4 on = _mm_and_ps(_mm_cmpgt_ps(narrowed4(toX, box).c, zero), _mm_cmpgt_ps(_mm_load_ps(nd.flux), zero));
+  const F4 cosX = narrowed4(toX, sphere).c;
+  const F4 toDirAxis = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_load_ps(nd.nx), ux), _mm_mul_ps(_mm_load_ps(nd.ny), uy)),
+                                  _mm_mul_ps(_mm_load_ps(nd.nz), uz));
+  const CosSin4 toP =
+      narrowed4(fromCos4(_mm_sub_ps(zero, toDirAxis)), CosSin4{_mm_load_ps(nd.cosTheta), _mm_load_ps(nd.sinTheta)});
+  on = _mm_and_ps(on, _mm_cmpgt_ps(narrowed4(toP, box).c, zero));
+  const F4 cosP = narrowed4(toP, sphere).c;
+  const F4 cosR = narrowed4(fromCos4(dot4(ux, uy, uz, r.mirror)), sphere).c;
+  F4 f[2];
+  brdfCosBounds4(r, cosR, cosX, f);
+  const F4 cap = r.vsl ? _mm_mul_ps(splat4(2 * r.albedo), _mm_load_ps(nd.invArea)) : splat4(r.vplCap);
+  const F4 d2 = _mm_max_ps(_mm_mul_ps(dist, dist), _mm_mul_ps(R, R));
+  const F4 d2Positive = _mm_cmpgt_ps(d2, zero);
+  const F4 invD2 = _mm_div_ps(one, d2);
+  const F4 flux = _mm_load_ps(nd.flux);
   for (int k = 0; k < 2; ++k) {
-    double a = w0[k], b = w1[k];
-    if (!std::isfinite(a) || !std::isfinite(b)) {
-      float u0[2], u1[2];
-      importance(c0, r, u0, false);
-      importance(c1, r, u1, false);
-      a = u0[k];
-      b = u1[k];
+    F4 v = f[k];
+    if (withDistance) {
+      const F4 atZero = _mm_and_ps(_mm_cmpgt_ps(v, zero), cap);
+      v = sel4(d2Positive, _mm_min_ps(_mm_mul_ps(v, invD2), cap), atZero);
     }
-    // Neither child can face the receiver (or a bound overflowed): by flux.
-    p0[k] = a + b > 0 && std::isfinite(a + b) ? a / (a + b) : fluxProbability(nd);
+    _mm_storeu_ps(out[k], _mm_and_ps(on, _mm_mul_ps(_mm_mul_ps(flux, cosP), v)));
   }
 }
 
@@ -279,94 +343,260 @@ std::vector<uint64_t> LightTree::sortedKeys(const std::vector<Prim>& prims) {
   return keys;
 }
 
+// The range [b, e) of sorted keys split where the highest differing bit of
+// its codes changes (the codes share every bit above it), or in the middle.
+uint32_t LightTree::split(const std::vector<uint64_t>& keys, uint32_t b, uint32_t e) {
+  const uint32_t kb = uint32_t(keys[b] >> 32), ke = uint32_t(keys[e - 1] >> 32);
+  if (kb == ke) return b + (e - b) / 2;
+  const int bit = 31 - std::countl_zero(kb ^ ke);
+  auto it =
+      std::partition_point(keys.begin() + b, keys.begin() + e, [&](uint64_t k) { return ((k >> 32) >> bit & 1) == 0; });
+  return uint32_t(it - keys.begin());
+}
+
+// What the build keeps of a wide node's entries besides the node itself:
+// their boxes and smallest radii, and which entries are its first binary
+// child's.
+struct LightTree::EntryBoxes {
+  Vec3 lo[4], hi[4];
+  float radiusMin[4] = {};
+  int firstOfSecond = 1;  // entries [0, firstOfSecond) are the first child's
+};
+
 LightTree LightTree::fromPrims(std::vector<Prim> prims) {
   Stopwatch clock;
   LightTree t;
-  const size_t n = prims.size();
-  if (n == 0) return t;
-  VSL_CHECK(n < size_t(1) << 30);
-  const std::vector<uint64_t> keys = sortedKeys(prims);
-  reserveHugePages(t.nodes_, 2 * n - 1);
-  t.nodes_.resize(2 * n - 1);
-  reserveHugePages(t.parent_, 2 * n - 1);
-  t.parent_.assign(2 * n - 1, -1);
-  t.leafOf_.assign(n, -1);
-  int32_t next = 1;
-  // An explicit stack: ranges to split, each with its node.
-  struct Range {
-    uint32_t b, e;
-    int32_t node;
-  };
-  std::vector<Range> stack{{0, uint32_t(n), 0}};
-  std::vector<int32_t> inner;  // in creation order: parents before children
-  while (!stack.empty()) {
-    const Range r = stack.back();
-    stack.pop_back();
-    LightTreeNode& nd = t.nodes_[size_t(r.node)];
-    if (r.e - r.b == 1) {
-      const uint32_t li = uint32_t(keys[r.b]);
-      const Prim& p = prims[li];
-      nd.lo = nd.hi = p.p;
-      nd.axis = p.n;
-      nd.cosTheta = 1;
-      nd.flux = p.flux;
-      nd.radius = nd.radiusMin = p.radius;
-      nd.child = -int32_t(li) - 1;
-      t.leafOf_[li] = r.node;
-      continue;
-    }
-    // Split where the highest differing bit of the range's codes changes
-    // (the codes share every bit above it), or in the middle.
-    const uint32_t kb = uint32_t(keys[r.b] >> 32), ke = uint32_t(keys[r.e - 1] >> 32);
-    uint32_t m = r.b + (r.e - r.b) / 2;
-    if (kb != ke) {
-      const int bit = 31 - std::countl_zero(kb ^ ke);
-      auto it = std::partition_point(keys.begin() + r.b, keys.begin() + r.e,
-                                     [&](uint64_t k) { return ((k >> 32) >> bit & 1) == 0; });
-      m = uint32_t(it - keys.begin());
-    }
-    nd.child = next;
-    next += 2;
-    t.parent_[size_t(nd.child)] = t.parent_[size_t(nd.child) + 1] = r.node;
-    inner.push_back(r.node);
-    stack.push_back({r.b, m, nd.child});
-    stack.push_back({m, r.e, nd.child + 1});
-  }
-  VSL_CHECK_EQ(size_t(next), 2 * n - 1);
-  // Bounds bottom-up: children were made after their parents.
-  for (auto it = inner.rbegin(); it != inner.rend(); ++it) {
-    LightTreeNode& nd = t.nodes_[size_t(*it)];
-    const LightTreeNode &a = t.nodes_[size_t(nd.child)], &b = t.nodes_[size_t(nd.child) + 1];
-    nd.lo = min(a.lo, b.lo);
-    nd.hi = max(a.hi, b.hi);
-    nd.flux = a.flux + b.flux;
-    nd.radius = std::max(a.radius, b.radius);
-    nd.radiusMin = std::min(a.radiusMin, b.radiusMin);
-    mergeCones(a.axis, a.cosTheta, b.axis, b.cosTheta, nd.axis, nd.cosTheta);
-  }
+  if (prims.empty()) return t;
+  // Entries are addressed as 4 x wide node + lane in an int32.
+  VSL_CHECK(prims.size() < size_t(1) << 28);
+  std::vector<EntryBoxes> boxes;
+  t.structure(sortedKeys(prims), prims, boxes);
+  t.mergeBounds(boxes);
   t.buildSeconds_ = clock.seconds();
   return t;
 }
 
+// The binary tree over the sorted keys (each range split by split()),
+// made four-wide as it is made: each wide node holds its binary node's
+// grandchildren (a child that is a light in its place), the root's wide
+// node the root's, or the root alone for a tree of one light. A wide node
+// has two to four entries, so there are at most n - 1 (about n / 3 for a
+// balanced tree). The lights' entries get their bounds here; the inner
+// entries' come from mergeBounds.
+void LightTree::structure(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims,
+                          std::vector<EntryBoxes>& boxes) {
+  const uint32_t n = uint32_t(keys.size());
+  reserveHugePages(wide_, std::max<size_t>(n - 1, 1));
+  reserveHugePages(boxes, std::max<size_t>(n - 1, 1));
+  leafOf_.assign(n, -1);
+  struct Todo {
+    uint32_t b, e;
+    int32_t parentEntry;
+  };
+  std::vector<Todo> stack{{0, n, -1}};
+  while (!stack.empty()) {
+    const Todo t = stack.back();
+    stack.pop_back();
+    const int32_t w = int32_t(wide_.size());
+    wide_.emplace_back();
+    boxes.emplace_back();
+    parent_.push_back(t.parentEntry);
+    if (t.parentEntry >= 0) wide_[size_t(t.parentEntry >> 2)].child[t.parentEntry & 3] = w;
+    uint32_t range[5];  // entry k is [range[k], range[k + 1])
+    int m = 0;
+    range[0] = t.b;
+    if (t.e - t.b == 1) {
+      range[++m] = t.e;
+    } else {
+      const uint32_t mid = split(keys, t.b, t.e);
+      for (const auto& [hb, he] : {std::pair{t.b, mid}, std::pair{mid, t.e}}) {
+        if (he - hb > 1) range[++m] = split(keys, hb, he);
+        range[++m] = he;
+        if (hb == t.b) boxes[size_t(w)].firstOfSecond = m;
+      }
+    }
+    for (int lane = 0; lane < m; ++lane) {
+      if (range[lane + 1] - range[lane] > 1) {
+        stack.push_back({range[lane], range[lane + 1], 4 * w + lane});
+        continue;
+      }
+      const uint32_t li = uint32_t(keys[range[lane]]);
+      const Prim& p = prims[li];
+      LightTreeNode leaf;
+      leaf.lo = leaf.hi = p.p;
+      leaf.axis = p.n;
+      leaf.cosTheta = 1;
+      leaf.flux = p.flux;
+      leaf.radius = leaf.radiusMin = p.radius;
+      setEntry(w, lane, leaf, boxes);
+      wide_[size_t(w)].child[lane] = -int32_t(li) - 1;
+      leafOf_[li] = 4 * w + lane;
+    }
+  }
+}
+
+void LightTree::setEntry(int32_t w, int lane, const LightTreeNode& nd, std::vector<EntryBoxes>& boxes) {
+  wide_[size_t(w)].set(lane, nd);
+  EntryBoxes& b = boxes[size_t(w)];
+  b.lo[lane] = nd.lo;
+  b.hi[lane] = nd.hi;
+  b.radiusMin[lane] = nd.radiusMin;
+}
+
+namespace {
+
+// The binary tree's bounds of a node from its children's (its box, flux,
+// radii and orientation cone).
+LightTreeNode merged(const LightTreeNode& a, const LightTreeNode& b) {
+  LightTreeNode nd;
+  nd.lo = min(a.lo, b.lo);
+  nd.hi = max(a.hi, b.hi);
+  nd.flux = a.flux + b.flux;
+  nd.radius = std::max(a.radius, b.radius);
+  nd.radiusMin = std::min(a.radiusMin, b.radiusMin);
+  mergeCones(a.axis, a.cosTheta, b.axis, b.cosTheta, nd.axis, nd.cosTheta);
+  return nd;
+}
+
+}  // namespace
+
+// Bottom-up (a wide node is made after its parent): each inner entry's
+// bounds are its wide node's entries' merged as the binary tree pairs
+// them, the first child's and the second's, then the two.
+void LightTree::mergeBounds(std::vector<EntryBoxes>& boxes) {
+  for (size_t w = wide_.size(); w-- > 1;) {
+    const LightTreeWide& nd = wide_[w];
+    const EntryBoxes& b = boxes[w];
+    LightTreeNode e[4];
+    int m = 0;
+    for (; m < 4 && nd.child[m] != LightTreeWide::kEmpty; ++m) {
+      e[m].lo = b.lo[m];
+      e[m].hi = b.hi[m];
+      e[m].axis = Vec3(nd.nx[m], nd.ny[m], nd.nz[m]);
+      e[m].cosTheta = nd.cosTheta[m];
+      e[m].flux = nd.flux[m];
+      e[m].radius = nd.radius[m];
+      e[m].radiusMin = b.radiusMin[m];
+    }
+    const int f = b.firstOfSecond;
+    const LightTreeNode first = f == 1 ? e[0] : merged(e[0], e[1]);
+    const LightTreeNode second = m - f == 1 ? e[f] : merged(e[f], e[f + 1]);
+    const int32_t pe = parent_[w];
+    setEntry(pe >> 2, pe & 3, merged(first, second), boxes);
+  }
+}
+
 // ---- [3] Sampling and pdf ------------------------------------------------------------
 
-LightTree::Sample LightTree::sample(const LightTreeReceiver& r, Rng& rng, float floor,
-                                    const LeafImportance* leaf) const {
-  // The descent: diffuse lobe's (0), specular lobe's (1), or by flux (2).
-  const float u = rng.uniform();
-  const int strategy = u < floor ? 2 : (u < floor + (1 - floor) * r.specularShare ? 1 : 0);
-  double p[3] = {1, 1, 1};
-  int32_t i = 0;
-  while (!nodes_[size_t(i)].leaf()) {
-    const LightTreeNode& nd = nodes_[size_t(i)];
-    double q[3];
-    childProbabilities(nd, r, leaf, q);
-    q[2] = fluxProbability(nd);
-    const bool first = rng.uniform() < q[strategy];
-    for (int k = 0; k < 3; ++k) p[k] *= first ? q[k] : 1 - q[k];
-    i = nd.child + (first ? 0 : 1);
+LightTree::EntryWeights LightTree::entryWeights(const LightTreeWide& nd, const LightTreeReceiver& r) {
+  EntryWeights e;
+  importance4(nd, r, e.w);
+  double fluxSum = 0;
+  int entries = 0;
+  for (int lane = 0; lane < 4; ++lane)
+    if (nd.child[lane] != LightTreeWide::kEmpty) {
+      ++entries;
+      fluxSum += nd.flux[lane];
+    }
+  // By flux; uniform over the entries where none has any.
+  for (int lane = 0; lane < 4; ++lane)
+    e.w[2][lane] = fluxSum > 0 || nd.child[lane] == LightTreeWide::kEmpty ? nd.flux[lane] : 1.0f;
+  e.sum[2] = fluxSum > 0 ? fluxSum : entries;
+  for (int k = 0; k < 2; ++k) {
+    e.sum[k] = double(e.w[k][0]) + e.w[k][1] + e.w[k][2] + e.w[k][3];
+    if (!std::isfinite(e.sum[k])) {
+      // An uncapped VPL at the receiver: by importance without distance.
+      float u[2][4];
+      importance4(nd, r, u, false);
+      std::copy(u[k], u[k] + 4, e.w[k]);
+      e.sum[k] = double(u[k][0]) + u[k][1] + u[k][2] + u[k][3];
+    }
+    if (!(e.sum[k] > 0 && std::isfinite(e.sum[k]))) {
+      // No entry can face the receiver (or a bound overflowed): by flux.
+      std::copy(e.w[2], e.w[2] + 4, e.w[k]);
+      e.sum[k] = e.sum[2];
+    }
   }
-  return {nodes_[size_t(i)].light(), mix(p, floor, r.specularShare)};
+  return e;
+}
+
+namespace {
+
+// The entry of weight w[lane] (of total sum) for a uniform u in [0, 1):
+// the number of the cumulative sums at or below u sum, without branches
+// (so that descents in flight are not flushed by a mispredicted choice);
+// never an entry of weight zero (the sums do not grow there, and a u past
+// their total by rounding takes the last entry that has some).
+int pickEntry(const float w[4], double sum, float u) {
+  const double t = double(u) * sum, c0 = w[0], c1 = c0 + w[1], c2 = c1 + w[2];
+  const int lane = int(t >= c0) + int(t >= c1) + int(t >= c2);
+  const int last = w[3] > 0 ? 3 : w[2] > 0 ? 2 : w[1] > 0 ? 1 : 0;
+  return std::min(lane, last);
+}
+
+}  // namespace
+
+// One descent: its strategy, wide node and path products.
+struct LightTree::Descent {
+  int strategy = 0;
+  size_t w = 0;
+  double p[3] = {1, 1, 1};
+};
+
+int LightTree::strategy(float u, float floor, float share) {
+  // The descent: diffuse lobe's (0), specular lobe's (1), or by flux (2).
+  return u < floor ? 2 : (u < floor + (1 - floor) * share ? 1 : 0);
+}
+
+// One level of a descent; true with the light in `out` at a leaf.
+bool LightTree::descend(const LightTreeReceiver& r, float u, float floor, Descent& d, Sample& out) const {
+  const LightTreeWide& nd = wide_[d.w];
+  // The next node is one of these: its lines are on their way while this
+  // node's probabilities are computed.
+  for (int lane = 0; lane < 4; ++lane)
+    if (nd.child[lane] >= 0) {
+      const char* next = reinterpret_cast<const char*>(&wide_[size_t(nd.child[lane])]);
+      for (size_t b = 0; b < sizeof(LightTreeWide); b += 64) _mm_prefetch(next + b, _MM_HINT_T0);
+    }
+  const EntryWeights e = entryWeights(nd, r);
+  const int lane = pickEntry(e.w[d.strategy], e.sum[d.strategy], u);
+  for (int k = 0; k < 3; ++k) d.p[k] *= e.probability(k, lane);
+  const int32_t c = nd.child[lane];
+  if (c >= 0) {
+    d.w = size_t(c);
+    return false;
+  }
+  out = {uint32_t(-(c + 1)), mix(d.p, floor, r.specularShare)};
+  return true;
+}
+
+LightTree::Sample LightTree::sample(const LightTreeReceiver& r, Rng& rng, float floor) const {
+  Sample out;
+  sampleMany(r, rng, floor, 1, &out);
+  return out;
+}
+
+// Up to four descents in flight, a level of each in turn: each level is a
+// chain of square roots and divisions, and the processor overlaps
+// independent chains.
+void LightTree::sampleMany(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const {
+  if (wide_.empty()) {
+    std::fill(out, out + count, Sample{});
+    return;
+  }
+  constexpr int kInFlight = 4;
+  for (int base = 0; base < count; base += kInFlight) {
+    const int m = std::min(kInFlight, count - base);
+    Descent d[kInFlight];
+    bool done[kInFlight] = {};
+    for (int j = 0; j < m; ++j) d[j].strategy = strategy(rng.uniform(), floor, r.specularShare);
+    for (int active = m; active > 0;)
+      for (int j = 0; j < m; ++j)
+        if (!done[j] && descend(r, rng.uniform(), floor, d[j], out[base + j])) {
+          done[j] = true;
+          --active;
+        }
+  }
 }
 
 double LightTree::mix(const double p[3], float floor, float share) {
@@ -376,22 +606,18 @@ double LightTree::mix(const double p[3], float floor, float share) {
   return f * p[2] + (1 - f) * (s * p[1] + (1 - s) * p[0]);
 }
 
-double LightTree::pdf(const LightTreeReceiver& r, uint32_t light, float floor, const LeafImportance* leaf) const {
+double LightTree::pdf(const LightTreeReceiver& r, uint32_t light, float floor) const {
   VSL_CHECK(light < leafOf_.size());
-  int32_t path[128];
+  int32_t path[128];  // entries, 4 x wide node + lane, from the light up
   int depth = 0;
-  for (int32_t i = leafOf_[light]; i >= 0; i = parent_[size_t(i)]) {
+  for (int32_t e = leafOf_[light]; e >= 0; e = parent_[size_t(e >> 2)]) {
     VSL_CHECK(depth < 128);
-    path[depth++] = i;
+    path[depth++] = e;
   }
   double p[3] = {1, 1, 1};
-  for (int k = depth - 1; k > 0; --k) {
-    const LightTreeNode& nd = nodes_[size_t(path[k])];
-    const bool first = path[k - 1] == nd.child;
-    double q[3];
-    childProbabilities(nd, r, leaf, q);
-    q[2] = fluxProbability(nd);
-    for (int j = 0; j < 3; ++j) p[j] *= first ? q[j] : 1 - q[j];
+  for (int k = depth - 1; k >= 0; --k) {
+    const EntryWeights e = entryWeights(wide_[size_t(path[k] >> 2)], r);
+    for (int j = 0; j < 3; ++j) p[j] *= e.probability(j, path[k] & 3);
   }
   return mix(p, floor, r.specularShare);
 }

@@ -1,21 +1,24 @@
-// A binary light tree over a virtual light set, for stochastic lightcuts
-// (Yuksel, "Stochastic Lightcuts", HPG 2019): each node bounds its lights'
-// positions (an axis-aligned box), their emission normals (an orientation
-// cone, Conty Estevez and Kulla, "Importance Sampling of Many Lights with
-// Adaptive Tree Splitting", HPG 2018) and holds their total flux (the
-// luminance of their power) and their largest VSL radius.
+// A light tree over a virtual light set (built binary, sampled four-wide),
+// for stochastic lightcuts (Yuksel, "Stochastic Lightcuts", HPG 2019): each
+// node bounds its lights' positions (an axis-aligned box), their emission
+// normals (an orientation cone, Conty Estevez and Kulla, "Importance
+// Sampling of Many Lights with Adaptive Tree Splitting", HPG 2018) and holds
+// their total flux (the luminance of their power) and their largest VSL
+// radius.
 //
 // Built in O(n log n): the lights sorted by the Morton code of their
 // positions, each range split where its codes' highest differing bit
 // changes (Karras 2012's rule, serially), bounds merged bottom-up.
 //
-// Sampling (sample): from the root, each step takes a child with
-// probability proportional to its importance at the receiver (importance()
-// below: flux x orientation bounds x a bound of one lobe of the receiver's
-// BRDF / distance^2), the lobe chosen per descent (one-sample MIS); with
-// probability `floor` the whole descent by flux alone instead. The pdf of
-// a light is the mixture of the three descents' path products, so every
-// light with flux has a non-zero probability at every receiver. Thread-safety: const methods are
+// Sampling (sample): the binary tree collapsed to a four-wide one (each
+// node's grandchildren, or its children where they are lights); from the
+// root, each step takes one of a node's entries with probability
+// proportional to its importance at the receiver (importance4() below, in
+// SIMD lanes: flux x orientation bounds x a bound of one lobe of the
+// receiver's BRDF / distance^2), the lobe chosen per descent (one-sample
+// MIS); with probability `floor` the whole descent by flux alone instead.
+// The pdf of a light is the mixture of the three descents' path products,
+// so every light with flux has a non-zero probability at every receiver. Thread-safety: const methods are
 // safe from any thread.
 #pragma once
 
@@ -80,36 +83,21 @@ struct LightTreeReceiver {
   void brdfCosBounds(float cosR, float cosX, float out[2]) const;
 };
 
-// A light's own importance at one receiver, for the last choice of a
-// descent (between two single lights), where the node bounds ignore what
-// sets two lights apart most: their own BRDF toward the receiver (a glossy
-// light's lobe). Not normalised; it must be 0 only where the light
-// contributes nothing. Used where both children are leaves and their
-// importances do not both vanish.
-class LeafImportance {
- public:
-  virtual float operator()(uint32_t light) const = 0;
-
- protected:
-  ~LeafImportance() = default;
-};
-
-// A pair's estimated contribution before its shadow ray, the estimator's
-// LeafImportance: zero where the two do not face each other along the line
-// between their centres (as Gatherer::connect), else Gatherer::pairEstimate
-// (VSL's estimate from above, unclamped VPL's value; both with the light's
-// own BRDF toward the receiver).
-class PairImportance final : public LeafImportance {
- public:
-  PairImportance(const Gatherer& g, const GatherPoint& gp, const VirtualLightSet& set, const std::vector<float>& radii)
-      : g_(g), gp_(gp), set_(set), radii_(radii) {}
-  float operator()(uint32_t i) const override;
-
- private:
-  const Gatherer& g_;
-  const GatherPoint& gp_;
-  const VirtualLightSet& set_;
-  const std::vector<float>& radii_;
+// Four entries of the tree, structure of arrays, for evaluating them in
+// SIMD lanes (LightTree::importance4): each entry one binary node's bounds
+// (its box as centre and half diagonal, the sphere pbrt-v4's light sampler
+// takes). An entry is an inner node (child >= 0: the wide node of its own
+// entries), a light (child < 0: light -(child + 1)) or empty (kEmpty, no
+// flux).
+struct alignas(16) LightTreeWide {
+  static constexpr int32_t kEmpty = INT32_MIN;
+  float cx[4] = {}, cy[4] = {}, cz[4] = {}, halfDiag[4] = {};
+  float nx[4] = {}, ny[4] = {}, nz[4] = {}, cosTheta[4] = {}, sinTheta[4] = {};
+  float flux[4] = {}, radius[4] = {};
+  float invArea[4] = {};  // 1 / (pi radiusMin^2): the VSL cap's area
+  int32_t child[4] = {kEmpty, kEmpty, kEmpty, kEmpty};
+  // Entry `lane` from a binary node (its child index is set by the caller).
+  void set(int lane, const LightTreeNode& node);
 };
 
 class LightTree {
@@ -121,7 +109,10 @@ class LightTree {
   static LightTree build(const VirtualLightSet& set, const std::vector<float>& radii);
 
   size_t lights() const { return leafOf_.size(); }
-  const std::vector<LightTreeNode>& nodes() const { return nodes_; }
+  // The sampling tree: every binary node of the build whose depth is odd
+  // (and the leaves), four to a wide node, so that a descent takes one
+  // choice among up to four grandchildren per step; root at 0.
+  const std::vector<LightTreeWide>& nodes() const { return wide_; }
   // A node's importance at the receiver for each lobe, [0] diffuse and [1]
   // specular (not normalised): flux x bound of the emission cosine x the
   // smaller of (the lobe's bound of f_r cos) / d^2 and the receiver's cap
@@ -129,29 +120,39 @@ class LightTree {
   // centre but at least half its diagonal (pbrt-v4's BVH light sampler).
   // 0 where no light below can face the receiver (the cosine bounds are
   // conservative); infinite only for an uncapped VPL at the receiver.
-  // withDistance false: without the distance and the cap.
-  void importance(const LightTreeNode& node, const LightTreeReceiver& r, float out[2], bool withDistance = true) const;
-  // The probability of child `node.child` (the first) at the receiver for
-  // each lobe's descent; 1 - it for the second: by importance(), and where
-  // an importance is infinite by importance without distance; where both
-  // children are single lights and `leaf` is given, by it, for both lobes.
-  void childProbabilities(const LightTreeNode& node, const LightTreeReceiver& r, const LeafImportance* leaf,
-                          double p0[2]) const;
-  // The flux share of the first child (0.5 when neither has flux).
-  double fluxProbability(const LightTreeNode& node) const;
+  // withDistance false: without the distance and the cap. The scalar
+  // reference of importance4.
+  static void importance(const LightTreeNode& node, const LightTreeReceiver& r, float out[2], bool withDistance = true);
+  // The same for a wide node's four entries, in SSE lanes: out[k][lane]
+  // (0 for an empty entry).
+  static void importance4(const LightTreeWide& node, const LightTreeReceiver& r, float out[2][4],
+                          bool withDistance = true);
+  // A wide node's entries' weights at the receiver, [0] and [1] for each
+  // lobe's descent (by importance4; where a sum is infinite, by importance
+  // without distance; where it is zero, by flux) and [2] by flux alone
+  // (uniform over the entries when none has flux), with their sums.
+  struct EntryWeights {
+    float w[3][4];
+    double sum[3];
+    double probability(int k, int lane) const { return w[k][lane] / sum[k]; }
+  };
+  static EntryWeights entryWeights(const LightTreeWide& node, const LightTreeReceiver& r);
   // A light drawn for the receiver (one uniform for the floor's choice and
-  // one per level), with its pdf (> 0 where the light has flux).
+  // one per wide level), with its pdf (> 0 where the light has flux).
   struct Sample {
     uint32_t light = 0;
     double pdf = 0;
   };
-  Sample sample(const LightTreeReceiver& r, Rng& rng, float floor, const LeafImportance* leaf = nullptr) const;
+  Sample sample(const LightTreeReceiver& r, Rng& rng, float floor) const;
+  // `count` lights drawn independently, as sample() each (the uniforms
+  // taken in another order).
+  void sampleMany(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const;
   // The pdf sample() gives light i at the receiver.
-  double pdf(const LightTreeReceiver& r, uint32_t light, float floor, const LeafImportance* leaf = nullptr) const;
+  double pdf(const LightTreeReceiver& r, uint32_t light, float floor) const;
   double buildSeconds() const { return buildSeconds_; }
   // Bytes held.
   size_t bytes() const {
-    return nodes_.size() * sizeof(LightTreeNode) + (parent_.size() + leafOf_.size()) * sizeof(int32_t);
+    return wide_.size() * sizeof(LightTreeWide) + (parent_.size() + leafOf_.size()) * sizeof(int32_t);
   }
 
  private:
@@ -159,14 +160,22 @@ class LightTree {
     Vec3 p, n;
     float flux, radius;
   };
+  struct Descent;
+  static int strategy(float u, float floor, float share);
+  bool descend(const LightTreeReceiver& r, float u, float floor, Descent& d, Sample& out) const;
   static LightTree fromPrims(std::vector<Prim> prims);
   static std::vector<uint64_t> sortedKeys(const std::vector<Prim>& prims);
+  struct EntryBoxes;
+  static uint32_t split(const std::vector<uint64_t>& keys, uint32_t b, uint32_t e);
+  void structure(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims, std::vector<EntryBoxes>& boxes);
+  void setEntry(int32_t w, int lane, const LightTreeNode& nd, std::vector<EntryBoxes>& boxes);
+  void mergeBounds(std::vector<EntryBoxes>& boxes);
   // floor x p[2] (flux) + (1 - floor) x (share x p[1] (specular) +
   // (1 - share) x p[0] (diffuse)).
   static double mix(const double p[3], float floor, float share);
-  std::vector<LightTreeNode> nodes_;  // root at 0
-  std::vector<int32_t> parent_;       // per node; -1 at the root
-  std::vector<int32_t> leafOf_;       // per light
+  std::vector<LightTreeWide> wide_;  // root at 0
+  std::vector<int32_t> parent_;      // per wide node: 4 x parent + its entry's lane; -1 at the root
+  std::vector<int32_t> leafOf_;      // per light: 4 x wide node + its entry's lane
   double buildSeconds_ = 0;
 };
 

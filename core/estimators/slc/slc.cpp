@@ -13,8 +13,6 @@
 //                      of several steps draws one: its first picture)
 //   slc-steps    16    steps per light set (the picture refines per step)
 //   slc-floor    0.05  share of descents by flux alone
-//   slc-leaf-estimate off  the last choice (two lights) by each pair's
-//                   estimated contribution (ours)
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
 // unbiased estimate of brute force's all-lights image and the images are
@@ -41,21 +39,20 @@ SlcSettings slcSettings(const EstimatorSettings& est) {
   s.samples = int(est.value("slc-samples"));
   s.steps = int(est.value("slc-steps"));
   s.floor = float(est.value("slc-floor"));
-  s.leafEstimate = est.value("slc-leaf-estimate") != 0;
   return s;
 }
 
 EstimatorSettings slcEstimatorSettings(const SlcSettings& s) {
   EstimatorSettings e;
   e.name = "slc";
-  e.values = {{"slc-samples", s.samples},
-              {"slc-steps", s.steps},
-              {"slc-floor", double(s.floor)},
-              {"slc-leaf-estimate", s.leafEstimate ? 1.0 : 0.0}};
+  e.values = {{"slc-samples", s.samples}, {"slc-steps", s.steps}, {"slc-floor", double(s.floor)}};
   return e;
 }
 
 namespace {
+
+// Lights drawn from the tree at once (LightTree::sampleMany).
+constexpr int kMaxDraws = 64;
 
 // The light choices' random stream (eye paths use 2, as brute force's).
 constexpr uint64_t kPickStream = 0x51c;
@@ -268,12 +265,12 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   // The tree's caps for the estimator that matters most: VSL where it is
   // computed, else the clamped VPL.
   const LightTreeReceiver r = LightTreeReceiver::make(gp, many_.computeVsl, many_.computeVsl ? kInf : clamp_);
-  const PairImportance leaf(gatherer, gp, run_.set, run_.radii);
-  const LeafImportance* leafOrNull = slc_.leafEstimate ? &leaf : nullptr;
   const int K = drawsIn(st.s);
   const bool both = many_.computeVpl && many_.computeVsl;
+  LightTree::Sample drawn[kMaxDraws];
   for (int j = 0; j < K; ++j) {
-    const LightTree::Sample smp = tree_.sample(r, pick, slc_.floor, leafOrNull);
+    if (j % kMaxDraws == 0) tree_.sampleMany(r, pick, slc_.floor, std::min(K - j, kMaxDraws), drawn);
+    const LightTree::Sample smp = drawn[j % kMaxDraws];
     if (!(smp.pdf > 0)) continue;  // a light without flux
     const GatherLight L = decodeGatherLight(run_.set.lights[smp.light], run_.radii[smp.light]);
     PairGeometry g;
@@ -382,17 +379,6 @@ std::vector<EstimatorParam> slcParams() {
         .uiMax = 1,
         .uiLog = true},
        SlcSettings::kDefaultFloor},
-      {{.name = "slc-leaf-estimate",
-        .key = "slcLeafEstimate",
-        .kind = ParamKind::Flag,
-        .tier = ParamTier::Experimental,
-        .appliesTo = "VSL, VPL",
-        .help = "Stochastic lightcuts: the last choice, between two lights, by each pair's estimated contribution "
-                "(their own BRDFs) instead of the node bounds",
-        .why = "off: kitchen, 100,000 VSLs, 20 s, relMSE 7.3 on against 2.8 off (one set; VSL's estimate from "
-               "above overrates narrow lobes) ([RESULTS](RESULTS.md#stochastic-lightcuts))",
-        .quiet = 0},
-       0},
   };
 }
 
@@ -419,9 +405,14 @@ EstimatorInfo plugins::slc() {
     if (many.lobeGather > 0) return Error("lobe-gather: not with stochastic lightcuts");
     return {};
   };
-  // The tree: two nodes and a parent and leaf index per light.
+  // The tree at its build's peak: about 0.55 wide nodes per light (random
+  // lights; a balanced tree has a third), each with a parent index and,
+  // while built, its entries' boxes (about two binary nodes' worth), a leaf
+  // index and a sort key per light.
   e.memory = [](const EstimatorSettings&, uint64_t) -> ExtraMemory {
-    return {2 * sizeof(LightTreeNode) + 3 * sizeof(int32_t), 0};
+    return {(sizeof(LightTreeWide) + 2 * sizeof(LightTreeNode) + sizeof(int32_t)) * 3 / 5 + sizeof(int32_t) +
+                sizeof(uint64_t),
+            0};
   };
   e.create = [](const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const EstimatorSettings& est,
                 StepProgress*, const std::atomic<bool>*) -> std::unique_ptr<ManyLightEstimator> {

@@ -10,9 +10,6 @@ struct SlcSettings {
   int samples = kDefaultSamples;  // lights per gather point per step
   int steps = kDefaultSteps;      // steps per light set
   float floor = kDefaultFloor;    // share of descents by flux alone
-  // The last choice of a descent, between two lights, by each pair's
-  // estimated contribution (Gatherer::pairEstimate) instead of the bounds.
-  bool leafEstimate = false;
   static constexpr int kDefaultSamples = 4;
   static constexpr int kDefaultSteps = 16;
   static constexpr float kDefaultFloor = 0.05f;
