@@ -6,6 +6,7 @@
 #include <xmmintrin.h>
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -576,27 +577,112 @@ LightTree::Sample LightTree::sample(const LightTreeReceiver& r, Rng& rng, float 
   return out;
 }
 
-// Up to four descents in flight, a level of each in turn: each level is a
-// chain of square roots and divisions, and the processor overlaps
-// independent chains.
 void LightTree::sampleMany(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const {
   if (wide_.empty()) {
     std::fill(out, out + count, Sample{});
     return;
   }
+  constexpr int kChunk = 16;
+  for (int base = 0; base < count; base += kChunk) {
+    const int m = std::min(kChunk, count - base);
+    Descent d[kChunk];
+    for (int j = 0; j < m; ++j) d[j].strategy = strategy(rng.uniform(), floor, r.specularShare);
+    finish(r, rng, floor, d, m, out + base);
+  }
+}
+
+// Up to four descents in flight, a level of each in turn: each level is a
+// chain of square roots and divisions, and the processor overlaps
+// independent chains.
+void LightTree::finish(const LightTreeReceiver& r, Rng& rng, float floor, Descent* d, int count, Sample* out) const {
   constexpr int kInFlight = 4;
   for (int base = 0; base < count; base += kInFlight) {
     const int m = std::min(kInFlight, count - base);
-    Descent d[kInFlight];
     bool done[kInFlight] = {};
-    for (int j = 0; j < m; ++j) d[j].strategy = strategy(rng.uniform(), floor, r.specularShare);
     for (int active = m; active > 0;)
       for (int j = 0; j < m; ++j)
-        if (!done[j] && descend(r, rng.uniform(), floor, d[j], out[base + j])) {
+        if (!done[j] && descend(r, rng.uniform(), floor, d[base + j], out[base + j])) {
           done[j] = true;
           --active;
         }
   }
+}
+
+namespace {
+
+// k draws split over m choices of probabilities q (summing to one) by
+// systematic sampling with offset u in [0, 1): the number of the points
+// (u + j) / k, j < k, in each choice's share of [0, 1). Each count is
+// k q or next to it, k q in expectation; a choice of probability zero gets
+// none.
+void splitCounts(const double* q, int m, int k, float u, int* counts) {
+  int last = 0;
+  for (int i = 0; i < m; ++i)
+    if (q[i] > 0) last = i;
+  double c = 0;
+  int before = 0;
+  for (int i = 0; i < m; ++i) {
+    c += q[i];
+    const int upto = i >= last ? k : std::clamp(int(std::ceil(k * c - u)), before, k);
+    counts[i] = upto - before;
+    before = upto;
+  }
+}
+
+}  // namespace
+
+// The draws split over the strategies, then at every node over its
+// entries (splitCounts), until a node receives one draw, which descends
+// alone (finish). E[draws reaching light i] = count x its mixture pdf, as
+// for independent draws, so sum(f count_i / (count pdf_i)) stays unbiased;
+// the draws are spread over the tree's subtrees in proportion to their
+// importance (Yuksel 2019's cut, stratified), and the top of the tree is
+// evaluated once for all of them.
+int LightTree::sampleSplit(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const {
+  if (wide_.empty() || count <= 0) return 0;
+  struct Node {
+    Descent d;
+    int k;
+  };
+  thread_local std::vector<Node> stack;
+  thread_local std::vector<Descent> alone;
+  stack.clear();
+  alone.clear();
+  const double share = r.specularShare;
+  const double w[3] = {(1 - floor) * (1 - share), (1 - floor) * share, floor};
+  int ks[3];
+  splitCounts(w, 3, count, rng.uniform(), ks);
+  for (int s = 0; s < 3; ++s)
+    if (ks[s] > 0) stack.push_back({{s, 0, {1, 1, 1}}, ks[s]});
+  int n = 0;
+  while (!stack.empty()) {
+    const Node nd = stack.back();
+    stack.pop_back();
+    if (nd.k == 1) {
+      alone.push_back(nd.d);
+      continue;
+    }
+    const LightTreeWide& node = wide_[nd.d.w];
+    const EntryWeights e = entryWeights(node, r);
+    double q[4];
+    for (int lane = 0; lane < 4; ++lane) q[lane] = e.probability(nd.d.strategy, lane);
+    int counts[4];
+    splitCounts(q, 4, nd.k, rng.uniform(), counts);
+    for (int lane = 0; lane < 4; ++lane) {
+      if (counts[lane] == 0) continue;
+      Descent c = nd.d;
+      for (int j = 0; j < 3; ++j) c.p[j] *= e.probability(j, lane);
+      const int32_t child = node.child[lane];
+      if (child < 0) {
+        out[n++] = {uint32_t(-(child + 1)), mix(c.p, floor, r.specularShare), counts[lane]};
+      } else {
+        c.w = size_t(child);
+        stack.push_back({c, counts[lane]});
+      }
+    }
+  }
+  finish(r, rng, floor, alone.data(), int(alone.size()), out + n);
+  return n + int(alone.size());
 }
 
 double LightTree::mix(const double p[3], float floor, float share) {

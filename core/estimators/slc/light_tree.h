@@ -142,11 +142,19 @@ class LightTree {
   struct Sample {
     uint32_t light = 0;
     double pdf = 0;
+    int count = 1;  // draws that chose this light (sampleSplit)
   };
   Sample sample(const LightTreeReceiver& r, Rng& rng, float floor) const;
   // `count` lights drawn independently, as sample() each (the uniforms
   // taken in another order).
   void sampleMany(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const;
+  // `count` lights drawn together, stratified: the draws split over the
+  // tree's entries in proportion to their probabilities (each node's share
+  // k q rounded up or down at random), each light reached with its pdf and
+  // the number of draws that reached it. The distinct lights are written
+  // to out (at most count) and their number returned; each light's
+  // expected draws are count x pdf, as for independent draws.
+  int sampleSplit(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const;
   // The pdf sample() gives light i at the receiver.
   double pdf(const LightTreeReceiver& r, uint32_t light, float floor) const;
   double buildSeconds() const { return buildSeconds_; }
@@ -163,6 +171,7 @@ class LightTree {
   struct Descent;
   static int strategy(float u, float floor, float share);
   bool descend(const LightTreeReceiver& r, float u, float floor, Descent& d, Sample& out) const;
+  void finish(const LightTreeReceiver& r, Rng& rng, float floor, Descent* d, int count, Sample* out) const;
   static LightTree fromPrims(std::vector<Prim> prims);
   static std::vector<uint64_t> sortedKeys(const std::vector<Prim>& prims);
   struct EntryBoxes;

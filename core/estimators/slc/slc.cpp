@@ -13,6 +13,8 @@
 //                      of several steps draws one: its first picture)
 //   slc-steps    16    steps per light set (the picture refines per step)
 //   slc-floor    0.05  share of descents by flux alone
+//   slc-split    on    a step's draws split over the tree in proportion
+//                      to their probabilities (LightTree::sampleSplit)
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
 // unbiased estimate of brute force's all-lights image and the images are
@@ -39,6 +41,7 @@ SlcSettings slcSettings(const EstimatorSettings& est) {
   s.samples = int(est.value("slc-samples"));
   s.steps = int(est.value("slc-steps"));
   s.floor = float(est.value("slc-floor"));
+  s.split = est.value("slc-split") != 0;
   return s;
 }
 
@@ -50,9 +53,6 @@ EstimatorSettings slcEstimatorSettings(const SlcSettings& s) {
 }
 
 namespace {
-
-// Lights drawn from the tree at once (LightTree::sampleMany).
-constexpr int kMaxDraws = 64;
 
 // The light choices' random stream (eye paths use 2, as brute force's).
 constexpr uint64_t kPickStream = 0x51c;
@@ -267,10 +267,15 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   const LightTreeReceiver r = LightTreeReceiver::make(gp, many_.computeVsl, many_.computeVsl ? kInf : clamp_);
   const int K = drawsIn(st.s);
   const bool both = many_.computeVpl && many_.computeVsl;
-  LightTree::Sample drawn[kMaxDraws];
-  for (int j = 0; j < K; ++j) {
-    if (j % kMaxDraws == 0) tree_.sampleMany(r, pick, slc_.floor, std::min(K - j, kMaxDraws), drawn);
-    const LightTree::Sample smp = drawn[j % kMaxDraws];
+  thread_local std::vector<LightTree::Sample> drawn;
+  drawn.resize(size_t(K));
+  int n = K;
+  if (slc_.split)
+    n = tree_.sampleSplit(r, pick, slc_.floor, K, drawn.data());
+  else
+    tree_.sampleMany(r, pick, slc_.floor, K, drawn.data());
+  for (int j = 0; j < n; ++j) {
+    const LightTree::Sample smp = drawn[size_t(j)];
     if (!(smp.pdf > 0)) continue;  // a light without flux
     const GatherLight L = decodeGatherLight(run_.set.lights[smp.light], run_.radii[smp.light]);
     PairGeometry g;
@@ -281,7 +286,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
     if (both) vplOwn += own.lap();
     gatherer.addVsl(gp, L, g, smp.light, drawStream(pix, k, drawsBefore(st.s) + j), one, c);
     if (both) vslOwn += own.seconds();
-    const double w = 1.0 / (double(K) * smp.pdf);
+    const double w = smp.count / (double(K) * smp.pdf);
     for (int l = 0; l < kGatherLayers; ++l)
       for (int ch = 0; ch < 3; ++ch) acc[l][ch] += one[l][ch] * w;
   }
@@ -379,6 +384,17 @@ std::vector<EstimatorParam> slcParams() {
         .uiMax = 1,
         .uiLog = true},
        SlcSettings::kDefaultFloor},
+      {{.name = "slc-split",
+        .key = "slcSplit",
+        .kind = ParamKind::Flag,
+        .appliesTo = "VSL, VPL",
+        .help = "Stochastic lightcuts: a gather point's draws of a step split over the tree's nodes in proportion "
+                "to their probabilities (stratified, as a lightcut's nodes each get a draw), instead of drawn "
+                "independently",
+        .why = "on: kitchen, 100,000 VSLs, 256 px, 20 s, five light sets: relMSE 0.59 [0.50, 1.05] against 1.16 "
+               "[0.63, 1.57] with independent draws ([RESULTS](RESULTS.md#stochastic-lightcuts)); unbiased either "
+               "way"},
+       SlcSettings::kDefaultSplit ? 1 : 0},
   };
 }
 
