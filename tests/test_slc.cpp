@@ -39,13 +39,12 @@ ManyLightSettings smallRender(int size, uint32_t lights) {
   return s;
 }
 
-EstimatorSettings slc(int samples, int steps, float floor = SlcSettings::kDefaultFloor,
-                      bool split = SlcSettings::kDefaultSplit) {
+EstimatorSettings slc(int samples, int steps, float floor = SlcSettings::kDefaultFloor, bool independent = false) {
   SlcSettings s;
   s.samples = samples;
   s.steps = steps;
   s.floor = floor;
-  s.split = split;
+  s.independent = independent;
   return slcEstimatorSettings(s);
 }
 
@@ -422,7 +421,7 @@ TEST(SlcRender, AgreesWithBruteForcePerRegion) {
     const ManyLightRun run = prepareManyLights(*ctx, s);
     const RegionStats bf = regions(*ctx, run, s, EstimatorSettings{}, 8, 100);
     for (const bool split : {true, false}) {
-      const RegionStats sl = regions(*ctx, run, s, slc(8, 2, SlcSettings::kDefaultFloor, split), 24, 200);
+      const RegionStats sl = regions(*ctx, run, s, slc(8, 2, SlcSettings::kDefaultFloor, !split), 24, 200);
       for (int l = 0; l < 2; ++l)
         for (int r = 0; r < 4; ++r) {
           const double se = std::sqrt(sqr(bf.se[l][r]) + sqr(sl.se[l][r]));

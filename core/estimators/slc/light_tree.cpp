@@ -355,95 +355,6 @@ uint32_t LightTree::split(const std::vector<uint64_t>& keys, uint32_t b, uint32_
   return uint32_t(it - keys.begin());
 }
 
-// What the build keeps of a wide node's entries besides the node itself:
-// their boxes and smallest radii, and which entries are its first binary
-// child's.
-struct LightTree::EntryBoxes {
-  Vec3 lo[4], hi[4];
-  float radiusMin[4] = {};
-  int firstOfSecond = 1;  // entries [0, firstOfSecond) are the first child's
-};
-
-LightTree LightTree::fromPrims(std::vector<Prim> prims) {
-  Stopwatch clock;
-  LightTree t;
-  if (prims.empty()) return t;
-  // Entries are addressed as 4 x wide node + lane in an int32.
-  VSL_CHECK(prims.size() < size_t(1) << 28);
-  std::vector<EntryBoxes> boxes;
-  t.structure(sortedKeys(prims), prims, boxes);
-  t.mergeBounds(boxes);
-  t.buildSeconds_ = clock.seconds();
-  return t;
-}
-
-// The binary tree over the sorted keys (each range split by split()),
-// made four-wide as it is made: each wide node holds its binary node's
-// grandchildren (a child that is a light in its place), the root's wide
-// node the root's, or the root alone for a tree of one light. A wide node
-// has two to four entries, so there are at most n - 1 (about n / 3 for a
-// balanced tree). The lights' entries get their bounds here; the inner
-// entries' come from mergeBounds.
-void LightTree::structure(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims,
-                          std::vector<EntryBoxes>& boxes) {
-  const uint32_t n = uint32_t(keys.size());
-  reserveHugePages(wide_, std::max<size_t>(n - 1, 1));
-  reserveHugePages(boxes, std::max<size_t>(n - 1, 1));
-  leafOf_.assign(n, -1);
-  struct Todo {
-    uint32_t b, e;
-    int32_t parentEntry;
-  };
-  std::vector<Todo> stack{{0, n, -1}};
-  while (!stack.empty()) {
-    const Todo t = stack.back();
-    stack.pop_back();
-    const int32_t w = int32_t(wide_.size());
-    wide_.emplace_back();
-    boxes.emplace_back();
-    parent_.push_back(t.parentEntry);
-    if (t.parentEntry >= 0) wide_[size_t(t.parentEntry >> 2)].child[t.parentEntry & 3] = w;
-    uint32_t range[5];  // entry k is [range[k], range[k + 1])
-    int m = 0;
-    range[0] = t.b;
-    if (t.e - t.b == 1) {
-      range[++m] = t.e;
-    } else {
-      const uint32_t mid = split(keys, t.b, t.e);
-      for (const auto& [hb, he] : {std::pair{t.b, mid}, std::pair{mid, t.e}}) {
-        if (he - hb > 1) range[++m] = split(keys, hb, he);
-        range[++m] = he;
-        if (hb == t.b) boxes[size_t(w)].firstOfSecond = m;
-      }
-    }
-    for (int lane = 0; lane < m; ++lane) {
-      if (range[lane + 1] - range[lane] > 1) {
-        stack.push_back({range[lane], range[lane + 1], 4 * w + lane});
-        continue;
-      }
-      const uint32_t li = uint32_t(keys[range[lane]]);
-      const Prim& p = prims[li];
-      LightTreeNode leaf;
-      leaf.lo = leaf.hi = p.p;
-      leaf.axis = p.n;
-      leaf.cosTheta = 1;
-      leaf.flux = p.flux;
-      leaf.radius = leaf.radiusMin = p.radius;
-      setEntry(w, lane, leaf, boxes);
-      wide_[size_t(w)].child[lane] = -int32_t(li) - 1;
-      leafOf_[li] = 4 * w + lane;
-    }
-  }
-}
-
-void LightTree::setEntry(int32_t w, int lane, const LightTreeNode& nd, std::vector<EntryBoxes>& boxes) {
-  wide_[size_t(w)].set(lane, nd);
-  EntryBoxes& b = boxes[size_t(w)];
-  b.lo[lane] = nd.lo;
-  b.hi[lane] = nd.hi;
-  b.radiusMin[lane] = nd.radiusMin;
-}
-
 namespace {
 
 // The binary tree's bounds of a node from its children's (its box, flux,
@@ -461,30 +372,73 @@ LightTreeNode merged(const LightTreeNode& a, const LightTreeNode& b) {
 
 }  // namespace
 
-// Bottom-up (a wide node is made after its parent): each inner entry's
-// bounds are its wide node's entries' merged as the binary tree pairs
-// them, the first child's and the second's, then the two.
-void LightTree::mergeBounds(std::vector<EntryBoxes>& boxes) {
-  for (size_t w = wide_.size(); w-- > 1;) {
-    const LightTreeWide& nd = wide_[w];
-    const EntryBoxes& b = boxes[w];
-    LightTreeNode e[4];
-    int m = 0;
-    for (; m < 4 && nd.child[m] != LightTreeWide::kEmpty; ++m) {
-      e[m].lo = b.lo[m];
-      e[m].hi = b.hi[m];
-      e[m].axis = Vec3(nd.nx[m], nd.ny[m], nd.nz[m]);
-      e[m].cosTheta = nd.cosTheta[m];
-      e[m].flux = nd.flux[m];
-      e[m].radius = nd.radius[m];
-      e[m].radiusMin = b.radiusMin[m];
+LightTree LightTree::fromPrims(std::vector<Prim> prims) {
+  Stopwatch clock;
+  LightTree t;
+  if (prims.empty()) return t;
+  // Entries are addressed as 4 x wide node + lane in an int32.
+  VSL_CHECK(prims.size() < size_t(1) << 28);
+  const std::vector<uint64_t> keys = sortedKeys(prims);
+  // At most n - 1 wide nodes (each has two entries or more), about n / 3.
+  reserveHugePages(t.wide_, std::max<size_t>(prims.size() - 1, 1));
+  t.leafOf_.assign(prims.size(), -1);
+  t.buildNode(keys, prims, 0, uint32_t(keys.size()), -1, 0);
+  t.buildSeconds_ = clock.seconds();
+  return t;
+}
+
+// The wide node of the sorted keys [b, e): the binary tree's nodes below
+// it (each range split by split()) expanded, the largest range first,
+// until there are four entries or all are lights; each inner entry's own
+// wide node made the same way (depth first, so that a node comes after
+// its parent). Returns the bounds of [b, e), its entries' merged. A tree of
+// one light is one node of one entry.
+LightTreeNode LightTree::buildNode(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims, uint32_t b,
+                                   uint32_t e, int32_t parentEntry, int depth) {
+  VSL_CHECK(depth < 128);
+  const int32_t w = int32_t(wide_.size());
+  wide_.emplace_back();
+  parent_.push_back(parentEntry);
+  uint32_t lo[4] = {b}, hi[4] = {e};
+  int m = 1;
+  for (; m < 4;) {
+    int widest = -1;
+    for (int i = 0; i < m; ++i)
+      if (hi[i] - lo[i] > 1 && (widest < 0 || hi[i] - lo[i] > hi[widest] - lo[widest])) widest = i;
+    if (widest < 0) break;
+    const uint32_t mid = split(keys, lo[widest], hi[widest]);
+    for (int i = m; i > widest + 1; --i) {
+      lo[i] = lo[i - 1];
+      hi[i] = hi[i - 1];
     }
-    const int f = b.firstOfSecond;
-    const LightTreeNode first = f == 1 ? e[0] : merged(e[0], e[1]);
-    const LightTreeNode second = m - f == 1 ? e[f] : merged(e[f], e[f + 1]);
-    const int32_t pe = parent_[w];
-    setEntry(pe >> 2, pe & 3, merged(first, second), boxes);
+    lo[widest + 1] = mid;
+    hi[widest + 1] = hi[widest];
+    hi[widest] = mid;
+    ++m;
   }
+  LightTreeNode all;
+  for (int lane = 0; lane < m; ++lane) {
+    LightTreeNode nd;
+    int32_t child;
+    if (hi[lane] - lo[lane] == 1) {
+      const uint32_t li = uint32_t(keys[lo[lane]]);
+      const Prim& p = prims[li];
+      nd.lo = nd.hi = p.p;
+      nd.axis = p.n;
+      nd.cosTheta = 1;
+      nd.flux = p.flux;
+      nd.radius = nd.radiusMin = p.radius;
+      child = -int32_t(li) - 1;
+      leafOf_[li] = 4 * w + lane;
+    } else {
+      child = int32_t(wide_.size());
+      nd = buildNode(keys, prims, lo[lane], hi[lane], 4 * w + lane, depth + 1);
+    }
+    wide_[size_t(w)].set(lane, nd);
+    wide_[size_t(w)].child[lane] = child;
+    all = lane == 0 ? nd : merged(all, nd);
+  }
+  return all;
 }
 
 // ---- [3] Sampling and pdf ------------------------------------------------------------

@@ -10,16 +10,16 @@
 // positions, each range split where its codes' highest differing bit
 // changes (Karras 2012's rule, serially), bounds merged bottom-up.
 //
-// Sampling (sample): the binary tree collapsed to a four-wide one (each
-// node's grandchildren, or its children where they are lights); from the
+// Sampling (sample): the binary tree stored four-wide (each wide node's
+// binary subtree expanded to four entries, the largest first); from the
 // root, each step takes one of a node's entries with probability
 // proportional to its importance at the receiver (importance4() below, in
 // SIMD lanes: flux x orientation bounds x a bound of one lobe of the
 // receiver's BRDF / distance^2), the lobe chosen per descent (one-sample
 // MIS); with probability `floor` the whole descent by flux alone instead.
 // The pdf of a light is the mixture of the three descents' path products,
-// so every light with flux has a non-zero probability at every receiver. Thread-safety: const methods are
-// safe from any thread.
+// so every light with flux has a non-zero probability at every receiver.
+// Thread-safety: const methods are safe from any thread.
 #pragma once
 
 #include <cstdint>
@@ -109,9 +109,10 @@ class LightTree {
   static LightTree build(const VirtualLightSet& set, const std::vector<float>& radii);
 
   size_t lights() const { return leafOf_.size(); }
-  // The sampling tree: every binary node of the build whose depth is odd
-  // (and the leaves), four to a wide node, so that a descent takes one
-  // choice among up to four grandchildren per step; root at 0.
+  // The sampling tree: the binary tree's nodes four to a wide node (each
+  // wide node's binary subtree expanded, the largest range first, to four
+  // entries), so that a descent takes one choice among up to four per
+  // step; root at 0.
   const std::vector<LightTreeWide>& nodes() const { return wide_; }
   // A node's importance at the receiver for each lobe, [0] diffuse and [1]
   // specular (not normalised): flux x bound of the emission cosine x the
@@ -174,11 +175,9 @@ class LightTree {
   void finish(const LightTreeReceiver& r, Rng& rng, float floor, Descent* d, int count, Sample* out) const;
   static LightTree fromPrims(std::vector<Prim> prims);
   static std::vector<uint64_t> sortedKeys(const std::vector<Prim>& prims);
-  struct EntryBoxes;
   static uint32_t split(const std::vector<uint64_t>& keys, uint32_t b, uint32_t e);
-  void structure(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims, std::vector<EntryBoxes>& boxes);
-  void setEntry(int32_t w, int lane, const LightTreeNode& nd, std::vector<EntryBoxes>& boxes);
-  void mergeBounds(std::vector<EntryBoxes>& boxes);
+  LightTreeNode buildNode(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims, uint32_t b, uint32_t e,
+                          int32_t parentEntry, int depth);
   // floor x p[2] (flux) + (1 - floor) x (share x p[1] (specular) +
   // (1 - share) x p[0] (diffuse)).
   static double mix(const double p[3], float floor, float share);

@@ -13,8 +13,9 @@
 //                      of several steps draws one: its first picture)
 //   slc-steps    16    steps per light set (the picture refines per step)
 //   slc-floor    0.05  share of descents by flux alone
-//   slc-split    on    a step's draws split over the tree in proportion
-//                      to their probabilities (LightTree::sampleSplit)
+//   slc-independent off  each draw its own descent (off: a step's draws
+//                      split over the tree in proportion to their
+//                      probabilities, LightTree::sampleSplit)
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
 // unbiased estimate of brute force's all-lights image and the images are
@@ -41,7 +42,7 @@ SlcSettings slcSettings(const EstimatorSettings& est) {
   s.samples = int(est.value("slc-samples"));
   s.steps = int(est.value("slc-steps"));
   s.floor = float(est.value("slc-floor"));
-  s.split = est.value("slc-split") != 0;
+  s.independent = est.value("slc-independent") != 0;
   return s;
 }
 
@@ -270,7 +271,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   thread_local std::vector<LightTree::Sample> drawn;
   drawn.resize(size_t(K));
   int n = K;
-  if (slc_.split)
+  if (!slc_.independent)
     n = tree_.sampleSplit(r, pick, slc_.floor, K, drawn.data());
   else
     tree_.sampleMany(r, pick, slc_.floor, K, drawn.data());
@@ -384,17 +385,16 @@ std::vector<EstimatorParam> slcParams() {
         .uiMax = 1,
         .uiLog = true},
        SlcSettings::kDefaultFloor},
-      {{.name = "slc-split",
-        .key = "slcSplit",
+      {{.name = "slc-independent",
+        .key = "slcIndependent",
         .kind = ParamKind::Flag,
         .appliesTo = "VSL, VPL",
-        .help = "Stochastic lightcuts: a gather point's draws of a step split over the tree's nodes in proportion "
-                "to their probabilities (stratified, as a lightcut's nodes each get a draw), instead of drawn "
-                "independently",
-        .why = "on: kitchen, 100,000 VSLs, 256 px, 20 s, five light sets: relMSE 0.59 [0.50, 1.05] against 1.16 "
-               "[0.63, 1.57] with independent draws ([RESULTS](RESULTS.md#stochastic-lightcuts)); unbiased either "
-               "way"},
-       SlcSettings::kDefaultSplit ? 1 : 0},
+        .help = "Stochastic lightcuts: each draw descends the tree on its own, instead of a gather point's draws "
+                "of a step split over the tree's nodes in proportion to their probabilities (stratified, as a "
+                "lightcut's nodes each get a draw)",
+        .why = "off: kitchen, 100,000 VSLs, 256 px, 20 s, five light sets: relMSE 0.59 [0.50, 1.05] split against "
+               "1.16 [0.63, 1.57] independent ([RESULTS](RESULTS.md#stochastic-lightcuts)); unbiased either way"},
+       0},
   };
 }
 
@@ -421,14 +421,10 @@ EstimatorInfo plugins::slc() {
     if (many.lobeGather > 0) return Error("lobe-gather: not with stochastic lightcuts");
     return {};
   };
-  // The tree at its build's peak: about 0.55 wide nodes per light (random
-  // lights; a balanced tree has a third), each with a parent index and,
-  // while built, its entries' boxes (about two binary nodes' worth), a leaf
-  // index and a sort key per light.
+  // The tree: about one wide node per three lights (one per two allowed),
+  // each with a parent index, and a leaf index and a sort key per light.
   e.memory = [](const EstimatorSettings&, uint64_t) -> ExtraMemory {
-    return {(sizeof(LightTreeWide) + 2 * sizeof(LightTreeNode) + sizeof(int32_t)) * 3 / 5 + sizeof(int32_t) +
-                sizeof(uint64_t),
-            0};
+    return {(sizeof(LightTreeWide) + sizeof(int32_t)) / 2 + sizeof(int32_t) + sizeof(uint64_t), 0};
   };
   e.create = [](const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const EstimatorSettings& est,
                 StepProgress*, const std::atomic<bool>*) -> std::unique_ptr<ManyLightEstimator> {

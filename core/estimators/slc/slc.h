@@ -10,11 +10,10 @@ struct SlcSettings {
   int samples = kDefaultSamples;  // lights per gather point per step
   int steps = kDefaultSteps;      // steps per light set
   float floor = kDefaultFloor;    // share of descents by flux alone
-  bool split = kDefaultSplit;     // a step's draws stratified over the tree
+  bool independent = false;       // each draw its own descent (else split)
   static constexpr int kDefaultSamples = 4;
   static constexpr int kDefaultSteps = 16;
   static constexpr float kDefaultFloor = 0.05f;
-  static constexpr bool kDefaultSplit = true;
 };
 
 // From est's "slc-..." values (their defaults where absent).
