@@ -391,7 +391,7 @@ LightTree LightTree::fromPrims(std::vector<Prim> prims) {
 // it (each range split by split()) expanded, the largest range first,
 // until there are four entries or all are lights; each inner entry's own
 // wide node made the same way (depth first, so that a node comes after
-// its parent). Returns the bounds of [b, e), its entries' merged. A tree of
+// its parent). Returns the bounds of [b, e), its entries' merged (treeletBounds). A tree of
 // one light is one node of one entry.
 LightTreeNode LightTree::buildNode(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims, uint32_t b,
                                    uint32_t e, int32_t parentEntry, int depth) {
@@ -416,9 +416,9 @@ LightTreeNode LightTree::buildNode(const std::vector<uint64_t>& keys, const std:
     hi[widest] = mid;
     ++m;
   }
-  LightTreeNode all;
+  LightTreeNode bounds[4];
   for (int lane = 0; lane < m; ++lane) {
-    LightTreeNode nd;
+    LightTreeNode& nd = bounds[lane];
     int32_t child;
     if (hi[lane] - lo[lane] == 1) {
       const uint32_t li = uint32_t(keys[lo[lane]]);
@@ -436,9 +436,20 @@ LightTreeNode LightTree::buildNode(const std::vector<uint64_t>& keys, const std:
     }
     wide_[size_t(w)].set(lane, nd);
     wide_[size_t(w)].child[lane] = child;
-    all = lane == 0 ? nd : merged(all, nd);
   }
-  return all;
+  return treeletBounds(keys, b, e, lo, hi, bounds, m);
+}
+
+// The bounds of the binary node over keys [b, e) from those of the entries
+// below it (their ranges lo, hi), merged pair by pair as the binary tree
+// pairs them: the cones' union depends on the order, and the binary
+// order keeps them narrowest.
+LightTreeNode LightTree::treeletBounds(const std::vector<uint64_t>& keys, uint32_t b, uint32_t e, const uint32_t* lo,
+                                       const uint32_t* hi, const LightTreeNode* bounds, int m) {
+  for (int i = 0; i < m; ++i)
+    if (lo[i] == b && hi[i] == e) return bounds[i];
+  const uint32_t mid = split(keys, b, e);
+  return merged(treeletBounds(keys, b, mid, lo, hi, bounds, m), treeletBounds(keys, mid, e, lo, hi, bounds, m));
 }
 
 // ---- [3] Sampling and pdf ------------------------------------------------------------

@@ -176,6 +176,8 @@ class LightTree {
   static LightTree fromPrims(std::vector<Prim> prims);
   static std::vector<uint64_t> sortedKeys(const std::vector<Prim>& prims);
   static uint32_t split(const std::vector<uint64_t>& keys, uint32_t b, uint32_t e);
+  static LightTreeNode treeletBounds(const std::vector<uint64_t>& keys, uint32_t b, uint32_t e, const uint32_t* lo,
+                                     const uint32_t* hi, const LightTreeNode* bounds, int m);
   LightTreeNode buildNode(const std::vector<uint64_t>& keys, const std::vector<Prim>& prims, uint32_t b, uint32_t e,
                           int32_t parentEntry, int depth);
   // floor x p[2] (flux) + (1 - floor) x (share x p[1] (specular) +
