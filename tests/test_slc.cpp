@@ -64,6 +64,15 @@ std::vector<GatherLight> randomLights(size_t n, uint64_t seed) {
   return out;
 }
 
+// A glossy receiver in the middle of randomLights' box, facing +z.
+LightTreeReceiver middleReceiver() {
+  GatherPoint gp;
+  gp.p = Vec3(5, 5, 5);
+  gp.rx.frame = Frame(Vec3(0, 0, 1));
+  gp.rx.f = BrdfAt(Brdf::fromGltf(Vec3(0.8f), 0, 0.3f, 0), Vec3(0.3f, 0, 0.95f));
+  return LightTreeReceiver::make(gp);
+}
+
 // The gather points of a few pixels' eye paths (first points only).
 std::vector<GatherPoint> gatherPoints(const RenderContext& c, const ManyLightSettings& s, const Gatherer& g, int n) {
   std::vector<GatherPoint> out;
@@ -229,11 +238,7 @@ TEST(SlcTree, LeafPdfsSumToOneAndCoverEveryContributingLight) {
 TEST(SlcTree, SamplesEachLightAtItsPdf) {
   const std::vector<GatherLight> lights = randomLights(40, 11);
   const LightTree tree = LightTree::build(lights);
-  GatherPoint gp;
-  gp.p = Vec3(5, 5, 5);
-  gp.rx.frame = Frame(Vec3(0, 0, 1));
-  gp.rx.f = BrdfAt(Brdf::fromGltf(Vec3(0.8f), 0, 0.3f, 0), Vec3(0.3f, 0, 0.95f));
-  const LightTreeReceiver r = LightTreeReceiver::make(gp);
+  const LightTreeReceiver r = middleReceiver();
   const int draws = 200000;
   std::vector<int> count(lights.size(), 0);
   Rng rng(1, 2);
@@ -281,11 +286,7 @@ TEST(SlcTree, SamplesEachLightAtItsPdf) {
 TEST(SlcTree, SplitDrawsReachEachLightAtItsPdf) {
   const std::vector<GatherLight> lights = randomLights(40, 11);
   const LightTree tree = LightTree::build(lights);
-  GatherPoint gp;
-  gp.p = Vec3(5, 5, 5);
-  gp.rx.frame = Frame(Vec3(0, 0, 1));
-  gp.rx.f = BrdfAt(Brdf::fromGltf(Vec3(0.8f), 0, 0.3f, 0), Vec3(0.3f, 0, 0.95f));
-  const LightTreeReceiver r = LightTreeReceiver::make(gp);
+  const LightTreeReceiver r = middleReceiver();
   const size_t N = lights.size();
   const int calls = 20000, K = 13;
   std::vector<double> sum(N, 0), sum2(N, 0), pdf(N);
