@@ -379,7 +379,8 @@ LightTree LightTree::fromPrims(std::vector<Prim> prims) {
   // Entries are addressed as 4 x wide node + lane in an int32.
   VSL_CHECK(prims.size() < size_t(1) << 28);
   const std::vector<uint64_t> keys = sortedKeys(prims);
-  // At most n - 1 wide nodes (each has two entries or more), about n / 3.
+  // At most n - 1 wide nodes (each has two entries or more), about n / 2
+  // (three entries on average).
   reserveHugePages(t.wide_, std::max<size_t>(prims.size() - 1, 1));
   t.leafOf_.assign(prims.size(), -1);
   t.buildNode(keys, prims, 0, uint32_t(keys.size()), -1, 0);

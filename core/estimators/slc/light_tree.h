@@ -32,6 +32,9 @@
 
 namespace vsl {
 
+// One binary node's bounds: what the build merges (LightTree::buildNode)
+// and what the scalar importance reads; the tree keeps them four-wide
+// (LightTreeWide).
 struct LightTreeNode {
   Vec3 lo, hi;          // box of the lights' positions
   Vec3 axis;            // orientation cone's axis (emission normals)
@@ -39,10 +42,6 @@ struct LightTreeNode {
   float flux = 0;       // sum of the lights' luminance(Phi)
   float radius = 0;     // largest VSL radius below
   float radiusMin = 0;  // smallest VSL radius below
-  // Inner node: children child and child + 1. Leaf: light -(child + 1).
-  int32_t child = 0;
-  bool leaf() const { return child < 0; }
-  uint32_t light() const { return uint32_t(-(child + 1)); }
 };
 
 // What a descent needs of a gather point, computed once per point: its

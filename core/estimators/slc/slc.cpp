@@ -422,10 +422,12 @@ EstimatorInfo plugins::slc() {
     if (many.lobeGather > 0) return Error("lobe-gather: not with stochastic lightcuts");
     return {};
   };
-  // The tree: about one wide node per three lights (one per two allowed),
-  // each with a parent index, and a leaf index and a sort key per light.
+  // The tree: about one wide node per two lights (kitchen's and random
+  // lights' 0.5-0.51: the nodes next to the lights hold two or three
+  // entries), 0.6 allowed, each with a parent index; a leaf index and a
+  // sort key per light.
   e.memory = [](const EstimatorSettings&, uint64_t) -> ExtraMemory {
-    return {(sizeof(LightTreeWide) + sizeof(int32_t)) / 2 + sizeof(int32_t) + sizeof(uint64_t), 0};
+    return {(sizeof(LightTreeWide) + sizeof(int32_t)) * 3 / 5 + sizeof(int32_t) + sizeof(uint64_t), 0};
   };
   e.create = [](const RenderContext& ctx, ManyLightRun run, const ManyLightSettings& many, const EstimatorSettings& est,
                 StepProgress*, const std::atomic<bool>*) -> std::unique_ptr<ManyLightEstimator> {
