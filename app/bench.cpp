@@ -38,8 +38,10 @@ using json = nlohmann::json;
 
 struct BenchArgs {
   std::string scene, jsonPath;
-  double seconds = 3;  // per measurement
-  int size = 256;      // of the path tracer's image
+  double seconds = 3;                // per measurement
+  int size = 256;                    // of the path tracer's image
+  std::vector<std::string> gathers;  // the gather rows' variants to run (empty: all)
+  int repeat = 1;                    // runs of each gather row (its median reported)
 };
 
 // Runs fn() repeatedly for at least `seconds`; returns (calls, elapsed).
@@ -213,67 +215,130 @@ GatherBench timeOneBatch(const Scene& scene, const Accel& accel, const LightSamp
   return g;
 }
 
-// Many-light gather: VPL only, VSL only (the default automatic count) and VSL
-// with each other automatic count (vsl_integral.h), one light set, one batch
-// each.
-// The machine is shared: raw Embree is measured again right after each
-// gather, and the ratio uses the mean of the two measurements around it.
+// The gather rows' variants: VPL, VSL with the default count, then VSL with
+// each other automatic count, and VSL at one sample per strategy ("VSL-1",
+// --vsl-samples 1: what a pair costs besides its quadrature's count), and VSL
+// in closed form ("VSL-SG", --vsl-integral sg, core/vsl_sg.h: cones wider
+// than 5 degrees by the quadrature; "VSL-SG90", every pair in closed form).
+struct GatherVariant {
+  std::string name;
+  VslCount count;
+  int samples;  // per strategy; 0: the automatic count
+  VslIntegral integral = VslIntegral::Quadrature;
+  float sgMaxAngle = ManyLightSettings::kDefaultVslSgMaxAngle;
+};
+
+const std::vector<GatherVariant>& gatherVariants() {
+  static const std::vector<GatherVariant> variants = [] {
+    const VslCount dflt = ManyLightSettings().vslCount;
+    std::vector<GatherVariant> v = {{"VPL", dflt, 0}, {"VSL", dflt, 0}};
+    for (VslCount c : kVslCounts)
+      if (c != dflt) v.push_back({std::string("VSL-") + vslCountName(c), c, 0});
+    v.push_back({"VSL-1", dflt, 1});
+    v.push_back({"VSL-SG", dflt, 0, VslIntegral::Sg});
+    v.push_back({"VSL-SG90", dflt, 0, VslIntegral::Sg, 90.0f});
+    return v;
+  }();
+  return variants;
+}
+
+std::vector<std::string> gatherVariantNames() {
+  std::vector<std::string> names;
+  for (const GatherVariant& v : gatherVariants()) names.push_back(v.name);
+  return names;
+}
+
+// What a closed-form pair costs against a clamped VPL pair: the median over
+// the rows both ran of VPL's pairs/s over VSL-SG90's (docs/RESULTS.md,
+// "Closed-form VSL by spherical Gaussians"). 0 where either did not run.
+double closedFormCostRatio(const std::vector<GatherBench>& gathers) {
+  std::vector<double> ratios;
+  for (const GatherBench& v : gathers)
+    for (const GatherBench& s : gathers)
+      if (v.name == "VPL" && s.name == "VSL-SG90" && v.lights == s.lights && v.width == s.width &&
+          v.height == s.height && s.pairsPerSecond > 0)
+        ratios.push_back(v.pairsPerSecond / s.pairsPerSecond);
+  if (ratios.empty()) return 0;
+  std::sort(ratios.begin(), ratios.end());
+  const size_t n = ratios.size();
+  return n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+}
+
+struct GatherRow {
+  const GatherVariant* v;
+  uint32_t lights;
+  int width, height;
+};
+
+GatherBench measureGather(const Scene& scene, const Accel& accel, const LightSampler& lights, OcclusionBench& occlusion,
+                          double& rawBefore, const BenchArgs& a, const GatherRow& row) {
+  ManyLightSettings m;
+  m.vslCount = row.v->count;
+  m.vslIntegral = row.v->integral;
+  m.vslSgMaxAngle = row.v->sgMaxAngle;
+  m.vslSamples = row.v->samples;
+  m.lights = row.lights;
+  m.width = row.width;
+  m.height = row.height;
+  m.computeVsl = row.v->name != "VPL";
+  m.computeVpl = !m.computeVsl;
+  GatherBench g = timeOneBatch(scene, accel, lights, m);
+  const double rawAfter = occlusion.single(std::min(a.seconds, 1.0)).first;
+  g.name = row.v->name;
+  g.raw = 0.5 * (rawBefore + rawAfter);
+  rawBefore = rawAfter;
+  return g;
+}
+
+void printGather(const GatherBench& g) {
+  std::printf(
+      "%-11s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
+      "%.2f s\n",
+      g.name.c_str(), g.lights, g.width, g.height, g.pairsPerSecond * 1e-6, g.pairsPerSecond / g.raw,
+      g.raysPerSecond * 1e-6, g.raysPerSecond / g.raw, g.raw * 1e-6, g.seconds);
+  std::fflush(stdout);
+}
+
+// The many-light gather rows: each variant (gatherVariants), one light set,
+// one batch a run. The machine is shared: raw Embree is measured again right
+// after each gather, and the ratio uses the mean of the two measurements
+// around it.
 std::vector<GatherBench> benchGathers(const Scene& scene, const Accel& accel, const LightSampler& lights,
                                       OcclusionBench& occlusion, double rawBefore, const BenchArgs& a) {
-  std::vector<GatherBench> gathers;
-  auto gather = [&](const std::string& name, bool vsl, VslCount count, int samples, VslIntegral integral,
-                    float sgMaxAngle, uint32_t n, int sz, int szY = 0) {
-    ManyLightSettings m;
-    m.vslCount = count;
-    m.vslIntegral = integral;
-    m.vslSgMaxAngle = sgMaxAngle;
-    m.vslSamples = samples;
-    m.lights = n;
-    m.width = sz;
-    m.height = szY > 0 ? szY : sz;
-    m.computeVsl = vsl;
-    m.computeVpl = !vsl;
-    GatherBench g = timeOneBatch(scene, accel, lights, m);
-    const double rawAfter = occlusion.single(std::min(a.seconds, 1.0)).first;
-    g.name = name;
-    g.raw = 0.5 * (rawBefore + rawAfter);
-    rawBefore = rawAfter;
-    gathers.push_back(g);
-    std::printf(
-        "%-11s gather %7u lights %4dx%-4d %7.3f M pairs/s (%.2fx raw)  %7.3f M shadow rays/s (%.2fx raw)  raw %.3f M  "
-        "%.2f s\n",
-        name.c_str(), g.lights, g.width, g.height, g.pairsPerSecond * 1e-6, g.pairsPerSecond / g.raw,
-        g.raysPerSecond * 1e-6, g.raysPerSecond / g.raw, g.raw * 1e-6, g.seconds);
-  };
   // Few lights (wide VSL cones, all in cache), more lights, a larger image,
   // and 100,000 lights (the scale MRCS targets; narrow cones) on a small one
-  // (eight 16x16 tiles, so that two threads share the work evenly).
-  // VPL, VSL with the default count, then VSL with each other automatic count,
-  // and VSL at one sample per strategy ("VSL-1", --vsl-samples 1: what a pair
-  // costs besides its quadrature's count), and VSL in closed form ("VSL-SG",
-  // --vsl-integral sg, core/vsl_sg.h: cones wider than 5 degrees by the
-  // quadrature; "VSL-SG90", every pair in closed form).
-  const VslCount dflt = ManyLightSettings().vslCount;
-  struct Variant {
-    std::string name;
-    VslCount count;
-    int samples;  // per strategy; 0: the automatic count
-    VslIntegral integral = VslIntegral::Quadrature;
-    float sgMaxAngle = ManyLightSettings::kDefaultVslSgMaxAngle;
-  };
-  std::vector<Variant> variants = {{"VPL", dflt, 0}, {"VSL", dflt, 0}};
-  for (VslCount c : kVslCounts)
-    if (c != dflt) variants.push_back({std::string("VSL-") + vslCountName(c), c, 0});
-  variants.push_back({"VSL-1", dflt, 1});
-  variants.push_back({"VSL-SG", dflt, 0, VslIntegral::Sg});
-  variants.push_back({"VSL-SG90", dflt, 0, VslIntegral::Sg, 90.0f});
-  for (const Variant& v : variants) {
-    const bool vsl = v.name != "VPL";
-    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 1000, a.size / 2);
-    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 4000, a.size / 2);
-    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 1000, a.size);
-    gather(v.name, vsl, v.count, v.samples, v.integral, v.sgMaxAngle, 100000, 64, 32);
+  // (eight 16x16 tiles, so that two threads share the work evenly), for
+  // each variant (gatherVariants) the user asked for.
+  std::vector<GatherRow> rows;
+  for (const GatherVariant& v : gatherVariants()) {
+    if (!a.gathers.empty() && std::find(a.gathers.begin(), a.gathers.end(), v.name) == a.gathers.end()) continue;
+    rows.push_back({&v, 1000, a.size / 2, a.size / 2});
+    rows.push_back({&v, 4000, a.size / 2, a.size / 2});
+    rows.push_back({&v, 1000, a.size, a.size});
+    rows.push_back({&v, 100000, 64, 32});
   }
+  // --repeat: the rows in turn, again and again (so that a slow spell of the
+  // machine falls on every row alike); each row's median run by pairs/s.
+  std::vector<std::vector<GatherBench>> runs(rows.size());
+  for (int rep = 0; rep < a.repeat; ++rep) {
+    if (a.repeat > 1) std::fprintf(stderr, "gather rows: round %d of %d\n", rep + 1, a.repeat);
+    for (size_t i = 0; i < rows.size(); ++i) {
+      runs[i].push_back(measureGather(scene, accel, lights, occlusion, rawBefore, a, rows[i]));
+      if (a.repeat == 1) printGather(runs[i].back());
+    }
+  }
+  std::vector<GatherBench> gathers;
+  for (std::vector<GatherBench>& r : runs) {
+    std::sort(r.begin(), r.end(),
+              [](const GatherBench& x, const GatherBench& y) { return x.pairsPerSecond < y.pairsPerSecond; });
+    gathers.push_back(r[r.size() / 2]);
+    if (a.repeat > 1) printGather(gathers.back());
+  }
+  if (const double ratio = closedFormCostRatio(gathers); ratio > 0)
+    std::printf(
+        "closed form: a VSL-SG90 pair costs %.2fx a VPL pair (median over the rows, VPL's pairs/s over "
+        "VSL-SG90's%s)\n",
+        ratio, a.repeat > 1 ? ", each row's median run" : "");
   return gathers;
 }
 
@@ -397,8 +462,9 @@ int runBench(const BenchArgs& a) {
 
   // The many-light gathers and stages.
   std::vector<GatherBench> gathers = benchGathers(scene, accel, lights, occlusion, rawRate, a);
-  json drawCost = benchVslDrawCost(scene, accel, lights, occlusion, gathers, a);
-  json stages = benchStages(scene, accel, lights, a);
+  const bool all = a.gathers.empty();
+  json drawCost = all ? benchVslDrawCost(scene, accel, lights, occlusion, gathers, a) : json::object();
+  json stages = all ? benchStages(scene, accel, lights, a) : json::object();
   if (a.jsonPath.empty()) return 0;
   json j = {{"scene", a.scene},
             {"triangles", scene.triangleCount()},
@@ -442,6 +508,17 @@ Subcommand addBenchCommand(CLI::App& app) {
       ->default_str("256")
       ->check(CLI::Range(8, 4096));
   bench->add_option("--json", args->jsonPath, "Write results as JSON");
+  bench
+      ->add_option("--only-gathers", args->gathers,
+                   "Run only these gather rows' variants, comma-separated (VPL, VSL, VSL-authors, VSL-shares, VSL-1, "
+                   "VSL-SG, VSL-SG90), and neither the VSL draw-cost fit nor the stages after them")
+      ->delimiter(',')
+      ->check(CLI::IsMember(gatherVariantNames()));
+  bench
+      ->add_option("--repeat", args->repeat,
+                   "Run the gather rows this many times in turn and report each row's median run (by pairs/s)")
+      ->default_str("1")
+      ->check(CLI::Range(1, 99));
   return {bench, [args] { return runBench(*args); }};
 }
 
