@@ -457,6 +457,14 @@ void Gatherer::addVslResult(const GatherPoint& gp, const GatherLight& L, const P
   addLayer(acc, kVslLayer, g.weight == 1 ? v : v * g.weight, c);
 }
 
+namespace {
+// v.size() at least n, its first elements kept.
+template <typename T>
+void growTo(std::vector<T>& v, size_t n) {
+  if (v.size() < n) v.resize(n);
+}
+}  // namespace
+
 void Gatherer::packVslReceivers(std::span<const GatherPoint* const> pts, std::vector<float>& packed) const {
   packed.clear();
   if (!computeVsl_ || vsl_.integral != VslIntegral::Sg) return;
@@ -469,15 +477,18 @@ void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const float* 
                           size_t n, const GatherLight& L, const PairGeometry* geo, VslBlock& b) const {
   if (!computeVsl_) return;
   constexpr size_t kP = BrdfAt::kPackedFloats;
-  b.pairs_.resize(n);
-  b.kind_.assign(n, 0);
-  b.sgOf_.resize(n);
-  b.sg_.resize(n);
+  // The buffers only grow: a resize down and up again would construct the
+  // pairs anew (each holds two BRDFs) for every light.
+  growTo(b.pairs_, n);
+  growTo(b.kind_, n);
+  std::fill_n(b.kind_.begin(), n, uint8_t(0));
+  growTo(b.sgOf_, n);
+  growTo(b.sg_, n);
   // Record 0: the light's BRDF; then two per closed-form pair (the receiver
   // and, where the floor widened it, the light). Under the quadrature no
   // pair is in closed form: nothing to pack.
   const bool sg = vsl_.integral == VslIntegral::Sg;
-  b.packed_.resize(sg ? (2 * n + 1) * kP : 0);
+  if (sg) growTo(b.packed_, (2 * n + 1) * kP);
   if (sg) L.em.f.pack(b.packed_.data());
   size_t nsg = 0;
   for (size_t v = 0; v < n; ++v) {
@@ -500,7 +511,7 @@ void Gatherer::vslPrepare(std::span<const GatherPoint* const> pts, const float* 
     }
     b.sg_[nsg++] = {pr.rx, pr.em, rx, em, geo[i].d, pr.radius};
   }
-  b.transfer_.resize(nsg);
+  growTo(b.transfer_, nsg);
   vslTransferSgMany(int(nsg), b.sg_.data(), vsl_, b.transfer_.data());
 }
 

@@ -409,7 +409,7 @@ bool BrdfAt::sampleDirectionCoated(float u1, Vec2 u2, Vec3& wi, bool& specular) 
 // ---- BrdfAt, blocks of directions ------------------------------------------
 
 bool simdAvailable() {
-  static const bool ok = __builtin_cpu_supports("avx2");
+  static const bool ok = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return ok;
 }
 

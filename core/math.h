@@ -84,7 +84,7 @@ inline T sqr(T v) {
   return v * v;
 }
 
-// True when this CPU runs the AVX2 block forms (core/simd.h).
+// True when this CPU runs the AVX2 block forms (core/simd.h): AVX2 and FMA.
 bool simdAvailable();
 
 // sin and cos of t pi/4 for t in [-1, 1]: Taylor polynomials to x^9 and x^8,

@@ -11,6 +11,10 @@
 #include "core/math.h"
 
 #define VSL_AVX2 __attribute__((target("avx2")))
+// AVX2 with fused multiply-adds, for the closed-form VSL's lanes
+// (core/vsl_sg_avx2.cpp), which need no scalar code's bits: madd below.
+// simdAvailable() checks for both.
+#define VSL_FMA __attribute__((target("avx2,fma")))
 
 namespace vsl::simd {
 
@@ -46,6 +50,11 @@ VSL_AVX2 inline void storeFirst(float* p, __m256 v, int m) {
   else
     _mm256_maskstore_ps(p, firstLanes(m), v);
 }
+
+// a b + c with one rounding.
+VSL_FMA inline __m256 madd(__m256 a, __m256 b, __m256 c) { return _mm256_fmadd_ps(a, b, c); }
+// a b - c with one rounding.
+VSL_FMA inline __m256 msub(__m256 a, __m256 b, __m256 c) { return _mm256_fmsub_ps(a, b, c); }
 
 // Three lanes of coordinates: eight vectors.
 struct Vec3x8 {
@@ -103,19 +112,19 @@ VSL_AVX2 inline void sinCosTwoPi8(__m256 u, __m256& s, __m256& c) {
 // exponent bits. Relative error about 2e-7 (a few float ulps) over
 // [-87, 88] (tests/test_vsl_sg.cpp, VslSg.LaneExpAndLog). Below -87.3 it
 // returns 0 (the result would be denormal), above 88.7 +inf; NaN stays NaN.
-VSL_AVX2 inline __m256 exp8(__m256 x) {
+VSL_FMA inline __m256 exp8(__m256 x) {
   const __m256 lo = splat(-87.3f), hi = splat(88.7f);
   const __m256 xc = _mm256_max_ps(lo, _mm256_min_ps(hi, x));  // NaN passes through min, then max keeps it
   const __m256 n = _mm256_round_ps(mul(xc, splat(1.44269504088896341f)), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-  const __m256 r = sub(sub(xc, mul(n, splat(0.693359375f))), mul(n, splat(-2.12194440e-4f)));
+  const __m256 r = _mm256_fnmadd_ps(n, splat(-2.12194440e-4f), _mm256_fnmadd_ps(n, splat(0.693359375f), xc));
   __m256 p = splat(1.0f / 5040.0f);
-  p = add(splat(1.0f / 720.0f), mul(r, p));
-  p = add(splat(1.0f / 120.0f), mul(r, p));
-  p = add(splat(1.0f / 24.0f), mul(r, p));
-  p = add(splat(1.0f / 6.0f), mul(r, p));
-  p = add(splat(0.5f), mul(r, p));
-  p = add(splat(1.0f), mul(r, p));
-  p = add(splat(1.0f), mul(r, p));
+  p = madd(r, p, splat(1.0f / 720.0f));
+  p = madd(r, p, splat(1.0f / 120.0f));
+  p = madd(r, p, splat(1.0f / 24.0f));
+  p = madd(r, p, splat(1.0f / 6.0f));
+  p = madd(r, p, splat(0.5f));
+  p = madd(r, p, splat(1.0f));
+  p = madd(r, p, splat(1.0f));
   // 2^n: n in [-126, 128]; 2^128 is split as 2^127 x 2 so the bits stay normal.
   const __m256i ni = _mm256_cvtps_epi32(n);
   const __m256i half = _mm256_srai_epi32(ni, 1);
@@ -133,7 +142,7 @@ VSL_AVX2 inline __m256 exp8(__m256 x) {
 // |s| <= 0.172, by its series to s^11 (truncation below 1e-9). Absolute
 // error about 1e-7 near x = 1, relative about 1e-7 elsewhere
 // (VslSg.LaneExpAndLog). x = 0 gives -inf; x < 0 and NaN give NaN; +inf gives +inf.
-VSL_AVX2 inline __m256 log8(__m256 x) {
+VSL_FMA inline __m256 log8(__m256 x) {
   // Denormals: scaled by 2^23 first (k corrected below).
   const __m256 tiny = less(x, splat(1.17549435e-38f));
   const __m256 xs = select(tiny, mul(x, splat(8388608.0f)), x);
@@ -146,14 +155,14 @@ VSL_AVX2 inline __m256 log8(__m256 x) {
   k = _mm256_sub_epi32(k, _mm256_castps_si256(big));  // big lanes are -1: k + 1
   const __m256 s = div(sub(m, splat(1.0f)), add(m, splat(1.0f))), s2 = mul(s, s);
   __m256 p = splat(2.0f / 11.0f);
-  p = add(splat(2.0f / 9.0f), mul(s2, p));
-  p = add(splat(2.0f / 7.0f), mul(s2, p));
-  p = add(splat(2.0f / 5.0f), mul(s2, p));
-  p = add(splat(2.0f / 3.0f), mul(s2, p));
-  p = add(splat(2.0f), mul(s2, p));
+  p = madd(s2, p, splat(2.0f / 9.0f));
+  p = madd(s2, p, splat(2.0f / 7.0f));
+  p = madd(s2, p, splat(2.0f / 5.0f));
+  p = madd(s2, p, splat(2.0f / 3.0f));
+  p = madd(s2, p, splat(2.0f));
   const __m256 kf = sub(_mm256_cvtepi32_ps(k), where(tiny, splat(23.0f)));
   // k ln2 in two parts (the first exact in float for |k| < 2^9).
-  __m256 r = add(mul(kf, splat(0.693359375f)), add(mul(s, p), mul(kf, splat(-2.12194440e-4f))));
+  __m256 r = madd(kf, splat(0.693359375f), madd(s, p, mul(kf, splat(-2.12194440e-4f))));
   r = select(_mm256_cmp_ps(x, _mm256_setzero_ps(), _CMP_EQ_OQ), splat(-kInf), r);
   r = select(_mm256_cmp_ps(x, splat(kInf), _CMP_EQ_OQ), splat(kInf), r);
   return select(_mm256_cmp_ps(x, _mm256_setzero_ps(), _CMP_NGE_UQ), splat(std::numeric_limits<float>::quiet_NaN()), r);

@@ -203,7 +203,9 @@ void addTerm(const Vec3& amplitude, const SgExponent& base, const LobeFactor* fx
 }  // namespace
 
 bool vslUsesSg(const VslOptions& options, double radius, double d) {
-  return options.integral == VslIntegral::Sg && vslConeOneMinusCos(radius, d) <= options.sgMaxOneMinusCos;
+  if (options.integral != VslIntegral::Sg) return false;
+  // Every cone is at most a hemisphere (1 - cos <= 1): no need to measure it.
+  return options.sgMaxOneMinusCos >= 1 || vslConeOneMinusCos(radius, d) <= options.sgMaxOneMinusCos;
 }
 
 VslResult vslTransferSg(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,

@@ -17,9 +17,10 @@
 // error (about the cone's axis, a needle lobe seen inside a wide cone would
 // multiply 1 - u.a's by 1e8; tests/test_vsl_sg.cpp measured 20% errors so).
 // |v| is sqrt((v.r)^2 + |v x r|^2). The integral over the area is then
-// exponentiated in one go, exp(E + log(2 pi g(|v|) / area)),
-// g(m) = (1 - exp(-2m)) / m, so that a small tail meets a large amplitude
-// without underflow. The BRDFs at the axis are
+// exp(E) g(|v|), E = |v| - B + log(2 pi / area), g(m) = (1 - exp(-2m)) / m,
+// so that a small tail meets a large amplitude without underflow (and
+// exp(E + log g) where E is large, so that exp(E) does not overflow).
+// Fused multiply-adds throughout (madd, core/simd.h). The BRDFs at the axis are
 // BrdfAt::evalPartsPackedAvx2's (the scalar evalParts's bits). exp8 and
 // log8 (core/simd.h) have about 1e-7 relative error.
 //
@@ -83,7 +84,28 @@ bool lobeOn(const BrdfAt& f) {
   return f.specularOn() && f.w().z > 0 && (b.metallic > 0 || b.specularWeight > 0);
 }
 
-void fillLane(const VslSgPair& q, int j, const VslOptions& o, LaneInputs& in) {
+// The light's fields of lane j (fillLane) and of every lane (a block whose
+// pairs share one light, as the gather's do: Gatherer::vslPrepare).
+void fillEmitterLane(const VslEmitter& p, int j, LaneInputs& in) {
+  put3(in, kPs, j, p.frame.s);
+  put3(in, kPt, j, p.frame.t);
+  put3(in, kPn, j, p.frame.n);
+  put3(in, kG, j, p.geometricCosine ? p.ngLocal : Vec3(0, 0, 1));
+  put3(in, kPw, j, p.f.w());
+  in.v[kPax][j] = p.f.brdf().ggx.ax;
+  in.v[kPay][j] = p.f.brdf().ggx.ay;
+  in.v[kPon][j] = lobeOn(p.f) ? 1.0f : 0.0f;
+}
+
+VSL_FMA void fillEmitterAll(const VslEmitter& p, LaneInputs& in) {
+  fillEmitterLane(p, 0, in);
+  for (int field : {kPs, kPt, kPn, kG, kPw})
+    for (int k = field; k < field + 3; ++k) _mm256_store_ps(in.v[k], splat(in.v[k][0]));
+  for (int k : {kPax, kPay, kPon}) _mm256_store_ps(in.v[k], splat(in.v[k][0]));
+}
+
+// Lane j's pair (its light's fields too unless emitterFilled).
+void fillLane(const VslSgPair& q, int j, const VslOptions& o, bool emitterFilled, LaneInputs& in) {
   static const float kZero[BrdfAt::kPackedFloats] = {};
   if (!q.x) {  // a lane past the pairs: zero frames fail the cosine test
     in.packed[0][j] = in.packed[1][j] = kZero;
@@ -91,27 +113,20 @@ void fillLane(const VslSgPair& q, int j, const VslOptions& o, LaneInputs& in) {
   }
   const VslReceiver& x = *q.x;
   const VslEmitter& p = *q.p;
-  const float d = length(q.toLight);
-  // (A radius that is zero or NaN stays so: no area, no transfer.)
-  const float r = q.radius > 0 ? std::max(q.radius, kMinRadiusRatio * d) : q.radius;
   put3(in, kT, j, q.toLight);
-  in.v[kR][j] = r;
+  in.v[kR][j] = q.radius;  // at least kMinRadiusRatio d: cone8
   put3(in, kXs, j, x.frame.s);
   put3(in, kXt, j, x.frame.t);
   put3(in, kXn, j, x.frame.n);
-  put3(in, kPs, j, p.frame.s);
-  put3(in, kPt, j, p.frame.t);
-  put3(in, kPn, j, p.frame.n);
-  put3(in, kG, j, p.geometricCosine ? p.ngLocal : Vec3(0, 0, 1));
   put3(in, kXw, j, x.f.w());
-  put3(in, kPw, j, p.f.w());
   in.v[kXax][j] = x.f.brdf().ggx.ax;
   in.v[kXay][j] = x.f.brdf().ggx.ay;
-  in.v[kPax][j] = p.f.brdf().ggx.ax;
-  in.v[kPay][j] = p.f.brdf().ggx.ay;
   in.v[kXon][j] = lobeOn(x.f) ? 1.0f : 0.0f;
-  in.v[kPon][j] = lobeOn(p.f) ? 1.0f : 0.0f;
-  in.v[kArea][j] = float(o.clippedDisk ? vslClippedDiskArea(r, dot(q.toLight, x.ng)) : M_PI * double(r) * double(r));
+  if (!emitterFilled) fillEmitterLane(p, j, in);
+  if (o.clippedDisk) {  // else pi r^2, in block8
+    const float r = q.radius > 0 ? std::max(q.radius, kMinRadiusRatio * length(q.toLight)) : q.radius;
+    in.v[kArea][j] = float(vslClippedDiskArea(r, dot(q.toLight, x.ng)));
+  }
   if (q.xPacked) {
     in.packed[0][j] = q.xPacked;
   } else {
@@ -126,35 +141,46 @@ void fillLane(const VslSgPair& q, int j, const VslOptions& o, LaneInputs& in) {
   }
 }
 
-VSL_AVX2 __m256 lane(const LaneInputs& in, int field) { return _mm256_load_ps(in.v[field]); }
-VSL_AVX2 Vec3x8 lane3(const LaneInputs& in, int field) {
+VSL_FMA __m256 lane(const LaneInputs& in, int field) { return _mm256_load_ps(in.v[field]); }
+VSL_FMA Vec3x8 lane3(const LaneInputs& in, int field) {
   return {lane(in, field), lane(in, field + 1), lane(in, field + 2)};
 }
-VSL_AVX2 __m256 dot3(const Vec3x8& a, const Vec3x8& b) { return add(add(mul(a.x, b.x), mul(a.y, b.y)), mul(a.z, b.z)); }
-VSL_AVX2 Vec3x8 cross3(const Vec3x8& a, const Vec3x8& b) {
-  return {sub(mul(a.y, b.z), mul(a.z, b.y)), sub(mul(a.z, b.x), mul(a.x, b.z)), sub(mul(a.x, b.y), mul(a.y, b.x))};
+VSL_FMA __m256 dot3(const Vec3x8& a, const Vec3x8& b) { return add(add(mul(a.x, b.x), mul(a.y, b.y)), mul(a.z, b.z)); }
+VSL_FMA Vec3x8 cross3(const Vec3x8& a, const Vec3x8& b) {
+  return {msub(a.y, b.z, mul(a.z, b.y)), msub(a.z, b.x, mul(a.x, b.z)), msub(a.x, b.y, mul(a.y, b.x))};
 }
-VSL_AVX2 Vec3x8 scale3(const Vec3x8& a, __m256 s) { return {mul(a.x, s), mul(a.y, s), mul(a.z, s)}; }
-VSL_AVX2 Vec3x8 add3(const Vec3x8& a, const Vec3x8& b) { return {add(a.x, b.x), add(a.y, b.y), add(a.z, b.z)}; }
-VSL_AVX2 Vec3x8 normalize3(const Vec3x8& a) { return scale3(a, div(splat(1), _mm256_sqrt_ps(dot3(a, a)))); }
+VSL_FMA Vec3x8 scale3(const Vec3x8& a, __m256 s) { return {mul(a.x, s), mul(a.y, s), mul(a.z, s)}; }
+VSL_FMA Vec3x8 add3(const Vec3x8& a, const Vec3x8& b) { return {add(a.x, b.x), add(a.y, b.y), add(a.z, b.z)}; }
+// Divisions and square roots are the lanes' slowest operations: 1/sqrt(q)
+// and a/b by their estimates (12 bits) and one Newton step, about 2e-7
+// relative. q = 0 and b = 0 give NaN (the callers exclude them).
+VSL_FMA __m256 invSqrt(__m256 q) {
+  const __m256 y = _mm256_rsqrt_ps(q);
+  return mul(mul(splat(0.5f), y), _mm256_fnmadd_ps(mul(q, y), y, splat(3)));
+}
+VSL_FMA __m256 quot(__m256 a, __m256 b) {
+  const __m256 y = _mm256_rcp_ps(b);
+  return mul(a, mul(y, _mm256_fnmadd_ps(b, y, splat(2))));
+}
+VSL_FMA Vec3x8 normalize3(const Vec3x8& a) { return scale3(a, invSqrt(dot3(a, a))); }
 // v in the frame (s, t, n) and back.
-VSL_AVX2 Vec3x8 toLocal3(const Vec3x8 f[3], const Vec3x8& v) { return {dot3(v, f[0]), dot3(v, f[1]), dot3(v, f[2])}; }
-VSL_AVX2 Vec3x8 toWorld3(const Vec3x8 f[3], const Vec3x8& v) {
-  return add3(add3(scale3(f[0], v.x), scale3(f[1], v.y)), scale3(f[2], v.z));
+VSL_FMA Vec3x8 toLocal3(const Vec3x8 f[3], const Vec3x8& v) { return {dot3(v, f[0]), dot3(v, f[1]), dot3(v, f[2])}; }
+VSL_FMA Vec3x8 toWorld3(const Vec3x8 f[3], const Vec3x8& v) {
+  return {madd(f[2].x, v.z, madd(f[1].x, v.y, mul(f[0].x, v.x))),
+          madd(f[2].y, v.z, madd(f[1].y, v.y, mul(f[0].y, v.x))),
+          madd(f[2].z, v.z, madd(f[1].z, v.y, mul(f[0].z, v.x)))};
 }
 
-// 1 - cos of the angle between u and a (any lengths), without cancellation
-// for small angles: sin^2 / (1 + cos) from the cross product.
-VSL_AVX2 __m256 oneMinusCos(const Vec3x8& u, const Vec3x8& a) {
-  const __m256 uuaa = mul(dot3(u, u), dot3(a, a));
-  const __m256 c = div(dot3(u, a), _mm256_sqrt_ps(uuaa));
+// 1 - cos of the angle between unit u and a without cancellation for
+// small angles: sin^2 / (1 + cos) from the cross product.
+VSL_FMA __m256 oneMinusCos(const Vec3x8& u, const Vec3x8& a) {
+  const __m256 c = dot3(u, a);
   const Vec3x8 x = cross3(u, a);
-  const __m256 small = div(div(dot3(x, x), uuaa), add(splat(1), c));
-  return select(greater(c, _mm256_setzero_ps()), small, sub(splat(1), c));
+  return select(greater(c, _mm256_setzero_ps()), quot(dot3(x, x), add(splat(1), c)), sub(splat(1), c));
 }
 
 // 1 - exp(-x) for x >= 0, by its series below 0.01 (no cancellation).
-VSL_AVX2 __m256 oneMinusExpNeg(__m256 x) {
+VSL_FMA __m256 oneMinusExpNeg(__m256 x) {
   const __m256 series = mul(x, sub(splat(1), mul(mul(x, splat(0.5f)), sub(splat(1), mul(x, splat(1.0f / 3.0f))))));
   return select(less(x, splat(0.01f)), series, sub(splat(1), exp8(neg(x))));
 }
@@ -165,22 +191,28 @@ struct Cone8 {
   Vec3x8 a;           // the axis x -> p (float unit; x's normal where d = 0)
   __m256 lambda;      // sgSharpnessForSolidAngle(omc)
   __m256 omc, chord;  // 1 - cos of the half-angle; 2 sin(half-angle / 2)
+  __m256 r;           // the radius, at least kMinRadiusRatio d
 };
 
-VSL_AVX2 void cone8(const LaneInputs& in, Cone8& c) {
+VSL_FMA void cone8(const LaneInputs& in, Cone8& c) {
   const Vec3x8 t = lane3(in, kT), n = lane3(in, kXn);
-  const __m256 d = _mm256_sqrt_ps(dot3(t, t)), r = lane(in, kR);
+  // The axis as the scalar form rounds it (a grazing axis's cosine
+  // magnifies any other rounding).
+  const __m256 d = _mm256_sqrt_ps(dot3(t, t)), r0 = lane(in, kR);
+  // (A radius that is zero or NaN stays so: no area, no transfer.)
+  const __m256 r = select(greater(r0, _mm256_setzero_ps()), _mm256_max_ps(r0, mul(splat(kMinRadiusRatio), d)), r0);
+  c.r = r;
   const __m256 dpos = greater(d, _mm256_setzero_ps());
   const __m256 inv = div(splat(1), d);
   c.a = {select(dpos, mul(t.x, inv), n.x), select(dpos, mul(t.y, inv), n.y), select(dpos, mul(t.z, inv), n.z)};
   // vslConeOneMinusCos: 1 inside the sphere (d <= r, NaN too).
-  const __m256 s = div(r, d), s2 = mul(s, s);
-  const __m256 omc = div(s2, add(splat(1), safeSqrt8(sub(splat(1), s2))));
+  const __m256 s = mul(r, inv), s2 = mul(s, s);
+  const __m256 omc = quot(s2, add(splat(1), safeSqrt8(sub(splat(1), s2))));
   c.omc = select(greater(d, r), omc, splat(1));
   // sgSharpnessForSolidAngle: 1/omc below 0.05, else Newton's steps from
   // there (monotone, quadratic: the fourth is within 1e-7 of the root from
   // omc = 1, the farthest start).
-  __m256 lambda = div(splat(1), c.omc);
+  __m256 lambda = quot(splat(1), c.omc);
   const __m256 wide = _mm256_cmp_ps(c.omc, splat(0.05f), _CMP_GE_OQ);
   if (!none(wide)) {
     __m256 l = select(wide, lambda, splat(1));
@@ -210,46 +242,54 @@ struct Lobe8 {
 
 // ndfAt: log(D_max / D(h)) / 2 = log e and the slope of log D per radian
 // from l toward the lobe's axis m (all local), over sin psi (= lambda_local
-// before its clamps); sinPsi the sine of the angle between l and m.
-VSL_AVX2 void ndf8(const Vec3x8& w, const Vec3x8& l, const Vec3x8& m, __m256 ax, __m256 ay, __m256& e,
-                   __m256& slopePerSin, __m256& sinPsi) {
-  Vec3x8 h = add3(w, l);
-  const __m256 len = _mm256_sqrt_ps(dot3(h, h));
-  h = scale3(h, div(splat(1), len));
-  const Vec3x8 Mh = {div(h.x, mul(ax, ax)), div(h.y, mul(ay, ay)), h.z};
-  e = dot3(h, Mh);
-  // The tangent at l toward m: (l x m) x l, normalised; sin psi = |l x m|.
+// before its clamps); sin2Psi the squared sine of the angle between l and
+// m. With hv = w + l (h = hv / |hv|) and tv = (l x m) x l the tangent
+// (|tv| = sin psi for unit l), d log D = -4 / (e |hv|) (M h - e h) . d l
+// gives slope / sin psi = -4 (M hv - e hv) . tv / (e |hv|^2 |tv| sin psi):
+// one square root and three divisions (M's two by one).
+VSL_FMA void ndf8(const Vec3x8& w, const Vec3x8& l, const Vec3x8& m, __m256 ax, __m256 ay, __m256& e,
+                  __m256& slopePerSin, __m256& sin2Psi) {
+  const Vec3x8 hv = add3(w, l);
+  const __m256 len2 = dot3(hv, hv), ax2 = mul(ax, ax), ay2 = mul(ay, ay);
+  const __m256 invA = quot(splat(1), mul(ax2, ay2));
+  const Vec3x8 Mhv = {mul(hv.x, mul(ay2, invA)), mul(hv.y, mul(ax2, invA)), hv.z};
+  e = div(dot3(hv, Mhv), len2);
   const Vec3x8 lm = cross3(l, m), tv = cross3(lm, l);
-  sinPsi = _mm256_sqrt_ps(dot3(lm, lm));
-  const Vec3x8 t = scale3(tv, div(splat(1), _mm256_sqrt_ps(dot3(tv, tv))));
-  // d log D = -4 / (e |w + l|) (M h - e h) . d l.
-  const __m256 slope = mul(div(splat(-4), mul(e, len)), sub(dot3(Mh, t), mul(e, dot3(h, t))));
-  const __m256 valid = both(greater(len, _mm256_setzero_ps()), greater(sinPsi, splat(1e-7f)));
-  slopePerSin = where(valid, div(slope, sinPsi));
-  e = select(greater(len, _mm256_setzero_ps()), e, splat(1));
+  sin2Psi = dot3(lm, lm);
+  const __m256 num = mul(splat(-4), sub(dot3(Mhv, tv), mul(e, dot3(hv, tv))));
+  const __m256 den = mul(mul(e, len2), _mm256_sqrt_ps(mul(dot3(tv, tv), sin2Psi)));
+  const __m256 lenPos = greater(len2, _mm256_setzero_ps());
+  slopePerSin = where(both(lenPos, greater(sin2Psi, splat(1e-14f))), div(num, den));
+  e = select(lenPos, e, splat(1));
 }
 
 // side 0: x's lobe about its mirror direction; 1: p's, seen from x along
 // minus its axis. l: the direction to the other end (local to this side).
-VSL_AVX2 void lobe8(const LaneInputs& in, int side, const Vec3x8 frame[3], const Vec3x8& l, const Cone8& c,
-                    Lobe8& out) {
+VSL_FMA void lobe8(const LaneInputs& in, int side, const Vec3x8 frame[3], const Vec3x8& l, const Cone8& c, Lobe8& out) {
   const Vec3x8 w = lane3(in, side == 0 ? kXw : kPw);
   const __m256 ax = lane(in, side == 0 ? kXax : kPax), ay = lane(in, side == 0 ? kXay : kPay);
   out.on = greater(lane(in, side == 0 ? kXon : kPon), splat(0.5f));
+  if (none(out.on)) {  // no product takes this lobe (block8)
+    out.u = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+    out.lambda = out.own = _mm256_setzero_ps();
+    return;
+  }
   // sgSpecularLobe: Wang et al. 2009's warped NDF.
-  const __m256 lambda = div(div(splat(2), mul(ax, ay)), mul(splat(4), _mm256_max_ps(splat(0.01f), w.z)));
+  const __m256 lambda = quot(splat(0.5f), mul(mul(ax, ay), _mm256_max_ps(splat(0.01f), w.z)));
   const Vec3x8 mLocal = {neg(w.x), neg(w.y), w.z};
   Vec3x8 u = toWorld3(frame, mLocal);
   if (side == 1) u = {neg(u.x), neg(u.y), neg(u.z)};
-  __m256 e, slopePerSin, sinPsi;
+  __m256 e, slopePerSin, sin2Psi;
   const Vec3x8 wn = normalize3(w);
-  ndf8(wn, normalize3(l), {neg(wn.x), neg(wn.y), wn.z}, ax, ay, e, slopePerSin, sinPsi);
+  ndf8(wn, normalize3(l), {neg(wn.x), neg(wn.y), wn.z}, ax, ay, e, slopePerSin, sin2Psi);
   // The local fit's sharpness, within [0, lambda] and below the lobe's peak at u.
-  __m256 lambdaLocal = select(greater(sinPsi, splat(1e-7f)),
+  __m256 lambdaLocal = select(greater(sin2Psi, splat(1e-14f)),
                               _mm256_min_ps(lambda, _mm256_max_ps(_mm256_setzero_ps(), slopePerSin)), lambda);
+  u = normalize3(u);
   const __m256 logPeak = mul(splat(2), log8(e)), rise = oneMinusCos(u, c.a);
-  lambdaLocal = select(greater(rise, splat(1e-12f)),
-                       _mm256_min_ps(lambdaLocal, div(_mm256_max_ps(logPeak, _mm256_setzero_ps()), rise)), lambdaLocal);
+  lambdaLocal =
+      select(greater(rise, splat(1e-12f)),
+             _mm256_min_ps(lambdaLocal, quot(_mm256_max_ps(logPeak, _mm256_setzero_ps()), rise)), lambdaLocal);
   // The global fit's share: the lobe's mass inside the cone, falling off
   // as its axis leaves it (angles as chords).
   const __m256 chordPsi = safeSqrt8(mul(splat(2), rise));
@@ -257,7 +297,7 @@ VSL_AVX2 void lobe8(const LaneInputs& in, int side, const Vec3x8 frame[3], const
   const __m256 inside = mul(lambda, c.omc), away = mul(mul(splat(0.5f), lambda), mul(outside, outside));
   const __m256 global = where(lessEqual(away, splat(40)), mul(oneMinusExpNeg(inside), exp8(neg(away))));
   const __m256 local = sub(splat(1), global);
-  out.u = normalize3(u);
+  out.u = u;
   out.lambda = where(out.on, add(mul(local, lambdaLocal), mul(global, lambda)));
   out.own = where(out.on, add(mul(mul(local, lambdaLocal), rise), mul(global, logPeak)));
 }
@@ -270,8 +310,9 @@ struct Cosines8 {
   Vec3x8 nx, np, w0;
 };
 
-// log of formula (1) over the area for the product of the cone, the
-// cosines and the lobes given (null: not in this product). Its exponent
+// Formula (1) over the area for the product of the cone, the cosines and
+// the lobes given (null: not in this product), as exp(E) g: returns E, sets
+// g = g(|v|). Its exponent
 // |v| - B is formed about the axis r of its sharpest factor:
 //   |v| - B = (|v| - v.r) + sum_k (lambda_k u_k.r - B_k),
 // |v| - v.r = |v x r|^2 / (|v| + v.r), and each factor's term exact:
@@ -279,8 +320,8 @@ struct Cosines8 {
 // -lambda (1 - u.r) + own. The sharpest factor's term is then 0 and no
 // large sharpness multiplies a rounding error: about a, a needle lobe's
 // own sharpness would multiply 1 - u.a's (the lobe's peak seen inside a
-// wide cone); about its own axis it does not. Plus log(2 pi g(|v|) / area).
-VSL_AVX2 __m256 logIntegral(const Cone8& c, const Cosines8& n, const Lobe8* const lobes[2], __m256 logNorm) {
+// wide cone); about its own axis it does not. E adds log(2 pi / area).
+VSL_FMA __m256 logIntegral(const Cone8& c, const Cosines8& n, const Lobe8* const lobes[2], __m256 logNorm, __m256& g) {
   Vec3x8 r = c.a;
   __m256 big = c.lambda;
   for (int s = 0; s < 2; ++s)
@@ -302,22 +343,27 @@ VSL_AVX2 __m256 logIntegral(const Cone8& c, const Cosines8& n, const Lobe8* cons
   const Vec3x8 x = cross3(v, r);
   const __m256 cross2 = dot3(x, x), P = dot3(v, r);
   const __m256 m = _mm256_sqrt_ps(add(mul(P, P), cross2));
-  const __m256 gap = select(greater(P, _mm256_setzero_ps()), div(cross2, add(m, P)), sub(m, P));
+  const __m256 gap = select(greater(P, _mm256_setzero_ps()), quot(cross2, add(m, P)), sub(m, P));
   // g(m) = (1 - exp(-2m)) / m, by its series below 0.01 (2 at m = 0).
   const __m256 series =
       sub(splat(2), mul(m, sub(splat(2), mul(m, sub(splat(4.0f / 3.0f), mul(m, splat(2.0f / 3.0f)))))));
-  const __m256 g = select(less(m, splat(0.01f)), series, div(oneMinusExpNeg(mul(splat(2), m)), m));
-  return add(add(gap, terms), add(log8(g), logNorm));
+  g = select(less(m, splat(0.01f)), series, quot(oneMinusExpNeg(mul(splat(2), m)), m));
+  return add(add(gap, terms), logNorm);
 }
 
-// sum[c] += amplitude[c] x the product's integral over the area, where mask.
-VSL_AVX2 void addProduct(const __m256 amplitude[3], __m256 logValue, __m256 mask, __m256 sum[3]) {
-  const __m256 s = where(mask, exp8(logValue));
-  for (int k = 0; k < 3; ++k) sum[k] = add(sum[k], mul(amplitude[k], s));
+// sum[c] += amplitude[c] x the product's integral over the area, exp(E) g,
+// where mask. Where E is large (a tiny area against a tail, g small), as
+// exp(E + log g), so that exp(E) alone does not overflow.
+VSL_FMA void addProduct(const __m256 amplitude[3], __m256 E, __m256 g, __m256 mask, __m256 sum[3]) {
+  __m256 s = mul(exp8(E), g);
+  const __m256 big = greater(E, splat(80));
+  if (!none(both(big, mask))) s = select(big, exp8(add(E, log8(g))), s);
+  s = where(mask, s);
+  for (int k = 0; k < 3; ++k) sum[k] = madd(amplitude[k], s, sum[k]);
 }
 
 // The BRDFs' parts at the axis: f[side][0 diffuse, 1 specular][channel].
-VSL_AVX2 void parts8(const LaneInputs& in, const Vec3x8& lx, const Vec3x8& lp, __m256 f[2][2][3]) {
+VSL_FMA void parts8(const LaneInputs& in, const Vec3x8& lx, const Vec3x8& lp, __m256 f[2][2][3]) {
   alignas(32) float dir[2][3][8], out[2][2][3][8];
   const Vec3x8* ls[2] = {&lx, &lp};
   for (int s = 0; s < 2; ++s) {
@@ -336,14 +382,15 @@ VSL_AVX2 void parts8(const LaneInputs& in, const Vec3x8& lx, const Vec3x8& lp, _
 // ---- [5] The block -----------------------------------------------------------------
 
 // Eight pairs' transfers into t[channel][lane].
-VSL_AVX2 void block8(const LaneInputs& in, float t[3][8]) {
+VSL_FMA void block8(const LaneInputs& in, bool clippedDisk, float t[3][8]) {
   Cone8 c;
   cone8(in, c);
   const Vec3x8 fx[3] = {lane3(in, kXs), lane3(in, kXt), lane3(in, kXn)};
   const Vec3x8 fp[3] = {lane3(in, kPs), lane3(in, kPt), lane3(in, kPn)};
   const Vec3x8 lx = toLocal3(fx, c.a), lp = toLocal3(fp, {neg(c.a.x), neg(c.a.y), neg(c.a.z)});
   const Vec3x8 gLocal = lane3(in, kG);
-  const __m256 cosX = lx.z, cosP = dot3(lp, gLocal), area = lane(in, kArea);
+  const __m256 cosX = lx.z, cosP = dot3(lp, gLocal);
+  const __m256 area = clippedDisk ? lane(in, kArea) : mul(splat(kPi), mul(c.r, c.r));
   const __m256 ok = both(both(greater(cosX, _mm256_setzero_ps()), greater(cosP, _mm256_setzero_ps())),
                          greater(area, _mm256_setzero_ps()));
   __m256 sum[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
@@ -376,7 +423,9 @@ VSL_AVX2 void block8(const LaneInputs& in, float t[3][8]) {
         }
         mask = both(mask, lit);
         if (none(mask)) continue;
-        addProduct(amplitude, logIntegral(c, n, in2, logNorm), mask, sum);
+        __m256 g;
+        const __m256 E = logIntegral(c, n, in2, logNorm, g);
+        addProduct(amplitude, E, g, mask, sum);
       }
   }
   // Non-finite results become 0, as the scalar form's.
@@ -388,15 +437,18 @@ VSL_AVX2 void block8(const LaneInputs& in, float t[3][8]) {
 
 }  // namespace
 
-VSL_AVX2 void vslTransferSgManyAvx2(int n, const VslSgPair* pairs, const VslOptions& options, Vec3* out) {
+VSL_FMA void vslTransferSgManyAvx2(int n, const VslSgPair* pairs, const VslOptions& options, Vec3* out) {
   LaneInputs in;
   static const VslSgPair kNone{};
   for (int i0 = 0; i0 < n; i0 += 8) {
     const int m = std::min(8, n - i0);
     if (m < 8) std::memset(in.v, 0, sizeof in.v);  // lanes past the pairs read zeros
-    for (int j = 0; j < 8; ++j) fillLane(j < m ? pairs[i0 + j] : kNone, j, options, in);
+    bool oneLight = true;
+    for (int j = 1; j < m; ++j) oneLight = oneLight && pairs[i0 + j].p == pairs[i0].p;
+    if (oneLight) fillEmitterAll(*pairs[i0].p, in);
+    for (int j = 0; j < 8; ++j) fillLane(j < m ? pairs[i0 + j] : kNone, j, options, oneLight, in);
     alignas(32) float t[3][8];
-    block8(in, t);
+    block8(in, options.clippedDisk, t);
     for (int j = 0; j < m; ++j) out[i0 + j] = Vec3(t[0][j], t[1][j], t[2][j]);
   }
 }
