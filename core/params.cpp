@@ -267,9 +267,10 @@ std::vector<Param<M>> vslIntegralParams() {
                  .appliesTo = "VSL",
                  .help = "VSL's cone integral: quadrature (Monte Carlo, the paper's) or sg (closed form by spherical "
                          "Gaussians, no samples; biased)",
-                 .why = "quadrature: unbiased per pair, and the closed form is not ahead of it on every scene "
-                        "(256 px, 15 s: 0.81x its error on kitchen, 0.99-1.02x on hall and tableau); sg trades "
-                        "a measured bias for cheaper pairs ([results](RESULTS.md#at-equal-time-256-px-15-s))",
+                 .why = "quadrature: the paper's, unbiased per pair; sg trades a measured bias for cheaper pairs "
+                        "(256 px, 15 s: 0.53-0.70x the quadrature's error at the defaults on kitchen, hall and "
+                        "tableau, level with the lobe gather; not yet measured at 512 px / 60 s) "
+                        "([results](RESULTS.md#at-equal-time-256-px-15-s))",
                  .words = {{"quadrature", double(VslIntegral::Quadrature)}, {"sg", double(VslIntegral::Sg)}},
                  .quiet = 0,
                  .preset = true},
