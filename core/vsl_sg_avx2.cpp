@@ -20,7 +20,9 @@
 // exp(E) g(|v|), E = |v| - B + log(2 pi / area), g(m) = (1 - exp(-2m)) / m,
 // so that a small tail meets a large amplitude without underflow (and
 // exp(E + log g) where E is large, so that exp(E) does not overflow).
-// Fused multiply-adds throughout (madd, core/simd.h). The BRDFs at the axis are
+// Fused multiply-adds (madd, core/simd.h) everywhere but the dot products,
+// which round as the scalar form's do (a grazing axis magnifies the
+// difference). The BRDFs at the axis are
 // BrdfAt::evalPartsPackedAvx2's (the scalar evalParts's bits). exp8 and
 // log8 (core/simd.h) have about 1e-7 relative error.
 //

@@ -433,10 +433,9 @@ TEST(VslSg, LaneExpAndLog) {
 // pairs each (not a multiple of eight: the last block is partial), with and
 // without the clipped disk. Prints the distribution of the relative
 // difference per channel (median, 99th percentile, worst). Measured
-// (2026-12-07): medians 2-3.4e-7, 99th percentiles 1e-6 to 1.5e-4 (zero
-// roughness), worst 3.4e-3 (a needle cone, r/d 1e-6, against an
-// anisotropic lobe of alpha 1e-4 x 0.81: float's rounding times
-// sharpnesses of 1e12). Tolerances: median 2e-6, 99th percentile 1e-3,
+// (2026-12-08, the estimated reciprocals of core/vsl_sg_avx2.cpp): medians
+// 1.9-3.4e-7, 99th percentiles 8e-7 to 1.1e-4 (zero roughness), worst
+// 2.4e-3 (zero roughness: float's rounding times sharpnesses of 1e12). Tolerances: median 2e-6, 99th percentile 1e-3,
 // worst 1e-2, and zero where the scalar form is zero (at most one pair of
 // a kind on either side of float's denormal range).
 TEST(VslSg, LanesAgreeWithTheScalarForm) {
