@@ -55,7 +55,7 @@ Result<void> EstimatorSettings::validate() const {
 
 Result<void> EstimatorSettings::validateWith(const ManyLightSettings& many) const {
   const EstimatorInfo* info = findEstimator(name);
-  if (info && info->validateWith) return info->validateWith(many);
+  if (info && info->validateWith) return info->validateWith(many, *this);
   return {};
 }
 

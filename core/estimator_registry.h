@@ -68,7 +68,7 @@ struct EstimatorInfo {
   // Optional checks beyond the parameters' ranges, and of the many-light
   // settings (EstimatorSettings::validate and validateWith).
   std::function<Result<void>(const EstimatorSettings&)> validate;
-  std::function<Result<void>(const ManyLightSettings&)> validateWith;
+  std::function<Result<void>(const ManyLightSettings&, const EstimatorSettings&)> validateWith;
   // Optional: what it holds beyond brute force's buffers at `pixels` pixels
   // (the studio's memory check, Session::checkMemory).
   std::function<ExtraMemory(const EstimatorSettings&, uint64_t pixels)> memory;

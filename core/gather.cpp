@@ -253,24 +253,34 @@ void Gatherer::evaluate(const GatherPoint& gp, const GatherLight& L, uint64_t li
   if (connect(gp, L, g, c)) addConnected(gp, L, g, lightId, pixel, acc, c);
 }
 
-bool Gatherer::orient(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, Ray& ray, bool& needsRay,
-                      GatherCounters& c) const {
-  ++c.pairs;
+bool Gatherer::facing(const GatherPoint& gp, const Vec3& p, const Vec3& n, const Vec3& ng, PairGeometry& g) {
   g.weight = 1;
-  g.d = L.p - gp.p;
+  g.d = p - gp.p;
   g.d2 = lengthSquared(g.d);
   g.dist = std::sqrt(g.d2);
   g.l = g.dist > 0 ? g.d / g.dist : gp.rx.frame.n;
   g.cosX = dot(gp.rx.frame.n, g.l);
-  g.cosP = -dot(L.n, g.l);
-  float cosXg = dot(gp.rx.ng, g.l), cosPg = -dot(L.ng, g.l);
+  g.cosP = -dot(n, g.l);
+  float cosXg = dot(gp.rx.ng, g.l), cosPg = -dot(ng, g.l);
   // Both sides must face each other along the direction to the light's
   // centre, by shading and geometric normals, for VPLs and VSLs alike (as in
   // the VSL authors' shader). Without this a VSL on the back of a thin wall,
   // with the receiver inside its sphere, would light the wall's front through
   // it. The BRDFs are evaluated after the visibility test, so blocked pairs
   // never pay for them.
-  if (!(g.d2 > 0 && g.cosX > 0 && cosXg > 0 && g.cosP > 0 && cosPg > 0)) return false;
+  return g.d2 > 0 && g.cosX > 0 && cosXg > 0 && g.cosP > 0 && cosPg > 0;
+}
+
+bool Gatherer::facing(const GatherPoint& gp, const VirtualLight& v) {
+  const Vec3 ng = decodeUnit(v.ng);
+  PairGeometry g;
+  return facing(gp, v.p, v.normalMapped ? ng : decodeUnit(v.n), ng, g);
+}
+
+bool Gatherer::orient(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, Ray& ray, bool& needsRay,
+                      GatherCounters& c) const {
+  ++c.pairs;
+  if (!facing(gp, L.p, L.n, L.ng, g)) return false;
   if (!computeVpl_ && !computeVsl_) return false;
   // One visibility ray feeds every estimate: segmentRay with both ends'
   // offsets precomputed (the same values).
@@ -448,6 +458,57 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
     r = vslTransferBlock(*pr.rx, *pr.em, g.d, pr.radius, vsl_, prng);
   }
   addVslResult(gp, L, g, r, acc, c);
+}
+
+Vec3 Gatherer::vslAlong(const GatherPoint& gp, const GatherLight& L, const Vec3& l, PairGeometry& g,
+                        GatherCounters& c) const {
+  if (!computeVsl_) return Vec3(0.0f);
+  Ray s;
+  bool needsRay = false;
+  if (!orient(gp, L, g, s, needsRay, c)) return Vec3(0.0f);
+  VslPair pr;
+  if (!vslPair(gp, L, g, pr)) return Vec3(0.0f);
+  const Vec3 v = vslIntegrand(*pr.rx, *pr.em, g.d, pr.radius, vsl_, l);
+  if (isBlack(v) || (needsRay && accel_.occluded(s))) return Vec3(0.0f);
+  return gp.beta * L.Phi * v;
+}
+
+namespace {
+// The direction in the cone around the unit axis a (1 - cos of its
+// half-angle omc) nearest the unit direction m.
+Vec3 nearestInCone(const Vec3& a, double omc, const Vec3& m) {
+  const float am = dot(a, m);
+  if (1.0 - double(am) <= omc) return m;
+  Vec3 u = m - a * am;
+  const float len = length(u);
+  if (!(len > 0)) return a;  // m opposite a: every rim direction is as near
+  u = u / len;
+  const double cosT = 1.0 - std::min(omc, 1.0), sinT = std::sqrt(std::max(0.0, omc * (2.0 - omc)));
+  return normalize(a * float(cosT) + u * float(sinT));
+}
+}  // namespace
+
+double Gatherer::vslConeMass(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g) const {
+  VslPair pr;
+  if (!computeVsl_ || !vslPair(gp, L, g, pr)) return 0;
+  const double omc = vslConeOneMinusCos(pr.radius, g.dist);
+  const BrdfAt& f = pr.rx->f;
+  const Vec3 wo = f.w();
+  const Vec3 mirror = pr.rx->frame.toWorld(Vec3(-wo.x, -wo.y, wo.z));
+  const float pdf = f.pdf(pr.rx->frame.toLocal(nearestInCone(g.l, omc, mirror)));
+  const double solidAngle = 2.0 * M_PI * omc, mass = double(pdf) * solidAngle;
+  // Where the light's own lobe is narrower than the cone (its pdf could put
+  // more than kVslStrategyMass of its samples there), the integrand varies
+  // over the cone with that lobe, which the receiver's samples do not
+  // follow (the quadrature samples it): their share shrinks in proportion.
+  const double massP = double(pr.em->f.pdfBound()) * solidAngle;
+  const double share = massP > kVslStrategyMass ? kVslStrategyMass / massP : 1.0;
+  return std::isfinite(mass * share) ? std::clamp(mass * share, 0.0, 1.0) : 0.0;
+}
+
+float Gatherer::vslRadiusScaleBound() const {
+  if (lobeRadius_ > 0) return kInf;
+  return lobeFloor_ > 0 ? kVslLobeFloorRadiusScale : 1.0f;
 }
 
 void Gatherer::addVslResult(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, const VslResult& r,

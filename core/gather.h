@@ -162,6 +162,14 @@ class Gatherer {
   // shadow ray; false: the pair contributes nothing), then each estimator's
   // transfer. addVpl and addVsl do nothing for an estimator not computed.
   bool connect(const GatherPoint& gp, const GatherLight& L, PairGeometry& g, GatherCounters& c) const;
+  // connect()'s orientation tests alone, for a light at p with the normal
+  // of its emission cosine n and geometric normal ng (GatherLight's): both
+  // sides face each other along the direction to p (g's direction and
+  // cosines set). The second form reads them from an undecoded light,
+  // with the same result as on decodeGatherLight(v)'s (a cheap test before
+  // the decoding).
+  static bool facing(const GatherPoint& gp, const Vec3& p, const Vec3& n, const Vec3& ng, PairGeometry& g);
+  static bool facing(const GatherPoint& gp, const VirtualLight& v);
   // connect() for one light against many gather points, with the shadow rays
   // traced as one coherent batch (Accel::occluded on a span: 2-4x the rays/s
   // of one call per ray when the points are neighbouring pixels). Sets
@@ -251,6 +259,26 @@ class Gatherer {
   }
   void addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g, uint64_t lightId, uint64_t pixel,
               double acc[kGatherLayers][3], GatherCounters& c) const;
+
+  // For an estimator that samples directions from the receiver's BRDF
+  // (stochastic lightcuts' lobe strategy, docs/REFERENCE.md "Estimators"):
+  // the pair of gp and L oriented as connect() orients it (g set, the pair
+  // and its ray counted), then the VSL contribution's integrand along the
+  // unit direction l (beta Phi vslIntegrand of the pair as addVsl gathers
+  // it, so that its integral over l is addVsl's expected contribution),
+  // and only where that is not zero the shadow ray: zero where the pair is
+  // not oriented, l leaves its cone or the ray is blocked.
+  Vec3 vslAlong(const GatherPoint& gp, const GatherLight& L, const Vec3& l, PairGeometry& g, GatherCounters& c) const;
+  // The share of the receiver's BRDF samples that land in the pair's cone,
+  // estimated (for the lobe strategy's weights; any value in [0, 1] keeps
+  // them unbiased): min(1, the sampling pdf at the cone's direction nearest
+  // the mirror direction x the cone's solid angle). Zero where VSL gathers
+  // nothing from the pair.
+  double vslConeMass(const GatherPoint& gp, const GatherLight& L, const PairGeometry& g) const;
+  // The largest factor vslPair applies to a light's radius (the lobe
+  // floor's sphere, kVslLobeFloorRadiusScale); infinite with the lobe-aware
+  // radius (ManyLightSettings::lobeRadius), which no factor bounds.
+  float vslRadiusScaleBound() const;
 
   // The VSL pair as addVsl gathers it: the receiver (its diffuse lobe at a
   // lobe-gathered point), the light (its lobe widened by the floor) and the

@@ -247,6 +247,21 @@ VslResult scalarQuadrature(const VslReceiver& x, const VslEmitter& p, const VslC
 
 }  // namespace
 
+Vec3 vslIntegrand(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
+                  const VslOptions& options, const Vec3& l) {
+  // VslCone's axis, inCone, accept and normalise, for one direction.
+  const double d = length(toLight);
+  const Vec3 axis = d > 0 ? toLight / float(d) : x.frame.n;
+  if (0.5 * double(lengthSquared(l - axis)) > vslConeOneMinusCos(radius, d) || dot(l, x.ng) <= 0) return Vec3(0.0f);
+  const Vec3 lx = x.frame.toLocal(l), lp = p.frame.toLocal(-l);
+  if (!(lx.z > 0 && lp.z > 0)) return Vec3(0.0f);
+  const double area = options.clippedDisk ? vslClippedDiskArea(radius, dot(toLight, x.ng)) : M_PI * radius * radius;
+  if (!(area > 0)) return Vec3(0.0f);
+  const Vec3 f = x.f.eval(lx) * p.f.eval(lp) * (lx.z * p.cosine(lp));
+  const Vec3 v(float(f.x / area), float(f.y / area), float(f.z / area));
+  return isFinite(v) ? v : Vec3(0.0f);
+}
+
 VslResult vslTransfer(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
                       const VslOptions& options, Rng& rng) {
   return scalarQuadrature(x, p, VslCone(x, p, toLight, radius, options), toLight, radius, options, rng);

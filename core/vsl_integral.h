@@ -200,6 +200,15 @@ bool vslLobeFloorApplies(const VslReceiver& x, const VslEmitter& p);
 // kitchen and tableau within 1.5% of the floor alone.
 constexpr float kVslLobeFloorRadiusScale = 1.5f;
 
+// The quadrature's integrand along the unit direction l (world), with its
+// normalisation: f_x(l) max(0, n_x.l) f_p(-l) cos_p / area where l lies in
+// the cone and above both sides' surfaces (VslCone's tests), else zero. Its
+// integral over directions is the transfer vslTransfer estimates, so an
+// estimator that samples directions itself (stochastic lightcuts' lobe
+// strategy, docs/REFERENCE.md "Estimators") gathers the same light.
+Vec3 vslIntegrand(const VslReceiver& x, const VslEmitter& p, const Vec3& toLight, double radius,
+                  const VslOptions& options, const Vec3& l);
+
 // toLight = p - x. The scalar reference form: per round, the cone's sample
 // (two uniforms), then the receiver's BRDF's (three: the lobe, then the
 // direction) and the light's (three); each strategy's terms summed in the

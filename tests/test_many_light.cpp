@@ -488,6 +488,48 @@ TEST(VslIntegralStats, MatchesDenseQuadrature) {
   }
 }
 
+// vslIntegrand is the quadrature's integrand: over directions drawn from
+// the receiver's BRDF (as stochastic lightcuts' lobe strategy draws them,
+// core/estimators/slc/slc.cpp), its mean over the pdf matches the dense
+// quadrature of the cone integral (z of 4 plus 0.2%), with the plain and
+// the clipped disk's area; it is zero outside the cone and below the
+// receiver.
+TEST(VslIntegralStats, IntegrandOverReceiverSamplesIsTheTransfer) {
+  struct Case {
+    float roughX, roughP, r;
+    bool clipped;
+  };
+  for (Case c : {Case{0.3f, 0.3f, 0.2f, false}, Case{0.25f, 0.8f, 0.5f, false}, Case{0.8f, 0.25f, 0.3f, true},
+                 Case{0.5f, 0.5f, 1.5f, false}, Case{0.25f, 0.9f, 0.05f, false}}) {
+    const Vec3 toLight(0.3f, 0.1f, 1.0f), l = normalize(toLight);
+    const Vec3 np = normalize(Vec3(0.2f, 0.0f, -1.0f));
+    const VslReceiver x =
+        receiver(Brdf::fromGltf(Vec3(0.9f), 1.0f, c.roughX, 0), Vec3(0, 0, 1), reflect(l, Vec3(0, 0, 1)));
+    const VslEmitter p = emitter(Brdf::fromGltf(Vec3(0.9f), 1.0f, c.roughP, 0), np, reflect(-l, np));
+    VslOptions options;
+    options.clippedDisk = c.clipped;
+    Vec3 ref = coneReference(x, p, toLight, c.r, 4000000);
+    if (c.clipped) ref = ref * float(M_PI * c.r * c.r / vslClippedDiskArea(c.r, dot(toLight, x.ng)));
+    const int n = 400000;
+    double s = 0, s2 = 0;
+    Rng g(11, 7);
+    for (int i = 0; i < n; ++i) {
+      const float u0 = g.uniform(), u1 = g.uniform(), u2 = g.uniform();
+      const std::optional<BrdfSample> smp = x.f.sample(u0, {u1, u2});
+      const double v = smp ? vslIntegrand(x, p, toLight, c.r, options, x.frame.toWorld(smp->wi)).y / smp->pdf : 0.0;
+      s += v;
+      s2 += v * v;
+    }
+    const double mean = s / n, se = std::sqrt(std::max(s2 / n - mean * mean, 0.0) / n);
+    std::printf("integrand (rx %.2f, rp %.2f, r %.2f%s): %.6g +- %.2g, quadrature %.6g\n", c.roughX, c.roughP, c.r,
+                c.clipped ? ", clipped" : "", mean, se, ref.y);
+    EXPECT_NEAR(mean, ref.y, 4 * se + 2e-3 * ref.y) << "rx " << c.roughX << " rp " << c.roughP << " r " << c.r;
+    // Outside the cone (the opposite side of the sphere's axis) and below x.
+    EXPECT_TRUE(isBlack(vslIntegrand(x, p, toLight, c.r, options, normalize(Vec3(-0.9f, -0.3f, 0.1f)))));
+    EXPECT_TRUE(isBlack(vslIntegrand(x, p, toLight, c.r, options, Vec3(0, 0, -1))));
+  }
+}
+
 // The lobe-aware count: the angle's count where a lobe could put at least
 // kVslStrategyMass of its samples into the cone, scaled down in proportion
 // below that (at least 1). Two rough (diffuse) lobes and a 5-degree cone:

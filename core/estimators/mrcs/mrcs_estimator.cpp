@@ -294,7 +294,7 @@ EstimatorInfo plugins::mrcs() {
   e.parseShorthand = parseShorthand;
   e.describe = describeMrcs;
   e.validate = [](const EstimatorSettings& s) { return mrcsSettings(s).validate(); };
-  e.validateWith = [](const ManyLightSettings& many) -> Result<void> {
+  e.validateWith = [](const ManyLightSettings& many, const EstimatorSettings&) -> Result<void> {
     if (many.pairRoulette > 0) return Error("pair-roulette: brute force only, not with MRCS");
     return {};
   };

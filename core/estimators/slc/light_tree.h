@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/check.h"
 #include "core/gather.h"
 #include "core/math.h"
 #include "core/rng.h"
@@ -157,6 +158,33 @@ class LightTree {
   int sampleSplit(const LightTreeReceiver& r, Rng& rng, float floor, int count, Sample* out) const;
   // The pdf sample() gives light i at the receiver.
   double pdf(const LightTreeReceiver& r, uint32_t light, float floor) const;
+  // Every light whose sphere of radius radiusScale x its VSL radius the ray
+  // from o along the unit direction dir (t >= 0) meets, or that holds o,
+  // handed to visit(light); the test is each entry's bounding sphere (its
+  // box's half diagonal plus radiusScale x its largest radius, a hair wider
+  // against rounding), so a few near misses come too. A superset of the
+  // lights whose VSL cone at o holds dir (stochastic lightcuts' lobe
+  // strategy, docs/REFERENCE.md "Estimators").
+  template <typename Visit>
+  void lightsOnRay(const Vec3& o, const Vec3& dir, float radiusScale, Visit&& visit) const {
+    if (wide_.empty()) return;
+    int32_t stack[kRayStack];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const LightTreeWide& w = wide_[size_t(stack[--top])];
+      for (int lane = 0; lane < 4; ++lane) {
+        const int32_t child = w.child[lane];
+        if (child == LightTreeWide::kEmpty || !rayMeets(w, lane, o, dir, radiusScale)) continue;
+        if (child < 0) {
+          visit(uint32_t(-(child + 1)));
+        } else {
+          VSL_CHECK(top < kRayStack);
+          stack[top++] = child;
+        }
+      }
+    }
+  }
   double buildSeconds() const { return buildSeconds_; }
   // Bytes held.
   size_t bytes() const {
@@ -169,6 +197,18 @@ class LightTree {
     float flux, radius;
   };
   struct Descent;
+  static constexpr int kRayStack = 512;
+  // Does the ray o + t dir (t >= 0) meet entry lane's bounding sphere, or
+  // start inside it? The distance from its line by the perpendicular
+  // vector, not |v|^2 - t^2 (which cancels for far entries).
+  static bool rayMeets(const LightTreeWide& w, int lane, const Vec3& o, const Vec3& dir, float radiusScale) {
+    const float R = (w.halfDiag[lane] + radiusScale * w.radius[lane]) * 1.001f;
+    const Vec3 v(w.cx[lane] - o.x, w.cy[lane] - o.y, w.cz[lane] - o.z);
+    const float R2 = R * R;
+    if (lengthSquared(v) <= R2) return true;
+    const float t = dot(v, dir);
+    return t >= 0 && lengthSquared(v - dir * t) <= R2;
+  }
   static int strategy(float u, float floor, float share);
   bool descend(const LightTreeReceiver& r, float u, float floor, Descent& d, Sample& out) const;
   void finish(const LightTreeReceiver& r, Rng& rng, float floor, Descent* d, int count, Sample* out) const;

@@ -16,6 +16,29 @@
 //   slc-independent off  each draw its own descent (off: a step's draws
 //                      split over the tree in proportion to their
 //                      probabilities, LightTree::sampleSplit)
+//   slc-lobe-rays  1    the lobe strategy's directions per gather point
+//                      per step (below; 0: off)
+//   slc-lobe-alpha 0.05 its receivers: specular lobe narrower than this
+//
+// The lobe strategy. A narrow receiver lobe whose mirror direction meets a
+// VSL's sphere takes most of that light from the first sphere it meets,
+// which the tree's bounds cannot tell from the spheres behind it (they
+// know no visibility): that light is drawn rarely and weighs much
+// (docs/RESULTS.md, "Stochastic lightcuts"). So at such receivers M
+// directions are also drawn from the receiver's BRDF, and every light
+// whose cone holds a direction (LightTree::lightsOnRay) adds its VSL
+// integrand there over the direction's pdf (Gatherer::vslAlong). The two
+// strategies are combined per light (Veach 1997's balance heuristic over
+// the light's expected draws): light i counts w_A = K p(i) / (K p(i) +
+// M q(i)) of its VSL contribution from the tree's draws and w_B = 1 - w_A
+// from the directions, p(i) its tree probability, q(i) the estimated share
+// of BRDF samples that land in its cone (Gatherer::vslConeMass). The
+// weights sum to one for every light and each strategy covers the lights
+// it weighs, so the sum stays unbiased; only VSL's layer uses the
+// directions (a VPL has no sphere to meet). Where VSL takes the closed
+// form, the tree's share is the closed form's and the directions' share
+// the quadrature's integral.
+//
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
 // unbiased estimate of brute force's all-lights image and the images are
@@ -43,13 +66,17 @@ SlcSettings slcSettings(const EstimatorSettings& est) {
   s.steps = int(est.value("slc-steps"));
   s.floor = float(est.value("slc-floor"));
   s.independent = est.value("slc-independent") != 0;
+  s.lobeRays = int(est.value("slc-lobe-rays"));
+  s.lobeAlpha = float(est.value("slc-lobe-alpha"));
   return s;
 }
 
 EstimatorSettings slcEstimatorSettings(const SlcSettings& s) {
   EstimatorSettings e;
   e.name = "slc";
-  e.values = {{"slc-samples", s.samples}, {"slc-steps", s.steps}, {"slc-floor", double(s.floor)}};
+  e.values = {{"slc-samples", s.samples},     {"slc-steps", s.steps},
+              {"slc-floor", double(s.floor)}, {"slc-independent", s.independent ? 1.0 : 0.0},
+              {"slc-lobe-rays", s.lobeRays},  {"slc-lobe-alpha", double(s.lobeAlpha)}};
   return e;
 }
 
@@ -112,6 +139,16 @@ class SlcEstimator final : public ManyLightEstimator {
   void gatherTile(Step& st, const Gatherer& gatherer, int x0, int y0, int x1, int y1);
   void gatherPoint(Step& st, const Gatherer& gatherer, const GatherPoint& gp, size_t pix, int k, Rng& pick,
                    double acc[kGatherLayers][3], GatherCounters& c, double& vplOwn, double& vslOwn) const;
+  void lobeDirections(const Gatherer& gatherer, const GatherPoint& gp, const LightTreeReceiver& r, int K, int M,
+                      Rng& pick, double acc[kGatherLayers][3], GatherCounters& c) const;
+  // The lobe strategy's directions at gp in step s (0: not used there).
+  int lobeRaysAt(const GatherPoint& gp, const LightTreeReceiver& r, int s) const {
+    if (slc_.lobeRays <= 0 || !many_.computeVsl || gp.lobe || !r.specularOn) return 0;
+    if (!(std::min(r.ax, r.ay) < slc_.lobeAlpha)) return 0;
+    // None in the first step of several: its quick picture costs what it did
+    // (each step is unbiased on its own, whatever its M).
+    return s == 0 && slc_.steps > 1 ? 0 : slc_.lobeRays;
+  }
   void merge(const Step& st);
   // Draws per gather point in step s: slc-samples, but one in the first
   // step of a light set of several, so that its first picture costs about
@@ -267,6 +304,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   // computed, else the clamped VPL.
   const LightTreeReceiver r = LightTreeReceiver::make(gp, many_.computeVsl, many_.computeVsl ? kInf : clamp_);
   const int K = drawsIn(st.s);
+  const int M = lobeRaysAt(gp, r, st.s);
   const bool both = many_.computeVpl && many_.computeVsl;
   thread_local std::vector<LightTree::Sample> drawn;
   drawn.resize(size_t(K));
@@ -286,10 +324,51 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
     gatherer.addVpl(gp, L, g, one, c);
     if (both) vplOwn += own.lap();
     gatherer.addVsl(gp, L, g, smp.light, drawStream(pix, k, drawsBefore(st.s) + j), one, c);
+    if (M > 0) {  // the tree's share of the light (the lobe strategy, above)
+      const double Kp = double(K) * smp.pdf, wA = Kp / (Kp + double(M) * gatherer.vslConeMass(gp, L, g));
+      for (double& v : one[kVslLayer]) v *= wA;
+    }
     if (both) vslOwn += own.seconds();
     const double w = smp.count / (double(K) * smp.pdf);
     for (int l = 0; l < kGatherLayers; ++l)
       for (int ch = 0; ch < 3; ++ch) acc[l][ch] += one[l][ch] * w;
+  }
+  if (M > 0) {
+    Stopwatch own;
+    lobeDirections(gatherer, gp, r, K, M, pick, acc, c);
+    if (both) vslOwn += own.seconds();
+  }
+}
+
+// The lobe strategy's share (see the top of this file): M directions from
+// the receiver's BRDF, each light whose cone holds one adding w_B of its
+// integrand there over M x the direction's pdf.
+void SlcEstimator::lobeDirections(const Gatherer& gatherer, const GatherPoint& gp, const LightTreeReceiver& r, int K,
+                                  int M, Rng& pick, double acc[kGatherLayers][3], GatherCounters& c) const {
+  const float scale = gatherer.vslRadiusScaleBound();
+  for (int m = 0; m < M; ++m) {
+    const float u0 = pick.uniform(), u1 = pick.uniform(), u2 = pick.uniform();
+    const std::optional<BrdfSample> s = gp.rx.f.sample(u0, {u1, u2});
+    if (!s || !(s->pdf > 0)) continue;
+    const Vec3 l = gp.rx.frame.toWorld(s->wi);
+    if (!(dot(l, gp.rx.ng) > 0)) continue;  // the integrand is zero below the surface
+    tree_.lightsOnRay(gp.p, l, scale, [&](uint32_t i) {
+      if (!Gatherer::facing(gp, run_.set.lights[i])) return;  // before decoding it
+      const GatherLight L = decodeGatherLight(run_.set.lights[i], run_.radii[i]);
+      PairGeometry g;
+      const Vec3 v = gatherer.vslAlong(gp, L, l, g, c);
+      if (isBlack(v)) return;
+      const double Mq = double(M) * gatherer.vslConeMass(gp, L, g);
+      if (!(Mq > 0)) return;  // the tree's draws hold all of this light
+      const double wB = Mq / (Mq + double(K) * tree_.pdf(r, i, slc_.floor));
+      const double w = wB / (double(M) * double(s->pdf));
+      const Vec3 add = v * float(w);
+      if (!isFinite(add)) {
+        ++c.nonFinite;
+        return;
+      }
+      for (int ch = 0; ch < 3; ++ch) acc[kVslLayer][ch] += add[ch];
+    });
   }
 }
 
@@ -399,6 +478,44 @@ std::vector<EstimatorParam> slcParams() {
   };
 }
 
+// The lobe strategy's (the top of this file).
+std::vector<EstimatorParam> slcLobeParams() {
+  return {
+      {{.name = "slc-lobe-rays",
+        .key = "slcLobeRays",
+        .kind = ParamKind::Int,
+        .tier = ParamTier::Experimental,
+        .appliesTo = "VSL",
+        .min = 0,
+        .max = 1024,
+        .unit = "per gather point",
+        .help = "Stochastic lightcuts: directions drawn from the receiver's BRDF per step at narrow receivers, each "
+                "light whose sphere a direction meets combined with the tree's draws by MIS (the lobe strategy)",
+        .why = "1: kitchen at 100,000 VSLs, 20 s, five light sets: relMSE 0.47 -> 0.41, worst set 2.6 -> 0.57; at "
+               "1,000,000: 1.86 -> 0.70; cornell-glossy 0.075 -> 0.072; 2 was slower for less "
+               "([RESULTS](RESULTS.md#stochastic-lightcuts))",
+        .words = {{"off", 0}},
+        .uiMin = 0,
+        .uiMax = 64},
+       SlcSettings::kDefaultLobeRays},
+      {{.name = "slc-lobe-alpha",
+        .key = "slcLobeAlpha",
+        .tier = ParamTier::Experimental,
+        .appliesTo = "VSL",
+        .min = 0,
+        .max = 1,
+        .minOpen = true,
+        .unit = "GGX alpha",
+        .help = "Stochastic lightcuts' lobe strategy: receivers whose specular lobe is narrower than this",
+        .why = "covers kitchen's near-mirror receivers (GGX alpha 0.01), where the tail was; not tuned "
+               "([RESULTS](RESULTS.md#stochastic-lightcuts))",
+        .uiMin = 0.001,
+        .uiMax = 1,
+        .uiLog = true},
+       SlcSettings::kDefaultLobeAlpha},
+  };
+}
+
 }  // namespace
 
 namespace plugins {
@@ -415,11 +532,14 @@ EstimatorInfo plugins::slc() {
       "Stochastic lightcuts (Yuksel 2019): per gather point, SAMPLES lights drawn from a light tree by bounds of "
       "their contribution, in STEPS progressive steps (unbiased after each step)";
   e.params = slcParams();
+  for (EstimatorParam& p : slcLobeParams()) e.params.push_back(std::move(p));
   // VSL's radii shape the tree's bounds, and VPL's draws with them.
   e.methodsShareChoices = true;
-  e.validateWith = [](const ManyLightSettings& many) -> Result<void> {
+  e.validateWith = [](const ManyLightSettings& many, const EstimatorSettings& est) -> Result<void> {
     if (many.pairRoulette > 0) return Error("pair-roulette: brute force only, not with stochastic lightcuts");
     if (many.lobeGather > 0) return Error("lobe-gather: not with stochastic lightcuts");
+    if (many.lobeRadius > 0 && est.value("slc-lobe-rays") > 0)
+      return Error("lobe-radius: not with stochastic lightcuts' lobe strategy (slc-lobe-rays)");
     return {};
   };
   // The tree: about one wide node per two lights (kitchen's and random

@@ -11,7 +11,13 @@ struct SlcSettings {
   int steps = kDefaultSteps;      // steps per light set
   float floor = kDefaultFloor;    // share of descents by flux alone
   bool independent = false;       // each draw its own descent (else split)
+  // The lobe strategy (slc.cpp): BRDF directions per gather point per step
+  // at receivers whose specular lobe is narrower than lobeAlpha (0: off).
+  int lobeRays = kDefaultLobeRays;
+  float lobeAlpha = kDefaultLobeAlpha;
   static constexpr int kDefaultSamples = 4;
+  static constexpr int kDefaultLobeRays = 1;
+  static constexpr float kDefaultLobeAlpha = 0.05f;
   static constexpr int kDefaultSteps = 16;
   static constexpr float kDefaultFloor = 0.05f;
 };
