@@ -33,8 +33,8 @@ void addRenderOptions(CLI::App* render, RenderArgs& ra) {
   render
       ->add_option("--method", ra.settings.method,
                    "pt (path-traced reference), vsl, vpl, or all (VSL, clamped VPL and the missing-energy layers "
-                   "from one light set); vsl-sg is vsl --vsl-integral sg")
-      ->check(CLI::IsMember({"pt", "vsl", "vpl", "all", "vsl-sg"}))
+                   "from one light set); vsl-sg and vsl-quadrature are vsl with --vsl-integral sg or quadrature")
+      ->check(CLI::IsMember({"pt", "vsl", "vpl", "all", "vsl-sg", "vsl-quadrature"}))
       ->default_str("pt");
   addVslOptions(render, ra.many);
   addEstimatorOptions(render, ra.estimatorOptions);
@@ -200,11 +200,12 @@ int renderPathTraced(const RenderArgs& a, const RenderContext& ctx) {
 int cmdRender(RenderArgs& a) {
   if (!parseComponent(a.component, &a.settings.component))
     return failf(kExitBadArguments, "--component must be full, direct or indirect (got '%s')", a.component.c_str());
-  // --method vsl-sg: VSL with the closed-form cone integral (core/vsl_sg.h);
-  // recorded as vsl with --vsl-integral sg, so that replays need no alias.
-  if (a.settings.method == "vsl-sg") {
+  // --method vsl-sg / vsl-quadrature: VSL with that cone integral
+  // (core/vsl_sg.h, core/vsl_integral.h); recorded as vsl with
+  // --vsl-integral, so that replays need no alias.
+  if (a.settings.method == "vsl-sg" || a.settings.method == "vsl-quadrature") {
+    a.many.vslIntegral = a.settings.method == "vsl-sg" ? VslIntegral::Sg : VslIntegral::Quadrature;
     a.settings.method = "vsl";
-    a.many.vslIntegral = VslIntegral::Sg;
   }
   if (Result<void> v = a.settings.validate(); !v) return fail(kExitBadArguments, v.error());
   Result<EnvironmentSettings> env = resolveEnvironmentOptions(a.envOptions);

@@ -34,6 +34,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -60,14 +61,17 @@ struct SweepMethod {
   Method gather;  // Pt, Vsl or Vpl
   const char* estimator;
   bool progressiveRadius, passes, passesCappedByBatches;
-  // VSL with the closed-form cone integral (--vsl-integral sg, core/vsl_sg.h).
-  bool sg = false;
+  // VSL with this cone integral whatever --vsl-integral says (vsl-sg: the
+  // closed form, core/vsl_sg.h; vsl-quadrature: the paper's); unset: the
+  // settings' (the closed form by default).
+  std::optional<VslIntegral> integral{};
 };
 constexpr SweepMethod kSweepMethods[] = {
     {"pt", Method::Pt, "brute-force", false, false, false},
     {"vpl", Method::Vpl, "brute-force", false, false, false},
     {"vsl", Method::Vsl, "brute-force", false, false, false},
-    {"vsl-sg", Method::Vsl, "brute-force", false, false, false, true},
+    {"vsl-sg", Method::Vsl, "brute-force", false, false, false, VslIntegral::Sg},
+    {"vsl-quadrature", Method::Vsl, "brute-force", false, false, false, VslIntegral::Quadrature},
     {"vsl-progressive", Method::Vsl, "brute-force", true, true, false},
     {"vsl-mrcs", Method::Vsl, "mrcs", false, true, false},
     {"vpl-mrcs", Method::Vpl, "mrcs", false, true, false},
@@ -367,7 +371,7 @@ struct SweepContext {
     m.directSamples = 1;
     m.radiusScale = scale > 0 ? scale : 1.0f;
     m.computeVsl = sweepMethod(method).gather == Method::Vsl;
-    if (sweepMethod(method).sg) m.vslIntegral = VslIntegral::Sg;
+    if (const std::optional<VslIntegral> i = sweepMethod(method).integral) m.vslIntegral = *i;
     m.computeVpl = !m.computeVsl;
     return m;
   }
@@ -1112,8 +1116,9 @@ Subcommand addSweepCommand(CLI::App& app) {
   sweep
       ->add_option(
           "--methods", sw.methods,
-          "Methods: pt, vpl, vsl; vsl-sg (vsl with --vsl-integral sg); vsl-progressive (independent light sets with "
-          "shrinking radii); vsl-mrcs, vpl-mrcs (independent light sets, each with matrix row-column sampling); "
+          "Methods: pt, vpl, vsl; vsl-sg, vsl-quadrature (vsl with --vsl-integral sg or quadrature); vsl-progressive "
+          "(independent light sets with shrinking radii); vsl-mrcs, vpl-mrcs (independent light sets, each with matrix "
+          "row-column sampling); "
           "vsl-mrcs-progressive (both); vsl-slc, vpl-slc (one light set in stochastic lightcuts steps, capped by "
           "--time like vsl and vpl); vsl-sets, vpl-sets (the mean of --batches independent light "
           "sets, one eye sample per pixel each; not capped by --time)")

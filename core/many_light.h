@@ -80,9 +80,10 @@ struct ManyLightSettings {
   int vslSamples = 0;                  // per strategy; 0 = auto (grows with the cone angle)
   bool clippedDisk = false;            // VSL normalised by the clipped disk's area (vsl_integral.h)
   VslCount vslCount = VslCount::Lobe;  // the automatic count (vsl_integral.h)
-  // The cone integral: the quadrature (the paper's) or the closed form by
-  // spherical Gaussians (core/vsl_sg.h).
-  VslIntegral vslIntegral = VslIntegral::Quadrature;
+  // The cone integral: the closed form by spherical Gaussians (core/vsl_sg.h;
+  // the default by measurement, docs/REFERENCE.md "The paper's VSL") or the
+  // quadrature (the paper's; --preset paper).
+  VslIntegral vslIntegral = VslIntegral::Sg;
   // With the closed form: pairs whose cone's half-angle exceeds this
   // (degrees) use the quadrature, where the SG fits are weakest (wide cones,
   // lobes as wide as the cone; core/vsl_sg.h). 5 by measurement: on kitchen

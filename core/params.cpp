@@ -267,12 +267,12 @@ std::vector<Param<M>> vslIntegralParams() {
                  .appliesTo = "VSL",
                  .help = "VSL's cone integral: quadrature (Monte Carlo, the paper's) or sg (closed form by spherical "
                          "Gaussians, no samples; biased)",
-                 .why = "quadrature: the paper's, unbiased per pair; sg trades a measured bias for cheaper pairs "
-                        "(256 px, 15 s: 0.53-0.70x the quadrature's error at the defaults on kitchen, hall and "
-                        "tableau, level with the lobe gather; not yet measured at 512 px / 60 s) "
-                        "([results](RESULTS.md#at-equal-time-256-px-15-s))",
+                 .why = "sg: at equal time (256 px, 15 s) 0.53-0.70x the quadrature's error at the other defaults on "
+                        "kitchen, hall and tableau, level with the lobe gather, its mean within 1.6% of the "
+                        "quadrature's; not yet measured at 512 px / 60 s; quadrature: the paper's, unbiased per pair "
+                        "(`--preset paper`) ([results](RESULTS.md#at-equal-time-256-px-15-s))",
                  .words = {{"quadrature", double(VslIntegral::Quadrature)}, {"sg", double(VslIntegral::Sg)}},
-                 .quiet = 0,
+                 .quiet = double(VslIntegral::Sg),
                  .preset = true},
                 &M::vslIntegral),
       bindField({.name = "vsl-sg-max-angle",
@@ -285,7 +285,6 @@ std::vector<Param<M>> vslIntegralParams() {
                  .why = "5: kitchen's mean within 1.5% of the quadrature's, 60% of its draws left "
                         "([results](RESULTS.md#closed-form-vsl-by-spherical-gaussians))",
                  .quiet = ManyLightSettings::kDefaultVslSgMaxAngle,
-                 .needs = "vsl-integral",
                  .uiMin = 0,
                  .uiMax = 90,
                  .preset = true},

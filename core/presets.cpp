@@ -20,6 +20,7 @@ ManyLightSettings presetSettings(Preset p) {
     m.vslCount = VslCount::Authors;
     m.lobeFloor = 0;
     m.continueAlpha = 0;
+    m.vslIntegral = VslIntegral::Quadrature;
   }
   return m;
 }

@@ -24,18 +24,18 @@ run() { # scene reference name lights methods [flags...]
   grep -A3 '^configuration' "$O/$s-$n.log"
 }
 K=assets/references/kitchen-593ae4e502c4f697-256x192-d64.exr
-run kitchen $K vsl 5000 vsl,vsl-sg --vsl-samples 2 --lobe-gather 100000 --lobe-gather-rays 16
+run kitchen $K vsl 5000 vsl-quadrature,vsl-sg --vsl-samples 2 --lobe-gather 100000 --lobe-gather-rays 16
 run kitchen $K vpl 10000 vpl
-run kitchen $K defaults 10000 vsl,vsl-sg
+run kitchen $K defaults 10000 vsl-quadrature,vsl-sg
 run kitchen $K pt 1000 pt
 H=$O/hall-256.exr
-run hall "$H" vsl 4000 vsl,vsl-sg --vsl-samples 1 --lobe-gather 100000 --lobe-gather-rays 4 --batches 64 \
+run hall "$H" vsl 4000 vsl-quadrature,vsl-sg --vsl-samples 1 --lobe-gather 100000 --lobe-gather-rays 4 --batches 64 \
   --pair-roulette 1 --lobe-gather-alpha 0.15
 run hall "$H" vpl 15000 vpl --batches 64 --pair-roulette 3
-run hall "$H" defaults 10000 vsl,vsl-sg
+run hall "$H" defaults 10000 vsl-quadrature,vsl-sg
 run hall "$H" pt 1000 pt
 T=$O/tableau-256.exr
-run tableau "$T" vsl 1500 vsl,vsl-sg --vsl-count shares --lobe-gather 100000 --lobe-gather-rays 24 --batches 64
+run tableau "$T" vsl 1500 vsl-quadrature,vsl-sg --vsl-count shares --lobe-gather 100000 --lobe-gather-rays 24 --batches 64
 run tableau "$T" vpl 15000 vpl --batches 64 --pair-roulette 1
-run tableau "$T" defaults 10000 vsl,vsl-sg
+run tableau "$T" defaults 10000 vsl-quadrature,vsl-sg
 run tableau "$T" pt 1000 pt

@@ -256,23 +256,27 @@ static void expectNoStepStartedPastBudget(const std::string& sweepJson, double t
   }
 }
 
-// The sweep's vsl-sg is VSL with the closed-form cone integral on the same
-// light sets as vsl (core/vsl_sg.h): with every pair in closed form
-// (--vsl-sg-max-angle 90; at 300 lights most cones are wider than the default
-// 5 degrees and would take the quadrature) its indirect mean on each set is
-// within 10% of the quadrature's, and not the same image.
+// The sweep's vsl-sg and vsl-quadrature are VSL with the closed-form and the
+// quadrature cone integral on the same light sets as vsl (core/vsl_sg.h),
+// which follows --vsl-integral (the closed form by default): with every pair
+// in closed form (--vsl-sg-max-angle 90; at 300 lights most cones are wider
+// than the default 5 degrees and would take the quadrature) the closed
+// form's indirect mean on each set is within 10% of the quadrature's, and
+// not the same image; vsl is vsl-sg's image.
 TEST_F(Cli, SweepVslSgFollowsVslOnTheSameLightSets) {
   std::string header;
   std::map<std::string, double> mean;  // method and set -> the final mean
   for (const std::vector<std::string>& f :
-       sweepCsv("--methods vsl,vsl-sg --lights 300 --time 100 --batches 1 --sets 2 --vsl-sg-max-angle 90", "sweep-sg",
-                &header))
+       sweepCsv("--methods vsl,vsl-sg,vsl-quadrature --lights 300 --time 100 --batches 1 --sets 2 "
+                "--vsl-sg-max-angle 90",
+                "sweep-sg", &header))
     if (f[10] == "1") mean[f[0] + " " + f[3]] = std::stod(f[8]);
-  ASSERT_EQ(mean.size(), 4u);
+  ASSERT_EQ(mean.size(), 6u);
   for (const char* set : {"0", "1"}) {
-    const double q = mean[std::string("vsl ") + set], sg = mean[std::string("vsl-sg ") + set];
+    const double q = mean[std::string("vsl-quadrature ") + set], sg = mean[std::string("vsl-sg ") + set];
     EXPECT_NEAR(sg / q, 1.0, 0.10) << "set " << set;
     EXPECT_NE(sg, q) << "set " << set;
+    EXPECT_EQ(mean[std::string("vsl ") + set], sg) << "set " << set << ": vsl takes the default, the closed form";
   }
 }
 
@@ -780,7 +784,8 @@ TEST_F(Cli, PaperPresetIsItsSettingsOneByOne) {
     return nlohmann::json::parse(std::ifstream(file(name + ".json")));
   };
   const nlohmann::json preset = render(" --preset paper", "preset");
-  const nlohmann::json byHand = render(" --vsl-count authors --lobe-floor 0 --continue-alpha 0", "by-hand");
+  const nlohmann::json byHand =
+      render(" --vsl-integral quadrature --vsl-count authors --lobe-floor 0 --continue-alpha 0", "by-hand");
   const nlohmann::json plain = render("", "plain");
   EXPECT_EQ(preset["preset"], "paper");
   EXPECT_EQ(byHand["preset"], "paper");

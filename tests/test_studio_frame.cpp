@@ -1468,7 +1468,7 @@ TEST_F(StudioFrame, ComparePresetsPinsTheVslPictureBesideTheOtherPreset) {
             0)
       << "the pinned panel shows the first picture";
   const nlohmann::json m = exportedMetrics("studio-compare-presets");
-  EXPECT_EQ(m["Pinned VSL"]["name"], "VSL");
+  EXPECT_EQ(m["Pinned VSL"]["name"], "VSL [closed form]") << "the default preset's VSL";
   EXPECT_EQ(m["Pinned VSL"]["preset"], "default");
   const double want = compareImages(pinned, second->refIndirect).average.relMse;
   EXPECT_NEAR(m["Pinned VSL"]["indirect"]["relMSE"].get<double>(), want, 1e-9 * want);
@@ -1482,32 +1482,33 @@ TEST_F(StudioFrame, ComparePresetsPinsTheVslPictureBesideTheOtherPreset) {
   EXPECT_FALSE(studio->hasPicture(ui::Source::Pinned, Component::Indirect));
 }
 
-// "Compare with the closed form": the quadrature's VSL picture is pinned
-// beside VSL in closed form (the same light sets), and back again.
-TEST_F(StudioFrame, CompareIntegralsPinsTheQuadratureBesideTheClosedForm) {
+// "Compare with the quadrature": the default view's VSL (the closed form)
+// is pinned beside VSL by the quadrature (the same light sets), and back
+// again ("Compare with the closed form").
+TEST_F(StudioFrame, CompareIntegralsPinsTheClosedFormBesideTheQuadrature) {
   auto first = makeSnapshot();
   first->settings = studio->acceptedSettings();
   studio->setSnapshotForTesting(first);
   renderFrames(1);
-  ASSERT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Quadrature);
+  ASSERT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Sg) << "the default view shows the closed form";
   const ManyLightSettings before = studio->acceptedSettings().many;
   ASSERT_TRUE(studio->compareIntegrals());
   const ManyLightSettings after = studio->acceptedSettings().many;
-  EXPECT_EQ(after.vslIntegral, VslIntegral::Sg);
+  EXPECT_EQ(after.vslIntegral, VslIntegral::Quadrature);
   EXPECT_EQ(after.lights, before.lights);
-  ManyLightSettings afterQuadrature = after;
-  afterQuadrature.vslIntegral = VslIntegral::Quadrature;
-  EXPECT_EQ(matchingPreset(afterQuadrature), matchingPreset(before)) << "the other parameters stay as they were";
+  ManyLightSettings afterSg = after;
+  afterSg.vslIntegral = VslIntegral::Sg;
+  EXPECT_EQ(matchingPreset(afterSg), matchingPreset(before)) << "the other parameters stay as they were";
   EXPECT_EQ(studio->view().panels[1], ui::Source::Pinned);
   auto second = makeSnapshot();
   second->settings = studio->acceptedSettings();
   studio->setSnapshotForTesting(second);
   renderFrames(1);
-  EXPECT_EQ(exportedMetrics("studio-compare-integrals")["Pinned VSL"]["name"], "VSL");
-  // And back: the closed form's picture is pinned under its own name.
-  ASSERT_TRUE(studio->compareIntegrals());
-  EXPECT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Quadrature);
   EXPECT_EQ(exportedMetrics("studio-compare-integrals")["Pinned VSL"]["name"], "VSL [closed form]");
+  // And back: the quadrature's picture is pinned under its own name.
+  ASSERT_TRUE(studio->compareIntegrals());
+  EXPECT_EQ(studio->acceptedSettings().many.vslIntegral, VslIntegral::Sg);
+  EXPECT_EQ(exportedMetrics("studio-compare-integrals")["Pinned VSL"]["name"], "VSL");
 }
 
 // The pixel probe stays inside the window, even over the right edge of the

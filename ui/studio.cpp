@@ -860,11 +860,15 @@ bool Studio::presetControl() {
 // "VSL [closed form]", "VSL [paper, closed form]" (core/presets.h,
 // core/vsl_sg.h).
 namespace {
-// The preset the parameters match, VSL's cone integral apart.
+// The preset the parameters match, VSL's cone integral apart (the default
+// preset's is the closed form, the paper's the quadrature).
 std::string presetApartFromIntegral(const ManyLightSettings& m) {
-  ManyLightSettings quadrature = m;
-  quadrature.vslIntegral = VslIntegral::Quadrature;
-  return matchingPreset(quadrature);
+  ManyLightSettings other = m;
+  for (VslIntegral i : {VslIntegral::Sg, VslIntegral::Quadrature}) {
+    other.vslIntegral = i;
+    if (const std::string p = matchingPreset(other); p != "custom") return p;
+  }
+  return "custom";
 }
 
 std::string vslVariantName(const ManyLightSettings& m) {
