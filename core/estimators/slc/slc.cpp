@@ -491,9 +491,9 @@ std::vector<EstimatorParam> slcLobeParams() {
         .unit = "per gather point",
         .help = "Stochastic lightcuts: directions drawn from the receiver's BRDF per step at narrow receivers, each "
                 "light whose sphere a direction meets combined with the tree's draws by MIS (the lobe strategy)",
-        .why = "1: kitchen at 100,000 VSLs, 20 s, five light sets: relMSE 0.47 -> 0.41, worst set 2.6 -> 0.57; at "
-               "1,000,000: 1.86 -> 0.70; cornell-glossy 0.075 -> 0.072; 2 was slower for less "
-               "([RESULTS](RESULTS.md#stochastic-lightcuts))",
+        .why = "1: 100,000 VSLs, 256 px, 20 s, five light sets, relMSE: kitchen 0.47 -> 0.41, hall 1.44 -> 0.86, "
+               "tableau 20.6 -> 3.98, cornell-glossy 0.075 -> 0.072; kitchen at 1,000,000: 1.86 -> 0.70; 2 was "
+               "slower for less ([RESULTS](RESULTS.md#stochastic-lightcuts))",
         .words = {{"off", 0}},
         .uiMin = 0,
         .uiMax = 64},
