@@ -463,13 +463,17 @@ void Gatherer::addVsl(const GatherPoint& gp, const GatherLight& L, const PairGeo
 Vec3 Gatherer::vslAlong(const GatherPoint& gp, const GatherLight& L, const Vec3& l, PairGeometry& g,
                         GatherCounters& c) const {
   if (!computeVsl_) return Vec3(0.0f);
-  Ray s;
-  bool needsRay = false;
-  if (!orient(gp, L, g, s, needsRay, c)) return Vec3(0.0f);
+  ++c.pairs;
   VslPair pr;
-  if (!vslPair(gp, L, g, pr)) return Vec3(0.0f);
+  if (!facing(gp, L.p, L.n, L.ng, g) || !vslPair(gp, L, g, pr)) return Vec3(0.0f);
   const Vec3 v = vslIntegrand(*pr.rx, *pr.em, g.d, pr.radius, vsl_, l);
-  if (isBlack(v) || (needsRay && accel_.occluded(s))) return Vec3(0.0f);
+  if (isBlack(v)) return Vec3(0.0f);
+  // connect()'s shadow ray, counted where it is traced.
+  Ray s;
+  if (segmentRayBetween(gp.pOff, L.pOff, s)) {
+    ++c.shadowRays;
+    if (accel_.occluded(s)) return Vec3(0.0f);
+  }
   return gp.beta * L.Phi * v;
 }
 

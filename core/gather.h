@@ -263,11 +263,12 @@ class Gatherer {
   // For an estimator that samples directions from the receiver's BRDF
   // (stochastic lightcuts' lobe strategy, docs/REFERENCE.md "Estimators"):
   // the pair of gp and L oriented as connect() orients it (g set, the pair
-  // and its ray counted), then the VSL contribution's integrand along the
-  // unit direction l (beta Phi vslIntegrand of the pair as addVsl gathers
-  // it, so that its integral over l is addVsl's expected contribution),
-  // and only where that is not zero the shadow ray: zero where the pair is
-  // not oriented, l leaves its cone or the ray is blocked.
+  // counted), then the VSL contribution's integrand along the unit
+  // direction l (beta Phi vslIntegrand of the pair as addVsl gathers it by
+  // the quadrature, so that its integral over l is addVsl's expected
+  // contribution with the quadrature), and only where that is not zero the
+  // shadow ray (counted then): zero where the pair is not oriented, l
+  // leaves its cone or the ray is blocked.
   Vec3 vslAlong(const GatherPoint& gp, const GatherLight& L, const Vec3& l, PairGeometry& g, GatherCounters& c) const;
   // The share of the receiver's BRDF samples that land in the pair's cone,
   // estimated (for the lobe strategy's weights; any value in [0, 1] keeps

@@ -272,7 +272,8 @@ std::vector<Param<M>> vslIntegralParams() {
                         "quadrature's; not yet measured at 512 px / 60 s; quadrature: the paper's, unbiased per pair "
                         "(`--preset paper`) ([results](RESULTS.md#at-equal-time-256-px-15-s))",
                  .words = {{"quadrature", double(VslIntegral::Quadrature)}, {"sg", double(VslIntegral::Sg)}},
-                 .quiet = double(VslIntegral::Sg),
+                 // Always described: a settings string written while the
+                 // quadrature was the default (before 2026-12-08) left it out.
                  .preset = true},
                 &M::vslIntegral),
       bindField({.name = "vsl-sg-max-angle",

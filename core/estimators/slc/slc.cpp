@@ -35,15 +35,20 @@
 // of BRDF samples that land in its cone (Gatherer::vslConeMass). The
 // weights sum to one for every light and each strategy covers the lights
 // it weighs, so the sum stays unbiased; only VSL's layer uses the
-// directions (a VPL has no sphere to meet). Where VSL takes the closed
-// form, the tree's share is the closed form's and the directions' share
-// the quadrature's integral.
+// directions (a VPL has no sphere to meet). The directions integrate the
+// quadrature's integrand (the closed form has none per direction), so at
+// the lobe strategy's receivers VSL takes the quadrature on both sides
+// (quadrature_, below) whatever --vsl-integral says; elsewhere it takes the
+// integral chosen. With the closed form the image differs from brute
+// force's at those receivers by the closed form's own bias there.
 //
 // Bias: none for a fixed light set (the floor gives every light with flux
 // a non-zero probability at every gather point); each step is an
-// unbiased estimate of brute force's all-lights image and the images are
-// their mean weighted by each step's draws (the mean over all draws). It
-// refuses the pair roulette and the lobe gather.
+// unbiased estimate of brute force's all-lights image (with VSL's closed
+// form: of that image with the quadrature at the lobe strategy's
+// receivers, above) and the images are their mean weighted by each step's
+// draws (the mean over all draws). It refuses the pair roulette and the
+// lobe gather.
 #include "core/estimators/slc/slc.h"
 
 #include <cstdio>
@@ -169,6 +174,9 @@ class SlcEstimator final : public ManyLightEstimator {
 
   const RenderContext& ctx_;
   ManyLightSettings many_;
+  // many_ with the quadrature: the VSL pairs of the lobe strategy's
+  // receivers (see the top of this file).
+  ManyLightSettings quadrature_;
   SlcSettings slc_;
   PathTracer direct_;
   LightTree tree_;
@@ -188,6 +196,7 @@ SlcEstimator::SlcEstimator(const RenderContext& ctx, ManyLightRun run, const Man
     : ManyLightEstimator(std::move(run)),
       ctx_(ctx),
       many_(many),
+      quadrature_(many),
       slc_(slc),
       direct_(ctx.scene(), ctx.accel(), ctx.lights(), directSettings(many)),
       tree_(LightTree::build(run_.set, run_.radii)),
@@ -196,6 +205,7 @@ SlcEstimator::SlcEstimator(const RenderContext& ctx, ManyLightRun run, const Man
       clamp_(manyLightClampBound(ctx.scene(), many)),
       directFilm_(width_, height_),
       sharedFilm_(width_, height_) {
+  quadrature_.vslIntegral = VslIntegral::Quadrature;
   // Shared eye paths spread evenly over the steps, at least one each (as
   // brute force's batches spread them: every step traces an eye path).
   // Direct samples spread evenly too, but a step of many may take none
@@ -216,6 +226,7 @@ SlcEstimator::SlcEstimator(const RenderContext& ctx, ManyLightRun run, const Man
 // the step completes.
 struct SlcEstimator::Step {
   int s = 0, dBegin = 0, dEnd = 0, eyes = 1;
+  const Gatherer* quadrature = nullptr;  // VSL at the lobe strategy's receivers
   const std::atomic<bool>* stop = nullptr;
   std::atomic<bool> abandoned{false};
   std::mutex mutex;
@@ -233,6 +244,9 @@ bool SlcEstimator::step(const std::atomic<bool>* stop) {
   st.stop = stop;
   const Gatherer gatherer(ctx_.scene(), ctx_.accel(), direct_.lightSampler(), many_, clamp_, many_.computeVsl,
                           many_.computeVpl);
+  const Gatherer quadrature(ctx_.scene(), ctx_.accel(), direct_.lightSampler(), quadrature_, clamp_, many_.computeVsl,
+                            many_.computeVpl);
+  st.quadrature = &quadrature;
   const size_t np = size_t(width_) * height_;
   stepDirect_.resize(np);
   stepShared_.resize(np);
@@ -305,6 +319,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   const LightTreeReceiver r = LightTreeReceiver::make(gp, many_.computeVsl, many_.computeVsl ? kInf : clamp_);
   const int K = drawsIn(st.s);
   const int M = lobeRaysAt(gp, r, st.s);
+  const Gatherer& vsl = M > 0 ? *st.quadrature : gatherer;  // VSL's pairs (the top of this file)
   const bool both = many_.computeVpl && many_.computeVsl;
   thread_local std::vector<LightTree::Sample> drawn;
   drawn.resize(size_t(K));
@@ -323,9 +338,9 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
     Stopwatch own;
     gatherer.addVpl(gp, L, g, one, c);
     if (both) vplOwn += own.lap();
-    gatherer.addVsl(gp, L, g, smp.light, drawStream(pix, k, drawsBefore(st.s) + j), one, c);
+    vsl.addVsl(gp, L, g, smp.light, drawStream(pix, k, drawsBefore(st.s) + j), one, c);
     if (M > 0) {  // the tree's share of the light (the lobe strategy, above)
-      const double Kp = double(K) * smp.pdf, wA = Kp / (Kp + double(M) * gatherer.vslConeMass(gp, L, g));
+      const double Kp = double(K) * smp.pdf, wA = Kp / (Kp + double(M) * vsl.vslConeMass(gp, L, g));
       for (double& v : one[kVslLayer]) v *= wA;
     }
     if (both) vslOwn += own.seconds();
@@ -335,7 +350,7 @@ void SlcEstimator::gatherPoint(Step& st, const Gatherer& gatherer, const GatherP
   }
   if (M > 0) {
     Stopwatch own;
-    lobeDirections(gatherer, gp, r, K, M, pick, acc, c);
+    lobeDirections(vsl, gp, r, K, M, pick, acc, c);
     if (both) vslOwn += own.seconds();
   }
 }
