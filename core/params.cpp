@@ -286,6 +286,8 @@ std::vector<Param<M>> vslIntegralParams() {
                  .why = "5: kitchen's mean within 1.5% of the quadrature's, 60% of its draws left "
                         "([results](RESULTS.md#closed-form-vsl-by-spherical-gaussians))",
                  .quiet = ManyLightSettings::kDefaultVslSgMaxAngle,
+                 .needs = "vsl-integral",
+                 .needsValue = double(VslIntegral::Sg),
                  .uiMin = 0,
                  .uiMax = 90,
                  .preset = true},

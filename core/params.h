@@ -55,9 +55,11 @@ struct ParamSpec {
   const char* why = "";   // one line on the default, with a link to the evidence
   std::vector<ParamWord> words = {};
   // describe() leaves the parameter out at this value (NaN: never), and
-  // whenever the parameter `needs` names is at its own quiet value.
+  // whenever the parameter `needs` names is off: at needsValue's other
+  // values where needsValue is set, else at its own quiet value.
   double quiet = std::numeric_limits<double>::quiet_NaN();
   const char* needs = nullptr;
+  double needsValue = std::numeric_limits<double>::quiet_NaN();
   // The studio's slider: its range (0, 0: min to max) and scale, and the
   // value it starts at when switched on from a word outside that range
   // ("radius" from off; NaN: the middle of the range).
@@ -153,6 +155,9 @@ class ParamTable {
   std::string describe(const S& s, const std::vector<std::string>& skip = {}) const;
   // Whether describe() would leave p out for s (quiet, or its requirement is).
   bool quiet(const Param<S>& p, const S& s) const;
+  // Is the parameter p's `needs` off in s (ParamSpec::needs, needsValue)?
+  // False where p needs none.
+  bool needUnmet(const Param<S>& p, const S& s) const;
   // pbrt's ReportUnused: of the parameters given (by name), the first that
   // s does not use, as "name: for VSL, but only VPL is rendered" or
   // "name: has no effect while lobe-gather is off". vsl and vpl say which
@@ -165,8 +170,12 @@ class ParamTable {
       const bool forVsl = applies.find("VSL") != applies.npos, forVpl = applies.find("VPL") != applies.npos;
       if (!(forVsl && vsl) && !(forVpl && vpl))
         return Error(name + ": for " + std::string(applies) + ", but only " + (vsl ? "VSL" : "VPL") + " is rendered");
-      if (const Param<S>* need = p->spec.needs ? find(p->spec.needs) : nullptr; need && quiet(*need, s))
-        return Error(name + ": has no effect while " + need->spec.name + " is off");
+      if (needUnmet(*p, s)) {
+        const Param<S>& need = *find(p->spec.needs);
+        return Error(name + ": has no effect while " + need.spec.name +
+                     (std::isnan(p->spec.needsValue) ? std::string(" is off")
+                                                     : " is not " + formatParamValue(need.spec, p->spec.needsValue)));
+      }
     }
     return {};
   }
@@ -183,9 +192,14 @@ class ParamTable {
 template <class S>
 bool ParamTable<S>::quiet(const Param<S>& p, const S& s) const {
   if (!std::isnan(p.spec.quiet) && p.get(s) == p.spec.quiet) return true;
-  if (p.spec.needs)
-    if (const Param<S>* r = find(p.spec.needs)) return quiet(*r, s);
-  return false;
+  return needUnmet(p, s);
+}
+
+template <class S>
+bool ParamTable<S>::needUnmet(const Param<S>& p, const S& s) const {
+  const Param<S>* r = p.spec.needs ? find(p.spec.needs) : nullptr;
+  if (!r) return false;
+  return std::isnan(p.spec.needsValue) ? quiet(*r, s) : r->get(s) != p.spec.needsValue;
 }
 
 template <class S>

@@ -1115,19 +1115,22 @@ TEST_F(Cli, UnknownOptionNamesTheNearest) {
 
 // A parameter the render would not use is an error (pbrt's ReportUnused):
 // VSL's with only VPL rendered, VPL's with only VSL, and one whose switch is
-// off (exit 2, nothing written).
+// off or at another value (exit 2, nothing written).
 TEST_F(Cli, UnusedParametersAreBadArguments) {
   const std::string base = "render " + scene("furnace") + " --width 8 --lights 20 -o " + file("unused.exr");
   for (auto [args, want] : std::vector<std::pair<std::string, std::string>>{
            {" --method vpl --lobe-floor 0.5", "--lobe-floor: for VSL, but only VPL is rendered"},
            {" --method vpl --knn 4", "--knn: for VSL, but only VPL is rendered"},
            {" --method vsl --clamp off", "--clamp: for VPL, but only VSL is rendered"},
-           {" --method vsl --lobe-gather-rays 8", "--lobe-gather-rays: has no effect while lobe-gather is off"}}) {
+           {" --method vsl --lobe-gather-rays 8", "--lobe-gather-rays: has no effect while lobe-gather is off"},
+           {" --method vsl-quadrature --vsl-sg-max-angle 10",
+            "--vsl-sg-max-angle: has no effect while vsl-integral is not sg"}}) {
     Proc r = run(base + args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
     EXPECT_NE(r.out.find(want), std::string::npos) << args << "\n" << r.out;
     EXPECT_FALSE(fs::exists(file("unused.exr"))) << args;
   }
-  Proc ok = run(base + " --method all --lobe-floor 0.5 --clamp off --batches 1 --direct-samples 1");
+  Proc ok =
+      run(base + " --method all --lobe-floor 0.5 --clamp off --vsl-sg-max-angle 10 --batches 1 --direct-samples 1");
   EXPECT_EQ(ok.code, 0) << ok.out;
 }

@@ -1387,7 +1387,7 @@ TEST(StudioCli, EveryParameterRoundTrips) {
                                                      {"clamp", "0.5"},
                                                      {"diffuse-vpl", ""},
                                                      {"vsl-count", "shares"},
-                                                     {"vsl-integral", "quadrature"},
+                                                     {"vsl-integral", "sg"},
                                                      {"vsl-sg-max-angle", "10"},
                                                      {"lobe-radius", "0.25"},
                                                      {"lobe-floor", "0.75"},

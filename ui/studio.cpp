@@ -951,8 +951,7 @@ bool Studio::paramControls(ParamTier tier) {
   const ParamTable<ManyLightSettings>& table = manyLightParams();
   for (const Param<ManyLightSettings>& p : table.all()) {
     if (p.spec.tier != tier) continue;
-    if (const Param<ManyLightSettings>* need = p.spec.needs ? table.find(p.spec.needs) : nullptr)
-      if (table.quiet(*need, settings_.many)) continue;
+    if (table.needUnmet(p, settings_.many)) continue;
     changed |= track(p.spec.name, paramWidget(p, settings_.many, paramMemory_));
     errorField(p.spec.name);
   }
